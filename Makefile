@@ -1,0 +1,41 @@
+# nvstim — the two user commands:
+#   make run    install missing Debian packages, build, run the default scenario
+#   make test   the same set-up, then the whole test suite through ctest
+# Everything else is CMake (CMakePresets.json): `cmake --preset debug-asan` etc.
+
+# Debian 12 packages the build, the tests and the runtime need. Only the missing ones are
+# installed, and the list of them is printed first.
+PACKAGES := build-essential cmake ninja-build pkg-config \
+            libtomlplusplus-dev libcli11-dev libgtest-dev libgmock-dev libbenchmark-dev \
+            librandom123-dev liberfa-dev libembree-dev libopenexr-dev libfftw3-dev \
+            libgpiod-dev libtinyobjloader-dev libpng-dev python3 python3-ephem clang-format
+
+PRESET   ?= release
+BUILD    := build/$(PRESET)
+SUDO     := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
+NVSTIM   := $(BUILD)/rt/cli/nvstim
+
+.PHONY: run test
+run: .nvs-build
+	$(NVSTIM) --help
+
+test: .nvs-build
+	ctest --preset $(PRESET)
+
+.PHONY: .nvs-deps .nvs-build
+.nvs-deps:
+	@missing=""; \
+	for p in $(PACKAGES); do \
+	  dpkg-query -W -f='$${Status}\n' "$$p" 2>/dev/null | grep -q '^install ok installed$$' \
+	    || missing="$$missing $$p"; \
+	done; \
+	if [ -n "$$missing" ]; then \
+	  echo "nvstim: installing missing Debian packages:$$missing"; \
+	  $(SUDO) apt-get update -qq && \
+	  DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq --no-install-recommends $$missing \
+	    || { echo "nvstim: apt-get install failed for:$$missing" >&2; exit 1; }; \
+	fi
+
+.nvs-build: .nvs-deps
+	@[ -f $(BUILD)/CMakeCache.txt ] || cmake --preset $(PRESET)
+	cmake --build --preset $(PRESET)

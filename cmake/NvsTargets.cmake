@@ -1,0 +1,41 @@
+# Shared build settings for every nvstim target.
+
+# Warnings as errors live in one INTERFACE target that every target links (STYLE §15).
+add_library(nvs_warnings INTERFACE)
+target_compile_options(nvs_warnings INTERFACE
+  -Wall -Wextra -Wpedantic -Wshadow -Wconversion -Wno-sign-conversion
+  -Wnon-virtual-dtor -Wold-style-cast -Woverloaded-virtual
+  -Wdouble-promotion -Wformat=2 -Wimplicit-fallthrough)
+if(NVS_WERROR)
+  target_compile_options(nvs_warnings INTERFACE -Werror)
+endif()
+
+add_library(nvs_sanitizers INTERFACE)
+if(NVS_SANITIZE)
+  target_compile_options(nvs_sanitizers INTERFACE
+    -fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=undefined)
+  target_link_options(nvs_sanitizers INTERFACE -fsanitize=address,undefined)
+endif()
+
+# nvs_add_library(NAME SOURCES... [DEPS ...]): a folder's library, named after its path
+# (sim/core -> nvs_sim_core), with the project's include root and warnings.
+function(nvs_add_library name)
+  cmake_parse_arguments(ARG "" "" "SOURCES;DEPS;PRIVATE_DEPS" ${ARGN})
+  add_library(${name} STATIC ${ARG_SOURCES})
+  target_include_directories(${name} PUBLIC ${PROJECT_SOURCE_DIR})
+  target_link_libraries(${name} PUBLIC ${ARG_DEPS} PRIVATE nvs_warnings nvs_sanitizers ${ARG_PRIVATE_DEPS})
+  target_link_libraries(${name} INTERFACE nvs_sanitizers)
+endfunction()
+
+# nvs_add_test(NAME SOURCES... DEPS ...): one GoogleTest executable per source folder.
+function(nvs_add_test name)
+  cmake_parse_arguments(ARG "" "" "SOURCES;DEPS" ${ARGN})
+  add_executable(${name} ${ARG_SOURCES})
+  target_link_libraries(${name} PRIVATE ${ARG_DEPS} GTest::gtest GTest::gtest_main
+                        nvs_warnings nvs_sanitizers)
+  target_compile_definitions(${name} PRIVATE
+    NVS_SOURCE_DIR="${PROJECT_SOURCE_DIR}"
+    NVS_SHARED_DATA_DIR="${NVS_SHARED_DATA_DIR}")
+  gtest_discover_tests(${name} DISCOVERY_TIMEOUT 60
+    PROPERTIES ENVIRONMENT "NVS_CONFIG_DIR=${PROJECT_SOURCE_DIR}/config")
+endfunction()

@@ -1,0 +1,170 @@
+#include "rt/cli/cli.h"
+
+#include <CLI/CLI.hpp>
+#include <cstdio>
+#include <exception>
+
+#include "sim/core/error.h"
+
+namespace nvs::cli {
+namespace {
+
+int notImplemented(const char* name) {
+    std::fprintf(stderr, "nvstim %s: not implemented yet\n", name);
+    return kExitNotImplemented;
+}
+
+}  // namespace
+
+int runCli(int argc, const char* const* argv) {
+    CLI::App app{
+        "nvstim — real-time hardware-in-the-loop night-vision stimulator.\n"
+        "Renders radiometrically correct night scenes for the time, site and pose it is given,\n"
+        "passes them through a physical image-intensified CCD camera model, and emits video.",
+        "nvstim"};
+    app.set_version_flag("--version", std::string("nvstim ") + NVS_VERSION);
+    app.require_subcommand(1);
+    app.footer(
+        "Exit status: 0 ok, 1 run failed, 2 usage or setup error, 3 not implemented yet.\n"
+        "Run `nvstim SUBCOMMAND --help` for the options of one subcommand.");
+
+    // run ------------------------------------------------------------------------------------
+    RunOptions run;
+    auto* runCmd = app.add_subcommand(
+        "run", "Run a scenario: render, simulate the camera and emit video (HIL or replay).");
+    runCmd->add_option("scenario", run.scenario, "Scenario TOML file or folder")->required();
+    runCmd->add_option("--output", run.outputs,
+                       "Output, repeatable: v4l2:/dev/videoN[?format=GREY|Y16|YUYV], y4m:PATH|-, "
+                       "png:DIR, exr:DIR, meta:PATH");
+    runCmd
+        ->add_option("--clock", run.clock,
+                     "wall (real time, HIL) or sim (as fast as possible, "
+                     "bit-exact)")
+        ->check(CLI::IsMember({"wall", "sim"}))
+        ->capture_default_str();
+    runCmd->add_option("--frames", run.frames, "Stop after N frames")->check(CLI::PositiveNumber);
+    runCmd->add_option(
+        "--telemetry", run.telemetry,
+        "Telemetry source: can:IFACE[?dbc=FILE], serial:DEV?baud=N&proto=nmea|mavlink, "
+        "replay:FILE");
+    runCmd->add_option("--stats", run.statsPath, "Write final statistics as JSON to FILE");
+
+    // ephem ----------------------------------------------------------------------------------
+    EphemOptions ephem;
+    auto* ephemCmd = app.add_subcommand(
+        "ephem", "Sun and Moon topocentric apparent position, distance and phase, as JSON.");
+    ephemCmd->add_option("--lat", ephem.lat_deg, "Site latitude [deg, north positive]")
+        ->required()
+        ->check(CLI::Range(-90.0, 90.0));
+    ephemCmd->add_option("--lon", ephem.lon_deg, "Site longitude [deg, east positive]")
+        ->required()
+        ->check(CLI::Range(-180.0, 360.0));
+    ephemCmd->add_option("--height-m", ephem.height_m, "Site height above the ellipsoid [m]")
+        ->capture_default_str();
+    ephemCmd->add_option("--utc", ephem.utc, "UTC instant, ISO 8601 (2024-01-25T17:54:00Z)")
+        ->required();
+    ephemCmd->add_option("--pressure-hpa", ephem.pressure_hPa, "Pressure for refraction [hPa]")
+        ->capture_default_str();
+    ephemCmd->add_option("--temperature-c", ephem.temperature_C, "Temperature for refraction [°C]")
+        ->capture_default_str();
+
+    // illum ----------------------------------------------------------------------------------
+    IllumOptions illum;
+    auto* illumCmd = app.add_subcommand(
+        "illum",
+        "Illuminance on a horizontal surface from Moon, lunar sky and night sky, as JSON.");
+    illumCmd->add_option("--lat", illum.lat_deg, "Site latitude [deg]")
+        ->required()
+        ->check(CLI::Range(-90.0, 90.0));
+    illumCmd->add_option("--lon", illum.lon_deg, "Site longitude [deg, east positive]")
+        ->required()
+        ->check(CLI::Range(-180.0, 360.0));
+    illumCmd->add_option("--height-m", illum.height_m, "Site height [m]")->capture_default_str();
+    illumCmd->add_option("--utc", illum.utc, "UTC instant, ISO 8601")->required();
+    illumCmd->add_option("--visibility-km", illum.visibility_km, "Horizontal visibility [km]")
+        ->check(CLI::PositiveNumber);
+    illumCmd->add_option("--camera", illum.camera,
+                         "Camera preset: also give photoelectron irradiance in its band");
+
+    // render ---------------------------------------------------------------------------------
+    RenderOptions render;
+    auto* renderCmd = app.add_subcommand(
+        "render", "Render one frame of a scenario to a photoelectron-radiance OpenEXR image.");
+    renderCmd->add_option("scenario", render.scenario, "Scenario TOML file or folder")->required();
+    renderCmd->add_option("--frame", render.frame, "Frame index K")
+        ->required()
+        ->check(CLI::NonNegativeNumber);
+    renderCmd->add_option("--out", render.out, "Output FILE.exr")->required();
+
+    // sensor ---------------------------------------------------------------------------------
+    SensorOptions sensor;
+    auto* sensorCmd = app.add_subcommand(
+        "sensor", "Push radiance images through the IICCD camera model to digital counts.");
+    sensorCmd
+        ->add_option("--in", sensor.in,
+                     "Input file, or a pattern such as radiance/{frame:06d}.exr (EXR or PFM)")
+        ->required();
+    sensorCmd->add_option("--camera", sensor.camera, "Camera preset name or TOML path")->required();
+    sensorCmd->add_option("--set", sensor.sets, "Override a preset key, KEY=VALUE (repeatable)");
+    sensorCmd->add_option("--frames", sensor.frames, "Number of frames (a single input is held)")
+        ->check(CLI::PositiveNumber);
+    sensorCmd->add_option("--seed", sensor.seed, "Noise seed");
+    sensorCmd->add_option("--unit", sensor.unit, "Input unit: W/m2/sr or pe/s/m2/sr")
+        ->check(CLI::IsMember({"W/m2/sr", "pe/s/m2/sr"}));
+    sensorCmd->add_option("--spectrum", sensor.spectrum,
+                          "Spectrum of a W/m2/sr input: flat, blackbody:T, moon, night_sky");
+    sensorCmd
+        ->add_option("--out", sensor.out,
+                     "Output file or pattern such as frames/{frame:06d}.pgm (PGM/PNG/EXR)")
+        ->required();
+
+    // replay ---------------------------------------------------------------------------------
+    ReplayOptions replay;
+    auto* replayCmd = app.add_subcommand(
+        "replay", "Replay a recorded scenario deterministically; check or bless its expectations.");
+    replayCmd->add_option("scenario_dir", replay.scenarioDir, "Scenario folder")->required();
+    auto* checkFlag =
+        replayCmd->add_flag("--check", replay.check, "Compare with the stored expectations");
+    replayCmd->add_flag("--bless", replay.bless, "Rewrite the stored expectations")
+        ->excludes(checkFlag);
+
+    // diagnose -------------------------------------------------------------------------------
+    DiagnoseOptions diagnose;
+    auto* diagnoseCmd = app.add_subcommand(
+        "diagnose", "Fit the camera model to a measured dataset and name what it gets wrong.");
+    diagnoseCmd->add_option("dataset_dir", diagnose.datasetDir, "Dataset folder (dataset.toml)")
+        ->required();
+    diagnoseCmd->add_option("--json", diagnose.json, "Write the findings as JSON to OUT");
+    diagnoseCmd->add_option("--report", diagnose.report, "Write a report with plots to DIR");
+
+    // bench ----------------------------------------------------------------------------------
+    BenchOptions bench;
+    auto* benchCmd = app.add_subcommand("bench", "Run the performance benchmarks.");
+    benchCmd->add_option("--json", bench.json, "Write results as JSON to OUT");
+
+    try {
+        app.parse(argc, argv);
+    } catch (const CLI::ParseError& e) {
+        return app.exit(e) == 0 ? kExitOk : kExitUsage;
+    }
+
+    try {
+        if (*runCmd) return notImplemented("run");
+        if (*ephemCmd) return notImplemented("ephem");
+        if (*illumCmd) return notImplemented("illum");
+        if (*renderCmd) return notImplemented("render");
+        if (*sensorCmd) return notImplemented("sensor");
+        if (*replayCmd) return notImplemented("replay");
+        if (*diagnoseCmd) return notImplemented("diagnose");
+        if (*benchCmd) return notImplemented("bench");
+    } catch (const SetupError& e) {
+        std::fprintf(stderr, "nvstim: %s\n", e.what());
+        return kExitUsage;
+    } catch (const std::exception& e) {
+        std::fprintf(stderr, "nvstim: error: %s\n", e.what());
+        return kExitFailure;
+    }
+    return kExitUsage;
+}
+
+}  // namespace nvs::cli

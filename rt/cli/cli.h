@@ -1,0 +1,79 @@
+#pragma once
+// The `nvstim` command line (DESIGN §7). Every subcommand is declared here with its options,
+// parsed into a plain struct, and dispatched to its handler.
+//
+// Exit status: 0 success; 1 a run failed (a check mismatched, a device failed); 2 bad usage or
+// setup error (one line on stderr naming the argument or file:line); 3 not implemented yet.
+
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace nvs::cli {
+
+enum ExitCode : int { kExitOk = 0, kExitFailure = 1, kExitUsage = 2, kExitNotImplemented = 3 };
+
+struct RunOptions {
+    std::string scenario;
+    std::vector<std::string> outputs;  // v4l2:/dev/videoN[?format=..] | y4m:PATH|- | png:DIR | ...
+    std::string clock = "wall";        // wall | sim
+    std::optional<long long> frames;
+    std::optional<std::string> telemetry;  // can:IFACE[?dbc=FILE] | serial:DEV?... | replay:FILE
+    std::optional<std::string> statsPath;
+};
+
+struct EphemOptions {
+    double lat_deg = 0.0;
+    double lon_deg = 0.0;
+    double height_m = 0.0;
+    std::string utc;
+    double pressure_hPa = 1013.25;
+    double temperature_C = 15.0;
+};
+
+struct IllumOptions {
+    double lat_deg = 0.0;
+    double lon_deg = 0.0;
+    double height_m = 0.0;
+    std::string utc;
+    std::optional<double> visibility_km;
+    std::optional<std::string> camera;
+};
+
+struct RenderOptions {
+    std::string scenario;
+    long long frame = 0;
+    std::string out;
+};
+
+struct SensorOptions {
+    std::string in;
+    std::string camera;
+    std::vector<std::string> sets;  // KEY=VALUE
+    std::optional<long long> frames;
+    std::optional<unsigned long long> seed;
+    std::string out;
+    std::optional<std::string> unit;      // W/m2/sr | pe/s/m2/sr
+    std::optional<std::string> spectrum;  // flat | blackbody:T | moon | night_sky
+};
+
+struct ReplayOptions {
+    std::string scenarioDir;
+    bool check = false;
+    bool bless = false;
+};
+
+struct DiagnoseOptions {
+    std::string datasetDir;
+    std::optional<std::string> json;
+    std::optional<std::string> report;
+};
+
+struct BenchOptions {
+    std::optional<std::string> json;
+};
+
+// Parses argv and runs the chosen subcommand.
+int runCli(int argc, const char* const* argv);
+
+}  // namespace nvs::cli

@@ -1,0 +1,32 @@
+#pragma once
+// Planck's law for a blackbody at temperature T.
+//
+//   L_λ(λ, T) = 2 h c² / λ⁵ · 1 / (exp(h c / (λ k T)) − 1)      [W m⁻² sr⁻¹ m⁻¹]
+//   M_λ = π L_λ (Lambertian exitance),  I_λ = L_λ · A_proj (intensity of an area A_proj)
+//
+// A tungsten filament is a cylinder of radius r and length h. Averaged over directions, a
+// convex body's projected area is a quarter of its surface (Cauchy's formula), so a coil seen
+// from an arbitrary direction has A_proj = 2π r h / 4 = π r h / 2.
+
+#include "sim/core/spectrum.h"
+
+namespace nvs {
+
+double planckSpectralRadiance_W_m2_sr_m(double wavelength_m, double temperature_K);
+
+inline double planckSpectralRadiance_W_m2_sr_nm(double wavelength_nm, double temperature_K) {
+    return planckSpectralRadiance_W_m2_sr_m(wavelength_nm * 1e-9, temperature_K) * 1e-9;
+}
+double planckSpectralExitance_W_m2_nm(double wavelength_nm, double temperature_K);
+double planckSpectralIntensity_W_sr_nm(double wavelength_nm, double temperature_K,
+                                       double projectedArea_m2);
+// Spectral photon radiance, L_λ · λ / (h c)  [photons s⁻¹ m⁻² sr⁻¹ nm⁻¹].
+double planckSpectralPhotonRadiance_nm(double wavelength_nm, double temperature_K);
+
+// The radiance curve on the grid [W m⁻² sr⁻¹ nm⁻¹].
+Spectrum planckRadiance_W_m2_sr_nm(double temperature_K);
+
+// Mean projected area of a cylindrical filament (see above).
+double filamentProjectedArea_m2(double radius_m, double length_m);
+
+}  // namespace nvs
