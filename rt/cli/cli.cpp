@@ -4,17 +4,15 @@
 #include <cstdio>
 #include <exception>
 
+#include "rt/cli/commands.h"
 #include "sim/core/error.h"
 
 namespace nvs::cli {
-namespace {
 
 int notImplemented(const char* name) {
     std::fprintf(stderr, "nvstim %s: not implemented yet\n", name);
     return kExitNotImplemented;
 }
-
-}  // namespace
 
 int runCli(int argc, const char* const* argv) {
     CLI::App app{
@@ -149,14 +147,14 @@ int runCli(int argc, const char* const* argv) {
     }
 
     try {
-        if (*runCmd) return notImplemented("run");
-        if (*ephemCmd) return notImplemented("ephem");
-        if (*illumCmd) return notImplemented("illum");
-        if (*renderCmd) return notImplemented("render");
-        if (*sensorCmd) return notImplemented("sensor");
-        if (*replayCmd) return notImplemented("replay");
-        if (*diagnoseCmd) return notImplemented("diagnose");
-        if (*benchCmd) return notImplemented("bench");
+        if (*runCmd) return runRun(run);
+        if (*ephemCmd) return runEphem(ephem);
+        if (*illumCmd) return runIllum(illum);
+        if (*renderCmd) return runRender(render);
+        if (*sensorCmd) return runSensor(sensor);
+        if (*replayCmd) return runReplay(replay);
+        if (*diagnoseCmd) return runDiagnose(diagnose);
+        if (*benchCmd) return runBench(bench);
     } catch (const SetupError& e) {
         std::fprintf(stderr, "nvstim: %s\n", e.what());
         return kExitUsage;

@@ -1,0 +1,9 @@
+#include "rt/cli/commands.h"
+
+namespace nvs::cli {
+
+int runEphem(const EphemOptions& /*opts*/) {
+    return notImplemented("ephem");
+}
+
+}  // namespace nvs::cli
