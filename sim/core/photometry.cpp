@@ -6,11 +6,11 @@
 namespace nvs {
 
 const Spectrum& photopicV() {
-    static const Spectrum v = [] {
+    static const Spectrum kV = [] {
         const auto path = configDir() / "spectra" / "cie1931_2deg_photopic_V_1nm.csv";
         return loadSpectrumCsv(path, "wavelength_nm", "V_rel").resample(Extrapolation::Zero);
     }();
-    return v;
+    return kV;
 }
 
 double photometricIntegral(const Spectrum& spectral_per_nm) {

@@ -34,7 +34,7 @@ struct SpectralGrid {
 // (e.g. W m^-2 sr^-1 nm^-1); for a dimensionless curve (reflectance, QE, V(λ)) it is 1.
 class Spectrum {
   public:
-    Spectrum() { v_.fill(0.0); }
+    Spectrum() = default;
     explicit Spectrum(double constant) { v_.fill(constant); }
 
     // Samples f(λ_nm) at the bin centres (midpoint rule; for smooth f the bin-mean error is
@@ -72,7 +72,7 @@ class Spectrum {
     friend Spectrum operator*(double k, Spectrum a) { return a *= k; }
 
   private:
-    std::array<double, SpectralGrid::kCount> v_;
+    std::array<double, SpectralGrid::kCount> v_{};
 };
 
 // ∫ a(λ)·b(λ) dλ without building the product.
