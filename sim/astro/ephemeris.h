@@ -1,0 +1,89 @@
+#pragma once
+// Sun and Moon as seen from a site (DESIGN §4.1), with ERFA (IAU SOFA algorithms).
+//
+// Per instant:
+//   1. Earth's barycentric and heliocentric position/velocity: eraEpv00 (VSOP2000 fit, ~5 km).
+//   2. Celestial-to-intermediate frame: IAU 2000B nutation with IAU 2006-compatible bias and
+//      precession (eraPnm00b, 1 mas class), CIO locator eraS00; Earth rotation angle eraEra00.
+//   3. Observer: eraApco builds the astrometry context (observer's barycentric position and
+//      velocity including diurnal motion; polar motion 0, below 0.5″).
+//   4. Moon: eraMoon98 (Meeus's truncated ELP2000-82B, ~10″), made topocentric by subtracting the
+//      observer's geocentric position (lunar parallax up to 1°), corrected for light time.
+//      Sun: Earth's heliocentric position reversed, made topocentric the same way.
+//   5. ICRS → CIRS (light deflection, annual and diurnal aberration, precession-nutation):
+//      eraAtciq; CIRS → observed azimuth/zenith distance without refraction: eraAtioq with
+//      zero refraction constants. This is the *geometric* topocentric altitude.
+//   6. Refraction added to the altitude (see refraction_rad below).
+// Phase angle i is the Sun–Moon–Earth angle (geocentric), illuminated fraction k = (1+cos i)/2.
+
+#include "sim/astro/time.h"
+
+namespace nvs::astro {
+
+struct Site {
+    double lat_deg = 0.0;           // geodetic latitude, north positive
+    double lon_deg = 0.0;           // east positive
+    double height_m = 0.0;          // above the WGS84 ellipsoid
+    double pressure_hPa = 1013.25;  // 0 switches refraction off
+    double temperature_C = 15.0;
+    double relativeHumidity = 0.0;  // 0..1
+};
+
+struct SunState {
+    double az_rad = 0.0;            // from north through east, [0, 2π)
+    double alt_rad = 0.0;           // topocentric, refracted
+    double altGeometric_rad = 0.0;  // topocentric, airless
+    double distance_m = 0.0;        // Earth centre to Sun centre
+};
+
+struct MoonState {
+    double az_rad = 0.0;
+    double alt_rad = 0.0;
+    double altGeometric_rad = 0.0;
+    double distanceGeocentric_m = 0.0;   // Earth centre to Moon centre (DESIGN §7 distance_km)
+    double distanceTopocentric_m = 0.0;  // observer to Moon centre (sets the lunar solid angle)
+    double sunDistance_m = 0.0;          // Sun centre to Moon centre
+    double phaseAngle_rad = 0.0;         // Sun–Moon–Earth angle
+    double elongation_rad = 0.0;         // Sun–Earth–Moon angle (geocentric)
+    double illuminatedFraction = 0.0;    // (1 + cos i) / 2
+};
+
+struct SunMoonState {
+    SunState sun;
+    MoonState moon;
+};
+
+// Refraction R(h) for a geometric (airless) altitude h, so that the apparent altitude is h + R.
+//
+// Above h = −1°: Sæmundsson's formula (Sky & Telescope 72, 70, 1986; Meeus, Astronomical
+// Algorithms, eq. 16.4), the inverse of Bennett's, for 1010 hPa and 10 °C:
+//     R = 1.02′ / tan(h + 10.3°/(h + 5.11°))        (h in degrees)
+// accurate to about 0.07′ from the zenith to the horizon (34′ there), unlike the A tan z + B
+// tan³ z model that ERFA's eraAtioq uses, which fails below ~5°. It is scaled by
+// `scale` = refco_A(P, T, RH) / refco_A(1010 hPa, 10 °C, 0) from ERFA eraRefco, which carries
+// the pressure, temperature and humidity dependence (≈ P/1010 · 283/(273+T)).
+// Below −1° the body cannot be seen from the ground; the refraction there is a convention, not
+// physics: it is tapered linearly from R(−1°) to 0 at −5° so that the apparent altitude stays
+// continuous and increasing.
+double refraction_rad(double altGeometric_rad, double scale);
+
+// ERFA's refraction constant ratio for refraction_rad (0 for P = 0).
+double refractionScale(double pressure_hPa, double temperature_C, double relativeHumidity);
+
+class Ephemeris {
+  public:
+    // Validates the site (throws SetupError naming the field).
+    explicit Ephemeris(const Site& site);
+
+    // Per frame: no allocation, no throw.
+    SunMoonState compute(const AstroTime& t) const noexcept;
+
+    const Site& site() const { return site_; }
+
+  private:
+    Site site_;
+    double lon_rad_ = 0.0, lat_rad_ = 0.0;
+    double refractionScale_ = 0.0;
+};
+
+}  // namespace nvs::astro
