@@ -1,0 +1,347 @@
+#include "drivers/sinks/sinks.h"
+
+#include <png.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+
+#include "sim/core/error.h"
+#include "sim/core/units.h"
+
+namespace nvs::drivers {
+
+namespace {
+
+const char* stateName(SinkState s) {
+    switch (s) {
+        case SinkState::Open:
+            return "open";
+        case SinkState::Failed:
+            return "failed";
+        case SinkState::Closed:
+            return "closed";
+    }
+    return "?";
+}
+
+// Counts scaled from `bits` to 16 bits (a left shift): full scale maps to full scale.
+inline std::uint16_t to16(std::uint16_t v, int bits) {
+    return bits >= 16 ? v : static_cast<std::uint16_t>(v << (16 - bits));
+}
+inline unsigned char to8(std::uint16_t v, int bits) {
+    return static_cast<unsigned char>(bits <= 8 ? v << (8 - bits) : v >> (bits - 8));
+}
+
+void checkSize(int width, int height, const std::string& what) {
+    if (width <= 0 || height <= 0) throw SetupError(what + ": image size must be positive");
+}
+
+}  // namespace
+
+std::string describe(const char* name, SinkState state, const SinkCounters& c) {
+    char buf[512];
+    std::snprintf(buf, sizeof buf, "%s: %s, frames %lld, errors %lld, bytes %lld%s%s", name,
+                  stateName(state), static_cast<long long>(c.frames),
+                  static_cast<long long>(c.errors), static_cast<long long>(c.bytes),
+                  c.lastErrno != 0 ? ", last error: " : "",
+                  c.lastErrno != 0 ? std::strerror(c.lastErrno) : "");
+    return buf;
+}
+
+void makeOutputDir(const std::string& dir, const std::string& what) {
+    std::error_code ec;
+    std::filesystem::create_directories(dir, ec);
+    if (ec || !std::filesystem::is_directory(dir)) {
+        throw SetupError(what + ": cannot create directory '" + dir + "': " + ec.message());
+    }
+}
+
+// ---- y4m ---------------------------------------------------------------------------------------
+
+Y4mSink::Y4mSink(const std::string& path, int width, int height, int bits, rt::FrameRate rate)
+    : name_("y4m:" + path),
+      toStdout_(path == "-"),
+      width_(width),
+      height_(height),
+      bits_(bits),
+      wide_(bits > 8) {
+    checkSize(width, height, name_);
+    const std::size_t px = static_cast<std::size_t>(width) * static_cast<std::size_t>(height);
+    buffer_.resize(6 + px * (wide_ ? 2 : 1));
+    std::memcpy(buffer_.data(), "FRAME\n", 6);
+    header_ = "YUV4MPEG2 W" + std::to_string(width) + " H" + std::to_string(height) + " F" +
+              std::to_string(rate.num) + ":" + std::to_string(rate.den) + " Ip A1:1 " +
+              (wide_ ? "Cmono16" : "Cmono") + "\n";
+    if (!toStdout_) {
+        const int rc = file_.open(path.c_str());
+        if (rc != 0) throw SetupError(name_ + ": cannot open: " + std::strerror(-rc));
+    }
+}
+
+Y4mSink::~Y4mSink() {
+    close();
+}
+
+int Y4mSink::fail(int rc) noexcept {
+    ++counters_.errors;
+    counters_.lastErrno = -rc;
+    // A file that lost a frame is abandoned: no truncated stream is left behind.
+    if (!toStdout_) file_.abort();
+    state_ = SinkState::Failed;
+    return rc;
+}
+
+int Y4mSink::write(const rt::OutputFrame& frame) noexcept {
+    if (state_ != SinkState::Open) {
+        ++counters_.errors;
+        return counters_.lastErrno != 0 ? -counters_.lastErrno : -EBADF;
+    }
+    unsigned char* dst = buffer_.data() + 6;
+    for (int y = 0; y < height_; ++y) {
+        const std::uint16_t* row = frame.counts.row(y);
+        if (wide_) {
+            for (int x = 0; x < width_; ++x) {
+                const std::uint16_t v = to16(row[x], bits_);
+                *dst++ = static_cast<unsigned char>(v & 0xff);  // little-endian
+                *dst++ = static_cast<unsigned char>(v >> 8);
+            }
+        } else {
+            for (int x = 0; x < width_; ++x)
+                *dst++ = to8(row[x], bits_);
+        }
+    }
+    const auto out = [&](const void* p, std::size_t n) {
+        return toStdout_ ? writeAll(STDOUT_FILENO, p, n) : file_.write(p, n);
+    };
+    if (!headerWritten_) {
+        const int rc = out(header_.data(), header_.size());
+        if (rc != 0) return fail(rc);
+        headerWritten_ = true;
+        counters_.bytes += static_cast<std::int64_t>(header_.size());
+    }
+    const int rc = out(buffer_.data(), buffer_.size());
+    if (rc != 0) return fail(rc);
+    ++counters_.frames;
+    counters_.bytes += static_cast<std::int64_t>(buffer_.size());
+    return 0;
+}
+
+int Y4mSink::close() noexcept {
+    if (state_ != SinkState::Open) return 0;
+    state_ = SinkState::Closed;
+    if (toStdout_) return 0;
+    const int rc = file_.commit(true);
+    if (rc != 0) {
+        ++counters_.errors;
+        counters_.lastErrno = -rc;
+        state_ = SinkState::Failed;
+    }
+    return rc;
+}
+
+// ---- PGM sequence ----------------------------------------------------------------------------
+
+PgmSequenceSink::PgmSequenceSink(const std::string& dir, int width, int height, int bits)
+    : name_("pgm:" + dir), dir_(dir), width_(width), height_(height), bits_(bits) {
+    checkSize(width, height, name_);
+    if (bits < 1 || bits > 16) throw SetupError(name_ + ": bits must be 1..16");
+    makeOutputDir(dir, name_);
+    char header[64];
+    const int n =
+        std::snprintf(header, sizeof header, "P5\n%d %d\n%u\n", width, height, (1u << bits) - 1u);
+    headerSize_ = static_cast<std::size_t>(n);
+    const std::size_t px = static_cast<std::size_t>(width) * static_cast<std::size_t>(height);
+    buffer_.resize(headerSize_ + px * (bits > 8 ? 2 : 1));
+    std::memcpy(buffer_.data(), header, headerSize_);
+}
+
+int PgmSequenceSink::write(const rt::OutputFrame& frame) noexcept {
+    if (state_ == SinkState::Closed) return -EBADF;
+    unsigned char* dst = buffer_.data() + headerSize_;
+    for (int y = 0; y < height_; ++y) {
+        const std::uint16_t* row = frame.counts.row(y);
+        for (int x = 0; x < width_; ++x) {
+            if (bits_ > 8) {
+                *dst++ = static_cast<unsigned char>(row[x] >> 8);  // PGM: big-endian
+                *dst++ = static_cast<unsigned char>(row[x] & 0xff);
+            } else {
+                *dst++ = static_cast<unsigned char>(row[x]);
+            }
+        }
+    }
+    char path[AtomicFile::kMaxPath];
+    std::snprintf(path, sizeof path, "%s/%06lld.pgm", dir_.c_str(),
+                  static_cast<long long>(frame.tick));
+    int rc = file_.open(path);
+    if (rc == 0) rc = file_.write(buffer_.data(), buffer_.size());
+    if (rc == 0) rc = file_.commit(false);
+    if (rc != 0) {
+        file_.abort();
+        ++counters_.errors;
+        counters_.lastErrno = -rc;
+        return rc;
+    }
+    ++counters_.frames;
+    counters_.bytes += static_cast<std::int64_t>(buffer_.size());
+    return 0;
+}
+
+int PgmSequenceSink::close() noexcept {
+    state_ = SinkState::Closed;
+    return 0;
+}
+
+// ---- PNG sequence ----------------------------------------------------------------------------
+
+PngSequenceSink::PngSequenceSink(const std::string& dir, int width, int height, int bits)
+    : name_("png:" + dir), dir_(dir), width_(width), height_(height), bits_(bits) {
+    checkSize(width, height, name_);
+    makeOutputDir(dir, name_);
+    const std::size_t px = static_cast<std::size_t>(width) * static_cast<std::size_t>(height);
+    if (bits > 8) {
+        buffer16_.resize(px);
+    } else {
+        buffer8_.resize(px);
+    }
+}
+
+int PngSequenceSink::write(const rt::OutputFrame& frame) noexcept {
+    if (state_ == SinkState::Closed) return -EBADF;
+    for (int y = 0; y < height_; ++y) {
+        const std::uint16_t* row = frame.counts.row(y);
+        const std::size_t base = static_cast<std::size_t>(y) * static_cast<std::size_t>(width_);
+        for (int x = 0; x < width_; ++x) {
+            if (bits_ > 8) {
+                buffer16_[base + static_cast<std::size_t>(x)] = to16(row[x], bits_);
+            } else {
+                buffer8_[base + static_cast<std::size_t>(x)] = to8(row[x], bits_);
+            }
+        }
+    }
+    char path[AtomicFile::kMaxPath];
+    char temp[AtomicFile::kMaxPath + 8];
+    std::snprintf(path, sizeof path, "%s/%06lld.png", dir_.c_str(),
+                  static_cast<long long>(frame.tick));
+    std::snprintf(temp, sizeof temp, "%s.part", path);
+    png_image image;
+    std::memset(&image, 0, sizeof image);
+    image.version = PNG_IMAGE_VERSION;
+    image.width = static_cast<png_uint_32>(width_);
+    image.height = static_cast<png_uint_32>(height_);
+    image.format = bits_ > 8 ? PNG_FORMAT_LINEAR_Y : PNG_FORMAT_GRAY;
+    const void* data = bits_ > 8 ? static_cast<const void*>(buffer16_.data())
+                                 : static_cast<const void*>(buffer8_.data());
+    const int ok = png_image_write_to_file(&image, temp, 0, data, 0, nullptr);
+    int rc = 0;
+    if (ok == 0) {
+        rc = errno != 0 ? -errno : -EIO;
+    } else if (std::rename(temp, path) != 0) {
+        rc = -errno;
+    }
+    png_image_free(&image);
+    if (rc != 0) {
+        ::unlink(temp);
+        ++counters_.errors;
+        counters_.lastErrno = -rc;
+        return rc;
+    }
+    ++counters_.frames;
+    return 0;
+}
+
+int PngSequenceSink::close() noexcept {
+    state_ = SinkState::Closed;
+    return 0;
+}
+
+// ---- metadata ---------------------------------------------------------------------------------
+
+MetaJsonlSink::MetaJsonlSink(const std::string& path)
+    : name_("meta:" + path), toStdout_(path == "-"), line_(4096 + rt::kMaxTruthBoxes * 128) {
+    if (!toStdout_) {
+        const int rc = file_.open(path.c_str());
+        if (rc != 0) throw SetupError(name_ + ": cannot open: " + std::strerror(-rc));
+    }
+}
+
+MetaJsonlSink::~MetaJsonlSink() {
+    close();
+}
+
+std::size_t MetaJsonlSink::format(const rt::OutputFrame& frame, char* buf,
+                                  std::size_t size) noexcept {
+    const rt::FrameMeta& m = *frame.meta;
+    const rt::PlatformState& p = m.platform;
+    int n = std::snprintf(
+        buf, size,
+        "{\"frame\":%lld,\"tick\":%lld,\"repeat\":%s,\"t_sample_s\":%.9f,\"utc_unix_s\":%.6f,"
+        "\"exposure_s\":%.9g,\"pose\":{\"lat_deg\":%.9f,\"lon_deg\":%.9f,\"alt_m\":%.4f,"
+        "\"yaw_deg\":%.6f,\"pitch_deg\":%.6f,\"roll_deg\":%.6f},\"gain_V\":%.6g,\"gate_s\":%.9g,"
+        "\"gate_mode\":%d,\"agc\":%s,\"lamps\":%u,\"pose_from_telemetry\":%s,\"stale\":%s,"
+        "\"truth\":[",
+        static_cast<long long>(m.frame), static_cast<long long>(frame.tick),
+        frame.repeat ? "true" : "false", m.t_sample_s, p.utc_unix_s, m.exposure_s, p.lat_deg,
+        p.lon_deg, p.alt_m, p.yaw_rad * kDegPerRad, p.pitch_rad * kDegPerRad,
+        p.roll_rad * kDegPerRad, p.gain_V, p.gate_s, p.gateMode, p.agc ? "true" : "false",
+        p.lampMask, p.poseFromTelemetry ? "true" : "false", p.stale ? "true" : "false");
+    if (n < 0 || static_cast<std::size_t>(n) >= size) return 0;
+    std::size_t len = static_cast<std::size_t>(n);
+    for (int i = 0; i < m.truthCount && i < rt::kMaxTruthBoxes; ++i) {
+        const rt::TruthBox& b = m.truth[i];
+        n = std::snprintf(buf + len, size - len,
+                          "%s{\"id\":%d,\"x_px\":%.3f,\"y_px\":%.3f,\"w_px\":%.3f,\"h_px\":%.3f}",
+                          i > 0 ? "," : "", b.id, static_cast<double>(b.x_px),
+                          static_cast<double>(b.y_px), static_cast<double>(b.w_px),
+                          static_cast<double>(b.h_px));
+        if (n < 0 || len + static_cast<std::size_t>(n) >= size) return 0;
+        len += static_cast<std::size_t>(n);
+    }
+    if (len + 3 >= size) return 0;
+    buf[len++] = ']';
+    buf[len++] = '}';
+    buf[len++] = '\n';
+    return len;
+}
+
+int MetaJsonlSink::write(const rt::OutputFrame& frame) noexcept {
+    if (state_ != SinkState::Open) {
+        ++counters_.errors;
+        return counters_.lastErrno != 0 ? -counters_.lastErrno : -EBADF;
+    }
+    const std::size_t len = format(frame, line_.data(), line_.size());
+    int rc = len == 0 ? -EOVERFLOW : 0;
+    if (rc == 0) {
+        rc =
+            toStdout_ ? writeAll(STDOUT_FILENO, line_.data(), len) : file_.write(line_.data(), len);
+    }
+    if (rc != 0) {
+        ++counters_.errors;
+        counters_.lastErrno = -rc;
+        if (!toStdout_) file_.abort();
+        state_ = SinkState::Failed;
+        return rc;
+    }
+    ++counters_.frames;
+    counters_.bytes += static_cast<std::int64_t>(len);
+    return 0;
+}
+
+int MetaJsonlSink::close() noexcept {
+    if (state_ != SinkState::Open) return 0;
+    state_ = SinkState::Closed;
+    if (toStdout_) return 0;
+    const int rc = file_.commit(true);
+    if (rc != 0) {
+        ++counters_.errors;
+        counters_.lastErrno = -rc;
+        state_ = SinkState::Failed;
+    }
+    return rc;
+}
+
+}  // namespace nvs::drivers

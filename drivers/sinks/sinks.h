@@ -1,0 +1,145 @@
+#pragma once
+// File and pipe sinks (DESIGN §6). Each is a FrameSink (rt/msg/stages.h): configured and
+// allocated at construction (throws SetupError for a bad path), then write() per frame
+// returns 0 or -errno and counts; close() finishes the output.
+//
+//   Y4mSink          YUV4MPEG2, Cmono (8-bit) or Cmono16 (16-bit little-endian, counts scaled
+//                    to the full 16 bits), to a file (temporary + rename at close) or stdout.
+//                    A frame whose write fails is never half in a file: the file is abandoned
+//                    and removed. On stdout a vanished reader (EPIPE) closes the sink.
+//   PgmSequenceSink  DIR/NNNNNN.pgm, binary P5, maxval 2^bits − 1 (16-bit big-endian above 8
+//                    bits): the ADC counts exactly. Each file written whole, then renamed.
+//   PngSequenceSink  DIR/NNNNNN.png, 8-bit gray, or 16-bit with counts scaled to 16 bits.
+//   ExrSequenceSink  DIR/NNNNNN.exr, the radiance image as one FLOAT channel "Y" [W/m²/sr],
+//                    header attributes nvs_unit = "W/m2/sr", nvs_frame, nvs_t_sample_s.
+//   MetaJsonlSink    one JSON object per emitted frame (file, temporary + rename, or stdout):
+//     {"frame","tick","repeat","t_sample_s","utc_unix_s","exposure_s",
+//      "pose":{"lat_deg","lon_deg","alt_m","yaw_deg","pitch_deg","roll_deg"},
+//      "gain_V","gate_s","gate_mode","agc","lamps","pose_from_telemetry","stale",
+//      "truth":[{"id","x_px","y_px","w_px","h_px"}]}
+// PNG and EXR files are encoded by libpng / OpenEXR, which allocate: those two sinks are for
+// offline (sim clock) runs; the others allocate nothing per frame.
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "drivers/sinks/file_io.h"
+#include "rt/clock/clock.h"
+#include "rt/msg/stages.h"
+
+namespace nvs::drivers {
+
+enum class SinkState { Open, Failed, Closed };
+
+struct SinkCounters {
+    std::int64_t frames = 0;  // frames written completely
+    std::int64_t errors = 0;  // failed writes
+    std::int64_t bytes = 0;
+    int lastErrno = 0;
+};
+
+std::string describe(const char* name, SinkState state, const SinkCounters& c);
+
+class Y4mSink final : public rt::FrameSink {
+  public:
+    // path "-" is stdout. `bits` is the camera's ADC depth.
+    Y4mSink(const std::string& path, int width, int height, int bits, rt::FrameRate rate);
+    ~Y4mSink() override;
+    const char* name() const noexcept override { return name_.c_str(); }
+    int write(const rt::OutputFrame& frame) noexcept override;
+    int close() noexcept override;
+    std::string status() const override { return describe(name_.c_str(), state_, counters_); }
+    const SinkCounters& counters() const { return counters_; }
+
+  private:
+    int fail(int rc) noexcept;
+    std::string name_;
+    bool toStdout_ = false;
+    AtomicFile file_;
+    int width_, height_, bits_;
+    bool wide_;                          // 16-bit samples
+    std::vector<unsigned char> buffer_;  // "FRAME\n" + one frame of samples
+    std::string header_;
+    bool headerWritten_ = false;
+    SinkState state_ = SinkState::Open;
+    SinkCounters counters_;
+};
+
+class PgmSequenceSink final : public rt::FrameSink {
+  public:
+    PgmSequenceSink(const std::string& dir, int width, int height, int bits);
+    const char* name() const noexcept override { return name_.c_str(); }
+    int write(const rt::OutputFrame& frame) noexcept override;
+    int close() noexcept override;
+    std::string status() const override { return describe(name_.c_str(), state_, counters_); }
+    const SinkCounters& counters() const { return counters_; }
+
+  private:
+    std::string name_, dir_;
+    int width_, height_, bits_;
+    std::vector<unsigned char> buffer_;  // header + pixels
+    std::size_t headerSize_ = 0;
+    AtomicFile file_;
+    SinkState state_ = SinkState::Open;
+    SinkCounters counters_;
+};
+
+class PngSequenceSink final : public rt::FrameSink {
+  public:
+    PngSequenceSink(const std::string& dir, int width, int height, int bits);
+    const char* name() const noexcept override { return name_.c_str(); }
+    int write(const rt::OutputFrame& frame) noexcept override;
+    int close() noexcept override;
+    std::string status() const override { return describe(name_.c_str(), state_, counters_); }
+
+  private:
+    std::string name_, dir_;
+    int width_, height_, bits_;
+    std::vector<std::uint16_t> buffer16_;
+    std::vector<unsigned char> buffer8_;
+    SinkState state_ = SinkState::Open;
+    SinkCounters counters_;
+};
+
+class ExrSequenceSink final : public rt::FrameSink {
+  public:
+    ExrSequenceSink(const std::string& dir, int width, int height);
+    const char* name() const noexcept override { return name_.c_str(); }
+    int write(const rt::OutputFrame& frame) noexcept override;
+    int close() noexcept override;
+    std::string status() const override { return describe(name_.c_str(), state_, counters_); }
+
+  private:
+    std::string name_, dir_;
+    int width_, height_;
+    std::vector<float> buffer_;
+    SinkState state_ = SinkState::Open;
+    SinkCounters counters_;
+};
+
+class MetaJsonlSink final : public rt::FrameSink {
+  public:
+    explicit MetaJsonlSink(const std::string& path);
+    ~MetaJsonlSink() override;
+    const char* name() const noexcept override { return name_.c_str(); }
+    int write(const rt::OutputFrame& frame) noexcept override;
+    int close() noexcept override;
+    std::string status() const override { return describe(name_.c_str(), state_, counters_); }
+    const SinkCounters& counters() const { return counters_; }
+    // Formats one record into buf (no allocation); returns its length, or 0 if it did not fit.
+    static std::size_t format(const rt::OutputFrame& frame, char* buf, std::size_t size) noexcept;
+
+  private:
+    std::string name_;
+    bool toStdout_ = false;
+    AtomicFile file_;
+    std::vector<char> line_;
+    SinkState state_ = SinkState::Open;
+    SinkCounters counters_;
+};
+
+// Creates DIR (and parents) at setup; throws SetupError naming `what` on failure.
+void makeOutputDir(const std::string& dir, const std::string& what);
+
+}  // namespace nvs::drivers

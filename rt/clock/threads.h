@@ -1,0 +1,31 @@
+#pragma once
+// Every thread nvstim runs, in one table (STYLE §6). Priorities are SCHED_FIFO priorities used
+// when real-time scheduling is asked for and permitted (0: normal scheduling); cpu −1: any.
+// The output thread outranks the render thread: a late render must never delay an emission.
+
+#include <string>
+
+namespace nvs::rt {
+
+struct ThreadSpec {
+    const char* name;  // pthread name (15 characters at most)
+    const char* role;
+    int fifoPriority;
+    int cpu;
+};
+
+enum ThreadId : int { kThreadMain = 0, kThreadRender = 1, kThreadOutput = 2, kThreadCount = 3 };
+
+inline constexpr ThreadSpec kThreadTable[kThreadCount] = {
+    {"nvs-main", "setup, signals, live status once a second, shutdown and statistics", 0, -1},
+    {"nvs-render", "frame k+1: poll telemetry, pose at mid-exposure, render stage, camera stage",
+     70, 0},
+    {"nvs-output",
+     "frame k: sleep to its absolute deadline, emit to every sink, gate pulse, statistics", 80, 1},
+};
+
+// Names the calling thread after its table entry and, when `realtime`, applies its priority
+// and CPU. A refusal is reported once in `message` and is not an error.
+int applyThreadSpec(ThreadId id, bool realtime, std::string& message);
+
+}  // namespace nvs::rt

@@ -1,0 +1,279 @@
+#include "rt/run/run.h"
+
+#include <signal.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <fstream>
+#include <thread>
+
+#include "drivers/sinks/sinks.h"
+#include "rt/clock/threads.h"
+#include "rt/run/telemetry_factory.h"
+#include "rt/synth/synth.h"
+#include "sim/core/error.h"
+
+namespace nvs::rt {
+
+std::optional<std::string> Spec::take(const std::string& key) {
+    for (auto it = params.begin(); it != params.end(); ++it) {
+        if (it->first == key) {
+            std::string v = it->second;
+            params.erase(it);
+            return v;
+        }
+    }
+    return std::nullopt;
+}
+
+void Spec::finish(const std::string& what) const {
+    if (!params.empty()) {
+        throw SetupError(what + ": unknown parameter '" + params.front().first + "'");
+    }
+}
+
+Spec parseSpec(const std::string& text, const std::string& what) {
+    Spec s;
+    const auto colon = text.find(':');
+    if (colon == std::string::npos || colon == 0) {
+        throw SetupError(what + " '" + text + "': expected SCHEME:TARGET");
+    }
+    s.scheme = text.substr(0, colon);
+    std::string rest = text.substr(colon + 1);
+    const auto q = rest.find('?');
+    s.target = rest.substr(0, q);
+    if (q != std::string::npos) {
+        std::string query = rest.substr(q + 1);
+        std::size_t pos = 0;
+        while (pos <= query.size()) {
+            const auto amp = query.find('&', pos);
+            const std::string kv = query.substr(pos, amp == std::string::npos ? amp : amp - pos);
+            const auto eq = kv.find('=');
+            if (kv.empty() || eq == std::string::npos || eq == 0) {
+                throw SetupError(what + " '" + text + "': parameter '" + kv + "' is not KEY=VALUE");
+            }
+            s.params.emplace_back(kv.substr(0, eq), kv.substr(eq + 1));
+            if (amp == std::string::npos) break;
+            pos = amp + 1;
+        }
+    }
+    if (s.target.empty()) throw SetupError(what + " '" + text + "': empty target");
+    return s;
+}
+
+std::unique_ptr<FrameSink> makeSink(const std::string& text, const Scenario& sc) {
+    Spec s = parseSpec(text, "--output");
+    const std::string what = "--output " + text;
+    std::unique_ptr<FrameSink> sink;
+    if (s.scheme == "y4m") {
+        sink = std::make_unique<drivers::Y4mSink>(s.target, sc.width, sc.height, sc.bits, sc.rate);
+    } else if (s.scheme == "pgm") {
+        sink = std::make_unique<drivers::PgmSequenceSink>(s.target, sc.width, sc.height, sc.bits);
+    } else if (s.scheme == "png") {
+        sink = std::make_unique<drivers::PngSequenceSink>(s.target, sc.width, sc.height, sc.bits);
+    } else if (s.scheme == "exr") {
+        sink = std::make_unique<drivers::ExrSequenceSink>(s.target, sc.width, sc.height);
+    } else if (s.scheme == "meta") {
+        sink = std::make_unique<drivers::MetaJsonlSink>(s.target);
+    } else {
+        sink = makeDeviceSink(s, sc, what);
+        if (!sink) {
+            throw SetupError(what + ": unknown output scheme '" + s.scheme +
+                             "' (known: v4l2, y4m, pgm, png, exr, meta, gpio)");
+        }
+    }
+    s.finish(what);
+    return sink;
+}
+
+std::unique_ptr<PlatformSource> makePlatformSource(const std::optional<std::string>& text,
+                                                   const Scenario& sc, ClockKind clock) {
+    if (!text) return std::make_unique<HeldPlatform>(sc.platform);
+    Spec s = parseSpec(*text, "--telemetry");
+    auto src = makeTelemetrySource(s, sc, clock, "--telemetry " + *text);
+    s.finish("--telemetry " + *text);
+    return src;
+}
+
+namespace {
+
+std::string jsonEscape(const std::string& in) {
+    std::string out;
+    for (const char c : in) {
+        if (c == '"' || c == '\\') {
+            out += '\\';
+            out += c;
+        } else if (static_cast<unsigned char>(c) < 0x20) {
+            char b[8];
+            std::snprintf(b, sizeof b, "\\u%04x", c);
+            out += b;
+        } else {
+            out += c;
+        }
+    }
+    return out;
+}
+
+std::atomic<bool> gStop{false};
+
+extern "C" void onStopSignal(int /*sig*/) {
+    gStop.store(true, std::memory_order_relaxed);
+}
+
+}  // namespace
+
+std::atomic<bool>& stopRequested() {
+    return gStop;
+}
+
+void installStopSignals() {
+    struct sigaction sa {};
+    sa.sa_handler = onStopSignal;
+    sigemptyset(&sa.sa_mask);
+    sa.sa_flags = 0;
+    sigaction(SIGINT, &sa, nullptr);
+    sigaction(SIGTERM, &sa, nullptr);
+    // A vanished pipe reader is an EPIPE write error, counted by its sink, not a kill.
+    signal(SIGPIPE, SIG_IGN);
+}
+
+std::string statsJson(const FrameLoop& loop, const PlatformSource& platform,
+                      const std::vector<std::unique_ptr<FrameSink>>& sinks) {
+    const RunStats& st = loop.stats();
+    const RunCounters& c = st.counters;
+    const LoopConfig& cfg = loop.config();
+    std::string j = "{";
+    char buf[512];
+    std::snprintf(buf, sizeof buf,
+                  "\"clock\":\"%s\",\"frame_rate_hz\":%.6f,\"elapsed_s\":%.6f,\"ticks\":%lld,"
+                  "\"frames_rendered\":%lld,\"frames_emitted\":%lld,\"deadline_misses\":%lld,"
+                  "\"repeats\":%lld,\"dropped_frames\":%lld,\"skipped_ticks\":%lld,"
+                  "\"sink_errors\":%lld,\"stale_frames\":%lld,",
+                  cfg.clock == ClockKind::Wall ? "wall" : "sim", cfg.rate.hz(), st.elapsed_s,
+                  static_cast<long long>(c.ticks), static_cast<long long>(c.framesRendered),
+                  static_cast<long long>(c.framesEmitted), static_cast<long long>(c.deadlineMisses),
+                  static_cast<long long>(c.repeats), static_cast<long long>(c.droppedFrames),
+                  static_cast<long long>(c.skippedTicks), static_cast<long long>(c.sinkErrors),
+                  static_cast<long long>(c.staleFrames));
+    j += buf;
+    j += "\"period\":" + st.period.json() + ",\"wake_late\":" + st.wakeLate.json() +
+         ",\"frame_time\":" + st.frameTime.json() + ",\"overhead\":" + st.overhead.json() +
+         ",\"sink_time\":" + st.sinkTime.json() + ",\"latency\":" + st.latency.json();
+    j += ",\"telemetry\":\"" + jsonEscape(platform.status()) + "\",\"outputs\":[";
+    for (std::size_t i = 0; i < sinks.size(); ++i) {
+        j += (i > 0 ? ",\"" : "\"") + jsonEscape(sinks[i]->status()) + "\"";
+    }
+    j += "],\"failure\":\"" + jsonEscape(loop.failure()) + "\"}";
+    return j;
+}
+
+int runScenario(const RunRequest& req, std::FILE* status) {
+    // Setup: everything that can fail fails here, before the first frame.
+    const Scenario sc = loadScenario(req.scenario);
+    LoopConfig cfg;
+    cfg.rate = sc.rate;
+    cfg.clock = req.clock;
+    cfg.latePolicy = sc.latePolicy;
+    cfg.sinkErrorPolicy = sc.sinkErrors;
+    cfg.exposure_s = sc.exposure_s;
+    cfg.width = sc.width;
+    cfg.height = sc.height;
+    cfg.realtime = sc.realtime;
+    if (req.frames) {
+        cfg.frames = *req.frames;
+    } else if (sc.duration_s) {
+        cfg.frames = static_cast<std::int64_t>(std::ceil(*sc.duration_s * sc.rate.hz() - 1e-9));
+    } else if (req.clock == ClockKind::Sim) {
+        throw SetupError("--clock sim needs --frames N or [scenario] duration_s");
+    }
+    int toStdout = 0;
+    std::vector<std::unique_ptr<FrameSink>> sinks;
+    for (const std::string& o : req.outputs) {
+        if (o.size() > 2 && o.compare(o.size() - 2, 2, ":-") == 0) ++toStdout;
+        sinks.push_back(makeSink(o, sc));
+    }
+    if (toStdout > 1) throw SetupError("--output: only one output can go to stdout");
+    std::unique_ptr<PlatformSource> platform = makePlatformSource(req.telemetry, sc, req.clock);
+    TestPatternRender render(sc.testPattern.radianceMax_W_m2_sr, sc.testPattern.targetSpeed_px_s);
+    LinearCamera camera(sc.testPattern.fullScale_W_m2_sr, sc.bits);
+    std::vector<FrameSink*> raw;
+    for (auto& s : sinks)
+        raw.push_back(s.get());
+
+    installStopSignals();
+    std::string mainMsg;
+    applyThreadSpec(kThreadMain, false, mainMsg);
+    FrameLoop loop(cfg, *platform, render, camera, raw);
+    std::vector<std::string> messages;
+    loop.start(messages);
+    for (const auto& m : messages)
+        std::fprintf(status, "nvstim run: %s\n", m.c_str());
+
+    // Live status at most once a second, from the loop's atomic counters.
+    auto lastPrint = std::chrono::steady_clock::now();
+    std::int64_t lastEmitted = 0;
+    while (!loop.finished()) {
+        std::this_thread::sleep_for(std::chrono::milliseconds(50));
+        if (stopRequested().load(std::memory_order_relaxed) || platform->failed()) {
+            loop.requestStop();
+        }
+        const auto now = std::chrono::steady_clock::now();
+        const double dt = std::chrono::duration<double>(now - lastPrint).count();
+        if (dt >= 1.0) {
+            const LiveCounters& l = loop.live();
+            const std::int64_t e = l.emitted.load();
+            const std::int64_t lat = l.lastLatency_ns.load();
+            std::fprintf(status,
+                         "nvstim run: frame %lld  %.2f fps  misses %lld  repeats %lld  "
+                         "dropped %lld  sink errors %lld  latency %s%.2f ms%s\n",
+                         static_cast<long long>(e), static_cast<double>(e - lastEmitted) / dt,
+                         static_cast<long long>(l.misses.load()),
+                         static_cast<long long>(l.repeats.load()),
+                         static_cast<long long>(l.dropped.load()),
+                         static_cast<long long>(l.sinkErrors.load()), lat < 0 ? "n/a " : "",
+                         lat < 0 ? 0.0 : static_cast<double>(lat) * 1e-6,
+                         l.stale.load() ? "  TELEMETRY STALE" : "");
+            std::fflush(status);
+            lastPrint = now;
+            lastEmitted = e;
+        }
+    }
+    loop.join();
+    // Shutdown: close every device and file (renames temporaries into place).
+    for (auto& s : sinks)
+        s->close();
+    const RunCounters& c = loop.stats().counters;
+    const RunStats& st = loop.stats();
+    std::fprintf(status,
+                 "nvstim run: %s: %lld frames emitted in %.3f s; misses %lld, repeats %lld, "
+                 "dropped %lld, sink errors %lld; period p50 %.3f p99 %.3f max %.3f ms; latency "
+                 "p50 %.3f p99 %.3f ms\n",
+                 sc.name.c_str(), static_cast<long long>(c.framesEmitted), st.elapsed_s,
+                 static_cast<long long>(c.deadlineMisses), static_cast<long long>(c.repeats),
+                 static_cast<long long>(c.droppedFrames), static_cast<long long>(c.sinkErrors),
+                 st.period.quantile_s(0.5) * 1e3, st.period.quantile_s(0.99) * 1e3,
+                 st.period.max_s() * 1e3, st.latency.quantile_s(0.5) * 1e3,
+                 st.latency.quantile_s(0.99) * 1e3);
+    std::fprintf(status, "nvstim run: telemetry: %s\n", platform->status().c_str());
+    for (auto& s : sinks)
+        std::fprintf(status, "nvstim run: output %s\n", s->status().c_str());
+    if (!loop.failure().empty()) std::fprintf(status, "nvstim run: %s\n", loop.failure().c_str());
+    if (req.statsPath) {
+        const std::string json = statsJson(loop, *platform, sinks) + "\n";
+        drivers::AtomicFile f;
+        int rc = f.open(req.statsPath->c_str());
+        if (rc == 0) rc = f.write(json.data(), json.size());
+        if (rc == 0) rc = f.commit(true);
+        if (rc != 0) {
+            std::fprintf(status, "nvstim run: --stats %s: %s\n", req.statsPath->c_str(),
+                         std::strerror(-rc));
+            return 1;
+        }
+    }
+    const bool failed = !loop.failure().empty() || platform->failed();
+    if (platform->failed()) std::fprintf(status, "nvstim run: stopped: bad telemetry input\n");
+    return failed ? 1 : 0;
+}
+
+}  // namespace nvs::rt

@@ -1,0 +1,58 @@
+#pragma once
+// `nvstim run` assembled from its parts (DESIGN §7): the scenario, one platform source
+// (telemetry or the scenario's held pose), the synthetic stages, the sinks named by --output,
+// the frame loop, the live status line and the final statistics.
+
+#include <atomic>
+#include <cstdio>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "rt/loop/frame_loop.h"
+#include "rt/msg/stages.h"
+#include "rt/run/scenario.h"
+
+namespace nvs::rt {
+
+struct RunRequest {
+    std::string scenario;
+    std::vector<std::string> outputs;
+    ClockKind clock = ClockKind::Wall;
+    std::optional<std::int64_t> frames;
+    std::optional<std::string> telemetry;
+    std::optional<std::string> statsPath;
+};
+
+// A parsed "scheme:target?key=value&key=value" (--output and --telemetry).
+struct Spec {
+    std::string scheme;
+    std::string target;
+    std::vector<std::pair<std::string, std::string>> params;
+    // Takes a parameter (marks it used); unknown leftovers are reported by finish().
+    std::optional<std::string> take(const std::string& key);
+    void finish(const std::string& what) const;
+};
+Spec parseSpec(const std::string& text, const std::string& what);
+
+// Output spec → sink (throws SetupError naming the spec). Known schemes: y4m, pgm, png, exr,
+// meta (files), v4l2 (drivers/v4l2), gpio (drivers/gpio).
+std::unique_ptr<FrameSink> makeSink(const std::string& spec, const Scenario& sc);
+// Telemetry spec → platform source; none → the scenario's held pose.
+std::unique_ptr<PlatformSource> makePlatformSource(const std::optional<std::string>& spec,
+                                                   const Scenario& sc, ClockKind clock);
+
+// Statistics as one JSON object.
+std::string statsJson(const FrameLoop& loop, const PlatformSource& platform,
+                      const std::vector<std::unique_ptr<FrameSink>>& sinks);
+
+// Runs to the end (frames, duration, SIGINT/SIGTERM or a fatal error). Live status lines go
+// to `status` at most once a second. Returns 0, or 1 when the run failed.
+int runScenario(const RunRequest& req, std::FILE* status);
+
+// The stop flag SIGINT and SIGTERM set.
+std::atomic<bool>& stopRequested();
+void installStopSignals();
+
+}  // namespace nvs::rt

@@ -1,0 +1,153 @@
+#include "rt/run/scenario.h"
+
+#include <cmath>
+#include <cstdio>
+#include <ctime>
+
+#include "sim/core/config.h"
+#include "sim/core/units.h"
+
+namespace nvs::rt {
+
+bool parseIso8601Utc(const std::string& text, double* unix_s) {
+    int Y = 0, M = 0, D = 0, h = 0, m = 0, consumed = 0;
+    double s = 0.0;
+    if (std::sscanf(text.c_str(), "%4d-%2d-%2dT%2d:%2d:%lf%n", &Y, &M, &D, &h, &m, &s, &consumed) !=
+        6) {
+        return false;
+    }
+    if (M < 1 || M > 12 || D < 1 || D > 31 || h > 23 || m > 59 || s < 0.0 || s >= 61.0)
+        return false;
+    const std::string zone = text.substr(static_cast<std::size_t>(consumed));
+    int offset_s = 0;
+    if (zone == "Z" || zone.empty()) {
+        offset_s = 0;
+    } else {
+        int oh = 0, om = 0;
+        char sign = 0;
+        if (std::sscanf(zone.c_str(), "%c%2d:%2d", &sign, &oh, &om) != 3 ||
+            (sign != '+' && sign != '-')) {
+            return false;
+        }
+        offset_s = (sign == '-' ? -1 : 1) * (oh * 3600 + om * 60);
+    }
+    std::tm tm{};
+    tm.tm_year = Y - 1900;
+    tm.tm_mon = M - 1;
+    tm.tm_mday = D;
+    tm.tm_hour = h;
+    tm.tm_min = m;
+    tm.tm_sec = 0;
+    const time_t t = timegm(&tm);
+    *unix_s = static_cast<double>(t) + s - offset_s;
+    return true;
+}
+
+namespace {
+
+// A key of an optional table: its value, or the default when the table is absent.
+template <typename T>
+T getOr(const std::optional<ConfigTable>& t, std::string_view key, const T& def) {
+    return t ? t->get<T>(key, def) : def;
+}
+
+Scenario fromDocument(const ConfigDocument& doc, const std::string& file) {
+    Scenario sc;
+    sc.file = file;
+    const ConfigTable root = doc.root();
+    const ConfigTable s = root.table("scenario");
+    sc.name = s.require<std::string>("name");
+    sc.description = s.get<std::string>("description", "");
+    const double hz = s.get<double>("frame_rate_hz", 60.0);
+    try {
+        sc.rate = FrameRate::fromHz(hz);
+    } catch (const SetupError& e) {
+        s.fail("frame_rate_hz", e.what());
+    }
+    sc.width = s.get<int>("width", 320);
+    sc.height = s.get<int>("height", 240);
+    if (sc.width < 8 || sc.width > 8192) s.fail("width", "must be in [8, 8192]");
+    if (sc.height < 8 || sc.height > 8192) s.fail("height", "must be in [8, 8192]");
+    sc.bits = s.get<int>("bits", 8);
+    if (sc.bits < 1 || sc.bits > 16) s.fail("bits", "must be in [1, 16]");
+    sc.exposure_s = s.get<double>("exposure_s", 0.0);
+    if (sc.exposure_s < 0.0) s.fail("exposure_s", "must not be negative");
+    const std::string utc = s.get<std::string>("utc_start", "2000-01-01T00:00:00Z");
+    if (!parseIso8601Utc(utc, &sc.utcStart_unix_s)) {
+        s.fail("utc_start", "not an ISO 8601 UTC instant such as 2024-01-25T17:54:00Z");
+    }
+    if (const auto d = s.optional<double>("duration_s")) {
+        if (!(*d > 0.0)) s.fail("duration_s", "must be positive");
+        sc.duration_s = *d;
+    }
+
+    const std::optional<ConfigTable> p = root.optionalTable("platform");
+    sc.platform.lat_deg = getOr<double>(p, "lat_deg", 0.0);
+    sc.platform.lon_deg = getOr<double>(p, "lon_deg", 0.0);
+    sc.platform.alt_m = getOr<double>(p, "alt_m", 0.0);
+    sc.platform.yaw_rad = getOr<double>(p, "yaw_deg", 0.0) * kRadPerDeg;
+    sc.platform.pitch_rad = getOr<double>(p, "pitch_deg", 0.0) * kRadPerDeg;
+    sc.platform.roll_rad = getOr<double>(p, "roll_deg", 0.0) * kRadPerDeg;
+    sc.platform.gain_V = getOr<double>(p, "gain_V", 0.0);
+    sc.platform.gate_s = getOr<double>(p, "gate_s", 0.0);
+    sc.platform.utc_unix_s = sc.utcStart_unix_s;
+
+    const std::optional<ConfigTable> r = root.optionalTable("runtime");
+    const std::string late = getOr<std::string>(r, "late_policy", "repeat");
+    if (late == "repeat") {
+        sc.latePolicy = LatePolicy::Repeat;
+    } else if (late == "drop") {
+        sc.latePolicy = LatePolicy::Drop;
+    } else {
+        r->fail("late_policy", "must be \"repeat\" or \"drop\"");
+    }
+    const std::string sinkErr = getOr<std::string>(r, "sink_errors", "count");
+    if (sinkErr != "count" && sinkErr != "stop") {
+        r->fail("sink_errors", "must be \"count\" or \"stop\"");
+    }
+    sc.sinkErrors = sinkErr == "stop" ? SinkErrorPolicy::Stop : SinkErrorPolicy::Count;
+    const std::string bad = getOr<std::string>(r, "bad_input", "count");
+    if (bad != "count" && bad != "stop") r->fail("bad_input", "must be \"count\" or \"stop\"");
+    sc.badInputFatal = bad == "stop";
+    sc.realtime = getOr<bool>(r, "realtime", false);
+    sc.staleAfter_s = getOr<double>(r, "stale_after_s", 0.5);
+    sc.maxExtrapolation_s = getOr<double>(r, "max_extrapolation_s", 0.1);
+    if (!(sc.staleAfter_s > 0.0)) r->fail("stale_after_s", "must be positive");
+    if (sc.maxExtrapolation_s < 0.0) r->fail("max_extrapolation_s", "must not be negative");
+
+    const auto sources = root.tableArray("source");
+    if (sources.size() != 1) {
+        throw SetupError(FileLoc{file, 0, 0},
+                         "exactly one [[source]] is needed (kind = \"test_pattern\")");
+    }
+    const ConfigTable src = sources[0];
+    const std::string kind = src.require<std::string>("kind");
+    if (kind != "test_pattern") src.fail("kind", "unknown source kind (known: test_pattern)");
+    TestPatternSpec& tp = sc.testPattern;
+    tp.radianceMax_W_m2_sr = src.get<double>("radiance_max_W_m2_sr", 1e-4);
+    tp.fullScale_W_m2_sr = src.get<double>("full_scale_W_m2_sr", tp.radianceMax_W_m2_sr);
+    tp.targetSpeed_px_s = src.get<double>("target_speed_px_s", 40.0);
+    if (!(tp.radianceMax_W_m2_sr > 0.0)) src.fail("radiance_max_W_m2_sr", "must be positive");
+    if (!(tp.fullScale_W_m2_sr > 0.0)) src.fail("full_scale_W_m2_sr", "must be positive");
+    doc.finish();
+    return sc;
+}
+
+}  // namespace
+
+Scenario loadScenario(const std::filesystem::path& path) {
+    std::filesystem::path file = path;
+    if (std::filesystem::is_directory(path)) file = path / "scenario.toml";
+    if (!std::filesystem::exists(file)) {
+        throw SetupError("scenario '" + path.string() + "': no such file");
+    }
+    const ConfigDocument doc = ConfigDocument::parseFile(file);
+    return fromDocument(doc, file.string());
+}
+
+Scenario parseScenario(const std::string& text, const std::string& name) {
+    const ConfigDocument doc = ConfigDocument::parseString(text, name);
+    return fromDocument(doc, name);
+}
+
+}  // namespace nvs::rt

@@ -1,0 +1,74 @@
+#pragma once
+// The minimal scenario the runtime reads until the full scenario format exists. Strict TOML
+// (sim/core/config.h): every key below is optional unless marked, and any other key is an
+// error with its file:line.
+//
+//   [scenario]                         name            string   required
+//                                      description     string   ""
+//                                      frame_rate_hz   Hz       60 (59.94, 29.97 exact NTSC)
+//                                      width, height   px       320, 240
+//                                      bits            1..16    8 (ADC depth of the counts)
+//                                      exposure_s      s        one period
+//                                      utc_start       ISO 8601 "2000-01-01T00:00:00Z"
+//                                      duration_s      s        unbounded (frames = ⌈d·rate⌉)
+//   [platform]  held pose and camera   lat_deg lon_deg alt_m yaw_deg pitch_deg roll_deg
+//               settings without       gain_V gate_s              (all 0)
+//               telemetry
+//   [runtime]                          late_policy     "repeat" | "drop"      "repeat"
+//                                      sink_errors     "count" | "stop"       "count"
+//                                      bad_input       "count" | "stop"       "count"
+//                                      realtime        bool (SCHED_FIFO+mlockall) false
+//                                      stale_after_s   s                      0.5
+//                                      max_extrapolation_s s                  0.1
+//   [[source]]  exactly one, kind = "test_pattern" (rt/synth):
+//                                      radiance_max_W_m2_sr   W/m²/sr   1e-4
+//                                      full_scale_W_m2_sr     W/m²/sr   radiance_max
+//                                      target_speed_px_s      px/s      40
+
+#include <cstdint>
+#include <filesystem>
+#include <optional>
+#include <string>
+
+#include "rt/clock/clock.h"
+#include "rt/loop/frame_loop.h"
+#include "rt/msg/messages.h"
+
+namespace nvs::rt {
+
+struct TestPatternSpec {
+    double radianceMax_W_m2_sr = 1e-4;
+    double fullScale_W_m2_sr = 1e-4;
+    double targetSpeed_px_s = 40.0;
+};
+
+struct Scenario {
+    std::string file;
+    std::string name;
+    std::string description;
+    FrameRate rate;
+    int width = 320;
+    int height = 240;
+    int bits = 8;
+    double exposure_s = 0.0;
+    double utcStart_unix_s = 946684800.0;  // 2000-01-01T00:00:00Z
+    std::optional<double> duration_s;
+    PlatformState platform;
+    LatePolicy latePolicy = LatePolicy::Repeat;
+    SinkErrorPolicy sinkErrors = SinkErrorPolicy::Count;
+    bool badInputFatal = false;
+    bool realtime = false;
+    double staleAfter_s = 0.5;
+    double maxExtrapolation_s = 0.1;
+    TestPatternSpec testPattern;
+};
+
+// Reads a scenario TOML file (or SCENARIO/scenario.toml for a folder). Throws SetupError.
+Scenario loadScenario(const std::filesystem::path& path);
+Scenario parseScenario(const std::string& text, const std::string& name);
+
+// "2024-01-25T17:54:00Z" (fractional seconds and a +hh:mm offset accepted) → Unix seconds.
+// Returns false when malformed.
+bool parseIso8601Utc(const std::string& text, double* unix_s);
+
+}  // namespace nvs::rt

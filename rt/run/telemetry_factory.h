@@ -1,0 +1,21 @@
+#pragma once
+// Device and telemetry factories for `nvstim run` (kept apart so run.cpp stays readable).
+
+#include <memory>
+#include <string>
+
+#include "rt/loop/frame_loop.h"
+#include "rt/msg/stages.h"
+#include "rt/run/run.h"
+#include "rt/run/scenario.h"
+
+namespace nvs::rt {
+
+// v4l2:/dev/videoN[?format=GREY|Y16|YUYV&io=write|mmap], gpio:CHIP:LINE[?trigger=LINE];
+// nullptr for an unknown scheme.
+std::unique_ptr<FrameSink> makeDeviceSink(Spec& spec, const Scenario& sc, const std::string& what);
+// replay:FILE[?dbc=FILE], can:IFACE[?dbc=FILE&fd=1], serial:DEV?baud=N&proto=nmea|mavlink.
+std::unique_ptr<PlatformSource> makeTelemetrySource(Spec& spec, const Scenario& sc, ClockKind clock,
+                                                    const std::string& what);
+
+}  // namespace nvs::rt

@@ -1,0 +1,62 @@
+#pragma once
+// Run statistics (DESIGN §5): output period, deadline misses, frame (render + camera) time,
+// runtime overhead, telemetry-to-output latency. Each histogram is written by one thread
+// only and is allocated at setup: recording a sample is an increment, never an allocation.
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace nvs::rt {
+
+// Durations in 1 µs bins from 0 to 200 ms; larger values land in an overflow count but the
+// exact maximum is kept. Percentiles are the bin's upper edge (error ≤ 1 µs).
+class DurationHistogram {
+  public:
+    static constexpr int kBins = 200'000;
+    static constexpr double kBin_s = 1e-6;
+
+    DurationHistogram() : bins_(kBins, 0) {}
+    void add(double d_s) noexcept;
+    std::int64_t count() const { return count_; }
+    double max_s() const { return max_s_; }
+    double min_s() const { return count_ > 0 ? min_s_ : 0.0; }
+    double mean_s() const { return count_ > 0 ? sum_s_ / static_cast<double>(count_) : 0.0; }
+    // q in [0, 1]; 0 when empty.
+    double quantile_s(double q) const noexcept;
+    // {"n":…,"p50_s":…,"p99_s":…,"max_s":…,"mean_s":…}
+    std::string json() const;
+
+  private:
+    std::vector<std::uint32_t> bins_;
+    std::int64_t count_ = 0;
+    std::int64_t overflow_ = 0;
+    double sum_s_ = 0.0;
+    double max_s_ = 0.0;
+    double min_s_ = 1e300;
+};
+
+struct RunCounters {
+    std::int64_t ticks = 0;           // deadlines passed
+    std::int64_t framesRendered = 0;  // frames through render + camera
+    std::int64_t framesEmitted = 0;   // fresh frames written to the sinks
+    std::int64_t repeats = 0;         // ticks that re-sent the previous frame (repeat policy)
+    std::int64_t deadlineMisses = 0;  // ticks whose frame was not ready, or woke > ½ period late
+    std::int64_t skippedTicks = 0;    // whole periods lost because the output itself was late
+    std::int64_t droppedFrames = 0;   // rendered or due frames never emitted (stale)
+    std::int64_t sinkErrors = 0;      // failed sink writes (counted per sink in its status)
+    std::int64_t staleFrames = 0;     // frames rendered with stale telemetry
+};
+
+struct RunStats {
+    RunCounters counters;
+    DurationHistogram period;     // between consecutive emissions (wall clock)
+    DurationHistogram wakeLate;   // emission start − deadline (wall clock)
+    DurationHistogram frameTime;  // render + camera stage per frame
+    DurationHistogram overhead;   // loop's own work per frame (excludes stages and sinks)
+    DurationHistogram sinkTime;   // writing one frame to every sink
+    DurationHistogram latency;    // telemetry receive → frame emitted
+    double elapsed_s = 0.0;
+};
+
+}  // namespace nvs::rt
