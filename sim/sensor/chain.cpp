@@ -1,0 +1,668 @@
+#include "sim/sensor/chain.h"
+
+#include <fftw3.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "sim/core/rng.h"
+#include "sim/core/units.h"
+#include "sim/sensor/mtf.h"
+
+namespace nvs::sensor {
+
+namespace {
+
+constexpr double kElectronCharge_C = 1.602176634e-19;
+
+// Photometric → photoelectron rate: lm/m² × A/lm ÷ e.
+double ebiRatePerPixel_pe_s(const CameraParams& c) {
+    const double ebi_lm_m2 = c.ebi_lm_cm2 * 1e4;
+    const double current_A_m2 = ebi_lm_m2 * c.cathode_sensitivity_uA_lm * 1e-6;
+    return current_A_m2 / kElectronCharge_C * c.pixelAreaAtCathode_m2();
+}
+
+// Walks a row in RNG tiles: fn(rng, x) for every x, a fresh KeyedRng per tile.
+template <typename Fn>
+inline void forRowTiles(std::uint64_t seed, std::uint32_t stream, std::uint64_t field, int y,
+                        int width, Fn&& fn) {
+    for (int x0 = 0; x0 < width; x0 += kRngTile_px) {
+        KeyedRng rng(RngKey{seed, stream}, field, static_cast<std::uint32_t>(x0 / kRngTile_px),
+                     static_cast<std::uint32_t>(y));
+        const int x1 = std::min(width, x0 + kRngTile_px);
+        for (int x = x0; x < x1; ++x)
+            fn(rng, x);
+    }
+}
+
+}  // namespace
+
+// ---- 1. Optics ------------------------------------------------------------------------------
+
+OpticsStage::OpticsStage(const CameraParams& c) : factor_(c.width, c.height) {
+    const double onAxis = c.peRatePerLpe_on_axis();
+    const double px_m = c.pitch_x_um * 1e-6 * c.taper_magnification;
+    const double py_m = c.pitch_y_um * 1e-6 * c.taper_magnification;
+    const double f_m = c.focal_length_mm * 1e-3;
+    const double cx = 0.5 * (c.width - 1);
+    const double cy = 0.5 * (c.height - 1);
+    for (int y = 0; y < c.height; ++y) {
+        float* r = factor_.row(y);
+        for (int x = 0; x < c.width; ++x) {
+            double k = onAxis;
+            if (c.cos4) {
+                // cos⁴θ off axis: cos θ = f / sqrt(f² + r²), r the distance on the cathode.
+                const double dx = (x - cx) * px_m;
+                const double dy = (y - cy) * py_m;
+                const double c2 = f_m * f_m / (f_m * f_m + dx * dx + dy * dy);
+                k *= c2 * c2;
+            }
+            r[x] = static_cast<float>(k);
+        }
+    }
+}
+
+std::int64_t OpticsStage::apply(ImageView<const float> lpe, ImageView<float> rate,
+                                FieldContext& ctx) const noexcept {
+    std::int64_t bad = 0;
+    double total = 0.0;
+    for (int y = 0; y < lpe.height(); ++y) {
+        const float* in = lpe.row(y);
+        const float* k = factor_.row(y);
+        float* out = rate.row(y);
+        float rowSum = 0.0f;
+        for (int x = 0; x < lpe.width(); ++x) {
+            float v = in[x];
+            // NaN fails both comparisons; +inf fails the second.
+            if (!(v >= 0.0f && v < 3.0e38f)) {
+                ++bad;
+                v = 0.0f;
+            }
+            out[x] = v * k[x];
+            rowSum += out[x];
+        }
+        total += static_cast<double>(rowSum);
+    }
+    ctx.cathodeRate_pe_s += total;
+    return bad;
+}
+
+// ---- 2. Gate --------------------------------------------------------------------------------
+
+GateStage::GateStage(const CameraParams& c) : gate_s_(c.gate_s), min_s_(c.gate_min_s) {}
+
+double GateStage::gate_s(double period_s, double autogateScale) const noexcept {
+    const double base = (gate_s_ > 0.0 && gate_s_ < period_s) ? gate_s_ : period_s;
+    return std::clamp(base * autogateScale, std::min(min_s_, base), base);
+}
+
+// ---- 3. Photocathode ------------------------------------------------------------------------
+
+PhotocathodeStage::PhotocathodeStage(const CameraParams& c, std::uint64_t seed)
+    : noise_(c.shot_noise), ebi_pe_s_(ebiRatePerPixel_pe_s(c)), seed_(seed) {}
+
+void PhotocathodeStage::apply(ImageView<const float> rate, ImageView<float> pe,
+                              FieldContext& ctx) const noexcept {
+    const float t = static_cast<float>(ctx.gate_s);
+    const float ebi = static_cast<float>(ebi_pe_s_);
+    ctx.cathodeRate_pe_s += ebi_pe_s_ * rate.width() * rate.height();
+    for (int y = 0; y < rate.height(); ++y) {
+        const float* r = rate.row(y);
+        float* out = pe.row(y);
+        if (!noise_) {
+            for (int x = 0; x < rate.width(); ++x)
+                out[x] = (r[x] + ebi) * t;
+            continue;
+        }
+        forRowTiles(seed_, static_cast<std::uint32_t>(RngStream::Photocathode), ctx.field, y,
+                    rate.width(), [&](KeyedRng& rng, int x) {
+                        const double mean = static_cast<double>((r[x] + ebi) * t);
+                        out[x] = static_cast<float>(rng.poisson(mean));
+                    });
+    }
+}
+
+// ---- 4. BSP ---------------------------------------------------------------------------------
+
+BspStage::BspStage(const CameraParams& c)
+    : enabled_(c.agc == AgcMode::Bsp), knee_A_(c.bsp_knee_A), exponent_(c.bsp_exponent) {}
+
+double BspStage::factor(double current_A) const noexcept {
+    if (!enabled_ || !(current_A > 0.0)) return 1.0;
+    // The series resistor R drops V = R·I from the cathode-MCP voltage; near the knee the
+    // collection and gain fall together. A smooth 1/(1 + (I/I_knee)^p) keeps the measured
+    // behaviour (gain constant at low current, ∝ 1/I above the knee) with two parameters.
+    return 1.0 / (1.0 + std::pow(current_A / knee_A_, exponent_));
+}
+
+// ---- 5. MCP ---------------------------------------------------------------------------------
+
+McpStage::McpStage(const CameraParams& c, std::uint64_t seed)
+    : enabled_(c.mcp_enabled),
+      noise_(c.mcp_noise && c.mcp_noise_factor > 1.0 + 1e-9),
+      k_(c.mcp_noise_factor > 1.0 + 1e-9 ? 1.0 / (c.mcp_noise_factor - 1.0) : 0.0),
+      seed_(seed) {}
+
+void McpStage::apply(ImageView<float> pe, FieldContext& ctx) const noexcept {
+    const double g = ctx.mcpGain;
+    double total = 0.0;
+    for (int y = 0; y < pe.height(); ++y) {
+        float* v = pe.row(y);
+        double rowSum = 0.0;
+        if (!noise_) {
+            const float gf = static_cast<float>(g);
+            for (int x = 0; x < pe.width(); ++x) {
+                v[x] *= gf;
+                rowSum += static_cast<double>(v[x]);
+            }
+        } else {
+            // The gain of one electron has mean G and variance (F − 1)G²: a Gamma(k, G/k)
+            // with k = 1/(F − 1). N independent ones sum to Gamma(N·k, G/k) exactly.
+            forRowTiles(seed_, static_cast<std::uint32_t>(RngStream::McpGain), ctx.field, y,
+                        pe.width(), [&](KeyedRng& rng, int x) {
+                            const double n = static_cast<double>(v[x]);
+                            const double e = n > 0.0 ? rng.gamma(n * k_, g / k_) : 0.0;
+                            v[x] = static_cast<float>(e);
+                            rowSum += e;
+                        });
+        }
+        total += rowSum;
+    }
+    ctx.mcpOut_e = total;
+}
+
+// ---- 6. Phosphor ----------------------------------------------------------------------------
+
+double PhosphorStage::inPeriodFraction(double tau_s, double gate_s, double period_s) {
+    // An impulse at t0 is emitted as exp(−(t − t0)/τ)/τ; by the period's end T it has given
+    // 1 − exp(−(T − t0)/τ). Averaged over t0 uniform in [0, g]:
+    //   f = 1 − exp(−T/τ)·(exp(g/τ) − 1)/(g/τ).
+    const double x = gate_s / tau_s;
+    const double ratio = x < 1e-12 ? 1.0 : std::expm1(x) / x;
+    const double tail = std::exp(-period_s / tau_s) * ratio;
+    return std::clamp(1.0 - tail, 0.0, 1.0);
+}
+
+PhosphorStage::PhosphorStage(const CameraParams& c)
+    : enabled_(c.phosphor_enabled), eta_(c.ccdElectronsPerMcpElectron()) {
+    if (!enabled_) return;
+    n_ = static_cast<int>(c.phosphor_decay_s.size());
+    for (int i = 0; i < n_; ++i) {
+        tau_s_[i] = c.phosphor_decay_s[static_cast<std::size_t>(i)];
+        weight_[i] = c.phosphor_weight[static_cast<std::size_t>(i)];
+        // A component that has emitted all but 1e-7 of its energy within one period, even
+        // for the shortest gate at its end, needs no state: it costs nothing.
+        const double leftover = std::exp(-(c.integrationPeriod_s() - c.gate_min_s) / tau_s_[i]);
+        stored_[i] = leftover * weight_[i] > 1e-7;
+        if (stored_[i]) state_[i] = ImageF(c.width, c.height);
+    }
+}
+
+void PhosphorStage::reset() noexcept {
+    for (int i = 0; i < n_; ++i)
+        if (stored_[i]) state_[i].fill(0.0f);
+}
+
+void PhosphorStage::apply(ImageView<float> s, const FieldContext& ctx) noexcept {
+    if (!enabled_) return;
+    float now = 0.0f;  // fraction of this period's excitation seen in this period
+    float keep[4] = {};
+    float decay[4] = {};
+    float emit[4] = {};
+    int m = 0;
+    int idx[4] = {};
+    for (int i = 0; i < n_; ++i) {
+        const double f = inPeriodFraction(tau_s_[i], ctx.gate_s, ctx.period_s);
+        if (!stored_[i]) {
+            now += static_cast<float>(weight_[i]);  // emitted at once, to within 1e-7
+            continue;
+        }
+        now += static_cast<float>(weight_[i] * f);
+        const double d = std::exp(-ctx.period_s / tau_s_[i]);
+        idx[m] = i;
+        keep[m] = static_cast<float>(weight_[i] * (1.0 - f));
+        decay[m] = static_cast<float>(d);
+        emit[m] = static_cast<float>(1.0 - d);
+        ++m;
+    }
+    const float eta = static_cast<float>(eta_);
+    for (int y = 0; y < s.height(); ++y) {
+        float* v = s.row(y);
+        float* st[4] = {};
+        for (int j = 0; j < m; ++j)
+            st[j] = state_[idx[j]].row(y);
+        for (int x = 0; x < s.width(); ++x) {
+            const float e = v[x] * eta;
+            float out = e * now;
+            for (int j = 0; j < m; ++j) {
+                const float stored = st[j][x];
+                out += stored * emit[j];
+                st[j][x] = stored * decay[j] + e * keep[j];
+            }
+            v[x] = out;
+        }
+    }
+}
+
+// ---- 7. Blur --------------------------------------------------------------------------------
+
+struct BlurStage::Fft {
+    float* real = nullptr;
+    fftwf_complex* spec = nullptr;
+    float* filter = nullptr;
+    fftwf_plan fwd = nullptr;
+    fftwf_plan inv = nullptr;
+    ~Fft() {
+        if (fwd) fftwf_destroy_plan(fwd);
+        if (inv) fftwf_destroy_plan(inv);
+        fftwf_free(real);
+        fftwf_free(spec);
+        fftwf_free(filter);
+    }
+};
+
+namespace {
+// Smallest n ≥ m whose prime factors are 2, 3, 5, 7 (fast FFTW sizes).
+int fastSize(int m) {
+    for (int n = std::max(m, 1);; ++n) {
+        int r = n;
+        for (int p : {2, 3, 5, 7})
+            while (r % p == 0)
+                r /= p;
+        if (r == 1) return n;
+    }
+}
+// Mirror index for padding: positions past the right edge mirror it; positions near the
+// (periodic) end mirror the left edge, the two mirrors meeting half-way.
+inline int padIndex(int i, int n, int np) {
+    if (i < n) return i;
+    const int beyond = i - n;
+    const int half = (np - n) / 2;
+    int j = beyond < half ? n - 1 - beyond : np - i - 1;  // np - i - 1: mirror of x = 0 side
+    return std::clamp(j, 0, n - 1);
+}
+}  // namespace
+
+BlurStage::BlurStage(const CameraParams& c, const ChainOptions& opt)
+    : enabled_(c.mtf_enabled), w_(c.width), h_(c.height) {
+    if (!enabled_) return;
+    // A margin of 16 px mirrored on each side keeps the periodic FFT from wrapping the
+    // opposite edge into the image (the PSF carries < 1e-3 beyond 16 px for the presets).
+    constexpr int kMargin = 16;
+    wp_ = fastSize(w_ + 2 * kMargin);
+    hp_ = fastSize(h_ + 2 * kMargin);
+    fft_ = std::make_unique<Fft>();
+    const int wc = wp_ / 2 + 1;
+    const std::size_t nr = static_cast<std::size_t>(wp_) * static_cast<std::size_t>(hp_);
+    const std::size_t nc = static_cast<std::size_t>(wc) * static_cast<std::size_t>(hp_);
+    fft_->real = fftwf_alloc_real(nr);
+    fft_->spec = fftwf_alloc_complex(nc);
+    fft_->filter = fftwf_alloc_real(nc);
+    if (!fft_->real || !fft_->spec || !fft_->filter) throw SetupError("blur: out of memory");
+    const unsigned flags = opt.measureFft ? FFTW_MEASURE : FFTW_ESTIMATE;
+    fft_->fwd = fftwf_plan_dft_r2c_2d(hp_, wp_, fft_->real, fft_->spec, flags);
+    fft_->inv = fftwf_plan_dft_c2r_2d(hp_, wp_, fft_->spec, fft_->real, flags);
+    if (!fft_->fwd || !fft_->inv) throw SetupError("blur: FFTW could not plan");
+    // The filter: the product of the stage MTFs at each DFT frequency, converted from cycles
+    // per pixel to cycles per mm at the cathode; 1/(wp·hp) normalises FFTW's round trip.
+    const double px = cathodePitchX_mm(c);
+    const double py = cathodePitchY_mm(c);
+    const double norm = 1.0 / static_cast<double>(nr);
+    for (int ky = 0; ky < hp_; ++ky) {
+        const double fy = (ky <= hp_ / 2 ? ky : ky - hp_) / static_cast<double>(hp_) / py;
+        for (int kx = 0; kx < wc; ++kx) {
+            const double fx = kx / static_cast<double>(wp_) / px;
+            fft_->filter[static_cast<std::size_t>(ky) * wc + kx] =
+                static_cast<float>(systemMtf(c, fx, fy) * norm);
+        }
+    }
+}
+
+BlurStage::~BlurStage() = default;
+
+void BlurStage::apply(ImageView<float> img) noexcept {
+    if (!enabled_) return;
+    float* r = fft_->real;
+    for (int y = 0; y < hp_; ++y) {
+        const float* src = img.row(padIndex(y, h_, hp_));
+        float* dst = r + static_cast<std::ptrdiff_t>(y) * wp_;
+        std::copy(src, src + w_, dst);
+        for (int x = w_; x < wp_; ++x)
+            dst[x] = src[padIndex(x, w_, wp_)];
+    }
+    fftwf_execute(fft_->fwd);
+    const int wc = wp_ / 2 + 1;
+    const std::size_t nc = static_cast<std::size_t>(wc) * static_cast<std::size_t>(hp_);
+    fftwf_complex* s = fft_->spec;
+    const float* f = fft_->filter;
+    for (std::size_t i = 0; i < nc; ++i) {
+        s[i][0] *= f[i];
+        s[i][1] *= f[i];
+    }
+    fftwf_execute(fft_->inv);
+    for (int y = 0; y < h_; ++y) {
+        const float* src = r + static_cast<std::ptrdiff_t>(y) * wp_;
+        float* dst = img.row(y);
+        for (int x = 0; x < w_; ++x)
+            dst[x] = std::max(src[x], 0.0f);  // ringing below zero is not charge
+    }
+}
+
+// ---- 8. CCD ---------------------------------------------------------------------------------
+
+CcdStage::CcdStage(const CameraParams& c, std::uint64_t seed)
+    : cam_(&c),
+      seed_(seed),
+      line_(new float[static_cast<std::size_t>(2 * std::max(c.width, c.height) + 2)]),
+      colSum_(new double[static_cast<std::size_t>(c.width)]) {
+    if (c.prnu_rel > 0.0) {
+        // Fixed pattern: one draw per cell, keyed by field 0 so it is the same every field.
+        prnu_ = ImageF(c.width, c.height);
+        for (int y = 0; y < c.height; ++y) {
+            float* p = prnu_.row(y);
+            forRowTiles(seed, static_cast<std::uint32_t>(RngStream::FixedPattern), 0, y, c.width,
+                        [&](KeyedRng& rng, int x) {
+                            p[x] = static_cast<float>(1.0 + c.prnu_rel * rng.gaussian());
+                        });
+        }
+    }
+    const double video_e = c.video_noise_dc / c.video_gain_dc_per_e;
+    noiseSigma_e_ = std::sqrt(c.read_noise_e * c.read_noise_e + video_e * video_e);
+}
+
+std::int64_t CcdStage::bloomLine(float* v, int n, std::ptrdiff_t step, float fw,
+                                 float* carry) noexcept {
+    // Appendix L spills a saturated cell's excess half to each side along the line, and the
+    // spill that overfills a neighbour moves on. Its linear weights only shape how fast the
+    // spill fills the nearest cells; here it fills them to full well outright (the limit of a
+    // narrow spread) and the sweep is O(n) with charge conserved.
+    bool any = false;
+    for (int i = 0; i < n; ++i) {
+        const float e = v[i * step] - fw;
+        if (e > 0.0f) {
+            any = true;
+            carry[i] = 0.5f * e;  // to the right / down
+            v[i * step] = fw;
+        } else {
+            carry[i] = 0.0f;
+        }
+    }
+    if (!any) return 0;
+    float* left = carry + n;
+    for (int i = 0; i < n; ++i)
+        left[i] = carry[i];
+    float moving = 0.0f;
+    for (int i = 0; i < n; ++i) {
+        float& c = v[i * step];
+        if (moving > 0.0f) {
+            const float room = fw - c;
+            const float take = std::min(room, moving);
+            c += take;
+            moving -= take;
+        }
+        moving += carry[i];
+    }
+    moving = 0.0f;
+    for (int i = n - 1; i >= 0; --i) {
+        float& c = v[i * step];
+        if (moving > 0.0f) {
+            const float room = fw - c;
+            const float take = std::min(room, moving);
+            c += take;
+            moving -= take;
+        }
+        moving += left[i];
+    }
+    std::int64_t sat = 0;
+    for (int i = 0; i < n; ++i)
+        sat += v[i * step] >= fw ? 1 : 0;
+    return sat;
+}
+
+std::int64_t CcdStage::apply(ImageView<float> e, const FieldContext& ctx) noexcept {
+    const CameraParams& c = *cam_;
+    const int w = e.width();
+    const int h = e.height();
+    const float dark = static_cast<float>(c.dark_e_s * ctx.period_s);
+    if (!prnu_.empty() || dark > 0.0f) {
+        for (int y = 0; y < h; ++y) {
+            float* v = e.row(y);
+            const float* p = prnu_.empty() ? nullptr : prnu_.row(y);
+            for (int x = 0; x < w; ++x)
+                v[x] = (p ? v[x] * p[x] : v[x]) + dark;
+        }
+    }
+    std::int64_t saturated = 0;
+    if (c.full_well_e > 0.0) {
+        const float fw = static_cast<float>(c.full_well_e);
+        float* carry = line_.get();
+        if (c.bloom == BloomDirection::Vertical) {
+            for (int x = 0; x < w; ++x)
+                saturated += bloomLine(e.row(0) + x, h, e.stride_px(), fw, carry);
+        } else if (c.bloom == BloomDirection::Horizontal) {
+            for (int y = 0; y < h; ++y)
+                saturated += bloomLine(e.row(y), w, 1, fw, carry);
+        } else {
+            for (int y = 0; y < h; ++y) {
+                float* v = e.row(y);
+                for (int x = 0; x < w; ++x) {
+                    if (v[x] >= fw) {
+                        v[x] = fw;
+                        ++saturated;
+                    }
+                }
+            }
+        }
+    }
+    if (c.smear_rel > 0.0) {
+        // Interline smear: light leaking into the vertical register while the column is
+        // clocked out adds a fraction of the column's mean charge to every cell of it.
+        double* cs = colSum_.get();
+        std::fill(cs, cs + w, 0.0);
+        for (int y = 0; y < h; ++y) {
+            const float* v = e.row(y);
+            for (int x = 0; x < w; ++x)
+                cs[x] += static_cast<double>(v[x]);
+        }
+        for (int y = 0; y < h; ++y) {
+            float* v = e.row(y);
+            for (int x = 0; x < w; ++x)
+                v[x] += static_cast<float>(c.smear_rel * cs[x] / h);
+        }
+    }
+    // Read noise, the dark charge's shot noise, and the video pre-amplifier noise referred
+    // back to electrons, all additive and Gaussian, in one draw per cell.
+    const double darkVar = static_cast<double>(dark);
+    const double sigma = std::sqrt(noiseSigma_e_ * noiseSigma_e_ + darkVar);
+    if (sigma > 0.0) {
+        for (int y = 0; y < h; ++y) {
+            float* v = e.row(y);
+            forRowTiles(
+                seed_, static_cast<std::uint32_t>(RngStream::ReadNoise), ctx.field, y, w,
+                [&](KeyedRng& rng, int x) { v[x] += static_cast<float>(sigma * rng.gaussian()); });
+        }
+    }
+    return saturated;
+}
+
+// ---- 9. Video -------------------------------------------------------------------------------
+
+VideoStage::VideoStage(const CameraParams& c) : cam_(&c), maxCount_((1 << c.adc_bits) - 1) {}
+
+double VideoStage::apply(ImageView<const float> e, std::uint64_t field, ImageView<float> counts,
+                         ImageView<std::uint16_t> video) const noexcept {
+    const CameraParams& c = *cam_;
+    const float gain = static_cast<float>(c.video_gain_dc_per_e);
+    const float offset = static_cast<float>(c.video_offset_dc);
+    const float maxc = static_cast<float>(maxCount_);
+    const bool gamma = std::fabs(c.gamma - 1.0) > 1e-9;
+    const float span = std::max(maxc - offset, 1.0f);
+    const int parity = static_cast<int>(field & 1u);
+    const int y0 = c.scan == ScanMode::Field ? parity : 0;
+    const int dy = c.scan == ScanMode::Field ? 2 : 1;
+    double sum = 0.0;
+    std::int64_t n = 0;
+    for (int y = y0; y < e.height(); y += dy) {
+        const float* s = e.row(y);
+        float* o = counts.row(y);
+        std::uint16_t* v = video.row(y);
+        float rowSum = 0.0f;
+        for (int x = 0; x < e.width(); ++x) {
+            float sig = s[x] * gain;
+            if (gamma && sig > 0.0f) {
+                sig = span * std::pow(std::min(sig / span, 1.0f), static_cast<float>(c.gamma));
+            }
+            float dc = std::nearbyint(sig + offset);
+            dc = std::clamp(dc, 0.0f, maxc);
+            o[x] = dc;
+            v[x] = static_cast<std::uint16_t>(dc);
+            rowSum += dc;
+        }
+        sum += static_cast<double>(rowSum);
+        n += e.width();
+    }
+    return n > 0 ? sum / static_cast<double>(n) : 0.0;
+}
+
+// ---- 10. AGC loop ---------------------------------------------------------------------------
+
+AgcLoop::AgcLoop(const CameraParams& c) : cam_(&c) {
+    reset();
+}
+
+void AgcLoop::reset() noexcept {
+    for (int i = 0; i < kRing; ++i) {
+        gainRing_[i] = cam_->gain_V;
+        gateRing_[i] = 1.0;
+    }
+    gainCmd_V_ = cam_->gain_V;
+    gateCmd_ = 1.0;
+}
+
+void AgcLoop::update(const FieldContext& ctx, double level_dc) noexcept {
+    const CameraParams& c = *cam_;
+    if (c.agc == AgcMode::Off || c.agc == AgcMode::Bsp) return;
+    const double signal = std::max(level_dc - c.video_offset_dc, 0.25);
+    const double want = std::max(c.agc_target_dc - c.video_offset_dc, 0.25);
+    int lag = std::max(c.agc_lag_fields, 1);
+    if (c.agc == AgcMode::Agc) {
+        // Video AGC: the gain that would bring this field's level to the target, approached
+        // with a first-order lag of time constant τ, applied `lag` fields later.
+        const double gNow = c.mcpGain(ctx.gain_V);
+        const double vTarget = std::clamp(c.controlVoltageForGain(gNow * want / signal),
+                                          c.agc_min_gain_V, c.agc_max_gain_V);
+        const double a = 1.0 - std::exp(-ctx.period_s / c.agc_time_constant_s);
+        gainCmd_V_ += a * (vTarget - gainCmd_V_);
+    } else if (c.agc == AgcMode::Abc) {
+        // ABC: the screen current is sensed directly (no video lag beyond the field in
+        // which it is measured); above the limit the gain is cut in proportion, below it
+        // recovers toward the manual setting, both with the ABC time constant.
+        const double screen_A = ctx.mcpOut_e * kElectronCharge_C / ctx.period_s;
+        double vTarget = c.gain_V;
+        if (screen_A > c.abc_screen_limit_A) {
+            const double gNow = c.mcpGain(ctx.gain_V);
+            vTarget =
+                std::min(c.gain_V, c.controlVoltageForGain(gNow * c.abc_screen_limit_A / screen_A));
+        }
+        vTarget = std::clamp(vTarget, c.agc_min_gain_V, c.agc_max_gain_V);
+        const double a = 1.0 - std::exp(-ctx.period_s / c.abc_time_constant_s);
+        gainCmd_V_ += a * (vTarget - gainCmd_V_);
+        lag = 1;
+    } else if (c.agc == AgcMode::Autogate) {
+        // Auto-gating: the gain stays at the manual setting and the gate duty cycle carries
+        // the loop (log-domain first-order lag), between the shortest gate and the field.
+        const double minScale = std::min(c.gate_min_s / ctx.period_s, 1.0);
+        const double target = std::clamp(gateCmd_ * want / signal, minScale, 1.0);
+        const double a = 1.0 - std::exp(-ctx.period_s / c.agc_time_constant_s);
+        gateCmd_ = std::exp(std::log(gateCmd_) + a * (std::log(target) - std::log(gateCmd_)));
+    }
+    const std::uint64_t k = ctx.field + static_cast<std::uint64_t>(lag);
+    // Fields between now and k keep what was already commanded for them.
+    gainRing_[k % kRing] = gainCmd_V_;
+    gateRing_[k % kRing] = gateCmd_;
+}
+
+// ---- The chain ------------------------------------------------------------------------------
+
+IiccdChain::IiccdChain(const CameraParams& cam, std::uint64_t seed, ChainOptions opt)
+    : cam_(cam),
+      optics_(cam_),
+      gate_(cam_),
+      cathode_(cam_, seed),
+      bsp_(cam_),
+      mcp_(cam_, seed),
+      phosphor_(cam_),
+      blur_(cam_, opt),
+      ccd_(cam_, seed),
+      videoStage_(cam_),
+      agc_(cam_),
+      rate_(cam_.width, cam_.height),
+      sig_(cam_.width, cam_.height),
+      counts_(cam_.width, cam_.height),
+      video_(cam_.width, cam_.height) {
+    counts_.fill(static_cast<float>(std::clamp(cam_.video_offset_dc, 0.0, 65535.0)));
+}
+
+IiccdChain::~IiccdChain() = default;
+
+std::int64_t IiccdChain::countBadPixels(ImageView<const float> img) {
+    std::int64_t bad = 0;
+    for (int y = 0; y < img.height(); ++y) {
+        const float* r = img.row(y);
+        for (int x = 0; x < img.width(); ++x)
+            bad += (r[x] >= 0.0f && r[x] < 3.0e38f) ? 0 : 1;
+    }
+    return bad;
+}
+
+const FieldInfo& IiccdChain::process(ImageView<const float> lpe) noexcept {
+    info_ = FieldInfo{};
+    info_.field = field_;
+    if (lpe.width() != cam_.width || lpe.height() != cam_.height) {
+        info_.size_mismatch = true;
+        return info_;
+    }
+    FieldContext ctx;
+    ctx.field = field_;
+    ctx.period_s = cam_.integrationPeriod_s();
+    ctx.gain_V =
+        cam_.agc == AgcMode::Off || cam_.agc == AgcMode::Bsp || cam_.agc == AgcMode::Autogate
+            ? cam_.gain_V
+            : agc_.gain_V(field_);
+    // 1. optics
+    info_.bad_input_px = optics_.apply(lpe, rate_.view(), ctx);
+    // 2. gate
+    const double scale = cam_.agc == AgcMode::Autogate ? agc_.gateScale(field_) : 1.0;
+    ctx.gate_s = gate_.gate_s(ctx.period_s, scale);
+    // 3. photocathode
+    cathode_.apply(rate_.cview(), sig_.view(), ctx);
+    const double cathode_A = ctx.cathodeRate_pe_s * ctx.gate_s / ctx.period_s * 1.602176634e-19;
+    // 4. bright-source protection, 5. MCP
+    const double bspFactor = bsp_.factor(cathode_A);
+    ctx.mcpGain = cam_.mcpGain(ctx.gain_V) * bspFactor;
+    if (mcp_.enabled())
+        mcp_.apply(sig_.view(), ctx);
+    else
+        ctx.mcpOut_e = ctx.cathodeRate_pe_s * ctx.gate_s;
+    // 6. phosphor, 7. blur, 8. CCD
+    phosphor_.apply(sig_.view(), ctx);
+    blur_.apply(sig_.view());
+    info_.saturated_px = ccd_.apply(sig_.view(), ctx);
+    // 9. video
+    info_.level_dc = videoStage_.apply(sig_.cview(), field_, counts_.view(), video_.view());
+    // 10. AGC loop
+    agc_.update(ctx, info_.level_dc);
+
+    info_.t_sample_s = (static_cast<double>(field_) + 0.5) * ctx.period_s;
+    info_.gain_V = ctx.gain_V;
+    info_.mcp_gain = ctx.mcpGain;
+    info_.gate_s = ctx.gate_s;
+    info_.bsp_factor = bspFactor;
+    info_.cathode_current_A = cathode_A;
+    info_.screen_current_A = ctx.mcpOut_e * 1.602176634e-19 / ctx.period_s;
+    info_.mean_pe = ctx.cathodeRate_pe_s * ctx.gate_s / (cam_.width * cam_.height);
+    ++field_;
+    return info_;
+}
+
+}  // namespace nvs::sensor

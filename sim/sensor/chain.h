@@ -1,0 +1,266 @@
+#pragma once
+// The IICCD chain (DESIGN §4.5): photoelectron radiance at the lens → digital counts, one
+// field (or frame) per call, with state carried between calls (phosphor afterglow, the AGC /
+// ABC / auto-gate loop, the interlaced output frame).
+//
+// Two phases. The constructor validates the preset, builds every stage and allocates every
+// buffer (FFTW plans included). process() allocates nothing and throws nothing; it is noexcept.
+// Randomness comes only from KeyedRng keyed by (seed, stream, field, tile, y), where a tile is
+// kRngTile_px pixels of one row: the draws of a pixel depend on nothing but that key and its
+// place in the tile, so any threading or tiling that keeps tiles whole gives identical output.
+//
+// Stage order, each a class below, each skipped entirely when the preset turns it off:
+//   1 Optics  2 Gate  3 Photocathode  4 BSP  5 MCP (+ABC)  6 Phosphor  7 Blur (MTF)
+//   8 CCD (FPN, dark, full well, blooming, smear, read noise)  9 Video (gain, offset, gamma,
+//   interlace, ADC)  10 AGC loop (one-field lag, time constant, limits).
+
+#include <cstdint>
+#include <memory>
+
+#include "sim/core/image.h"
+#include "sim/sensor/camera.h"
+
+namespace nvs::sensor {
+
+inline constexpr int kRngTile_px = 32;
+
+// What one call did: the state of the controls and the observables a driver reports.
+struct FieldInfo {
+    std::uint64_t field = 0;
+    double t_sample_s = 0.0;  // mid-exposure time of this field since the first
+    double gain_V = 0.0;      // tube gain control voltage applied
+    double mcp_gain = 0.0;    // electron gain applied (BSP included)
+    double gate_s = 0.0;      // exposure
+    double bsp_factor = 1.0;  // gain factor from bright-source protection
+    double cathode_current_A = 0.0;
+    double screen_current_A = 0.0;
+    double mean_pe = 0.0;           // mean photoelectrons per pixel
+    double level_dc = 0.0;          // mean output of this field's rows
+    std::int64_t saturated_px = 0;  // cells that reached full well
+    std::int64_t bad_input_px = 0;  // NaN, infinite or negative input (treated as 0)
+    bool size_mismatch = false;     // input not width × height: nothing was computed
+};
+
+struct ChainOptions {
+    bool measureFft = false;  // FFTW_MEASURE plans (slower setup, faster fields)
+};
+
+// Per-field values the stages hand to each other.
+struct FieldContext {
+    std::uint64_t field = 0;
+    double period_s = 0.0;
+    double gate_s = 0.0;
+    double gain_V = 0.0;
+    double mcpGain = 1.0;
+    double cathodeRate_pe_s = 0.0;  // expected, whole cathode
+    double mcpOut_e = 0.0;          // MCP output electrons, whole screen
+};
+
+// ---- 1. Optics ------------------------------------------------------------------------------
+class OpticsStage {
+  public:
+    explicit OpticsStage(const CameraParams& cam);
+    // rate = Lpe·τ·π/(4N²)·A·cos⁴θ [pe/s per pixel]. Returns the number of bad input pixels;
+    // adds the expected total rate to ctx.cathodeRate_pe_s.
+    std::int64_t apply(ImageView<const float> lpe, ImageView<float> rate,
+                       FieldContext& ctx) const noexcept;
+
+  private:
+    ImageF factor_;  // per-pixel pe/s per unit Lpe, cos⁴θ included
+};
+
+// ---- 2. Gate --------------------------------------------------------------------------------
+class GateStage {
+  public:
+    explicit GateStage(const CameraParams& cam);
+    // Exposure for this field: the preset gate, scaled by the auto-gate loop.
+    double gate_s(double period_s, double autogateScale) const noexcept;
+
+  private:
+    double gate_s_;
+    double min_s_;
+};
+
+// ---- 3. Photocathode ------------------------------------------------------------------------
+class PhotocathodeStage {
+  public:
+    PhotocathodeStage(const CameraParams& cam, std::uint64_t seed);
+    // pe = Poisson((rate + ebi)·t_gate), or its mean when shot noise is off.
+    void apply(ImageView<const float> rate, ImageView<float> pe, FieldContext& ctx) const noexcept;
+    double ebiRate_pe_s() const { return ebi_pe_s_; }
+
+  private:
+    bool noise_;
+    double ebi_pe_s_;  // per pixel
+    std::uint64_t seed_;
+};
+
+// ---- 4. Bright-source protection ------------------------------------------------------------
+class BspStage {
+  public:
+    explicit BspStage(const CameraParams& cam);
+    bool enabled() const { return enabled_; }
+    // Gain factor for a cathode current: 1/(1 + (I/I_knee)^p).
+    double factor(double cathodeCurrent_A) const noexcept;
+
+  private:
+    bool enabled_;
+    double knee_A_;
+    double exponent_;
+};
+
+// ---- 5. MCP ---------------------------------------------------------------------------------
+class McpStage {
+  public:
+    McpStage(const CameraParams& cam, std::uint64_t seed);
+    bool enabled() const { return enabled_; }
+    // electrons = Σ of N single-electron gains ~ Gamma(N·k, G/k), k = 1/(F − 1).
+    void apply(ImageView<float> pe, FieldContext& ctx) const noexcept;
+
+  private:
+    bool enabled_;
+    bool noise_;
+    double k_;  // 1/(F − 1)
+    std::uint64_t seed_;
+};
+
+// ---- 6. Phosphor ----------------------------------------------------------------------------
+class PhosphorStage {
+  public:
+    explicit PhosphorStage(const CameraParams& cam);
+    // Light collected by the CCD in this period [CCD electrons] from the electrons deposited
+    // in it and the afterglow stored from earlier ones. Carries the stored energy.
+    void apply(ImageView<float> signal, const FieldContext& ctx) noexcept;
+    void reset() noexcept;
+    // Fraction of an excitation spread over a gate of length g at the start of a period T
+    // that component τ emits within that period (docs/sensor.md, step 6).
+    static double inPeriodFraction(double tau_s, double gate_s, double period_s);
+
+  private:
+    bool enabled_;
+    double eta_;  // CCD electrons per MCP electron, eq. 6.2
+    int n_ = 0;
+    double tau_s_[4] = {};
+    double weight_[4] = {};
+    bool stored_[4] = {};  // components whose afterglow outlives a period
+    ImageF state_[4];      // stored energy per component, in CCD electrons
+};
+
+// ---- 7. Blur (MTF) --------------------------------------------------------------------------
+class BlurStage {
+  public:
+    BlurStage(const CameraParams& cam, const ChainOptions& opt);
+    ~BlurStage();
+    BlurStage(const BlurStage&) = delete;
+    BlurStage& operator=(const BlurStage&) = delete;
+    bool enabled() const { return enabled_; }
+    void apply(ImageView<float> img) noexcept;
+    int paddedWidth() const { return wp_; }
+    int paddedHeight() const { return hp_; }
+
+  private:
+    struct Fft;
+    bool enabled_;
+    int w_ = 0, h_ = 0, wp_ = 0, hp_ = 0;
+    std::unique_ptr<Fft> fft_;
+};
+
+// ---- 8. CCD ---------------------------------------------------------------------------------
+class CcdStage {
+  public:
+    CcdStage(const CameraParams& cam, std::uint64_t seed);
+    // Returns the number of cells that reached full well.
+    std::int64_t apply(ImageView<float> e, const FieldContext& ctx) noexcept;
+    // Thesis Appendix L, charge-conserving form: excess over full well in one line spills
+    // half each way along the line, filling neighbours to full well before passing on; what
+    // leaves the ends is drained. Exposed for tests. Returns cells at full well.
+    static std::int64_t bloomLine(float* v, int n, std::ptrdiff_t step, float fullWell,
+                                  float* carryBuf) noexcept;
+
+  private:
+    const CameraParams* cam_;
+    std::uint64_t seed_;
+    ImageF prnu_;                    // 1 + fixed-pattern gain deviation, empty if off
+    std::unique_ptr<float[]> line_;  // scratch for blooming (max(w, h) floats)
+    std::unique_ptr<double[]> colSum_;
+    double noiseSigma_e_;  // read noise ⊕ video pre-amplifier noise referred to electrons
+};
+
+// ---- 9. Video -------------------------------------------------------------------------------
+class VideoStage {
+  public:
+    explicit VideoStage(const CameraParams& cam);
+    // Writes the rows of this field into the output frame; returns the mean output level.
+    double apply(ImageView<const float> e, std::uint64_t field, ImageView<float> counts,
+                 ImageView<std::uint16_t> video) const noexcept;
+    int maxCount() const { return maxCount_; }
+
+  private:
+    const CameraParams* cam_;
+    int maxCount_;
+};
+
+// ---- 10. AGC loop ---------------------------------------------------------------------------
+class AgcLoop {
+  public:
+    explicit AgcLoop(const CameraParams& cam);
+    double gain_V(std::uint64_t field) const noexcept { return gainRing_[field % kRing]; }
+    double gateScale(std::uint64_t field) const noexcept { return gateRing_[field % kRing]; }
+    // After field k: measure and command field k + lag.
+    void update(const FieldContext& ctx, double level_dc) noexcept;
+    void reset() noexcept;
+
+  private:
+    static constexpr int kRing = 8;
+    const CameraParams* cam_;
+    double gainRing_[kRing];
+    double gateRing_[kRing];
+    double gainCmd_V_;
+    double gateCmd_;
+};
+
+// ---- The chain ------------------------------------------------------------------------------
+class IiccdChain {
+  public:
+    IiccdChain(const CameraParams& cam, std::uint64_t seed, ChainOptions opt = {});
+    ~IiccdChain();
+    IiccdChain(const IiccdChain&) = delete;
+    IiccdChain& operator=(const IiccdChain&) = delete;
+
+    // One field (scan = field) or frame (scan = frame). Lpe in pe s⁻¹ m⁻² sr⁻¹, width ×
+    // height. Never throws, never allocates; a size mismatch or bad pixels are reported in
+    // the returned info.
+    const FieldInfo& process(ImageView<const float> lpe) noexcept;
+
+    // The output frame: integer counts as float, and as uint16 (≤ 2^adc_bits − 1).
+    const ImageF& counts() const { return counts_; }
+    const ImageU16& video() const { return video_; }
+    // Intermediate signal after the last stage before video [CCD electrons] (for tests).
+    const ImageF& electrons() const { return sig_; }
+    const CameraParams& camera() const { return cam_; }
+    std::uint64_t fieldIndex() const { return field_; }
+
+    // Counts how many non-finite or negative pixels an input has (setup-time validation).
+    static std::int64_t countBadPixels(ImageView<const float> img);
+
+  private:
+    CameraParams cam_;
+    std::uint64_t field_ = 0;
+    OpticsStage optics_;
+    GateStage gate_;
+    PhotocathodeStage cathode_;
+    BspStage bsp_;
+    McpStage mcp_;
+    PhosphorStage phosphor_;
+    BlurStage blur_;
+    CcdStage ccd_;
+    VideoStage videoStage_;
+    AgcLoop agc_;
+    ImageF rate_;
+    ImageF sig_;
+    ImageF counts_;
+    ImageU16 video_;
+    FieldInfo info_;
+};
+
+}  // namespace nvs::sensor
