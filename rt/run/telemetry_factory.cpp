@@ -1,17 +1,60 @@
 #include "rt/run/telemetry_factory.h"
 
+#include <cstring>
+
+#include "rt/telemetry/sources.h"
 #include "sim/core/error.h"
+#include "sim/core/paths.h"
 
 namespace nvs::rt {
+
+namespace {
+
+drivers::DbcDatabase loadDbc(Spec& spec) {
+    const auto path = spec.take("dbc");
+    return drivers::DbcDatabase::load(path ? *path : (configDir() / "can" / "nvstim.dbc").string());
+}
+
+}  // namespace
 
 std::unique_ptr<FrameSink> makeDeviceSink(Spec& /*spec*/, const Scenario& /*sc*/,
                                           const std::string& /*what*/) {
     return nullptr;
 }
 
-std::unique_ptr<PlatformSource> makeTelemetrySource(Spec& spec, const Scenario& /*sc*/,
-                                                    ClockKind /*clock*/, const std::string& what) {
-    throw SetupError(what + ": unknown telemetry scheme '" + spec.scheme + "'");
+std::unique_ptr<PlatformSource> makeTelemetrySource(Spec& spec, const Scenario& sc, ClockKind clock,
+                                                    const std::string& what) {
+    std::unique_ptr<TelemetryInput> input;
+    if (spec.scheme == "replay") {
+        input = std::make_unique<ReplayInput>(spec.target, loadDbc(spec));
+    } else if (spec.scheme == "can" || spec.scheme == "serial") {
+        if (clock == ClockKind::Sim) {
+            throw SetupError(what + ": live telemetry needs --clock wall (use replay: with sim)");
+        }
+        if (spec.scheme == "can") {
+            const auto fd = spec.take("fd");
+            const auto record = spec.take("record");
+            input =
+                std::make_unique<CanInput>(std::make_unique<drivers::SocketCanBus>(), spec.target,
+                                           fd && *fd == "1", loadDbc(spec), record ? *record : "");
+        } else {
+            const auto baud = spec.take("baud");
+            const auto proto = spec.take("proto");
+            const int b = baud ? std::atoi(baud->c_str()) : 115200;
+            if (drivers::baudConstant(b) == 0) throw SetupError(what + ": unsupported baud rate");
+            if (!proto || (*proto != "nmea" && *proto != "mavlink")) {
+                throw SetupError(what + ": proto must be nmea or mavlink");
+            }
+            input = std::make_unique<SerialInput>(
+                std::make_unique<drivers::TermiosSerialPort>(), spec.target, b,
+                *proto == "nmea" ? SerialInput::Proto::Nmea : SerialInput::Proto::Mavlink);
+        }
+    } else {
+        throw SetupError(what + ": unknown telemetry scheme '" + spec.scheme +
+                         "' (known: can, serial, replay)");
+    }
+    return std::make_unique<TelemetryPlatform>(std::move(input), sc.platform, sc.staleAfter_s,
+                                               sc.maxExtrapolation_s, sc.badInputFatal);
 }
 
 }  // namespace nvs::rt

@@ -1,0 +1,136 @@
+#include <fcntl.h>
+#include <termios.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cstring>
+
+#include "drivers/serial/serial.h"
+
+namespace nvs::drivers {
+
+unsigned baudConstant(int baud) {
+    switch (baud) {
+        case 4800:
+            return B4800;
+        case 9600:
+            return B9600;
+        case 19200:
+            return B19200;
+        case 38400:
+            return B38400;
+        case 57600:
+            return B57600;
+        case 115200:
+            return B115200;
+        case 230400:
+            return B230400;
+        case 460800:
+            return B460800;
+        case 921600:
+            return B921600;
+        default:
+            return 0;
+    }
+}
+
+int TermiosSerialPort::open(const std::string& device, int baud) {
+    close();
+    const speed_t speed = baudConstant(baud);
+    if (speed == 0) return -EINVAL;
+    fd_ = ::open(device.c_str(), O_RDWR | O_NOCTTY | O_NONBLOCK | O_CLOEXEC);
+    if (fd_ < 0) {
+        counters_.lastErrno = errno;
+        return -errno;
+    }
+    termios tio{};
+    if (tcgetattr(fd_, &tio) != 0) {
+        const int e = errno;
+        ::close(fd_);
+        fd_ = -1;
+        return -e;
+    }
+    cfmakeraw(&tio);  // 8 data bits, no parity, no echo, no line editing
+    tio.c_cflag |= CLOCAL | CREAD;
+    tio.c_cflag &= ~static_cast<tcflag_t>(CSTOPB | CRTSCTS);
+    tio.c_cc[VMIN] = 0;
+    tio.c_cc[VTIME] = 0;
+    cfsetispeed(&tio, speed);
+    cfsetospeed(&tio, speed);
+    if (tcsetattr(fd_, TCSANOW, &tio) != 0) {
+        const int e = errno;
+        ::close(fd_);
+        fd_ = -1;
+        return -e;
+    }
+    state_ = SerialState::Open;
+    return 0;
+}
+
+void TermiosSerialPort::close() noexcept {
+    if (fd_ >= 0) ::close(fd_);
+    fd_ = -1;
+    if (state_ == SerialState::Open) state_ = SerialState::Closed;
+}
+
+long TermiosSerialPort::read(std::uint8_t* buf, std::size_t size) noexcept {
+    if (fd_ < 0) return -EBADF;
+    const ssize_t n = ::read(fd_, buf, size);
+    if (n >= 0) {
+        counters_.bytes += n;
+        return n;
+    }
+    if (errno == EAGAIN || errno == EINTR) return 0;
+    const int e = errno;
+    ++counters_.errors;
+    counters_.lastErrno = e;
+    if (e == EIO || e == ENXIO || e == ENODEV || e == EBADF) {
+        // The device went away (USB adapter unplugged): close; the owner reopens later.
+        ++counters_.lost;
+        ::close(fd_);
+        fd_ = -1;
+        state_ = SerialState::Lost;
+    }
+    return -e;
+}
+
+int FakeSerialPort::open(const std::string& /*device*/, int /*baud*/) {
+    if (state_ == SerialState::Lost && !reopenable) return -ENOENT;
+    ++opens;
+    state_ = SerialState::Open;
+    return 0;
+}
+
+void FakeSerialPort::pushBytes(const void* data, std::size_t n) {
+    const auto* p = static_cast<const std::uint8_t*>(data);
+    chunks_.push_back({std::vector<std::uint8_t>(p, p + n), 0});
+}
+
+long FakeSerialPort::read(std::uint8_t* buf, std::size_t size) noexcept {
+    if (state_ != SerialState::Open) return -EBADF;
+    if (chunks_.empty()) return 0;
+    Chunk& c = chunks_.front();
+    if (c.err != 0) {
+        const int e = c.err;
+        chunks_.pop_front();
+        ++counters_.errors;
+        counters_.lastErrno = e;
+        if (e == EIO || e == ENXIO || e == ENODEV) {
+            ++counters_.lost;
+            state_ = SerialState::Lost;
+        }
+        return -e;
+    }
+    const std::size_t n = std::min(size, c.bytes.size() - offset_);
+    std::memcpy(buf, c.bytes.data() + offset_, n);
+    offset_ += n;
+    if (offset_ == c.bytes.size()) {
+        chunks_.pop_front();
+        offset_ = 0;
+    }
+    counters_.bytes += static_cast<std::int64_t>(n);
+    return static_cast<long>(n);
+}
+
+}  // namespace nvs::drivers
