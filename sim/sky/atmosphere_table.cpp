@@ -74,6 +74,10 @@ inline void gridPos(double x, double step, int n, int* i, double* t) {
     *t = u - *i;
 }
 
+inline double lerp(float a, float b, double t) {
+    return static_cast<double>(a) * (1.0 - t) + static_cast<double>(b) * t;
+}
+
 // van Rhijn factor: slant path through a thin emitting layer at height h relative to the
 // vertical one, 1/√(1 − (R/(R+h))² sin²z).
 double vanRhijn(double zenith_rad) {
@@ -136,6 +140,14 @@ AtmosphereTable AtmosphereTable::build(const AtmosphereTableInputs& in) {
                 v > 0.0 ? std::max(kLogFloor, static_cast<float>(std::log(v))) : kLogFloor;
         }
     }
+
+    for (int b = 0; b < nb; ++b) {
+        t.bandTau_.push_back(integrateProduct_nm(atm.rayleighTau(), sw[b]));
+        t.bandTau_.push_back(integrateProduct_nm(atm.aerosolTau(), sw[b]));
+    }
+    const AerosolOptics ao = aerosolOptics(in.atmosphere.aerosol);
+    t.scalars_ = {in.atmosphere.aerosolScaleHeight_m, ao.singleScatteringAlbedo, ao.asymmetry,
+                  in.atmosphere.groundAlbedo};
 
     t.diffuse_.assign(static_cast<std::size_t>(nb) * kSourceZeniths, 0.0f);
     t.sky_.assign(static_cast<std::size_t>(nb) * kSourceZeniths * kViewZeniths * kAzimuths, 0.0f);
@@ -217,7 +229,7 @@ double AtmosphereTable::directTransmittance(int b, double sourceZenith_rad) cons
     double f = 0.0;
     gridPos(std::max(0.0, z_deg), kDirectStep_deg, kDirectZeniths, &i, &f);
     const float* d = &logDirect_[static_cast<std::size_t>(b) * kDirectZeniths];
-    return std::exp(d[i] * (1.0 - f) + d[i + 1] * f);
+    return std::exp(lerp(d[i], d[i + 1], f));
 }
 
 double AtmosphereTable::diffuseHorizontal(int b, double sourceZenith_rad) const {
@@ -227,7 +239,7 @@ double AtmosphereTable::diffuseHorizontal(int b, double sourceZenith_rad) const 
     double f = 0.0;
     gridPos(std::max(0.0, z_deg), kSourceStep_deg, kSourceZeniths, &i, &f);
     const float* d = &diffuse_[static_cast<std::size_t>(b) * kSourceZeniths];
-    return d[i] * (1.0 - f) + d[i + 1] * f;
+    return lerp(d[i], d[i + 1], f);
 }
 
 double AtmosphereTable::skyRadiance(int b, double viewZenith_rad, double relAzimuth_rad,
@@ -247,7 +259,7 @@ double AtmosphereTable::skyRadiance(int b, double viewZenith_rad, double relAzim
         for (int dv = 0; dv < 2; ++dv) {
             const double wv = dv ? fv : 1.0 - fv;
             const float* row = &sky_[skyIndex(b, is + ds, iv + dv, ia)];
-            v += ws * wv * (row[0] * (1.0 - fa) + row[1] * fa);
+            v += ws * wv * lerp(row[0], row[1], fa);
         }
     }
     return v;
@@ -259,7 +271,62 @@ double AtmosphereTable::nightSkyRadiance(int b, double viewZenith_rad) const {
     gridPos(std::clamp(viewZenith_rad * kDegPerRad, 0.0, 90.0), kViewStep_deg, kViewZeniths, &i,
             &f);
     const float* d = &night_[static_cast<std::size_t>(b) * kViewZeniths];
-    return d[i] * (1.0 - f) + d[i + 1] * f;
+    return lerp(d[i], d[i + 1], f);
+}
+
+PathTerms AtmosphereTable::path(int b, double sensorHeight_m, double viewZenith_rad, double range_m,
+                                double cosScatter, double sourceZenith_rad) const {
+    // Gauss–Legendre, 16 points on [0, 1].
+    static constexpr double kX[16] = {
+        0.0052995325041750, 0.0277124884633837, 0.0671843988060841, 0.1222977958224985,
+        0.1910618777986781, 0.2709916111713863, 0.3591982246103705, 0.4524937450811813,
+        0.5475062549188188, 0.6408017753896295, 0.7290083888286137, 0.8089381222013219,
+        0.8777022041775016, 0.9328156011939159, 0.9722875115366163, 0.9947004674958250};
+    static constexpr double kW[16] = {
+        0.0135762297058770, 0.0311267619693240, 0.0475792558412464, 0.0623144856277669,
+        0.0747979944082884, 0.0845782596975013, 0.0913017075224618, 0.0947253052275342,
+        0.0947253052275342, 0.0913017075224618, 0.0845782596975013, 0.0747979944082884,
+        0.0623144856277669, 0.0475792558412464, 0.0311267619693240, 0.0135762297058770};
+    constexpr double kHr = 8434.5;
+    PathTerms out;
+    if (!(range_m > 0.0)) return out;
+    const double tauR = bandTau_[2 * static_cast<std::size_t>(b)];
+    const double tauA = bandTau_[2 * static_cast<std::size_t>(b) + 1];
+    const double ha = scalars_[0], omegaA = scalars_[1], g = scalars_[2], rho = scalars_[3];
+    const double mu = std::cos(viewZenith_rad);
+    const double h0 = std::max(0.0, sensorHeight_m);
+    // Optical depth from the sensor to distance s for a layer τ_c e^{−h/H_c}/H_c.
+    const auto depth = [&](double tauC, double hc, double s) {
+        const double a = std::exp(-h0 / hc) * tauC / hc;
+        if (std::fabs(mu) * s < 1e-6 * hc) return a * s;
+        return a * hc / mu * (1.0 - std::exp(-mu * s / hc));
+    };
+    const double pR = rayleighPhase(cosScatter);
+    const double pA = henyeyGreensteinPhase(cosScatter, g);
+    const bool sourceUp = sourceZenith_rad * kDegPerRad < 96.0;
+    const double tDir = sourceUp ? directTransmittance(b, sourceZenith_rad) : 0.0;
+    const double ms = airmassKastenYoung(sourceZenith_rad);
+    const double eDif = sourceUp ? diffuseHorizontal(b, sourceZenith_rad) : 0.0;
+    const double eTot = tDir * std::max(0.0, std::cos(sourceZenith_rad)) + eDif;
+    const double diffuseIn = (eDif + rho * eTot) / (2.0 * kPi);
+    const double nightIn = nightHorizontal_[b] * (1.0 + rho) / (2.0 * kPi);
+    for (int k = 0; k < 16; ++k) {
+        const double s = kX[k] * range_m;
+        const double h = std::max(0.0, h0 + mu * s);
+        const double bR = tauR / kHr * std::exp(-h / kHr);
+        const double bA = tauA / ha * std::exp(-h / ha);
+        const double tr = std::exp(-(depth(tauR, kHr, s) + depth(tauA, ha, s)));
+        // The beam at height h has crossed less air than at the ground.
+        const double beam = sourceUp ? tDir * std::exp(ms * (tauR * (1.0 - std::exp(-h / kHr)) +
+                                                             tauA * (1.0 - std::exp(-h / ha))))
+                                     : 0.0;
+        const double bSca = bR + omegaA * bA;
+        const double j = (bR * pR + omegaA * bA * pA) * beam / (4.0 * kPi) + bSca * diffuseIn;
+        out.radiancePerIrradiance += kW[k] * range_m * j * tr;
+        out.nightSkyRadiance += kW[k] * range_m * bSca * nightIn * tr;
+    }
+    out.transmittance = std::exp(-(depth(tauR, kHr, range_m) + depth(tauA, ha, range_m)));
+    return out;
 }
 
 // ---- cache -------------------------------------------------------------------------------
@@ -303,6 +370,8 @@ void AtmosphereTable::save(const std::filesystem::path& file, std::uint64_t key)
     putVec(&payload, sky_);
     putVec(&payload, night_);
     putVec(&payload, nightHorizontal_);
+    putVec(&payload, bandTau_);
+    putVec(&payload, scalars_);
     Fnv sum;
     sum.bytes(payload.data(), payload.size());
 
@@ -396,7 +465,9 @@ bool AtmosphereTable::load(const std::filesystem::path& file, std::uint64_t key,
         !getVec(payload, &pos, &t.diffuse_, n * kSourceZeniths) ||
         !getVec(payload, &pos, &t.sky_, n * kSourceZeniths * kViewZeniths * kAzimuths) ||
         !getVec(payload, &pos, &t.night_, n * kViewZeniths) ||
-        !getVec(payload, &pos, &t.nightHorizontal_, n) || pos != payload.size()) {
+        !getVec(payload, &pos, &t.nightHorizontal_, n) ||
+        !getVec(payload, &pos, &t.bandTau_, 2 * n) || !getVec(payload, &pos, &t.scalars_, 4) ||
+        pos != payload.size()) {
         *why = "malformed payload";
         return false;
     }

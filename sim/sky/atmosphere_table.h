@@ -53,6 +53,14 @@ struct AtmosphereTableInputs {
 // Where cache files go: $NVS_CACHE_DIR, else $XDG_CACHE_HOME/nvstim, else ~/.cache/nvstim.
 std::filesystem::path defaultCacheDir();
 
+// Path terms between a sensor above the ground and what it sees (per unit band TOA irradiance
+// of the source for the radiance; the night-sky part is absolute).
+struct PathTerms {
+    double transmittance = 1.0;          // band-averaged exp(−∫β ds)
+    double radiancePerIrradiance = 0.0;  // source light scattered into the path [sr⁻¹]
+    double nightSkyRadiance = 0.0;  // night-sky light scattered into the path [band m⁻² sr⁻¹]
+};
+
 class AtmosphereTable {
   public:
     // Grid sizes (degrees): source zenith 0–96 step 2, view zenith 0–90 step 2, Δφ 0–180
@@ -88,6 +96,15 @@ class AtmosphereTable {
     double nightSkyRadiance(int b, double viewZenith_rad) const;
     double nightSkyHorizontal(int b) const { return nightHorizontal_[b]; }
 
+    // Path radiance and transmittance along a straight line of `range_m` from a sensor at
+    // `sensorHeight_m` above the site, at view zenith θv (> 90° looks down), for a source at
+    // zenith θs and scattering angle cos ψ. Single scattering of the beam (which is stronger
+    // aloft) by the exponential Rayleigh (8.4 km) and aerosol layers, plus in-scattering of the
+    // diffuse sky and ground light taken as isotropic: J = β_sca (E_dif + ρ E_tot)/(2π).
+    // 16-point Gauss–Legendre along the path; no allocation.
+    PathTerms path(int b, double sensorHeight_m, double viewZenith_rad, double range_m,
+                   double cosScatter, double sourceZenith_rad) const;
+
     // Serialisation (exposed for the cache tests).
     void save(const std::filesystem::path& file, std::uint64_t key) const;
     // Returns false (and says why in *why) if the file is missing, stale or corrupt.
@@ -108,6 +125,9 @@ class AtmosphereTable {
     std::vector<float> sky_;               // [b][is][iv][ia]
     std::vector<float> night_;             // [b][iv]
     std::vector<double> nightHorizontal_;  // [b]
+    // Per band: source-weighted vertical τ_R, τ_a; then scalars: H_a, ω_a, g_a, ρ_ground.
+    std::vector<double> bandTau_;  // [b][2]
+    std::vector<double> scalars_;  // [4]
 };
 
 }  // namespace nvs::sky
