@@ -142,7 +142,8 @@ bool NmeaParser::parseSentence(const char* s, std::size_t len, NmeaSentence* out
             std::tm tm{};
             tm.tm_mday = di / 10000;
             tm.tm_mon = (di / 100) % 100 - 1;
-            tm.tm_year = di % 100 + 100;  // two-digit year: 2000–2099
+            const int yy = di % 100;
+            tm.tm_year = yy < 80 ? yy + 100 : yy;  // two-digit year: 1980–2079
             if (tm.tm_mday < 1 || tm.tm_mday > 31 || tm.tm_mon < 0 || tm.tm_mon > 11) {
                 ++counters_.malformed;
                 return false;

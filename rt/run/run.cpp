@@ -136,6 +136,8 @@ void installStopSignals() {
     sigaction(SIGTERM, &sa, nullptr);
     // A vanished pipe reader is an EPIPE write error, counted by its sink, not a kill.
     signal(SIGPIPE, SIG_IGN);
+    // A file-size limit is a write error (EFBIG) on that sink, like a full disk.
+    signal(SIGXFSZ, SIG_IGN);
 }
 
 std::string statsJson(const FrameLoop& loop, const PlatformSource& platform,

@@ -1,0 +1,70 @@
+// File sinks write exactly the documented bytes, and a sink that fails leaves no file.
+#include "drivers/sinks/sinks.h"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+namespace nvs::drivers {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string slurp(const fs::path& p) {
+    std::ifstream f(p, std::ios::binary);
+    std::stringstream ss;
+    ss << f.rdbuf();
+    return ss.str();
+}
+
+TEST(Sinks, PgmAndY4mBytesAreExact) {
+    const fs::path dir = fs::temp_directory_path() / ("nvs_sinks_" + std::to_string(::getpid()));
+    fs::remove_all(dir);
+    fs::create_directories(dir);
+    ImageU16 counts(3, 2);
+    for (int y = 0; y < 2; ++y)
+        for (int x = 0; x < 3; ++x)
+            counts(x, y) = static_cast<std::uint16_t>(1000 * y + x);  // 10-bit values
+    ImageF rad(3, 2);
+    rt::FrameMeta meta;
+    rt::OutputFrame f;
+    f.meta = &meta;
+    f.counts = counts.cview();
+    f.radiance_W_m2_sr = rad.cview();
+    f.bits = 10;
+    f.tick = 7;
+    {
+        PgmSequenceSink pgm((dir / "pgm").string(), 3, 2, 10);
+        ASSERT_EQ(pgm.write(f), 0);
+        pgm.close();
+        Y4mSink y4m((dir / "v.y4m").string(), 3, 2, 10, rt::FrameRate{30000, 1001});
+        ASSERT_EQ(y4m.write(f), 0);
+        EXPECT_FALSE(fs::exists(dir / "v.y4m"));  // only complete streams appear
+        y4m.close();
+    }
+    const std::string pgm = slurp(dir / "pgm" / "000007.pgm");
+    const std::string header = "P5\n3 2\n1023\n";
+    ASSERT_EQ(pgm.size(), header.size() + 12);
+    EXPECT_EQ(pgm.substr(0, header.size()), header);
+    // 1001 = 0x03E9, big-endian.
+    EXPECT_EQ(static_cast<unsigned char>(pgm[header.size() + 8]), 0x03);
+    EXPECT_EQ(static_cast<unsigned char>(pgm[header.size() + 9]), 0xE9);
+    const std::string y4m = slurp(dir / "v.y4m");
+    const std::string yh = "YUV4MPEG2 W3 H2 F30000:1001 Ip A1:1 Cmono16\nFRAME\n";
+    ASSERT_EQ(y4m.size(), yh.size() + 12);
+    EXPECT_EQ(y4m.substr(0, yh.size()), yh);
+    // 1001 << 6 = 64064 = 0xFA40, little-endian.
+    EXPECT_EQ(static_cast<unsigned char>(y4m[yh.size() + 8]), 0x40);
+    EXPECT_EQ(static_cast<unsigned char>(y4m[yh.size() + 9]), 0xFA);
+    fs::remove_all(dir);
+}
+
+TEST(Sinks, UnwritablePathIsASetupError) {
+    EXPECT_THROW(Y4mSink("/proc/nvs-no/v.y4m", 4, 4, 8, rt::FrameRate{}), std::exception);
+    EXPECT_THROW(MetaJsonlSink("/proc/nvs-no/m.jsonl"), std::exception);
+}
+
+}  // namespace
+}  // namespace nvs::drivers
