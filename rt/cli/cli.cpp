@@ -79,8 +79,8 @@ int runCli(int argc, const char* const* argv) {
         ->check(CLI::Range(-180.0, 360.0));
     illumCmd->add_option("--height-m", illum.height_m, "Site height [m]")->capture_default_str();
     illumCmd->add_option("--utc", illum.utc, "UTC instant, ISO 8601")->required();
-    illumCmd->add_option("--visibility-km", illum.visibility_km, "Horizontal visibility [km]")
-        ->check(CLI::PositiveNumber);
+    illumCmd->add_option("--visibility-km", illum.visibility_km,
+                         "Horizontal visibility (meteorological range at 550 nm) [km], default 23");
     illumCmd->add_option("--camera", illum.camera,
                          "Camera preset: also give photoelectron irradiance in its band");
 

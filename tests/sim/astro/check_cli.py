@@ -71,8 +71,25 @@ il = doc["illuminance_lux"]
 expect(sorted(il) == ["moon_direct", "moon_sky", "night_sky", "total"], "illum keys")
 expect(abs(il["total"] - (il["moon_direct"] + il["moon_sky"] + il["night_sky"])) < 1e-6,
        "total is the sum")
-expect(il["moon_sky"] == 0 and any("moon_sky" in n for n in doc["notes"]), "moon_sky noted")
+expect(doc["moon"]["alt_deg"] > 5 and il["moon_sky"] > 0.01 * il["moon_direct"] and
+       il["moon_sky"] < 0.5 * il["moon_direct"], "moon_sky a few % to tens of % of moon_direct")
 expect(abs(il["night_sky"] - 0.0012) < 0.00006, "night sky 0.0012 lx")
+
+
+# 5. illum with haze, a camera, and bad atmosphere input.
+rc, out5, err = run(["illum", "--lat", "43.16856", "--lon", "-77.61583", "--utc",
+                     "1998-09-06T03:00Z", "--visibility-km", "5", "--camera", "pulnix-ag5745ef3"])
+expect(rc == 0, "illum --camera exit 0 (%s)" % err)
+hazy = json.loads(out5)
+expect(hazy["illuminance_lux"]["moon_sky"] / hazy["illuminance_lux"]["moon_direct"] >
+       il["moon_sky"] / il["moon_direct"], "moon_sky share grows with haze")
+pe = hazy.get("photoelectron_irradiance_pe_s_m2", {})
+expect(sorted(pe) == ["moon_direct", "moon_sky", "night_sky", "total"] and pe["total"] > 0,
+       "photoelectron terms for --camera")
+rc, out, err = run(["illum", "--lat", "43", "--lon", "-77", "--utc", "1998-09-06T03:00Z",
+                    "--visibility-km", "0"])
+expect(rc != 0 and out == "" and len(err.strip().splitlines()) == 1 and "visibility" in err,
+       "--visibility-km 0: one line naming it, got %r" % err)
 
 print("%d failure(s)" % len(failures))
 sys.exit(1 if failures else 0)
