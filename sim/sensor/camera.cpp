@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <fstream>
+#include <optional>
 #include <set>
 #include <sstream>
 
@@ -19,16 +20,23 @@ namespace {
 // parameter that the code reads; unused overrides are reported by finish().
 class Reader {
   public:
-    Reader(ConfigTable table, std::string prefix, const Overrides* ov, std::set<std::string>* used)
-        : t_(std::move(table)), prefix_(std::move(prefix)), ov_(ov), used_(used) {}
+    Reader(std::optional<ConfigTable> table, std::string prefix, const Overrides* ov,
+           std::set<std::string>* used, FileLoc loc)
+        : t_(std::move(table)),
+          prefix_(std::move(prefix)),
+          ov_(ov),
+          used_(used),
+          loc_(std::move(loc)) {}
 
+    // A preset may leave out a whole table: its parameters keep their defaults.
     Reader sub(const std::string& key) const {
-        return Reader(t_.table(key), prefix_ + key + ".", ov_, used_);
+        std::optional<ConfigTable> t = t_ ? t_->optionalTable(key) : std::nullopt;
+        return Reader(std::move(t), prefix_ + key + ".", ov_, used_, loc_);
     }
 
     template <typename T>
     T get(const std::string& key, const T& def) const {
-        const T fromFile = t_.get<T>(key, def);  // marks the key read, checks its type
+        const T fromFile = t_ ? t_->get<T>(key, def) : def;  // marks the key read
         const std::string full = prefix_ + key;
         const auto it = ov_->find(full);
         if (it == ov_->end()) return fromFile;
@@ -39,7 +47,8 @@ class Reader {
     [[noreturn]] void fail(const std::string& key, const std::string& msg) const {
         const std::string full = prefix_ + key;
         if (ov_->count(full) != 0) throw SetupError("--set " + full + ": " + msg);
-        t_.fail(key, msg);
+        if (t_) t_->fail(key, msg);
+        throw SetupError(loc_, "key '" + full + "': " + msg);
     }
 
   private:
@@ -62,10 +71,11 @@ class Reader {
         }
     }
 
-    ConfigTable t_;
+    std::optional<ConfigTable> t_;
     std::string prefix_;
     const Overrides* ov_;
     std::set<std::string>* used_;
+    FileLoc loc_;
 };
 
 void require(bool ok, const Reader& r, const std::string& key, const std::string& msg) {
@@ -86,7 +96,7 @@ double nonNegative(const Reader& r, const std::string& key, double def) {
 CameraParams readCamera(const ConfigDocument& doc, const Overrides& ov, const FileLoc& loc,
                         const std::filesystem::path& baseDir) {
     std::set<std::string> used;
-    const Reader root(doc.root(), "", &ov, &used);
+    const Reader root(doc.root(), "", &ov, &used, loc);
     CameraParams c;
     c.loc = loc;
     c.name = root.get<std::string>("name", loc.file);

@@ -190,10 +190,11 @@ PhosphorStage::PhosphorStage(const CameraParams& c)
     for (int i = 0; i < n_; ++i) {
         tau_s_[i] = c.phosphor_decay_s[static_cast<std::size_t>(i)];
         weight_[i] = c.phosphor_weight[static_cast<std::size_t>(i)];
-        // A component that has emitted all but 1e-7 of its energy within one period, even
-        // for the shortest gate at its end, needs no state: it costs nothing.
-        const double leftover = std::exp(-(c.integrationPeriod_s() - c.gate_min_s) / tau_s_[i]);
-        stored_[i] = leftover * weight_[i] > 1e-7;
+        // Excitation late in a period glows on into the next: a fraction up to
+        // (τ/T)(1 − e^(−T/τ)) ≈ τ/T for a full-period gate. A component whose carried share
+        // is below 1e-7 needs no state and costs nothing.
+        const double carried = std::min(1.0, tau_s_[i] / c.integrationPeriod_s());
+        stored_[i] = carried * weight_[i] > 1e-7;
         if (stored_[i]) state_[i] = ImageF(c.width, c.height);
     }
 }

@@ -1,0 +1,342 @@
+// The chain against physics and the thesis: MTF (slanted edge, Table 18-2), calibration
+// (Tables 18-5, 18-6), temporal behaviour (phosphor decay, AGC/ABC/BSP/auto-gate), bad input.
+
+#include "sim/sensor/chain.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <vector>
+
+#include "sim/core/csv.h"
+#include "sim/core/error.h"
+#include "sim/core/planck.h"
+#include "sim/sensor/camera.h"
+#include "sim/sensor/mtf.h"
+#include "sim/sensor/sfr.h"
+#include "tests/sim/sensor/sensor_test_util.h"
+
+namespace nvs::sensor {
+namespace {
+
+using test::preset;
+using test::roiStats;
+
+// Noise-free linear chain: the electrons are a deterministic function of the input.
+Overrides noiseFree() {
+    return {{"photocathode.shot_noise", "false"},
+            {"mcp.noise", "false"},
+            {"ccd.read_noise_e", "0"},
+            {"ccd.full_well_e", "0"},
+            {"optics.cos4", "false"},
+            {"photocathode.ebi_lm_cm2", "0"},
+            {"video.adc_bits", "16"}};
+}
+
+// An area-sampled edge at `angle` from vertical through the image centre: each pixel holds the
+// fraction of its area on the bright side (16 × 16 sub-samples).
+ImageF slantedEdge(int w, int h, double angle_rad, float dark, float bright) {
+    ImageF img(w, h);
+    const double t = std::tan(angle_rad);
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) {
+            int in = 0;
+            for (int j = 0; j < 16; ++j)
+                for (int i = 0; i < 16; ++i) {
+                    const double px = x + (i + 0.5) / 16.0, py = y + (j + 0.5) / 16.0;
+                    in += (px - 0.5 * w) > (py - 0.5 * h) * t ? 1 : 0;
+                }
+            img(x, y) = dark + (bright - dark) * static_cast<float>(in / 256.0);
+        }
+    return img;
+}
+
+// Measures the chain's horizontal SFR from a 5° slanted edge; returns the SFR with the
+// input's own pixel-area MTF divided out, and the edge angle.
+SfrResult measureSfr(const CameraParams& cam) {
+    IiccdChain chain(cam, 1);
+    const ImageF in =
+        slantedEdge(cam.width, cam.height, 5.0 * 3.14159265358979 / 180.0, 1e11f, 5e11f);
+    chain.process(in.cview());
+    // Wide enough for the heavy-tailed PSF of eq. 7.7 (n = 0.8) to settle on both sides.
+    const int rw = 320, rh = 200;
+    const ImageView<const float> roi =
+        chain.electrons().cview().region(cam.width / 2 - rw / 2, cam.height / 2 - rh / 2, rw, rh);
+    SfrResult r = slantedEdgeSfr(roi);
+    const double c = std::cos(r.edgeAngle_rad), s = std::sin(r.edgeAngle_rad);
+    for (std::size_t i = 0; i < r.sfr.size(); ++i) {
+        const double f = r.frequency_cyc_px[i];
+        r.sfr[i] /= mtfAperture(f * c, 1.0) * mtfAperture(f * s, 1.0);
+    }
+    return r;
+}
+
+TEST(Mtf, SlantedEdgeEqualsConfiguredProductUpToNyquist) {
+    // The physical presets. (eq. 7.7's n = 0.8 has a PSF too heavy-tailed for a 320 px ROI.)
+    for (const char* name : {"pulnix-ag5745ef3", "gen2-s25-p20"}) {
+        const CameraParams cam = preset(name, noiseFree());
+        const SfrResult r = measureSfr(cam);
+        const double c = std::cos(r.edgeAngle_rad), s = std::sin(r.edgeAngle_rad);
+        double worst = 0.0;
+        for (double f = 0.025; f <= 0.5 + 1e-9; f += 0.025) {
+            // Along the edge normal (cos, −sin) in pixels, converted to cyc/mm at the cathode.
+            const double want =
+                systemMtf(cam, f * c / cathodePitchX_mm(cam), -f * s / cathodePitchY_mm(cam));
+            const double got = sfrAt(r, f);
+            // 5 % of the configured value, with a floor of 0.005 in MTF units where the
+            // MTF is small: the area-sampled target aliases ~0.005 near Nyquist.
+            worst = std::max(worst, std::fabs(got - want) / want);
+            EXPECT_LE(std::fabs(got - want), 0.05 * want + 0.005)
+                << name << " f=" << f << " measured " << got << " configured " << want;
+        }
+        std::printf("%s: slanted-edge SFR vs configured MTF, worst relative error %.3f\n", name,
+                    worst);
+    }
+}
+
+TEST(Mtf, ReproducesThesisTable18_2) {
+    const CameraParams cam = preset("pulnix-ag5745ef3", noiseFree());
+    const SfrResult r = measureSfr(cam);
+    CsvTable t = CsvTable::load(test::thesisData("table18-2_electronic_mtf.csv"));
+    const std::size_t cf = t.column("image_frequency_cyc_per_mm"), cm = t.column("mtf_rel");
+    double ss = 0.0;
+    for (std::size_t i = 0; i < t.rowCount(); ++i) {
+        const double f_mm = t.number(i, cf);
+        const double got = sfrAt(r, f_mm * cathodePitchX_mm(cam));
+        const double want = t.number(i, cm);
+        std::printf("Table 18-2: %.2f cyc/mm measured %.2f, chain %.3f\n", f_mm, want, got);
+        // Scatter of the measured points about a smooth curve is ~0.02-0.03 (docs/sensor.md);
+        // 0.05 is twice it.
+        EXPECT_NEAR(got, want, 0.05) << f_mm;
+        ss += (got - want) * (got - want);
+    }
+    std::printf("Table 18-2 rms residual %.3f\n",
+                std::sqrt(ss / static_cast<double>(t.rowCount())));
+}
+
+// Counts vs radiance: Table 18-6 (gain at f/11, bias) and Table 18-5 (5.5 V points).
+// Radiances are the thesis's band integrals over 480-940 nm of the sphere (a 2856 K lamp).
+double meanCounts(CameraParams cam, double L_W_m2_sr) {
+    const Spectrum box =
+        Spectrum::fromFunction([](double nm) { return nm >= 480.0 && nm <= 940.0 ? 1.0 : 0.0; });
+    const double k = peRadiancePerBandRadiance(cam, planckRadiance_W_m2_sr_nm(2856.0), box);
+    cam.width = 128;
+    cam.height = 96;
+    IiccdChain chain(cam, 21);
+    const ImageF in = test::uniform(cam.width, cam.height, static_cast<float>(L_W_m2_sr * k));
+    for (int i = 0; i < 12; ++i)  // both fields written, phosphor afterglow at steady state
+        chain.process(in.cview());
+    double s = 0.0;
+    for (int i = 0; i < 4; ++i) {
+        chain.process(in.cview());
+        s += roiStats(chain.counts().cview(), 0, 0, cam.width, cam.height).mean;
+    }
+    return s / 4.0;
+}
+
+TEST(Calibration, Table18_6GainAndBias) {
+    CsvTable t = CsvTable::load(test::thesisData("table18-6_camera_gain_vs_image_gain.csv"));
+    for (std::size_t i = 0; i < t.rowCount(); ++i) {
+        const double v = t.number(i, t.column("camera_gain_V"));
+        if (v < 5.4) continue;  // the 5.0 V row is the thesis's estimate, not a measurement
+        // 16-bit ADC so the mean is not clipped by the 8-bit range (docs/sensor.md).
+        const CameraParams cam = preset("pulnix-ag5745ef3", {{"gain_V", std::to_string(v)},
+                                                             {"f_number", "11"},
+                                                             {"optics.cos4", "false"},
+                                                             {"video.adc_bits", "16"}});
+        const double L1 = 2e-6, L2 = 8e-6;
+        const double c0 = meanCounts(cam, 0.0), c1 = meanCounts(cam, L1), c2 = meanCounts(cam, L2);
+        const double gain = (c2 - c1) / (L2 - L1);
+        const double wantGain = t.number(i, t.column("image_gain_f11_DC_per_W_m-2_sr-1"));
+        const double wantBias = t.number(i, t.column("image_bias_DC"));
+        std::printf("Table 18-6 %.1f V: image gain %.3g (thesis %.3g), bias %.2f (thesis %.2f)\n",
+                    v, gain, wantGain, c0, wantBias);
+        // The printed gains have one significant figure (4e6, 10e6, 20e6): ±12 %.
+        EXPECT_NEAR(gain / wantGain, 1.0, 0.12) << v;
+        EXPECT_NEAR(c0, wantBias, 1.5) << v;
+    }
+}
+
+TEST(Calibration, Table18_5PointsWithinScatter) {
+    CsvTable t = CsvTable::load(test::thesisData("table18-5_radiometric_calibration_gain5p5V.csv"));
+    const CameraParams cam = preset("pulnix-ag5745ef3", {{"gain_V", "5.5"},
+                                                         {"f_number", "11"},
+                                                         {"optics.cos4", "false"},
+                                                         {"video.adc_bits", "16"}});
+    // Scatter: frames at one filter setting differ by up to 25 DC (frames 17-20), and the
+    // thesis's own calibration line (4e6, 29.8) misses frames 15-16 by 13 % and frame 17 by
+    // 14 %. Each point within 25 %, the rms within 8 DC.
+    double ss = 0.0;
+    for (std::size_t i = 0; i < t.rowCount(); ++i) {
+        const double L = t.number(i, t.column("reduced_radiance_W_m-2_sr-1"));
+        const double want = t.number(i, t.column("mean_DC"));
+        const double got = meanCounts(cam, L);
+        ss += (got - want) * (got - want);
+        EXPECT_NEAR(got, want, 0.25 * want) << "frame " << i + 1;
+    }
+    const double rms = std::sqrt(ss / static_cast<double>(t.rowCount()));
+    std::printf("Table 18-5: rms residual %.2f DC over %zu frames\n", rms, t.rowCount());
+    EXPECT_LT(rms, 8.0);
+}
+
+// Temporal: a step of light shows the phosphor's multi-exponential decay across fields.
+TEST(Temporal, PhosphorDecayAcrossFields) {
+    Overrides ov = noiseFree();
+    ov["width"] = "64";
+    ov["height"] = "48";
+    ov["mtf.enabled"] = "false";
+    const CameraParams cam = preset("pulnix-ag5745ef3", ov);
+    IiccdChain chain(cam, 1);
+    const ImageF on = test::uniform(64, 48, 1e11f), off = test::uniform(64, 48, 0.0f);
+    std::vector<double> out;
+    for (int k = 0; k < 40; ++k) {
+        chain.process((k < 30 ? on : off).cview());
+        out.push_back(static_cast<double>(chain.electrons()(10, 10)));
+    }
+    const double steady = out[29];
+    // Independent expectation: integrate each exponential's emission numerically over the
+    // field windows, with the excitation spread over the whole field.
+    const double T = cam.integrationPeriod_s();
+    auto emittedInField = [&](double tau, int n) {  // field n after the last lit field
+        const int steps = 2000;
+        double acc = 0.0;
+        for (int i = 0; i < steps; ++i) {  // excitation at t0 in the last lit field
+            const double t0 = (i + 0.5) / steps * T;
+            const double a = (n + 1) * T - t0, b = (n + 2) * T - t0;  // window of field n
+            acc += std::exp(-a / tau) - std::exp(-b / tau);
+        }
+        return acc / steps;
+    };
+    for (int n = 0; n < 4; ++n) {
+        double want = 0.0;
+        for (int i = 0; i < 3; ++i) {  // all earlier lit fields add geometric copies
+            const double tau = cam.phosphor_decay_s[static_cast<std::size_t>(i)];
+            const double perField = std::exp(-T / tau);
+            want += cam.phosphor_weight[static_cast<std::size_t>(i)] * emittedInField(tau, n) /
+                    (1.0 - perField);
+        }
+        const double got = out[static_cast<std::size_t>(30 + n)] / steady;
+        std::printf("phosphor afterglow field +%d: %.5f (expected %.5f)\n", n + 1, got, want);
+        EXPECT_NEAR(got, want, 1e-3 * std::max(1.0, want * 1e3) * 1e-1 + 2e-5);
+    }
+    // Light turned on: the first field lacks the afterglow the steady state has.
+    EXPECT_LT(out[0], steady);
+    // By superposition the first lit field lacks exactly the afterglow the first dark field
+    // has.
+    EXPECT_NEAR(out[0] / steady, 1.0 - out[30] / steady, 1e-4);
+}
+
+// A lamp switched on in view at field 10.
+struct LampRun {
+    std::vector<FieldInfo> info;
+};
+LampRun lampRun(const Overrides& extra) {
+    Overrides ov = noiseFree();
+    ov["width"] = "128";
+    ov["height"] = "96";
+    ov["mtf.enabled"] = "false";
+    ov["phosphor.enabled"] = "false";
+    for (const auto& [k, v] : extra)
+        ov[k] = v;
+    const CameraParams cam = preset("pulnix-ag5745ef3", ov);
+    IiccdChain chain(cam, 1);
+    ImageF scene = test::uniform(128, 96, 3e12f);
+    ImageF lamp = scene;
+    for (int y = 30; y < 60; ++y)
+        for (int x = 40; x < 80; ++x)
+            lamp(x, y) = 3e14f;
+    LampRun r;
+    for (int k = 0; k < 60; ++k)
+        r.info.push_back(chain.process((k < 10 ? scene : lamp).cview()));
+    return r;
+}
+
+TEST(Temporal, AgcLagAndTimeConstant) {
+    const LampRun r = lampRun({{"agc", "agc"}, {"agc_loop.target_dc", "60"}});
+    for (int k = 7; k < 14; ++k)
+        std::printf("AGC field %d: gain %.3f V level %.2f DC\n", k,
+                    r.info[static_cast<std::size_t>(k)].gain_V,
+                    r.info[static_cast<std::size_t>(k)].level_dc);
+    const double T = 1.0 / 59.94, tau = 0.2;
+    // One-field lag: the lamp's field still has the gain commanded from the dark field before
+    // it (still rising toward the dark scene's target); the field after it is the first to fall.
+    const double v9 = r.info[9].gain_V;
+    EXPECT_GT(r.info[10].gain_V, v9);
+    EXPECT_LT(r.info[11].gain_V, r.info[10].gain_V);
+    // Time constant: the gain converges as (1 − α)^k with α = 1 − exp(−T/τ).
+    const double vInf = r.info[59].gain_V;
+    const double ratio = (r.info[21].gain_V - vInf) / (r.info[20].gain_V - vInf);
+    std::printf(
+        "AGC: V %.3f (before) %.3f (lamp field) %.3f %.3f ... %.3f; per-field ratio %.4f "
+        "(expect %.4f)\n",
+        v9, r.info[10].gain_V, r.info[11].gain_V, r.info[12].gain_V, vInf, ratio,
+        std::exp(-T / tau));
+    EXPECT_NEAR(ratio, std::exp(-T / tau), 0.01);
+    EXPECT_NEAR(r.info[59].level_dc, 60.0, 2.0);
+}
+
+TEST(Temporal, AbcBspAndAutogate) {
+    const LampRun abc = lampRun({{"agc", "abc"}, {"abc.screen_limit_A", "5e-10"}});
+    std::printf("ABC: screen current %.3g A -> gain %.3f V, %.3f V, %.3f V ... %.3f V\n",
+                abc.info[10].screen_current_A, abc.info[10].gain_V, abc.info[11].gain_V,
+                abc.info[12].gain_V, abc.info[59].gain_V);
+    EXPECT_NEAR(abc.info[10].gain_V, abc.info[9].gain_V, 1e-9);
+    EXPECT_LT(abc.info[11].gain_V, abc.info[10].gain_V);
+    EXPECT_NEAR(abc.info[59].screen_current_A, 5e-10, 0.1 * 5e-10);
+    const LampRun bsp = lampRun({{"agc", "bsp"}, {"bsp.knee_A", "1e-13"}});
+    std::printf("BSP: factor %.3f before, %.3f with the lamp (same field)\n",
+                bsp.info[9].bsp_factor, bsp.info[10].bsp_factor);
+    EXPECT_LT(bsp.info[10].bsp_factor, 0.5 * bsp.info[9].bsp_factor);  // no lag
+    EXPECT_NEAR(bsp.info[11].bsp_factor, bsp.info[10].bsp_factor, 1e-9);
+    const LampRun gate = lampRun({{"agc", "autogate"}, {"agc_loop.target_dc", "60"}});
+    std::printf("auto-gate: gate %.4g s before, %.4g s lamp field, %.4g s next, %.4g s final\n",
+                gate.info[9].gate_s, gate.info[10].gate_s, gate.info[11].gate_s,
+                gate.info[59].gate_s);
+    EXPECT_NEAR(gate.info[10].gate_s, gate.info[9].gate_s, 1e-12);
+    EXPECT_LT(gate.info[11].gate_s, gate.info[10].gate_s);
+    EXPECT_LT(gate.info[59].gate_s, 0.7 * gate.info[9].gate_s);
+    EXPECT_NEAR(gate.info[59].level_dc, 60.0, 3.0);
+    EXPECT_NEAR(gate.info[59].gain_V, gate.info[9].gain_V, 1e-12);
+}
+
+TEST(Ccd, BloomingConservesChargeAndStreaks) {
+    std::vector<float> v(20, 10.0f), carry(42);
+    v[10] = 500.0f;
+    double before = 0.0;
+    for (float x : v)
+        before += static_cast<double>(x);
+    const auto sat = CcdStage::bloomLine(v.data(), 20, 1, 100.0f, carry.data());
+    double after = 0.0;
+    for (float x : v)
+        after += static_cast<double>(x);
+    EXPECT_NEAR(after, before, 1e-3);
+    EXPECT_EQ(sat, 5);  // 500 + 4·10 → 5 cells of 100 (plus the 60 left over beside them)
+    EXPECT_EQ(v[10], 100.0f);
+    EXPECT_EQ(v[8], 100.0f);
+    EXPECT_EQ(v[12], 100.0f);
+}
+
+TEST(BadInput, ClearErrors) {
+    EXPECT_THROW(preset("pulnix-ag5745ef3", {{"mcp.bogus", "1"}}), SetupError);
+    try {
+        (void)parseCamera("width = 64\nheight = 48\nf_numbr = 2\n", "cam.toml");
+        FAIL();
+    } catch (const SetupError& e) {
+        EXPECT_NE(std::string(e.what()).find("cam.toml:3"), std::string::npos) << e.what();
+        EXPECT_NE(std::string(e.what()).find("f_number"), std::string::npos) << e.what();
+    }
+    CameraParams cam = preset("pulnix-ag5745ef3", {{"width", "32"}, {"height", "16"}});
+    IiccdChain chain(cam, 1);
+    ImageF wrong(31, 16);
+    EXPECT_TRUE(chain.process(wrong.cview()).size_mismatch);
+    ImageF bad = test::uniform(32, 16, 1.0f);
+    bad(3, 4) = std::nanf("");
+    bad(5, 6) = -1.0f;
+    EXPECT_EQ(IiccdChain::countBadPixels(bad.cview()), 2);
+    EXPECT_EQ(chain.process(bad.cview()).bad_input_px, 2);
+    EXPECT_THROW(preset("pulnix-ag5745ef3", {{"agc", "sometimes"}}), SetupError);
+}
+
+}  // namespace
+}  // namespace nvs::sensor
