@@ -277,6 +277,24 @@ std::vector<ConfigTable> ConfigTable::tableArray(std::string_view key) const {
     return out;
 }
 
+namespace {
+void markSubtreeUsed(ConfigState& s, const toml::node& n) {
+    s.used.insert(&n);
+    if (const auto* t = n.as_table()) {
+        for (const auto& [k, v] : *t)
+            markSubtreeUsed(s, v);
+    } else if (const auto* arr = n.as_array()) {
+        for (const auto& el : *arr)
+            markSubtreeUsed(s, el);
+    }
+}
+}  // namespace
+
+void ConfigTable::skip(std::string_view key) const {
+    if (table_ == nullptr) return;
+    if (const toml::node* n = table_->get(key)) markSubtreeUsed(*state_, *n);
+}
+
 std::vector<std::string> ConfigTable::keys() const {
     std::vector<std::string> out;
     if (table_ == nullptr) return out;

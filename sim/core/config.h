@@ -51,6 +51,9 @@ class ConfigTable {
     std::vector<ConfigTable> tableArray(std::string_view key) const;
     // Every key of this table, in file order (marks none as used).
     std::vector<std::string> keys() const;
+    // Marks a key, and everything under it, as read without reading it: for a table that
+    // another component owns and checks itself. Absent keys are ignored.
+    void skip(std::string_view key) const;
 
     // Where this table, or one of its keys, is in the file.
     FileLoc location() const;

@@ -1,0 +1,22 @@
+#pragma once
+// Radiance images as OpenEXR files: one FLOAT channel "Y" and string attributes in the header
+// (nvstim.unit, nvstim.spectrum as `nvstim sensor` reads them, plus the scenario time and
+// frame). Written under a temporary name and renamed, so nothing half-written is left.
+
+#include <filesystem>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "sim/core/image.h"
+
+namespace nvs::render {
+
+void writeRadianceExr(const std::filesystem::path& path, ImageView<const float> img,
+                      const std::vector<std::pair<std::string, std::string>>& attributes);
+
+// Reads channel Y and every string attribute (for tests).
+ImageF readRadianceExr(const std::filesystem::path& path,
+                       std::vector<std::pair<std::string, std::string>>* attributes);
+
+}  // namespace nvs::render

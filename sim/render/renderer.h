@@ -1,0 +1,155 @@
+#pragma once
+// The night-scene renderer (DESIGN §4.4): Embree 3 ray casting of a scene::Scene into a
+// photoelectron radiance image Lpe [pe s⁻¹ m⁻² sr⁻¹] and a band radiance image
+// Lβ = ∫ L(λ) β(λ) dλ [W m⁻² sr⁻¹] (β the camera's relative response, the thesis's unit).
+//
+// Per pixel (docs/render.md has the derivations):
+//   primary hit P with normal n (facing the camera) and material m (ρ, specularity s);
+//   L = (1−s)/π · [ ρ☾ E☾ cos θ☾ V☾                                    Moon, shadow ray
+//                 + Σ_lamps ∫I_l ρ w dλ · cos θ_r / r² · V_l           inverse square, cosine
+//                 + F_sky (ρ☾ E_sky☾ + ρ_n E_night) ]                   sky-view factor
+//     + s ρ☾ L(reflected ray)                                          one specular bounce
+// where ρ_src = ∫S_src ρ w dλ / ∫S_src w dλ are the (source, material) band coefficients,
+// precomputed at setup from the source spectra, and E☾ = E_toa · T(z) comes from the
+// atmosphere table each frame. Rays that miss see the sky radiance (lunar sky scattering and
+// night sky); the Moon's disk and the lamps are drawn with their own radiance.
+//
+// Coarse radiance tiles: with `coarseFactor` f > 1, primary rays stay at full resolution (the
+// geometry: edges, materials, normals) while the direct light (shadow rays, lamp geometry,
+// specular bounce) is computed on a grid every f pixels and interpolated to each pixel with
+// bilinear weights restricted to samples on the same surface (same object, normal within 18°,
+// within a plane tolerance); pixels with no such sample are computed at full rate.
+//
+// Threading: sim/ starts no threads. render() hands row ranges to a RowExecutor, which may
+// run them concurrently. Per frame nothing is allocated and nothing throws.
+
+#include <array>
+#include <atomic>
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include "sim/astro/ephemeris.h"
+#include "sim/core/image.h"
+#include "sim/core/spectrum.h"
+#include "sim/scene/scene.h"
+
+namespace nvs::sky {
+class SkyModel;
+}
+
+namespace nvs::render {
+
+inline constexpr int kBandPe = 0;  // photoelectron radiance, weight QE(λ) λ/(hc)
+inline constexpr int kBandW = 1;   // band radiance, weight β(λ)
+inline constexpr int kBands = 2;
+using BandValues = std::array<double, kBands>;
+
+struct PinholeCamera {
+    int width = 768;
+    int height = 494;
+    double focalLength_m = 0.036;
+    double pitchX_m = 11e-6 * 1.636;  // pixel pitch in the focal (photocathode) plane
+    double pitchY_m = 13e-6 * 1.636;
+};
+
+struct RenderConfig {
+    PinholeCamera camera;
+    std::array<Spectrum, kBands> bandWeight;  // w_pe = QE λ/(hc), w_W = β
+    Spectrum moonShape;                       // relative TOA spectrum of moonlight
+    Spectrum nightSkyShape;                   // relative spectrum of the night sky
+    int coarseFactor = 1;                     // 1 = full rate
+    int skyViewRays = 64;                     // per surface element, at setup
+    int lampShadowRays = 4;                   // per lamp with an aperture, per point
+    bool specular = true;
+};
+
+// The sky and Moon for one frame, band-integrated (from sky::SkyModel; see frameSky()).
+struct FrameSky {
+    bool moonUp = false;
+    Vec3 moonDir_enu{0.0, 0.0, 1.0};
+    double moonAz_rad = 0.0;
+    double moonZenith_rad = 1.5707963267948966;
+    double moonAngularRadius_rad = 0.0045;
+    BandValues moonNormal{};  // E☾ = E_toa · T(z) normal to the beam at the ground [band m⁻²]
+    BandValues moonToa{};     // E_toa [band m⁻²] (scales the sky radiance table)
+    BandValues moonSkyHorizontal{};        // diffuse lunar sky irradiance, horizontal
+    BandValues nightSkyHorizontal{};       // night-sky irradiance, horizontal
+    const sky::SkyModel* model = nullptr;  // for sky radiance in view; null: isotropic E/π
+    std::array<int, kBands> tableBand{-1, -1};
+};
+
+// Fills a FrameSky from the sky model and the Sun/Moon state. tableBand[b] is the atmosphere
+// table's band for renderer band b. No allocation, no throw.
+FrameSky frameSky(const sky::SkyModel& model, const std::array<int, kBands>& tableBand,
+                  const astro::MoonState& moon) noexcept;
+
+class RowExecutor {
+  public:
+    virtual ~RowExecutor() = default;
+    // Calls fn(ctx, y0, y1) over disjoint ranges covering [0, rows), maybe concurrently, and
+    // returns when all are done.
+    virtual void run(int rows, void (*fn)(void*, int, int), void* ctx) noexcept = 0;
+};
+class SerialExecutor final : public RowExecutor {
+  public:
+    void run(int rows, void (*fn)(void*, int, int), void* ctx) noexcept override {
+        fn(ctx, 0, rows);
+    }
+};
+
+struct RenderStats {
+    std::uint64_t primaryRays = 0;
+    std::uint64_t shadowRays = 0;
+    std::uint64_t secondaryRays = 0;
+    std::uint64_t total() const { return primaryRays + shadowRays + secondaryRays; }
+};
+
+class Renderer {
+  public:
+    // Setup: builds the Embree scene, the per-(source, material) coefficients and the
+    // sky-view factors. Throws SetupError.
+    Renderer(const scene::Scene& scene, const RenderConfig& config);
+    ~Renderer();
+    Renderer(const Renderer&) = delete;
+    Renderer& operator=(const Renderer&) = delete;
+
+    // Per frame (no allocation by nvstim, no throw). Moves moving objects to their pose at t_s.
+    void setTime(double t_s) noexcept;
+    void setCamera(const scene::CameraPose& pose) noexcept;
+    void setLampOn(int lamp, bool on) noexcept { lampOn_[static_cast<std::size_t>(lamp)] = on; }
+    void setCoarseFactor(int f) noexcept;  // ≤ the factor given at setup
+    // Renders both bands. Images must be camera.width × camera.height.
+    void render(const FrameSky& sky, ImageView<float> pe, ImageView<float> bandW,
+                RowExecutor& exec) noexcept;
+
+    const RenderStats& lastStats() const { return stats_; }
+    const PinholeCamera& camera() const { return config_.camera; }
+    // Truth boxes of tracked objects in the current pose [px]: id, x, y, w, h (boxes entirely
+    // behind the camera are left out). Returns the count written (≤ maxBoxes).
+    int truthBoxes(int* ids, float* xywh, int maxBoxes) const noexcept;
+
+    // Introspection for tests.
+    // The primary hit of a pixel: false on a miss.
+    bool pixelHit(int x, int y, Vec3* position_m, int* material, int* object) const noexcept;
+    // Sky-view factor at a point of a triangle (interpolated), front or back side.
+    double skyViewFactor(int object, int triangle, double u, double v, bool back) const;
+    // Coefficient ∫ I_l ρ_m w_b dλ / π (for a lamp without aperture) or ∫ L_glass ρ w / π.
+    double lampCoefficient(int lamp, int material, int band) const;
+    double moonCoefficient(int material, int band) const { return rhoMoon_[idx(material, band)]; }
+    // Embree's own single-ray throughput for primary rays of this view [rays/s] (benchmarks).
+    double measureEmbreePrimaryRate(int repetitions) const;
+
+    struct Impl;
+
+  private:
+    static std::size_t idx(int m, int b) { return static_cast<std::size_t>(m) * kBands + b; }
+    RenderConfig config_;
+    std::unique_ptr<Impl> impl_;
+    std::vector<double> rhoMoon_, rhoNight_;  // [m][b]
+    std::vector<bool> lampOn_;
+    RenderStats stats_;
+    int coarse_ = 1;
+};
+
+}  // namespace nvs::render

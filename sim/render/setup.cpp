@@ -1,0 +1,70 @@
+#include "sim/render/setup.h"
+
+#include "sim/sensor/mtf.h"
+#include "sim/sky/night_sky.h"
+
+namespace nvs::render {
+
+RenderConfig renderConfigFor(const sensor::CameraParams& cam, int width, int height) {
+    RenderConfig c;
+    c.camera.width = width;
+    c.camera.height = height;
+    c.camera.focalLength_m = cam.focal_length_mm * 1e-3;
+    c.camera.pitchX_m = sensor::cathodePitchX_mm(cam) * 1e-3;
+    c.camera.pitchY_m = sensor::cathodePitchY_mm(cam) * 1e-3;
+    // A scenario may ask for a different image size than the preset's; keep the field of view
+    // of the preset's sensor.
+    c.camera.pitchX_m *= static_cast<double>(cam.width) / width;
+    c.camera.pitchY_m *= static_cast<double>(cam.height) / height;
+    const Spectrum beta = sensor::cameraResponse(cam);
+    c.bandWeight[kBandPe] = sky::photoelectronWeight(beta * cam.qe_peak);
+    c.bandWeight[kBandW] = beta;
+    return c;
+}
+
+std::unique_ptr<ScenarioRenderer> ScenarioRenderer::create(const std::filesystem::path& path,
+                                                           int coarseFactor) {
+    auto r = std::unique_ptr<ScenarioRenderer>(new ScenarioRenderer());
+    r->scenario_ = scene::loadRenderScenario(path);
+    r->scene_ = scene::loadScene(r->scenario_.sceneFile);
+    if (r->scenario_.lampsOn) {
+        for (auto& l : r->scene_.lamps)
+            l.on = false;
+        for (const std::string& name : *r->scenario_.lampsOn) {
+            const int i = r->scene_.lampIndex(name);
+            if (i < 0) {
+                throw SetupError(r->scenario_.file.string() + ": [scene] lamps_on: unknown lamp '" +
+                                 name + "'");
+            }
+            r->scene_.lamps[static_cast<std::size_t>(i)].on = true;
+        }
+    }
+    r->camera_ = sensor::loadCamera(r->scenario_.cameraPreset);
+    r->ephemeris_ = std::make_unique<astro::Ephemeris>(r->scenario_.site);
+    r->epoch_ = astro::astroTimeFromUtc(
+        astro::parseIsoUtc(r->scenario_.utcStart, r->scenario_.file.string() + ": utc_start"),
+        r->scenario_.file.string() + ": utc_start");
+
+    RenderConfig cfg = renderConfigFor(r->camera_, r->scenario_.width, r->scenario_.height);
+    cfg.coarseFactor = coarseFactor;
+    sky::SkyModelConfig sc;
+    sc.atmosphere = r->scenario_.atmosphere;
+    sc.extraBands.push_back({"render_pe", cfg.bandWeight[kBandPe]});
+    sc.extraBands.push_back({"render_W", cfg.bandWeight[kBandW]});
+    r->sky_ = std::make_unique<sky::SkyModel>(sky::SkyModel::create(sc));
+    r->tableBand_ = {r->sky_->table().bandIndex("render_pe"),
+                     r->sky_->table().bandIndex("render_W")};
+    cfg.moonShape = r->sky_->moon().referenceIrradiance_W_m2_nm();
+    const sky::NightSkyModel night = sky::NightSkyModel::load();
+    cfg.nightSkyShape = night.measured_W_m2_sr_nm();
+    r->renderer_ = std::make_unique<Renderer>(r->scene_, cfg);
+    return r;
+}
+
+FrameSky ScenarioRenderer::prepare(double t_s) noexcept {
+    sunMoon_ = ephemeris_->compute(epoch_.plusSeconds(t_s));
+    renderer_->setTime(t_s);
+    return frameSky(*sky_, tableBand_, sunMoon_.moon);
+}
+
+}  // namespace nvs::render
