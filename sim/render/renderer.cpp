@@ -741,9 +741,10 @@ void Renderer::render(const FrameSky& sky, ImageView<float> pe, ImageView<float>
         const LampData& ld = im.lamps[l];
         const Vec3 d = ld.position - im.camPos;
         const double r = norm(d);
+        if (!(r > 1e-6)) continue;
         const Vec3 dn = d / r;
         const double zf = dot(dn, im.camFwd);
-        if (zf <= 0.0) continue;
+        if (!(zf > 0.0)) continue;
         const double u =
             dot(dn, im.camRight) / zf * cam.focalLength_m / cam.pitchX_m + 0.5 * cam.width;
         const double v =
