@@ -1,9 +1,86 @@
+// nvstim render SCENARIO --frame K --out FILE.exr: one frame of a scenario as photoelectron
+// radiance [pe s⁻¹ m⁻² sr⁻¹] (OpenEXR, one FLOAT channel Y) with the unit, the scenario time and
+// the Moon's position in the header; the band radiance ∫Lβ dλ [W m⁻² sr⁻¹] goes next to it as
+// FILE.band.exr (DESIGN §3, §7).
+
+#include <cmath>
+#include <cstdio>
+#include <ctime>
+#include <string>
+#include <thread>
+#include <vector>
+
 #include "rt/cli/commands.h"
+#include "sim/core/error.h"
+#include "sim/render/exr_out.h"
+#include "sim/render/setup.h"
 
 namespace nvs::cli {
+namespace {
 
-int runRender(const RenderOptions& /*opts*/) {
-    return notImplemented("render");
+// Row ranges on the machine's cores (the command runs one frame, so plain threads suffice).
+class ThreadExecutor final : public render::RowExecutor {
+  public:
+    void run(int rows, void (*fn)(void*, int, int), void* ctx) noexcept override {
+        const int n =
+            std::max(1, std::min(8, static_cast<int>(std::thread::hardware_concurrency())));
+        std::vector<std::thread> ts;
+        for (int i = 1; i < n; ++i)
+            ts.emplace_back([=] { fn(ctx, rows * i / n, rows * (i + 1) / n); });
+        fn(ctx, 0, rows / n);
+        for (auto& t : ts)
+            t.join();
+    }
+};
+
+std::string fmt(double v) {
+    char b[64];
+    std::snprintf(b, sizeof b, "%.9g", v);
+    return b;
+}
+
+}  // namespace
+
+int runRender(const RenderOptions& opts) {
+    if (opts.frame < 0) throw SetupError("--frame: must be ≥ 0");
+    const std::filesystem::path out = opts.out;
+    if (out.extension() != ".exr") throw SetupError("--out " + opts.out + ": must end in .exr");
+    auto sr = render::ScenarioRenderer::create(opts.scenario);
+    const double t_s = sr->scenario().frameTime_s(opts.frame);
+    const render::FrameSky sky = sr->prepare(t_s);
+    const auto& cam = sr->renderer().camera();
+    ImageF pe(cam.width, cam.height), band(cam.width, cam.height);
+    ThreadExecutor ex;
+    sr->renderer().render(sky, pe.view(), band.view(), ex);
+
+    const auto& moon = sr->sunMoon().moon;
+    constexpr double kDeg = 180.0 / 3.14159265358979323846;
+    std::vector<std::pair<std::string, std::string>> attrs = {
+        {"nvstim.scenario", sr->scenario().file.string()},
+        {"nvstim.frame", std::to_string(opts.frame)},
+        {"nvstim.utc_start", sr->scenario().utcStart},
+        {"nvstim.t_s", fmt(t_s)},
+        {"nvstim.camera", sr->scenario().cameraPreset},
+        {"nvstim.moon_alt_deg", fmt(moon.alt_rad * kDeg)},
+        {"nvstim.moon_az_deg", fmt(moon.az_rad * kDeg)},
+    };
+    auto peAttrs = attrs;
+    peAttrs.push_back({"nvstim.unit", "pe/s/m2/sr"});
+    auto bandAttrs = attrs;
+    bandAttrs.push_back({"nvstim.unit", "W/m2/sr"});
+    bandAttrs.push_back({"nvstim.band", "camera relative response beta"});
+    std::filesystem::path bandPath = out;
+    bandPath.replace_extension(".band.exr");
+    render::writeRadianceExr(out, pe.cview(), peAttrs);
+    render::writeRadianceExr(bandPath, band.cview(), bandAttrs);
+    const auto& st = sr->renderer().lastStats();
+    std::printf(
+        "{\"out\":\"%s\",\"band_out\":\"%s\",\"frame\":%lld,\"t_s\":%.6f,\"moon\":{\"alt_deg\":%."
+        "4f,"
+        "\"az_deg\":%.4f},\"rays\":%llu}\n",
+        out.c_str(), bandPath.c_str(), opts.frame, t_s, moon.alt_rad * kDeg, moon.az_rad * kDeg,
+        static_cast<unsigned long long>(st.total()));
+    return kExitOk;
 }
 
 }  // namespace nvs::cli

@@ -57,19 +57,22 @@ RenderScenario loadRenderScenario(const std::filesystem::path& pathIn) {
     s.site.temperature_C = finiteIn(site, "temperature_C", 15.0, -80.0, 60.0);
     s.atmosphere.siteAltitude_m = s.site.height_m;
 
-    const ConfigTable at = root.table("atmosphere");
-    s.atmosphere.visibility_km = finiteIn(at, "visibility_km", 23.0, 0.05, 500.0);
-    if (at.contains("aerosol")) {
-        s.atmosphere.aerosol =
-            sky::parseAerosolModel(at.require<std::string>("aerosol"), at.location("aerosol"));
+    if (const auto atOpt = root.optionalTable("atmosphere")) {
+        const ConfigTable& at = *atOpt;
+        s.atmosphere.visibility_km = finiteIn(at, "visibility_km", 23.0, 0.05, 500.0);
+        if (at.contains("aerosol")) {
+            s.atmosphere.aerosol =
+                sky::parseAerosolModel(at.require<std::string>("aerosol"), at.location("aerosol"));
+        }
+        s.atmosphere.ozone_DU = finiteIn(at, "ozone_DU", 300.0, 0.0, 1000.0);
+        s.atmosphere.precipitableWater_cm = finiteIn(at, "precipitable_water_cm", 1.5, 0.0, 10.0);
+        s.atmosphere.cloudOpticalDepth = finiteIn(at, "cloud_optical_depth", 0.0, 0.0, 200.0);
+        s.atmosphere.groundAlbedo = finiteIn(at, "ground_albedo", 0.15, 0.0, 1.0);
     }
-    s.atmosphere.ozone_DU = finiteIn(at, "ozone_DU", 300.0, 0.0, 1000.0);
-    s.atmosphere.precipitableWater_cm = finiteIn(at, "precipitable_water_cm", 1.5, 0.0, 10.0);
-    s.atmosphere.cloudOpticalDepth = finiteIn(at, "cloud_optical_depth", 0.0, 0.0, 200.0);
-    s.atmosphere.groundAlbedo = finiteIn(at, "ground_albedo", 0.15, 0.0, 1.0);
 
-    const ConfigTable cam = root.table("camera");
-    s.cameraPreset = cam.get<std::string>("preset", s.cameraPreset);
+    if (const auto cam = root.optionalTable("camera")) {
+        s.cameraPreset = cam->get<std::string>("preset", s.cameraPreset);
+    }
 
     const ConfigTable scn = root.table("scene");
     const auto rel = scn.require<std::string>("file");
