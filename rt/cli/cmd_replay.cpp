@@ -1,9 +1,34 @@
+// nvstim replay SCENARIO_DIR [--check|--bless] (DESIGN §7, §9).
+#include <unistd.h>
+
+#include <cstdio>
+#include <filesystem>
+
 #include "rt/cli/commands.h"
+#include "rt/replay/replay.h"
+#include "sim/core/error.h"
 
 namespace nvs::cli {
 
-int runReplay(const ReplayOptions& /*opts*/) {
-    return notImplemented("replay");
+int runReplay(const ReplayOptions& opts) {
+    const std::filesystem::path self = std::filesystem::read_symlink("/proc/self/exe");
+    if (opts.bless) {
+        rt::blessScenario(opts.scenarioDir, self);
+        std::printf("replay %s: blessed (expectations written to %s/expected)\n",
+                    opts.scenarioDir.c_str(), opts.scenarioDir.c_str());
+        return kExitOk;
+    }
+    if (opts.check) {
+        const rt::ReplayResult r = rt::checkScenario(opts.scenarioDir, self);
+        std::fputs(r.report.c_str(), stdout);
+        return r.passed ? kExitOk : kExitFailure;
+    }
+    // Plain replay: run it and say where the frames are.
+    const auto work = std::filesystem::temp_directory_path() / "nvstim-replay-out";
+    const auto frames = rt::replayScenario(opts.scenarioDir, self, work);
+    std::printf("replay %s: frames in %s, metadata in %s\n", opts.scenarioDir.c_str(),
+                frames.c_str(), (work / "meta.jsonl").c_str());
+    return kExitOk;
 }
 
 }  // namespace nvs::cli

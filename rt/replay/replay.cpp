@@ -1,0 +1,432 @@
+#include "rt/replay/replay.h"
+
+#include <fcntl.h>
+#include <gnu/libc-version.h>
+#include <openssl/evp.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <sstream>
+#include <vector>
+
+#include "sim/core/config.h"
+#include "sim/core/error.h"
+#include "sim/core/image.h"
+#include "sim/sensor/image_io.h"
+
+extern char** environ;
+
+namespace nvs::rt {
+namespace fs = std::filesystem;
+namespace {
+
+constexpr double kZLimit = 5.0;
+constexpr double kMeanFloor_counts = 0.5;
+constexpr double kVarianceTolerance = 0.25;
+constexpr int kMaxWindows = 3;
+
+std::string sha256File(const fs::path& p) {
+    std::ifstream in(p, std::ios::binary);
+    if (!in) throw SetupError(FileLoc{p.string()}, "cannot read replay output");
+    EVP_MD_CTX* ctx = EVP_MD_CTX_new();
+    EVP_DigestInit_ex(ctx, EVP_sha256(), nullptr);
+    std::vector<char> buf(1 << 16);
+    while (in) {
+        in.read(buf.data(), static_cast<std::streamsize>(buf.size()));
+        EVP_DigestUpdate(ctx, buf.data(), static_cast<std::size_t>(in.gcount()));
+    }
+    unsigned char md[EVP_MAX_MD_SIZE];
+    unsigned int n = 0;
+    EVP_DigestFinal_ex(ctx, md, &n);
+    EVP_MD_CTX_free(ctx);
+    std::string hex;
+    char b[3];
+    for (unsigned int i = 0; i < n; ++i) {
+        std::snprintf(b, sizeof b, "%02x", md[i]);
+        hex += b;
+    }
+    return hex;
+}
+
+std::vector<fs::path> framesIn(const fs::path& dir) {
+    std::vector<fs::path> f;
+    for (const auto& e : fs::directory_iterator(dir)) {
+        if (e.path().extension() == ".pgm") f.push_back(e.path());
+    }
+    std::sort(f.begin(), f.end());
+    return f;
+}
+
+// Block statistics of one window of frames.
+struct WindowStats {
+    int first = 0, count = 0;
+    int blocksX = 0, blocksY = 0;
+    ImageF mean, meanVar, pixVar;  // per block
+    double level = 0.0, noise = 0.0;
+};
+
+std::vector<std::pair<int, int>> windowsFor(int frames) {
+    std::vector<std::pair<int, int>> w;
+    if (frames <= 0) return w;
+    const int n = frames < 20 ? 1 : std::min(kMaxWindows, frames / 20);
+    const int size = frames / n;
+    for (int i = 0; i < n; ++i)
+        w.emplace_back(i * size, size);
+    return w;
+}
+
+WindowStats computeWindow(const std::vector<fs::path>& frames, int first, int count) {
+    WindowStats s;
+    s.first = first;
+    s.count = count;
+    const ImageU16 f0 = sensor::readPgm(frames[first]);
+    const int w = f0.width(), h = f0.height();
+    s.blocksX = w / kReplayBlock_px;
+    s.blocksY = h / kReplayBlock_px;
+    const std::size_t nb = static_cast<std::size_t>(s.blocksX) * s.blocksY;
+    std::vector<double> bSum(nb, 0.0), bSq(nb, 0.0);
+    std::vector<double> pSum(static_cast<std::size_t>(w) * h, 0.0), pSq(pSum.size(), 0.0);
+    for (int k = first; k < first + count; ++k) {
+        const ImageU16 img = sensor::readPgm(frames[k]);
+        if (img.width() != w || img.height() != h) {
+            throw SetupError(FileLoc{frames[k].string()}, "frame size changed during the replay");
+        }
+        for (int by = 0; by < s.blocksY; ++by) {
+            for (int bx = 0; bx < s.blocksX; ++bx) {
+                double m = 0.0;
+                for (int y = by * kReplayBlock_px; y < (by + 1) * kReplayBlock_px; ++y) {
+                    const std::uint16_t* r = img.row(y);
+                    for (int x = bx * kReplayBlock_px; x < (bx + 1) * kReplayBlock_px; ++x) {
+                        const double v = r[x];
+                        m += v;
+                        const std::size_t p = static_cast<std::size_t>(y) * w + x;
+                        pSum[p] += v;
+                        pSq[p] += v * v;
+                    }
+                }
+                m /= kReplayBlock_px * kReplayBlock_px;
+                const std::size_t b = static_cast<std::size_t>(by) * s.blocksX + bx;
+                bSum[b] += m;
+                bSq[b] += m * m;
+            }
+        }
+    }
+    s.mean = ImageF(s.blocksX, s.blocksY);
+    s.meanVar = ImageF(s.blocksX, s.blocksY);
+    s.pixVar = ImageF(s.blocksX, s.blocksY);
+    const double n = count;
+    for (int by = 0; by < s.blocksY; ++by) {
+        for (int bx = 0; bx < s.blocksX; ++bx) {
+            const std::size_t b = static_cast<std::size_t>(by) * s.blocksX + bx;
+            const double mu = bSum[b] / n;
+            const double mv = count > 1 ? std::max(0.0, (bSq[b] - n * mu * mu) / (n - 1)) : 0.0;
+            double pv = 0.0;
+            for (int y = by * kReplayBlock_px; y < (by + 1) * kReplayBlock_px; ++y) {
+                for (int x = bx * kReplayBlock_px; x < (bx + 1) * kReplayBlock_px; ++x) {
+                    const std::size_t p = static_cast<std::size_t>(y) * w + x;
+                    const double pm = pSum[p] / n;
+                    pv += count > 1 ? std::max(0.0, (pSq[p] - n * pm * pm) / (n - 1)) : 0.0;
+                }
+            }
+            pv /= kReplayBlock_px * kReplayBlock_px;
+            s.mean(bx, by) = static_cast<float>(mu);
+            s.meanVar(bx, by) = static_cast<float>(mv);
+            s.pixVar(bx, by) = static_cast<float>(pv);
+            s.level += mu;
+            s.noise += pv;
+        }
+    }
+    s.level /= static_cast<double>(nb);
+    s.noise /= static_cast<double>(nb);
+    return s;
+}
+
+// Runs argv, stdout/stderr to `log`; returns the exit status.
+int runProcess(const std::vector<std::string>& args, const fs::path& log) {
+    std::vector<char*> argv;
+    for (const auto& a : args)
+        argv.push_back(const_cast<char*>(a.c_str()));
+    argv.push_back(nullptr);
+    posix_spawn_file_actions_t fa;
+    posix_spawn_file_actions_init(&fa);
+    posix_spawn_file_actions_addopen(&fa, 1, log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    posix_spawn_file_actions_adddup2(&fa, 1, 2);
+    pid_t pid = 0;
+    const int rc = posix_spawn(&pid, argv[0], &fa, nullptr, argv.data(), environ);
+    posix_spawn_file_actions_destroy(&fa);
+    if (rc != 0) throw SetupError(std::string("cannot start ") + args[0]);
+    int status = 0;
+    while (waitpid(pid, &status, 0) < 0) {
+    }
+    return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+}
+
+std::string lastLine(const fs::path& p) {
+    std::ifstream in(p);
+    std::string line, last;
+    while (std::getline(in, line)) {
+        if (!line.empty()) last = line;
+    }
+    return last;
+}
+
+void writeText(const fs::path& p, const std::string& text) {
+    const fs::path tmp = p.string() + ".tmp";
+    {
+        std::ofstream out(tmp, std::ios::trunc);
+        out << text;
+        if (!out) throw SetupError(FileLoc{p.string()}, "cannot write");
+    }
+    fs::rename(tmp, p);
+}
+
+std::string tomlString(const std::string& s) {
+    std::string o = "\"";
+    for (char c : s) {
+        if (c == '"' || c == '\\') o += '\\';
+        o += c;
+    }
+    return o + "\"";
+}
+
+// An 8-bit picture of |z| (0 → black, ≥ 10 → white), one block per 8×8 pixels.
+void writeZMap(const fs::path& p, const ImageF& z) {
+    ImageU16 img(z.width() * kReplayBlock_px, z.height() * kReplayBlock_px);
+    for (int y = 0; y < img.height(); ++y) {
+        for (int x = 0; x < img.width(); ++x) {
+            const double a = std::min(
+                10.0, std::fabs(static_cast<double>(z(x / kReplayBlock_px, y / kReplayBlock_px))));
+            img(x, y) = static_cast<std::uint16_t>(std::lround(a * 25.5));
+        }
+    }
+    sensor::writePgm(p, img.cview(), 255);
+}
+
+}  // namespace
+
+std::string buildFingerprint() {
+    std::string fp = std::string("gcc ") + __VERSION__;
+#if defined(__x86_64__)
+    fp += " x86_64";
+    __builtin_cpu_init();
+    if (__builtin_cpu_supports("avx512f")) {
+        fp += "+avx512f";
+    } else if (__builtin_cpu_supports("avx2")) {
+        fp += "+avx2";
+    }
+#elif defined(__aarch64__)
+    fp += " aarch64";
+#endif
+    fp += std::string(" ") + NVS_BUILD_TYPE;
+    fp += std::string(" glibc ") + gnu_get_libc_version();
+    return fp;
+}
+
+fs::path replayScenario(const fs::path& dir, const fs::path& nvstimExe, const fs::path& workDir) {
+    const fs::path scenario = dir / "scenario.toml";
+    if (!fs::is_directory(dir)) throw SetupError(dir.string() + ": not a scenario folder");
+    if (!fs::exists(scenario)) throw SetupError(dir.string() + ": no scenario.toml");
+    fs::remove_all(workDir);
+    fs::create_directories(workDir / "frames");
+    const fs::path log = workDir / "run.log";
+    const int rc = runProcess({nvstimExe.string(), "run", scenario.string(), "--clock", "sim",
+                               "--output", "pgm:" + (workDir / "frames").string(), "--output",
+                               "meta:" + (workDir / "meta.jsonl").string()},
+                              log);
+    if (rc != 0) {
+        throw SetupError(scenario.string() + ": replay run failed (exit " + std::to_string(rc) +
+                         "): " + lastLine(log));
+    }
+    return workDir / "frames";
+}
+
+void blessScenario(const fs::path& dir, const fs::path& nvstimExe) {
+    const fs::path work =
+        fs::temp_directory_path() / ("nvstim-replay-" + std::to_string(::getpid()));
+    const fs::path frames = replayScenario(dir, nvstimExe, work);
+    const auto files = framesIn(frames);
+    if (files.empty()) throw SetupError(dir.string() + ": the replay produced no frames");
+    const fs::path exp = dir / "expected";
+    fs::create_directories(exp);
+    for (const auto& e : fs::directory_iterator(exp))
+        fs::remove(e.path());
+
+    std::ostringstream d;
+    d << "# Written by nvstim replay --bless; compared by --check. Bit-exact for this build "
+         "only.\n";
+    d << "fingerprint = " << tomlString(buildFingerprint()) << "\n";
+    d << "frames = " << files.size() << "\n";
+    d << "meta_sha256 = " << tomlString(sha256File(work / "meta.jsonl")) << "\n";
+    d << "frame_sha256 = [\n";
+    for (const auto& f : files)
+        d << "  " << tomlString(sha256File(f)) << ",\n";
+    d << "]\n";
+    writeText(exp / "digest.toml", d.str());
+
+    std::ostringstream s;
+    s << "# Statistical reference (per " << kReplayBlock_px << "x" << kReplayBlock_px
+      << " block): wN_mean.pfm, wN_meanvar.pfm, wN_pixvar.pfm.\n";
+    s << "block_px = " << kReplayBlock_px << "\n";
+    int i = 0;
+    for (const auto& [first, count] : windowsFor(static_cast<int>(files.size()))) {
+        const WindowStats w = computeWindow(files, first, count);
+        const std::string stem = "w" + std::to_string(i);
+        sensor::writePfm(exp / (stem + "_mean.pfm"), w.mean.cview());
+        sensor::writePfm(exp / (stem + "_meanvar.pfm"), w.meanVar.cview());
+        sensor::writePfm(exp / (stem + "_pixvar.pfm"), w.pixVar.cview());
+        char line[256];
+        std::snprintf(
+            line, sizeof line,
+            "\n[[window]]\nfirst = %d\ncount = %d\nlevel_counts = %.4f\nnoise_var_counts2 = %.4f\n",
+            first, count, w.level, w.noise);
+        s << line;
+        ++i;
+    }
+    writeText(exp / "stats.toml", s.str());
+    fs::remove_all(work);
+}
+
+ReplayResult checkScenario(const fs::path& dir, const fs::path& nvstimExe) {
+    const fs::path exp = dir / "expected";
+    if (!fs::exists(exp / "digest.toml") || !fs::exists(exp / "stats.toml")) {
+        throw SetupError(dir.string() + ": no expectations (run `nvstim replay " + dir.string() +
+                         " --bless` first)");
+    }
+    // Expectations, strictly.
+    const ConfigDocument digestDoc = ConfigDocument::parseFile(exp / "digest.toml");
+    const ConfigTable dg = digestDoc.root();
+    const std::string fingerprint = dg.require<std::string>("fingerprint");
+    const int expectedFrames = dg.require<int>("frames");
+    const std::string metaSha = dg.require<std::string>("meta_sha256");
+    const auto frameSha = dg.require<std::vector<std::string>>("frame_sha256");
+    digestDoc.finish();
+    const ConfigDocument statsDoc = ConfigDocument::parseFile(exp / "stats.toml");
+    const ConfigTable st = statsDoc.root();
+    if (st.require<int>("block_px") != kReplayBlock_px)
+        st.fail("block_px", "unsupported block size");
+    struct Ref {
+        int first, count;
+        double level, noise;
+    };
+    std::vector<Ref> refs;
+    for (const ConfigTable& w : st.tableArray("window")) {
+        refs.push_back({w.require<int>("first"), w.require<int>("count"),
+                        w.require<double>("level_counts"), w.require<double>("noise_var_counts2")});
+    }
+    statsDoc.finish();
+
+    const fs::path work =
+        fs::temp_directory_path() / ("nvstim-replay-" + std::to_string(::getpid()));
+    const fs::path frames = replayScenario(dir, nvstimExe, work);
+    const auto files = framesIn(frames);
+
+    ReplayResult r;
+    r.passed = true;
+    std::ostringstream rep;
+    const std::string name =
+        dir.filename().empty() ? dir.parent_path().filename().string() : dir.filename().string();
+    char line[512];
+    if (static_cast<int>(files.size()) != expectedFrames) {
+        r.passed = false;
+        std::snprintf(line, sizeof line, "  frames: %d expected, %zu replayed\n", expectedFrames,
+                      files.size());
+        rep << line;
+    }
+    // 1. Bit-exact digests.
+    const bool sameBuild = fingerprint == buildFingerprint();
+    std::vector<int> moved;
+    for (std::size_t k = 0; k < files.size() && k < frameSha.size(); ++k) {
+        if (sha256File(files[k]) != frameSha[k]) moved.push_back(static_cast<int>(k));
+    }
+    const bool metaSame = sha256File(work / "meta.jsonl") == metaSha;
+    if (moved.empty() && metaSame && static_cast<int>(files.size()) == expectedFrames) {
+        rep << "  bit-exact: all " << files.size() << " frames and the metadata are identical\n";
+    } else {
+        std::string list;
+        for (std::size_t i = 0; i < moved.size() && i < 8; ++i) {
+            list += (i ? ", " : "") + std::to_string(moved[i]);
+        }
+        if (moved.size() > 8) list += ", ...";
+        std::snprintf(line, sizeof line,
+                      "  bit-exact: %zu of %zu frames differ%s%s%s; metadata %s\n", moved.size(),
+                      files.size(), moved.empty() ? "" : " (", list.c_str(),
+                      moved.empty() ? "" : ")", metaSame ? "identical" : "differs");
+        rep << line;
+        if (sameBuild) {
+            r.passed = false;
+        } else {
+            rep << "  (blessed on \"" << fingerprint << "\", this build is \"" << buildFingerprint()
+                << "\": digests are not comparable, the statistics decide)\n";
+        }
+    }
+    // 2. Statistics per window.
+    const fs::path failDir = dir / "check-failures";
+    fs::remove_all(failDir);
+    for (std::size_t i = 0; i < refs.size(); ++i) {
+        const Ref& ref = refs[i];
+        if (ref.first + ref.count > static_cast<int>(files.size())) continue;
+        const std::string stem = "w" + std::to_string(i);
+        const ImageF rMean = sensor::readRadiance(exp / (stem + "_mean.pfm")).image;
+        const ImageF rMeanVar = sensor::readRadiance(exp / (stem + "_meanvar.pfm")).image;
+        const ImageF rPixVar = sensor::readRadiance(exp / (stem + "_pixvar.pfm")).image;
+        const WindowStats w = computeWindow(files, ref.first, ref.count);
+        if (w.blocksX != rMean.width() || w.blocksY != rMean.height()) {
+            r.passed = false;
+            rep << "  window " << i << ": image size changed\n";
+            continue;
+        }
+        ImageF z(w.blocksX, w.blocksY), diff(w.blocksX, w.blocksY), ratio(w.blocksX, w.blocksY);
+        int meanMoved = 0, varMoved = 0;
+        double zMax = 0.0;
+        int zx = 0, zy = 0;
+        const double n = ref.count;
+        for (int by = 0; by < w.blocksY; ++by) {
+            for (int bx = 0; bx < w.blocksX; ++bx) {
+                const double d =
+                    static_cast<double>(w.mean(bx, by)) - static_cast<double>(rMean(bx, by));
+                const double se = std::sqrt((static_cast<double>(w.meanVar(bx, by)) +
+                                             static_cast<double>(rMeanVar(bx, by))) /
+                                            n);
+                const double zz = se > 0.0 ? d / se : (std::fabs(d) > 0.0 ? 1e3 : 0.0);
+                z(bx, by) = static_cast<float>(zz);
+                diff(bx, by) = static_cast<float>(d);
+                if (std::fabs(zz) > kZLimit && std::fabs(d) > kMeanFloor_counts) ++meanMoved;
+                if (std::fabs(zz) > zMax) zMax = std::fabs(zz), zx = bx, zy = by;
+                const double pvRef = rPixVar(bx, by), pv = w.pixVar(bx, by);
+                const double q = pvRef > 0.0 ? pv / pvRef : (pv > 0.0 ? 2.0 : 1.0);
+                ratio(bx, by) = static_cast<float>(q);
+                // Variance estimates from n frames scatter by ~√(2/(n−1)) per pixel, averaged
+                // over 64 pixels: a 25 % move is far outside that for n ≥ 10.
+                if (std::fabs(q - 1.0) > kVarianceTolerance && std::max(pv, pvRef) > 0.25)
+                    ++varMoved;
+            }
+        }
+        const int nb = w.blocksX * w.blocksY;
+        if (meanMoved > 0 || varMoved > 0) {
+            r.passed = false;
+            fs::create_directories(failDir);
+            writeZMap(failDir / (stem + "_z.pgm"), z);
+            sensor::writePfm(failDir / (stem + "_meandiff.pfm"), diff.cview());
+            sensor::writePfm(failDir / (stem + "_varratio.pfm"), ratio.cview());
+        }
+        std::snprintf(
+            line, sizeof line,
+            "  window %zu (frames %d-%d): mean %.3f -> %.3f counts, moved in %d of %d "
+            "blocks (max |z| %.1f at pixels %d,%d); noise variance %.3f -> %.3f counts^2, "
+            "moved in %d blocks\n",
+            i, ref.first, ref.first + ref.count - 1, ref.level, w.level, meanMoved, nb, zMax,
+            zx * kReplayBlock_px, zy * kReplayBlock_px, ref.noise, w.noise, varMoved);
+        rep << line;
+    }
+    if (fs::exists(failDir)) rep << "  error images: " << failDir.string() << "/\n";
+    r.report = "replay " + name + ": " + (r.passed ? "PASS" : "FAIL") + "\n" + rep.str();
+    fs::remove_all(work);
+    return r;
+}
+
+}  // namespace nvs::rt

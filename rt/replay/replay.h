@@ -1,0 +1,51 @@
+#pragma once
+// Deterministic scenario replay with stored expectations (DESIGN §9, STYLE §12–13).
+//
+// A scenario folder holds scenario.toml and, after `--bless`, expected/:
+//   expected/digest.toml       build fingerprint, frame count, SHA-256 of every output frame
+//                              and of the metadata stream
+//   expected/stats.toml        the statistical reference: frame windows, block size, levels
+//   expected/wN_mean.pfm       per block of kBlock×kBlock pixels and window N: mean over the
+//   expected/wN_meanvar.pfm    window of the block's per-frame mean, the variance of that
+//   expected/wN_pixvar.pfm     per-frame block mean, and the mean temporal per-pixel variance
+//
+// `--check` replays the scenario (nvstim run --clock sim, which is bit-exact) and compares:
+//   1. When the build fingerprint (compiler, architecture, build type, libm and FFTW versions)
+//      is the one that blessed, the frames must be bit-identical: any difference fails and
+//      names the frames that moved.
+//   2. Always, the statistics: per block, a Z-test of the window mean,
+//      z = (μ − μ_ref)/√((s²_ref + s²)/n) with s² the variance of the per-frame block mean
+//      (which carries the spatial correlation the MTF gives the noise), and the ratio of the
+//      per-pixel temporal variance. A block fails when |z| > 5 (and the mean moved by more
+//      than half a count) or its noise variance moved by more than 25 %. On another machine
+//      this is the whole check.
+// On failure, z-maps and mean-difference images are written to DIR/check-failures/ and one
+// readable line per moved statistic is printed.
+
+#include <filesystem>
+#include <string>
+
+namespace nvs::rt {
+
+struct ReplayResult {
+    bool passed = false;
+    std::string report;  // human-readable, several lines
+};
+
+inline constexpr int kReplayBlock_px = 8;
+
+// The fingerprint of this build: what must match for digests to be comparable.
+std::string buildFingerprint();
+
+// Runs the scenario in `dir` with `nvstimExe run --clock sim` into a temporary folder and
+// returns the frames' folder. Throws SetupError on a bad folder or a failed run.
+std::filesystem::path replayScenario(const std::filesystem::path& dir,
+                                     const std::filesystem::path& nvstimExe,
+                                     const std::filesystem::path& workDir);
+
+// Replays and writes expected/ (bless), or compares against it (check).
+void blessScenario(const std::filesystem::path& dir, const std::filesystem::path& nvstimExe);
+ReplayResult checkScenario(const std::filesystem::path& dir,
+                           const std::filesystem::path& nvstimExe);
+
+}  // namespace nvs::rt
