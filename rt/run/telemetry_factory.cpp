@@ -2,6 +2,7 @@
 
 #include <cstring>
 
+#include "drivers/v4l2/v4l2.h"
 #include "rt/telemetry/sources.h"
 #include "sim/core/error.h"
 #include "sim/core/paths.h"
@@ -17,8 +18,28 @@ drivers::DbcDatabase loadDbc(Spec& spec) {
 
 }  // namespace
 
-std::unique_ptr<FrameSink> makeDeviceSink(Spec& /*spec*/, const Scenario& /*sc*/,
-                                          const std::string& /*what*/) {
+std::unique_ptr<FrameSink> makeDeviceSink(Spec& spec, const Scenario& sc, const std::string& what) {
+    if (spec.scheme == "v4l2") {
+        // Default format: GREY for ADCs of up to 8 bits, Y16 above (no precision thrown away).
+        drivers::V4l2Format format =
+            sc.bits > 8 ? drivers::V4l2Format::Y16 : drivers::V4l2Format::Grey;
+        if (const auto f = spec.take("format")) {
+            if (!drivers::parseV4l2Format(*f, &format)) {
+                throw SetupError(what + ": format must be GREY, Y16 or YUYV, not '" + *f + "'");
+            }
+        }
+        drivers::V4l2Io io = drivers::V4l2Io::Write;
+        if (const auto m = spec.take("io")) {
+            if (*m == "mmap") {
+                io = drivers::V4l2Io::Mmap;
+            } else if (*m != "write") {
+                throw SetupError(what + ": io must be write or mmap, not '" + *m + "'");
+            }
+        }
+        return std::make_unique<drivers::V4l2Sink>(std::make_unique<drivers::KernelV4l2Ops>(),
+                                                   spec.target, sc.width, sc.height, sc.bits,
+                                                   format, io);
+    }
     return nullptr;
 }
 
