@@ -1,9 +1,168 @@
+// nvstim bench [--json OUT]: times each stage of one frame on this machine, against the budgets
+// the issues set, and prints the distribution of per-iteration times as JSON on stdout
+// (progress on stderr). Single thread, the shipped RIT scene and the PULNiX preset. For
+// finer-grained measurements each module also has a Google Benchmark target (nvs_bench_*).
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <functional>
+#include <string>
+#include <vector>
+
 #include "rt/cli/commands.h"
+#include "sim/astro/ephemeris.h"
+#include "sim/core/error.h"
+#include "sim/core/paths.h"
+#include "sim/core/units.h"
+#include "sim/render/setup.h"
+#include "sim/sensor/camera.h"
+#include "sim/sensor/chain.h"
+#include "sim/sky/night_sky.h"
+#include "sim/sky/sky_model.h"
 
 namespace nvs::cli {
+namespace {
 
-int runBench(const BenchOptions& /*opts*/) {
-    return notImplemented("bench");
+struct BenchResult {
+    std::string name;
+    std::string what;
+    double target_s = 0.0;
+    int iterations = 0;
+    double min_s = 0.0, p50_s = 0.0, p99_s = 0.0, mean_s = 0.0;
+};
+
+// Runs fn until `budget_s` of wall time or `maxIterations`, after one warm-up call.
+BenchResult timeIt(const std::string& name, const std::string& what, double target_s,
+                   double budget_s, int maxIterations, const std::function<void()>& fn) {
+    using Clock = std::chrono::steady_clock;
+    std::fprintf(stderr, "nvstim bench: %s ...\n", name.c_str());
+    fn();
+    std::vector<double> t;
+    const auto start = Clock::now();
+    while (static_cast<int>(t.size()) < maxIterations &&
+           std::chrono::duration<double>(Clock::now() - start).count() < budget_s) {
+        const auto t0 = Clock::now();
+        fn();
+        t.push_back(std::chrono::duration<double>(Clock::now() - t0).count());
+    }
+    std::sort(t.begin(), t.end());
+    BenchResult r{name, what, target_s, static_cast<int>(t.size())};
+    double sum = 0.0;
+    for (double x : t)
+        sum += x;
+    r.min_s = t.front();
+    r.p50_s = t[t.size() / 2];
+    r.p99_s = t[std::min(t.size() - 1, t.size() * 99 / 100)];
+    r.mean_s = sum / static_cast<double>(t.size());
+    return r;
+}
+
+}  // namespace
+
+int runBench(const BenchOptions& opts) {
+    std::vector<BenchResult> results;
+    const auto rit = configDir().parent_path() / "scenarios" / "rit" / "nolight.toml";
+
+    // Ephemeris and sources, one frame.
+    {
+        astro::Site site;
+        site.lat_deg = 43.16856;
+        site.lon_deg = -77.61583;
+        site.height_m = 218.0;
+        const astro::Ephemeris eph(site);
+        const astro::AstroTime t0 =
+            astro::astroTimeFromUtc(astro::parseIsoUtc("1998-09-02T01:00Z"));
+        const sky::MoonSource moon = sky::MoonSource::load();
+        const sky::NightSkyModel night = sky::NightSkyModel::load();
+        Spectrum m, n;
+        long long k = 0;
+        results.push_back(
+            timeIt("ephemeris_sources", "Sun/Moon position, lunar and night-sky spectra", 50e-6,
+                   1.0, 20000, [&] {
+                       const auto s = eph.compute(t0.plusSeconds(static_cast<double>(k++) / 30.0));
+                       moon.spectralIrradianceToa(s.moon, m);
+                       night.radiance(sky::NightSkyScales{}, n);
+                   }));
+    }
+    // Sky terms for one Moon geometry.
+    {
+        const sky::SkyModel model = sky::SkyModel::create(sky::SkyModelConfig{});
+        astro::MoonState moon;
+        moon.alt_rad = 0.6;
+        moon.phaseAngle_rad = 0.3;
+        moon.distanceTopocentric_m = sky::kMoonMeanDistance_m;
+        moon.sunDistance_m = 1.496e11;
+        double z = 0.1, sink = 0.0;
+        results.push_back(timeIt(
+            "sky_lookup", "horizontal terms, sky radiance, night sky, path terms", 20e-6, 1.0,
+            200000, [&] {
+                z = z > 1.4 ? 0.1 : z + 1e-3;
+                const auto h = model.horizontal(0, moon);
+                const auto p = model.table().path(0, 300.0, 2.0, 500.0, 0.3, 0.97);
+                sink += h.total + p.transmittance + model.table().skyRadiance(0, z, 1.0, 0.97) +
+                        model.table().nightSkyRadiance(0, z);
+            }));
+        if (sink < 0.0) std::fprintf(stderr, " ");
+    }
+    // Render the RIT scene, full rate and with coarse lighting tiles.
+    std::string renderNote;
+    if (std::filesystem::exists(rit)) {
+        for (int coarse : {1, 4}) {
+            auto sr = render::ScenarioRenderer::create(rit, coarse);
+            const auto& cam = sr->camera();
+            ImageF pe(sr->scenario().width, sr->scenario().height), band(pe.width(), pe.height());
+            render::SerialExecutor exec;
+            (void)cam;
+            results.push_back(timeIt(coarse == 1 ? "render_full" : "render_coarse4",
+                                     "RIT scene " + std::to_string(pe.width()) + "x" +
+                                         std::to_string(pe.height()) + ", one thread",
+                                     coarse == 1 ? 30e-3 : 8e-3, 4.0, 200, [&] {
+                                         const render::FrameSky sky = sr->prepare(0.0);
+                                         sr->renderer().render(sky, pe.view(), band.view(), exec);
+                                     }));
+        }
+    } else {
+        renderNote = "RIT scenario not found at " + rit.string();
+    }
+    // The camera chain, one field, every stage of the PULNiX preset.
+    {
+        const sensor::CameraParams cam = sensor::loadCamera("pulnix-ag5745ef3");
+        sensor::IiccdChain chain(cam, 1);
+        ImageF lpe(cam.width, cam.height);
+        lpe.fill(1e13f);
+        results.push_back(timeIt("sensor_chain",
+                                 "IICCD chain, one field " + std::to_string(cam.width) + "x" +
+                                     std::to_string(cam.height) + ", one thread",
+                                 6e-3, 4.0, 500, [&] { chain.process(lpe.cview()); }));
+    }
+
+    std::string json = "{\"benchmarks\":[";
+    for (std::size_t i = 0; i < results.size(); ++i) {
+        const BenchResult& r = results[i];
+        char buf[768];
+        std::snprintf(buf, sizeof buf,
+                      "%s{\"name\":\"%s\",\"what\":\"%s\",\"iterations\":%d,\"min_s\":%.4g,"
+                      "\"p50_s\":%.4g,\"p99_s\":%.4g,\"mean_s\":%.4g,\"target_s\":%.4g,"
+                      "\"meets_target\":%s}",
+                      i ? "," : "", r.name.c_str(), r.what.c_str(), r.iterations, r.min_s, r.p50_s,
+                      r.p99_s, r.mean_s, r.target_s, r.p50_s <= r.target_s ? "true" : "false");
+        json += buf;
+        std::fprintf(stderr, "  %-18s p50 %10.3f ms  p99 %10.3f ms  target %8.3f ms  %s\n",
+                     r.name.c_str(), r.p50_s * 1e3, r.p99_s * 1e3, r.target_s * 1e3,
+                     r.p50_s <= r.target_s ? "ok" : "OVER");
+    }
+    json += "]";
+    if (!renderNote.empty()) json += ",\"notes\":[\"" + renderNote + "\"]";
+    json += "}\n";
+    std::fputs(json.c_str(), stdout);
+    if (opts.json) {
+        FILE* f = std::fopen(opts.json->c_str(), "w");
+        if (f == nullptr) throw SetupError("--json: cannot write " + *opts.json);
+        std::fputs(json.c_str(), f);
+        std::fclose(f);
+    }
+    return kExitOk;
 }
 
 }  // namespace nvs::cli
