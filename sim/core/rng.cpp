@@ -155,6 +155,16 @@ constexpr int kLanes = 8;
 
 }  // namespace
 
+// The bulk loops are compiled twice on x86-64: for the SSE2 baseline and for AVX2, chosen at
+// load time by the CPU (GCC function multi-versioning). Both give bit-identical results (the
+// same integer and IEEE single-precision operations, no FMA contraction across versions
+// because -ffp-contract applies to both alike); nothing is required of the build flags.
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+#define NVS_BULK_CLONES __attribute__((target_clones("avx2", "default")))
+#else
+#define NVS_BULK_CLONES
+#endif
+
 void philox4x32Block(const std::uint32_t key[2], const std::uint32_t ctr[4],
                      std::uint32_t out[4]) noexcept {
     std::uint32_t c0 = ctr[0], c1 = ctr[1], c2 = ctr[2], c3 = ctr[3];
@@ -196,12 +206,20 @@ PixelRng::PixelRng(RngKey key, std::uint64_t frame) noexcept
       c2_(static_cast<std::uint32_t>(frame)),
       c3_((key.stream << 16) | static_cast<std::uint32_t>((frame >> 32) & 0xFFFFu)) {}
 
+void PixelRng::block(std::uint32_t y, std::uint32_t plane, std::uint32_t b,
+                     std::uint32_t out[4]) const noexcept {
+    const std::uint32_t ctr[4] = {(plane << 24) + b, y, c2_, c3_};
+    philox4x32Block(key_, ctr, out);
+}
+
 PixelStream PixelRng::pixelStream(std::uint32_t x, std::uint32_t y) const noexcept {
     return PixelStream(key_[0], key_[1], 0x80000000u | ((x & 0x7FFFFFu) << 8), y, c2_, c3_);
 }
 
-void PixelRng::rowWords(std::uint32_t y, std::uint32_t plane, std::uint32_t b0, int nBlocks,
-                        std::uint32_t* __restrict out) const noexcept {
+NVS_BULK_CLONES void PixelRng::rowWords(std::uint32_t y, std::uint32_t plane, std::uint32_t b0,
+                                        int nBlocks, std::uint32_t* __restrict out) const noexcept {
+    // Each round's two 32×32→64 products are formed from 32-bit lanes widened to 64 bits
+    // (one pmuludq per vector), then split back into 32-bit lanes.
     const std::uint32_t base = (plane << 24) + b0;
     for (int b = 0; b < nBlocks; b += kLanes) {
         std::uint32_t c0[kLanes], c1[kLanes], c2[kLanes], c3[kLanes];
@@ -213,15 +231,16 @@ void PixelRng::rowWords(std::uint32_t y, std::uint32_t plane, std::uint32_t b0, 
         }
         std::uint32_t k0 = key_[0], k1 = key_[1];
         for (int r = 0; r < kPhiloxRounds; ++r) {
+            std::uint64_t p0[kLanes], p1[kLanes];
             for (int i = 0; i < kLanes; ++i) {
-                const std::uint64_t p0 = static_cast<std::uint64_t>(kPhiloxM0) * c0[i];
-                const std::uint64_t p1 = static_cast<std::uint64_t>(kPhiloxM1) * c2[i];
-                const std::uint32_t n0 = static_cast<std::uint32_t>(p1 >> 32) ^ c1[i] ^ k0;
-                const std::uint32_t n2 = static_cast<std::uint32_t>(p0 >> 32) ^ c3[i] ^ k1;
-                c1[i] = static_cast<std::uint32_t>(p1);
-                c3[i] = static_cast<std::uint32_t>(p0);
-                c0[i] = n0;
-                c2[i] = n2;
+                p0[i] = static_cast<std::uint64_t>(c0[i]) * kPhiloxM0;
+                p1[i] = static_cast<std::uint64_t>(c2[i]) * kPhiloxM1;
+            }
+            for (int i = 0; i < kLanes; ++i) {
+                c0[i] = static_cast<std::uint32_t>(p1[i] >> 32) ^ c1[i] ^ k0;
+                c2[i] = static_cast<std::uint32_t>(p0[i] >> 32) ^ c3[i] ^ k1;
+                c1[i] = static_cast<std::uint32_t>(p1[i]);
+                c3[i] = static_cast<std::uint32_t>(p0[i]);
             }
             k0 += kPhiloxW0;
             k1 += kPhiloxW1;
@@ -326,7 +345,8 @@ inline float normalCentral(std::uint32_t word) {
 }
 }  // namespace
 
-void normalsFromWords(const std::uint32_t* __restrict words, float* __restrict z, int n) noexcept {
+NVS_BULK_CLONES void normalsFromWords(const std::uint32_t* __restrict words, float* __restrict z,
+                                      int n) noexcept {
     // Pass 1 (vector): every word by the central branch.
     int i = 0;
     for (; i + kChunk <= n; i += kChunk) {

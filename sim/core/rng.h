@@ -105,6 +105,9 @@ class PixelRng {
     // Writes 4·nBlocks words: blocks b0 … b0+nBlocks−1 of row y in `plane`.
     void rowWords(std::uint32_t y, std::uint32_t plane, std::uint32_t b0, int nBlocks,
                   std::uint32_t* out) const noexcept;
+    // Block b of row y alone (the same four words rowWords gives), for sparse use.
+    void block(std::uint32_t y, std::uint32_t plane, std::uint32_t b,
+               std::uint32_t out[4]) const noexcept;
     PixelStream pixelStream(std::uint32_t x, std::uint32_t y) const noexcept;
 
   private:

@@ -22,17 +22,13 @@ double ebiRatePerPixel_pe_s(const CameraParams& c) {
     return current_A_m2 / kElectronCharge_C * c.pixelAreaAtCathode_m2();
 }
 
-// Walks a row in RNG tiles: fn(rng, x) for every x, a fresh KeyedRng per tile.
-template <typename Fn>
-inline void forRowTiles(std::uint64_t seed, std::uint32_t stream, std::uint64_t field, int y,
-                        int width, Fn&& fn) {
-    for (int x0 = 0; x0 < width; x0 += kRngTile_px) {
-        KeyedRng rng(RngKey{seed, stream}, field, static_cast<std::uint32_t>(x0 / kRngTile_px),
-                     static_cast<std::uint32_t>(y));
-        const int x1 = std::min(width, x0 + kRngTile_px);
-        for (int x = x0; x < x1; ++x)
-            fn(rng, x);
-    }
+// Row scratch length: the width rounded up to whole vector chunks and Philox blocks.
+inline std::size_t paddedRow(int width) {
+    return static_cast<std::size_t>((width + kRowPad_px - 1) / kRowPad_px * kRowPad_px);
+}
+// Philox blocks that cover `n` words.
+inline int blocksFor(int n) {
+    return (n + 3) / 4;
 }
 
 }  // namespace
@@ -99,26 +95,34 @@ double GateStage::gate_s(double period_s, double autogateScale) const noexcept {
 // ---- 3. Photocathode ------------------------------------------------------------------------
 
 PhotocathodeStage::PhotocathodeStage(const CameraParams& c, std::uint64_t seed)
-    : noise_(c.shot_noise), ebi_pe_s_(ebiRatePerPixel_pe_s(c)), seed_(seed) {}
+    : noise_(c.shot_noise),
+      ebi_pe_s_(ebiRatePerPixel_pe_s(c)),
+      seed_(seed),
+      mean_(new float[paddedRow(c.width)]),
+      words_(new std::uint32_t[paddedRow(c.width)]) {}
 
 void PhotocathodeStage::apply(ImageView<const float> rate, ImageView<float> pe,
-                              FieldContext& ctx) const noexcept {
+                              FieldContext& ctx) noexcept {
     const float t = static_cast<float>(ctx.gate_s);
     const float ebi = static_cast<float>(ebi_pe_s_);
-    ctx.cathodeRate_pe_s += ebi_pe_s_ * rate.width() * rate.height();
+    const int w = rate.width();
+    ctx.cathodeRate_pe_s += ebi_pe_s_ * w * rate.height();
+    const PixelRng rng(seed_, RngStream::Photocathode, ctx.field);
+    float* __restrict mean = mean_.get();
     for (int y = 0; y < rate.height(); ++y) {
-        const float* r = rate.row(y);
-        float* out = pe.row(y);
+        const float* __restrict r = rate.row(y);
+        float* __restrict out = pe.row(y);
         if (!noise_) {
-            for (int x = 0; x < rate.width(); ++x)
+            for (int x = 0; x < w; ++x)
                 out[x] = (r[x] + ebi) * t;
             continue;
         }
-        forRowTiles(seed_, static_cast<std::uint32_t>(RngStream::Photocathode), ctx.field, y,
-                    rate.width(), [&](KeyedRng& rng, int x) {
-                        const double mean = static_cast<double>((r[x] + ebi) * t);
-                        out[x] = static_cast<float>(rng.poisson(mean));
-                    });
+        // One word per pixel; Poisson by the exact row sampler (zeros settled in a vector
+        // pass, the rest by inversion or PTRS).
+        for (int x = 0; x < w; ++x)
+            mean[x] = (r[x] + ebi) * t;
+        rng.rowWords(static_cast<std::uint32_t>(y), 0, 0, blocksFor(w), words_.get());
+        poissonRow(mean, words_.get(), out, w, rng, 0, static_cast<std::uint32_t>(y));
     }
 }
 
@@ -141,30 +145,78 @@ McpStage::McpStage(const CameraParams& c, std::uint64_t seed)
     : enabled_(c.mcp_enabled),
       noise_(c.mcp_noise && c.mcp_noise_factor > 1.0 + 1e-9),
       k_(c.mcp_noise_factor > 1.0 + 1e-9 ? 1.0 / (c.mcp_noise_factor - 1.0) : 0.0),
-      seed_(seed) {}
+      seed_(seed),
+      words_(new std::uint32_t[2 * paddedRow(c.width)]) {}
 
-void McpStage::apply(ImageView<float> pe, FieldContext& ctx) const noexcept {
+void McpStage::apply(ImageView<float> pe, FieldContext& ctx) noexcept {
     const double g = ctx.mcpGain;
+    const int w = pe.width();
     double total = 0.0;
+    const PixelRng rng(seed_, RngStream::McpGain, ctx.field);
+    std::uint32_t* wz = words_.get();
+    // Marsaglia–Tsang constants for the last shape seen (runs of equal counts are common).
+    double lastShape = -1.0, d = 0.0, c = 0.0;
+    const double theta = k_ > 0.0 ? g / k_ : 0.0;
     for (int y = 0; y < pe.height(); ++y) {
-        float* v = pe.row(y);
-        double rowSum = 0.0;
+        float* __restrict v = pe.row(y);
         if (!noise_) {
             const float gf = static_cast<float>(g);
-            for (int x = 0; x < pe.width(); ++x) {
+            float rowSum = 0.0f;
+            for (int x = 0; x < w; ++x) {
                 v[x] *= gf;
-                rowSum += static_cast<double>(v[x]);
+                rowSum += v[x];
             }
-        } else {
-            // The gain of one electron has mean G and variance (F − 1)G²: a Gamma(k, G/k)
-            // with k = 1/(F − 1). N independent ones sum to Gamma(N·k, G/k) exactly.
-            forRowTiles(seed_, static_cast<std::uint32_t>(RngStream::McpGain), ctx.field, y,
-                        pe.width(), [&](KeyedRng& rng, int x) {
-                            const double n = static_cast<double>(v[x]);
-                            const double e = n > 0.0 ? rng.gamma(n * k_, g / k_) : 0.0;
-                            v[x] = static_cast<float>(e);
-                            rowSum += e;
-                        });
+            total += static_cast<double>(rowSum);
+            continue;
+        }
+        // The gain of one electron has mean G and variance (F − 1)G²: a Gamma(k, G/k) with
+        // k = 1/(F − 1). N independent ones sum to Gamma(N·k, G/k) exactly. Pixels with
+        // N = 0 draw nothing; pixel x takes words 2x (normal) and 2x + 1 (uniform) of its row
+        // for the first Marsaglia–Tsang attempt, its pixel stream for any further one. The
+        // words of pixel x are block x/2 of the row: made for the whole row when many pixels
+        // need them, one block per pixel when few do; the same words either way.
+        int active = 0;
+        for (int x = 0; x < w; ++x)
+            active += v[x] > 0.0f ? 1 : 0;
+        if (active == 0) continue;
+        const std::uint32_t yy = static_cast<std::uint32_t>(y);
+        const bool wholeRow = active * 8 > w;
+        if (wholeRow) rng.rowWords(yy, 0, 0, blocksFor(2 * w), wz);
+        double rowSum = 0.0;
+        for (int x = 0; x < w; ++x) {
+            const double n = static_cast<double>(v[x]);
+            if (!(n > 0.0)) continue;
+            std::uint32_t block[4];
+            const std::uint32_t* wx = nullptr;
+            if (wholeRow) {
+                wx = wz + 2 * x;
+            } else {
+                rng.block(yy, 0, static_cast<std::uint32_t>(x / 2), block);
+                wx = block + 2 * (x % 2);
+            }
+            const double shape = n * k_;
+            double e = 0.0;
+            if (shape >= 1.0) {
+                if (shape != lastShape) {
+                    lastShape = shape;
+                    d = shape - 1.0 / 3.0;
+                    c = 1.0 / std::sqrt(9.0 * d);
+                }
+                // First attempt inline (accepted by the squeeze ~95 % of the time).
+                const double z = static_cast<double>(normalFromWord(wx[0]));
+                const double u = uniformFromWord(wx[1]);
+                double t = 1.0 + c * z;
+                t = t * t * t;
+                if (t > 0.0 && u < 1.0 - 0.0331 * (z * z) * (z * z)) {
+                    e = theta * d * t;
+                }
+            }
+            if (e == 0.0) {
+                PixelStream more = rng.pixelStream(static_cast<std::uint32_t>(x), yy);
+                e = gammaFromWords(shape, theta, wx[0], wx[1], more);
+            }
+            v[x] = static_cast<float>(e);
+            rowSum += e;
         }
         total += rowSum;
     }
@@ -226,19 +278,66 @@ void PhosphorStage::apply(ImageView<float> s, const FieldContext& ctx) noexcept 
         emit[m] = static_cast<float>(1.0 - d);
         ++m;
     }
+    switch (m) {
+        case 0:
+            applyRows<0>(s, now, keep, decay, emit, idx);
+            break;
+        case 1:
+            applyRows<1>(s, now, keep, decay, emit, idx);
+            break;
+        case 2:
+            applyRows<2>(s, now, keep, decay, emit, idx);
+            break;
+        case 3:
+            applyRows<3>(s, now, keep, decay, emit, idx);
+            break;
+        default:
+            applyRows<4>(s, now, keep, decay, emit, idx);
+            break;
+    }
+}
+
+// The number of stored components is a template parameter so that the per-pixel loop has a
+// fixed shape and vectorises.
+template <int M>
+void PhosphorStage::applyRows(ImageView<float> s, float now, const float* keep, const float* decay,
+                              const float* emit, const int* idx) noexcept {
     const float eta = static_cast<float>(eta_);
+    float k[M > 0 ? M : 1], dc[M > 0 ? M : 1], em[M > 0 ? M : 1];
+    for (int j = 0; j < M; ++j) {
+        k[j] = keep[j] * eta;
+        dc[j] = decay[j];
+        em[j] = emit[j];
+    }
+    const float nowEta = now * eta;
+    const int w = s.width();
     for (int y = 0; y < s.height(); ++y) {
-        float* v = s.row(y);
-        float* st[4] = {};
-        for (int j = 0; j < m; ++j)
+        float* __restrict v = s.row(y);
+        float* __restrict st[M > 0 ? M : 1];
+        for (int j = 0; j < M; ++j)
             st[j] = state_[idx[j]].row(y);
-        for (int x = 0; x < s.width(); ++x) {
-            const float e = v[x] * eta;
-            float out = e * now;
-            for (int j = 0; j < m; ++j) {
-                const float stored = st[j][x];
-                out += stored * emit[j];
-                st[j][x] = stored * decay[j] + e * keep[j];
+        for (int x = 0; x < w; ++x) {
+            const float e = v[x];
+            float out = e * nowEta;
+            if constexpr (M > 0) {
+                const float s0 = st[0][x];
+                out += s0 * em[0];
+                st[0][x] = s0 * dc[0] + e * k[0];
+            }
+            if constexpr (M > 1) {
+                const float s1 = st[1][x];
+                out += s1 * em[1];
+                st[1][x] = s1 * dc[1] + e * k[1];
+            }
+            if constexpr (M > 2) {
+                const float s2 = st[2][x];
+                out += s2 * em[2];
+                st[2][x] = s2 * dc[2] + e * k[2];
+            }
+            if constexpr (M > 3) {
+                const float s3 = st[3][x];
+                out += s3 * em[3];
+                st[3][x] = s3 * dc[3] + e * k[3];
             }
             v[x] = out;
         }
@@ -263,15 +362,23 @@ struct BlurStage::Fft {
 };
 
 namespace {
-// Smallest n ≥ m whose prime factors are 2, 3, 5, 7 (fast FFTW sizes).
+// FFT length for an image dimension m with a mirrored margin of at least kMinMargin px on
+// each side: the first multiple of 32 with prime factors 2, 3, 5, 7 within 64 px of the
+// minimum (FFTW is fastest on these: 800 × 512 for 768 × 494 takes 1.7 ms against 2.5 ms
+// for 800 × 540), else the first 7-smooth length.
+constexpr int kMinMargin = 8;
+bool smooth7(int n) {
+    for (int p : {2, 3, 5, 7})
+        while (n % p == 0)
+            n /= p;
+    return n == 1;
+}
 int fastSize(int m) {
-    for (int n = std::max(m, 1);; ++n) {
-        int r = n;
-        for (int p : {2, 3, 5, 7})
-            while (r % p == 0)
-                r /= p;
-        if (r == 1) return n;
-    }
+    const int lo = std::max(m + 2 * kMinMargin, 1);
+    for (int n = (lo + 31) / 32 * 32; n <= lo + 64; n += 32)
+        if (smooth7(n)) return n;
+    for (int n = lo;; ++n)
+        if (smooth7(n)) return n;
 }
 // Mirror index for padding: positions past the right edge mirror it; positions near the
 // (periodic) end mirror the left edge, the two mirrors meeting half-way.
@@ -287,11 +394,10 @@ inline int padIndex(int i, int n, int np) {
 BlurStage::BlurStage(const CameraParams& c, const ChainOptions& opt)
     : enabled_(c.mtf_enabled), w_(c.width), h_(c.height) {
     if (!enabled_) return;
-    // A margin of 16 px mirrored on each side keeps the periodic FFT from wrapping the
-    // opposite edge into the image (the PSF carries < 1e-3 beyond 16 px for the presets).
-    constexpr int kMargin = 16;
-    wp_ = fastSize(w_ + 2 * kMargin);
-    hp_ = fastSize(h_ + 2 * kMargin);
+    // A margin of at least 8 px mirrored on each side keeps the periodic FFT from wrapping
+    // the opposite edge into the image (for 768 × 494: 16 px left/right, 9 px top/bottom).
+    wp_ = fastSize(w_);
+    hp_ = fastSize(h_);
     fft_ = std::make_unique<Fft>();
     const int wc = wp_ / 2 + 1;
     const std::size_t nr = static_cast<std::size_t>(wp_) * static_cast<std::size_t>(hp_);
@@ -355,16 +461,22 @@ CcdStage::CcdStage(const CameraParams& c, std::uint64_t seed)
     : cam_(&c),
       seed_(seed),
       line_(new float[static_cast<std::size_t>(2 * std::max(c.width, c.height) + 2)]),
-      colSum_(new double[static_cast<std::size_t>(c.width)]) {
+      colSum_(new float[paddedRow(c.width)]),
+      colMax_(new float[paddedRow(c.width)]),
+      words_(new std::uint32_t[paddedRow(c.width)]),
+      z_(new float[paddedRow(c.width)]) {
+    if (c.full_well_e > 0.0 && c.bloom == BloomDirection::Vertical)
+        upCarry_ = ImageF(c.width, c.height);
     if (c.prnu_rel > 0.0) {
         // Fixed pattern: one draw per cell, keyed by field 0 so it is the same every field.
         prnu_ = ImageF(c.width, c.height);
+        const PixelRng rng(seed, RngStream::FixedPattern, 0);
         for (int y = 0; y < c.height; ++y) {
             float* p = prnu_.row(y);
-            forRowTiles(seed, static_cast<std::uint32_t>(RngStream::FixedPattern), 0, y, c.width,
-                        [&](KeyedRng& rng, int x) {
-                            p[x] = static_cast<float>(1.0 + c.prnu_rel * rng.gaussian());
-                        });
+            rng.rowWords(static_cast<std::uint32_t>(y), 0, 0, blocksFor(c.width), words_.get());
+            normalsFromWords(words_.get(), z_.get(), c.width);
+            for (int x = 0; x < c.width; ++x)
+                p[x] = static_cast<float>(1.0 + c.prnu_rel * static_cast<double>(z_[x]));
         }
     }
     const double video_e = c.video_noise_dc / c.video_gain_dc_per_e;
@@ -420,32 +532,93 @@ std::int64_t CcdStage::bloomLine(float* v, int n, std::ptrdiff_t step, float fw,
     return sat;
 }
 
+std::int64_t CcdStage::bloomColumns(ImageView<float> e, float fw, const float* cmax) noexcept {
+    // bloomLine's sweeps for every column at once, row by row (cache-friendly, vector code),
+    // over the span of columns that reach full well: down the columns each cell over full
+    // well keeps fw, sends half its excess down (filling cells below to fw on the way) and
+    // stores the other half; then up the columns the stored halves fill the cells above.
+    // Columns below full well carry nothing and are unchanged, as in bloomLine.
+    const int w = e.width();
+    const int h = e.height();
+    int x0 = 0, x1 = w;
+    while (x0 < w && cmax[x0] < fw)
+        ++x0;
+    while (x1 > x0 && cmax[x1 - 1] < fw)
+        --x1;
+    if (x0 >= x1) return 0;
+    const int n = x1 - x0;
+    float* __restrict moving = line_.get();
+    std::fill(moving, moving + n, 0.0f);
+    for (int y = 0; y < h; ++y) {
+        float* __restrict v = e.row(y) + x0;
+        float* __restrict up = upCarry_.row(y) + x0;
+        for (int i = 0; i < n; ++i) {
+            const float excess = std::max(v[i] - fw, 0.0f);
+            const float take = std::min(std::max(fw - v[i], 0.0f), moving[i]);
+            v[i] = std::min(v[i], fw) + take;
+            moving[i] += 0.5f * excess - take;
+            up[i] = 0.5f * excess;
+        }
+    }
+    std::fill(moving, moving + n, 0.0f);
+    std::int64_t sat = 0;
+    for (int y = h - 1; y >= 0; --y) {
+        float* __restrict v = e.row(y) + x0;
+        const float* __restrict up = upCarry_.row(y) + x0;
+        int rowSat = 0;
+        for (int i = 0; i < n; ++i) {
+            const float take = std::min(std::max(fw - v[i], 0.0f), moving[i]);
+            v[i] += take;
+            moving[i] += up[i] - take;
+            rowSat += v[i] >= fw ? 1 : 0;
+        }
+        sat += rowSat;
+    }
+    return sat;
+}
+
 std::int64_t CcdStage::apply(ImageView<float> e, const FieldContext& ctx) noexcept {
     const CameraParams& c = *cam_;
     const int w = e.width();
     const int h = e.height();
     const float dark = static_cast<float>(c.dark_e_s * ctx.period_s);
-    if (!prnu_.empty() || dark > 0.0f) {
-        for (int y = 0; y < h; ++y) {
-            float* v = e.row(y);
-            const float* p = prnu_.empty() ? nullptr : prnu_.row(y);
+    const bool fullWell = c.full_well_e > 0.0;
+    const float fw = static_cast<float>(c.full_well_e);
+    // Pass 1: fixed pattern and dark charge, and the largest charge of each column (which
+    // columns need the blooming sweep).
+    float* __restrict cmax = colMax_.get();
+    std::fill(cmax, cmax + w, 0.0f);
+    const bool prnu = !prnu_.empty();
+    for (int y = 0; y < h; ++y) {
+        float* __restrict v = e.row(y);
+        if (prnu) {
+            const float* __restrict p = prnu_.row(y);
             for (int x = 0; x < w; ++x)
-                v[x] = (p ? v[x] * p[x] : v[x]) + dark;
+                v[x] = v[x] * p[x] + dark;
+        } else if (dark > 0.0f) {
+            for (int x = 0; x < w; ++x)
+                v[x] += dark;
+        }
+        if (fullWell) {
+            for (int x = 0; x < w; ++x)
+                cmax[x] = std::max(cmax[x], v[x]);
         }
     }
     std::int64_t saturated = 0;
-    if (c.full_well_e > 0.0) {
-        const float fw = static_cast<float>(c.full_well_e);
+    if (fullWell) {
         float* carry = line_.get();
         if (c.bloom == BloomDirection::Vertical) {
-            for (int x = 0; x < w; ++x)
-                saturated += bloomLine(e.row(0) + x, h, e.stride_px(), fw, carry);
-        } else if (c.bloom == BloomDirection::Horizontal) {
-            for (int y = 0; y < h; ++y)
-                saturated += bloomLine(e.row(y), w, 1, fw, carry);
+            saturated += bloomColumns(e, fw, cmax);
         } else {
-            for (int y = 0; y < h; ++y) {
+            bool any = false;
+            for (int x = 0; x < w; ++x)
+                any = any || cmax[x] >= fw;
+            for (int y = 0; any && y < h; ++y) {
                 float* v = e.row(y);
+                if (c.bloom == BloomDirection::Horizontal) {
+                    saturated += bloomLine(v, w, 1, fw, carry);
+                    continue;
+                }
                 for (int x = 0; x < w; ++x) {
                     if (v[x] >= fw) {
                         v[x] = fw;
@@ -455,32 +628,52 @@ std::int64_t CcdStage::apply(ImageView<float> e, const FieldContext& ctx) noexce
             }
         }
     }
-    if (c.smear_rel > 0.0) {
-        // Interline smear: light leaking into the vertical register while the column is
-        // clocked out adds a fraction of the column's mean charge to every cell of it.
-        double* cs = colSum_.get();
-        std::fill(cs, cs + w, 0.0);
+    // Interline smear: light leaking into the vertical register while the column is clocked
+    // out adds a fraction of the column's mean charge to every cell of it.
+    const bool smear = c.smear_rel > 0.0;
+    float* __restrict cs = colSum_.get();
+    if (smear) {
+        std::fill(cs, cs + w, 0.0f);
         for (int y = 0; y < h; ++y) {
-            const float* v = e.row(y);
+            const float* __restrict v = e.row(y);
             for (int x = 0; x < w; ++x)
-                cs[x] += static_cast<double>(v[x]);
+                cs[x] += v[x];
         }
-        for (int y = 0; y < h; ++y) {
-            float* v = e.row(y);
-            for (int x = 0; x < w; ++x)
-                v[x] += static_cast<float>(c.smear_rel * cs[x] / h);
-        }
+        const float k = static_cast<float>(c.smear_rel / h);
+        for (int x = 0; x < w; ++x)
+            cs[x] *= k;
     }
     // Read noise, the dark charge's shot noise, and the video pre-amplifier noise referred
-    // back to electrons, all additive and Gaussian, in one draw per cell.
+    // back to electrons, all additive and Gaussian, in one draw per cell (one word per cell,
+    // inverse-CDF normals), in the same pass as the smear.
     const double darkVar = static_cast<double>(dark);
-    const double sigma = std::sqrt(noiseSigma_e_ * noiseSigma_e_ + darkVar);
-    if (sigma > 0.0) {
-        for (int y = 0; y < h; ++y) {
-            float* v = e.row(y);
-            forRowTiles(
-                seed_, static_cast<std::uint32_t>(RngStream::ReadNoise), ctx.field, y, w,
-                [&](KeyedRng& rng, int x) { v[x] += static_cast<float>(sigma * rng.gaussian()); });
+    const float sigma = static_cast<float>(std::sqrt(noiseSigma_e_ * noiseSigma_e_ + darkVar));
+    if (!(sigma > 0.0f) && !smear) return saturated;
+    const PixelRng rng(seed_, RngStream::ReadNoise, ctx.field);
+    float* __restrict z = z_.get();
+    if (!(sigma > 0.0f)) std::fill(z, z + w, 0.0f);
+    // Read noise belongs to the rows read out: in field mode only this field's lines.
+    const int readY0 = c.scan == ScanMode::Field ? static_cast<int>(ctx.field & 1u) : 0;
+    const int readDy = c.scan == ScanMode::Field ? 2 : 1;
+    for (int y = 0; y < h; ++y) {
+        float* __restrict v = e.row(y);
+        const bool read = y >= readY0 && (y - readY0) % readDy == 0;
+        if (!read && !smear) continue;
+        if (!read) {
+            for (int x = 0; x < w; ++x)
+                v[x] += cs[x];
+            continue;
+        }
+        if (sigma > 0.0f) {
+            rng.rowWords(static_cast<std::uint32_t>(y), 0, 0, blocksFor(w), words_.get());
+            normalsFromWords(words_.get(), z, w);
+        }
+        if (smear) {
+            for (int x = 0; x < w; ++x)
+                v[x] += cs[x] + sigma * z[x];
+        } else {
+            for (int x = 0; x < w; ++x)
+                v[x] += sigma * z[x];
         }
     }
     return saturated;
@@ -488,7 +681,34 @@ std::int64_t CcdStage::apply(ImageView<float> e, const FieldContext& ctx) noexce
 
 // ---- 9. Video -------------------------------------------------------------------------------
 
-VideoStage::VideoStage(const CameraParams& c) : cam_(&c), maxCount_((1 << c.adc_bits) - 1) {}
+VideoStage::VideoStage(const CameraParams& c) : cam_(&c), maxCount_((1 << c.adc_bits) - 1) {
+    gamma_ = std::fabs(c.gamma - 1.0) > 1e-9;
+    if (!gamma_) return;
+    // Output for a signal s > 0 (in DC before the offset): round(span·min(s/span, 1)^γ +
+    // offset), clamped to [0, max]. It steps up by one at s_k = span·((k − ½ − offset)/span)^(1/γ)
+    // for each level k above round(offset); thr_ holds those steps that lie in (0, span].
+    const double maxc = maxCount_;
+    const double offset = c.video_offset_dc;
+    const double span = std::max(maxc - offset, 1.0);
+    const double top = std::clamp(std::nearbyint(span + offset), 0.0, maxc);
+    const double bottom = std::clamp(std::nearbyint(offset), 0.0, maxc);
+    for (double k = bottom + 1.0; k <= top; k += 1.0) {
+        const double r = (k - 0.5 - offset) / span;
+        thr_.push_back(r <= 0.0 ? 0.0f : static_cast<float>(span * std::pow(r, 1.0 / c.gamma)));
+    }
+    // A grid of 16 cells per level: the search from lut_ takes one step or none.
+    const int cells = 16 * static_cast<int>(thr_.size() + 1);
+    lutScale_ = static_cast<float>(cells / span);
+    lut_.resize(static_cast<std::size_t>(cells) + 1);
+    std::size_t j = 0;
+    for (int i = 0; i <= cells; ++i) {
+        const float s = static_cast<float>(i) / lutScale_;
+        while (j < thr_.size() && thr_[j] <= s)
+            ++j;
+        lut_[static_cast<std::size_t>(i)] = static_cast<std::uint16_t>(j);
+    }
+    thr_.push_back(3.0e38f);  // sentinel
+}
 
 double VideoStage::apply(ImageView<const float> e, std::uint64_t field, ImageView<float> counts,
                          ImageView<std::uint16_t> video) const noexcept {
@@ -496,31 +716,43 @@ double VideoStage::apply(ImageView<const float> e, std::uint64_t field, ImageVie
     const float gain = static_cast<float>(c.video_gain_dc_per_e);
     const float offset = static_cast<float>(c.video_offset_dc);
     const float maxc = static_cast<float>(maxCount_);
-    const bool gamma = std::fabs(c.gamma - 1.0) > 1e-9;
-    const float span = std::max(maxc - offset, 1.0f);
+    const float bottom = std::clamp(std::nearbyint(offset), 0.0f, maxc);
     const int parity = static_cast<int>(field & 1u);
     const int y0 = c.scan == ScanMode::Field ? parity : 0;
     const int dy = c.scan == ScanMode::Field ? 2 : 1;
+    const int w = e.width();
+    const int cells = static_cast<int>(lut_.size()) - 1;
     double sum = 0.0;
     std::int64_t n = 0;
     for (int y = y0; y < e.height(); y += dy) {
-        const float* s = e.row(y);
-        float* o = counts.row(y);
-        std::uint16_t* v = video.row(y);
-        float rowSum = 0.0f;
-        for (int x = 0; x < e.width(); ++x) {
-            float sig = s[x] * gain;
-            if (gamma && sig > 0.0f) {
-                sig = span * std::pow(std::min(sig / span, 1.0f), static_cast<float>(c.gamma));
+        const float* __restrict s = e.row(y);
+        float* __restrict o = counts.row(y);
+        std::uint16_t* __restrict v = video.row(y);
+        // Linear: round to nearest even by the 1.5·2²³ trick (exact for |x| < 2²²; the
+        // value is clamped to [−1, max + 1] first), then clamp to the ADC range.
+        for (int x = 0; x < w; ++x) {
+            float dc = std::clamp(s[x] * gain + offset, -1.0f, maxc + 1.0f);
+            dc = (dc + 0x1.8p23f) - 0x1.8p23f;
+            o[x] = std::clamp(dc, 0.0f, maxc);
+        }
+        if (gamma_) {
+            for (int x = 0; x < w; ++x) {
+                const float sig = s[x] * gain;
+                if (!(sig > 0.0f)) continue;
+                const int cell = std::min(static_cast<int>(sig * lutScale_), cells);
+                std::size_t j = lut_[static_cast<std::size_t>(cell)];
+                while (thr_[j] <= sig)
+                    ++j;
+                o[x] = std::min(bottom + static_cast<float>(j), maxc);
             }
-            float dc = std::nearbyint(sig + offset);
-            dc = std::clamp(dc, 0.0f, maxc);
-            o[x] = dc;
-            v[x] = static_cast<std::uint16_t>(dc);
-            rowSum += dc;
+        }
+        float rowSum = 0.0f;
+        for (int x = 0; x < w; ++x) {
+            v[x] = static_cast<std::uint16_t>(static_cast<std::int32_t>(o[x]));
+            rowSum += o[x];
         }
         sum += static_cast<double>(rowSum);
-        n += e.width();
+        n += w;
     }
     return n > 0 ? sum / static_cast<double>(n) : 0.0;
 }

@@ -5,9 +5,10 @@
 //
 // Two phases. The constructor validates the preset, builds every stage and allocates every
 // buffer (FFTW plans included). process() allocates nothing and throws nothing; it is noexcept.
-// Randomness comes only from KeyedRng keyed by (seed, stream, field, tile, y), where a tile is
-// kRngTile_px pixels of one row: the draws of a pixel depend on nothing but that key and its
-// place in the tile, so any threading or tiling that keeps tiles whole gives identical output.
+// Randomness comes only from PixelRng (sim/core/rng.h) keyed by (seed, stream, field): pixel
+// (x, y) draws its words x·W … x·W+W−1 of row y (W words per pixel per plane) and, if a
+// sampler needs more, its own pixel stream. So the noise of a pixel is a pure function of
+// (seed, stream, field, x, y) and of its own mean: identical under any threading or tiling.
 //
 // Stage order, each a class below, each skipped entirely when the preset turns it off:
 //   1 Optics  2 Gate  3 Photocathode  4 BSP  5 MCP (+ABC)  6 Phosphor  7 Blur (MTF)
@@ -16,13 +17,15 @@
 
 #include <cstdint>
 #include <memory>
+#include <vector>
 
 #include "sim/core/image.h"
 #include "sim/sensor/camera.h"
 
 namespace nvs::sensor {
 
-inline constexpr int kRngTile_px = 32;
+// Row scratch is rounded up to whole Philox blocks and vector chunks.
+inline constexpr int kRowPad_px = 32;
 
 // What one call did: the state of the controls and the observables a driver reports.
 struct FieldInfo {
@@ -86,13 +89,15 @@ class PhotocathodeStage {
   public:
     PhotocathodeStage(const CameraParams& cam, std::uint64_t seed);
     // pe = Poisson((rate + ebi)·t_gate), or its mean when shot noise is off.
-    void apply(ImageView<const float> rate, ImageView<float> pe, FieldContext& ctx) const noexcept;
+    void apply(ImageView<const float> rate, ImageView<float> pe, FieldContext& ctx) noexcept;
     double ebiRate_pe_s() const { return ebi_pe_s_; }
 
   private:
     bool noise_;
     double ebi_pe_s_;  // per pixel
     std::uint64_t seed_;
+    std::unique_ptr<float[]> mean_;           // one row of means
+    std::unique_ptr<std::uint32_t[]> words_;  // one row of words
 };
 
 // ---- 4. Bright-source protection ------------------------------------------------------------
@@ -115,13 +120,14 @@ class McpStage {
     McpStage(const CameraParams& cam, std::uint64_t seed);
     bool enabled() const { return enabled_; }
     // electrons = Σ of N single-electron gains ~ Gamma(N·k, G/k), k = 1/(F − 1).
-    void apply(ImageView<float> pe, FieldContext& ctx) const noexcept;
+    void apply(ImageView<float> pe, FieldContext& ctx) noexcept;
 
   private:
     bool enabled_;
     bool noise_;
     double k_;  // 1/(F − 1)
     std::uint64_t seed_;
+    std::unique_ptr<std::uint32_t[]> words_;  // one row of words, two per pixel
 };
 
 // ---- 6. Phosphor ----------------------------------------------------------------------------
@@ -144,6 +150,9 @@ class PhosphorStage {
     double weight_[4] = {};
     bool stored_[4] = {};  // components whose afterglow outlives a period
     ImageF state_[4];      // stored energy per component, in CCD electrons
+    template <int M>
+    void applyRows(ImageView<float> s, float now, const float* keep, const float* decay,
+                   const float* emit, const int* idx) noexcept;
 };
 
 // ---- 7. Blur (MTF) --------------------------------------------------------------------------
@@ -178,11 +187,16 @@ class CcdStage {
                                   float* carryBuf) noexcept;
 
   private:
+    std::int64_t bloomColumns(ImageView<float> e, float fw, const float* colMax) noexcept;
     const CameraParams* cam_;
     std::uint64_t seed_;
+    ImageF upCarry_;                 // vertical blooming: charge bound up the column
     ImageF prnu_;                    // 1 + fixed-pattern gain deviation, empty if off
     std::unique_ptr<float[]> line_;  // scratch for blooming (max(w, h) floats)
-    std::unique_ptr<double[]> colSum_;
+    std::unique_ptr<float[]> colSum_;
+    std::unique_ptr<float[]> colMax_;
+    std::unique_ptr<std::uint32_t[]> words_;  // one row of words
+    std::unique_ptr<float[]> z_;              // one row of normals
     double noiseSigma_e_;  // read noise ⊕ video pre-amplifier noise referred to electrons
 };
 
@@ -198,6 +212,14 @@ class VideoStage {
   private:
     const CameraParams* cam_;
     int maxCount_;
+    // Gamma ≠ 1: the output count for a signal is the number of thresholds at or below it,
+    // thr_[k] = the signal at which the rounded output reaches k + 1 (exact rounding of
+    // span·(s/span)^γ + offset, computed once in double). lut_ starts the search from a
+    // uniform grid over [0, span].
+    bool gamma_ = false;
+    std::vector<float> thr_;
+    std::vector<std::uint16_t> lut_;
+    float lutScale_ = 0.0f;
 };
 
 // ---- 10. AGC loop ---------------------------------------------------------------------------

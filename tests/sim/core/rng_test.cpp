@@ -283,6 +283,12 @@ TEST(PixelRng, RowWordsAreBlocksOfTheDocumentedCounterWhateverTheChunking) {
         for (int j = 0; j < 4; ++j)
             ASSERT_EQ(all[4 * b + static_cast<std::uint32_t>(j)], ref[j]) << b;
     }
+    for (std::uint32_t b = 0; b < 50; b += 7) {
+        std::uint32_t one[4];
+        rng.block(9, 1, b, one);
+        for (std::uint32_t j = 0; j < 4; ++j)
+            ASSERT_EQ(one[j], all[4 * b + j]) << b;
+    }
     // Another plane, row, frame or stream gives other words; a pixel stream meets no row word.
     std::vector<std::uint32_t> other(4 * 50);
     rng.rowWords(9, 0, 0, 50, other.data());

@@ -27,7 +27,9 @@ CameraParams transferCamera(double readNoise_e, double F) {
                                                  {"ccd.full_well_e", "0"},
                                                  {"optics.cos4", "false"},
                                                  {"photocathode.ebi_lm_cm2", "0"},
-                                                 {"video.adc_bits", "16"}});
+                                                 {"video.adc_bits", "16"},
+                                                 // every row read out each call
+                                                 {"video.scan", "frame"}});
     c.read_noise_e = readNoise_e;
     c.mcp_noise_factor = F;
     return c;
