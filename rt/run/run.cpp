@@ -9,6 +9,7 @@
 #include <thread>
 
 #include "drivers/sinks/sinks.h"
+#include "rt/camera_stage/camera_stage.h"
 #include "rt/clock/threads.h"
 #include "rt/run/telemetry_factory.h"
 #include "rt/synth/synth.h"
@@ -198,7 +199,15 @@ int runScenario(const RunRequest& req, std::FILE* status) {
     if (toStdout > 1) throw SetupError("--output: only one output can go to stdout");
     std::unique_ptr<PlatformSource> platform = makePlatformSource(req.telemetry, sc, req.clock);
     TestPatternRender render(sc.testPattern.radianceMax_W_m2_sr, sc.testPattern.targetSpeed_px_s);
-    LinearCamera camera(sc.testPattern.fullScale_W_m2_sr, sc.bits);
+    std::unique_ptr<CameraStage> camera;
+    if (sc.camera.enabled) {
+        camera = std::make_unique<IiccdCameraStage>(
+            sc.camera.params, sc.camera.spectrum, sc.camera.seed,
+            sc.camera.controlsFromPlatform ? IiccdCameraStage::Controls::Platform
+                                           : IiccdCameraStage::Controls::Preset);
+    } else {
+        camera = std::make_unique<LinearCamera>(sc.testPattern.fullScale_W_m2_sr, sc.bits);
+    }
     std::vector<FrameSink*> raw;
     for (auto& s : sinks)
         raw.push_back(s.get());
@@ -206,7 +215,7 @@ int runScenario(const RunRequest& req, std::FILE* status) {
     installStopSignals();
     std::string mainMsg;
     applyThreadSpec(kThreadMain, false, mainMsg);
-    FrameLoop loop(cfg, *platform, render, camera, raw);
+    FrameLoop loop(cfg, *platform, render, *camera, raw);
     std::vector<std::string> messages;
     loop.start(messages);
     for (const auto& m : messages)

@@ -51,6 +51,47 @@ T getOr(const std::optional<ConfigTable>& t, std::string_view key, const T& def)
     return t ? t->get<T>(key, def) : def;
 }
 
+// [camera]: the preset with its overrides; the scenario's explicit size and ADC depth are
+// applied as overrides so that the preset's own validation sees them.
+void readCamera(const ConfigTable& t, std::optional<int> width, std::optional<int> height,
+                std::optional<int> bits, CameraSpec& out) {
+    const std::string preset = t.require<std::string>("preset");
+    sensor::Overrides ov;
+    try {
+        ov = sensor::parseOverrides(t.get<std::vector<std::string>>("set", {}));
+    } catch (const SetupError& e) {
+        t.fail("set", e.what());
+    }
+    const auto put = [&](const char* key, std::optional<int> v) {
+        if (!v) return;
+        if (ov.count(key) != 0) t.fail("set", std::string(key) + " is also given in [scenario]");
+        ov[key] = std::to_string(*v);
+    };
+    put("width", width);
+    put("height", height);
+    put("video.adc_bits", bits);
+    try {
+        out.params = sensor::loadCamera(preset, ov);
+    } catch (const SetupError& e) {
+        t.fail("preset", e.what());
+    }
+    out.spectrum = t.get<std::string>("spectrum", "flat");
+    try {
+        (void)sensor::spectrumShape(out.spectrum);
+    } catch (const SetupError& e) {
+        t.fail("spectrum", e.what());
+    }
+    const std::int64_t seed = t.get<std::int64_t>("seed", 1);
+    if (seed < 0) t.fail("seed", "must not be negative");
+    out.seed = static_cast<std::uint64_t>(seed);
+    const std::string controls = t.get<std::string>("controls", "platform");
+    if (controls != "platform" && controls != "preset") {
+        t.fail("controls", "must be \"platform\" or \"preset\"");
+    }
+    out.controlsFromPlatform = controls == "platform";
+    out.enabled = true;
+}
+
 Scenario fromDocument(const ConfigDocument& doc, const std::string& file) {
     Scenario sc;
     sc.file = file;
@@ -58,18 +99,32 @@ Scenario fromDocument(const ConfigDocument& doc, const std::string& file) {
     const ConfigTable s = root.table("scenario");
     sc.name = s.require<std::string>("name");
     sc.description = s.get<std::string>("description", "");
-    const double hz = s.get<double>("frame_rate_hz", 60.0);
+    const std::optional<double> hzGiven = s.optional<double>("frame_rate_hz");
+    const std::optional<int> widthGiven = s.optional<int>("width");
+    const std::optional<int> heightGiven = s.optional<int>("height");
+    const std::optional<int> bitsGiven = s.optional<int>("bits");
+    const std::optional<ConfigTable> cam = root.optionalTable("camera");
+    if (cam) readCamera(*cam, widthGiven, heightGiven, bitsGiven, sc.camera);
+    const sensor::CameraParams& cp = sc.camera.params;
+    const double camRate_hz =
+        cp.scan == sensor::ScanMode::Field ? cp.field_rate_Hz : cp.field_rate_Hz / 2.0;
+    const double hz = hzGiven ? *hzGiven : (cam ? camRate_hz : 60.0);
     try {
         sc.rate = FrameRate::fromHz(hz);
     } catch (const SetupError& e) {
         s.fail("frame_rate_hz", e.what());
     }
-    sc.width = s.get<int>("width", 320);
-    sc.height = s.get<int>("height", 240);
+    sc.width = widthGiven ? *widthGiven : (cam ? cp.width : 320);
+    sc.height = heightGiven ? *heightGiven : (cam ? cp.height : 240);
     if (sc.width < 8 || sc.width > 8192) s.fail("width", "must be in [8, 8192]");
     if (sc.height < 8 || sc.height > 8192) s.fail("height", "must be in [8, 8192]");
-    sc.bits = s.get<int>("bits", 8);
+    sc.bits = bitsGiven ? *bitsGiven : (cam ? cp.adc_bits : 8);
     if (sc.bits < 1 || sc.bits > 16) s.fail("bits", "must be in [1, 16]");
+    if (cam) {
+        // The camera runs at the loop's rate: one call per emitted frame.
+        sc.camera.params.field_rate_Hz =
+            cp.scan == sensor::ScanMode::Field ? sc.rate.hz() : 2.0 * sc.rate.hz();
+    }
     sc.exposure_s = s.get<double>("exposure_s", 0.0);
     if (sc.exposure_s < 0.0) s.fail("exposure_s", "must not be negative");
     const std::string utc = s.get<std::string>("utc_start", "2000-01-01T00:00:00Z");
@@ -90,6 +145,13 @@ Scenario fromDocument(const ConfigDocument& doc, const std::string& file) {
     sc.platform.roll_rad = getOr<double>(p, "roll_deg", 0.0) * kRadPerDeg;
     sc.platform.gain_V = getOr<double>(p, "gain_V", 0.0);
     sc.platform.gate_s = getOr<double>(p, "gate_s", 0.0);
+    sc.platform.agc = getOr<bool>(p, "agc", true);
+    sc.platform.gateMode = getOr<int>(p, "gate_mode", 0);
+    if (sc.platform.gateMode < 0 || sc.platform.gateMode > 2) {
+        p->fail("gate_mode", "must be 0 (continuous), 1 (gated) or 2 (auto-gated)");
+    }
+    if (sc.platform.gain_V < 0.0) p->fail("gain_V", "must not be negative");
+    if (sc.platform.gate_s < 0.0) p->fail("gate_s", "must not be negative");
     sc.platform.utc_unix_s = sc.utcStart_unix_s;
 
     const std::optional<ConfigTable> r = root.optionalTable("runtime");

@@ -13,7 +13,8 @@
 //                                      duration_s      s        unbounded (frames = ⌈d·rate⌉)
 //   [platform]  held pose and camera   lat_deg lon_deg alt_m yaw_deg pitch_deg roll_deg
 //               settings without       gain_V gate_s              (all 0)
-//               telemetry
+//               telemetry              agc             bool      true
+//                                      gate_mode       0 continuous | 1 gated | 2 auto   0
 //   [runtime]                          late_policy     "repeat" | "drop"      "repeat"
 //                                      sink_errors     "count" | "stop"       "count"
 //                                      bad_input       "count" | "stop"       "count"
@@ -24,6 +25,18 @@
 //                                      radiance_max_W_m2_sr   W/m²/sr   1e-4
 //                                      full_scale_W_m2_sr     W/m²/sr   radiance_max
 //                                      target_speed_px_s      px/s      40
+//   [camera]    optional: the IICCD    preset          string   required (config/cameras/NAME
+//               model (sim/sensor)                              or a path to a .toml)
+//               instead of the linear  set             array of "KEY=VALUE" preset overrides
+//               test camera            spectrum        flat | blackbody:T | moon | night_sky
+//                                                      ("flat"): source shape for W/m²/sr → pe
+//                                      seed            integer ≥ 0 (1)
+//                                      controls        "platform" | "preset" ("platform"):
+//                                                      gain_V/agc/gate from the platform state
+//               With [camera], width, height and bits default to the preset's (when given in
+//               [scenario] they override it), and frame_rate_hz defaults to the preset's field
+//               rate (scan = "field") or frame rate (scan = "frame"); the camera is driven at
+//               the scenario's rate.
 
 #include <cstdint>
 #include <filesystem>
@@ -33,6 +46,7 @@
 #include "rt/clock/clock.h"
 #include "rt/loop/frame_loop.h"
 #include "rt/msg/messages.h"
+#include "sim/sensor/camera.h"
 
 namespace nvs::rt {
 
@@ -40,6 +54,15 @@ struct TestPatternSpec {
     double radianceMax_W_m2_sr = 1e-4;
     double fullScale_W_m2_sr = 1e-4;
     double targetSpeed_px_s = 40.0;
+};
+
+// The [camera] table: the preset loaded, validated and set to the loop's size and rate.
+struct CameraSpec {
+    bool enabled = false;
+    sensor::CameraParams params;
+    std::string spectrum = "flat";
+    std::uint64_t seed = 1;
+    bool controlsFromPlatform = true;
 };
 
 struct Scenario {
@@ -61,6 +84,7 @@ struct Scenario {
     double staleAfter_s = 0.5;
     double maxExtrapolation_s = 0.1;
     TestPatternSpec testPattern;
+    CameraSpec camera;
 };
 
 // Reads a scenario TOML file (or SCENARIO/scenario.toml for a folder). Throws SetupError.
