@@ -366,22 +366,29 @@ NVS_BULK_CLONES void normalsFromWords(const std::uint32_t* __restrict words, flo
     }
 }
 
+namespace {
+// Inversion on the survival function S(k) = P(N > k): k is the first with u ≥ S(k). Small
+// u ↔ large k, so the rare outcomes are resolved at the word's finest resolution near 0.
+// s0 = P(N ≥ 1) = −expm1(−mean), p1 = P(N = 1).
+double poissonInversion(double mean, double s0, double p1, double u) {
+    double s = s0;
+    if (u >= s) return 0.0;
+    double p = p1;
+    double k = 1.0;
+    for (;;) {
+        s -= p;
+        if (u >= s || k > mean + 60.0) return k;
+        k += 1.0;
+        p *= mean / k;
+    }
+}
+}  // namespace
+
 double poissonFromWord(double mean, std::uint32_t word, PixelStream& more) noexcept {
     if (!(mean > 0.0)) return 0.0;
     if (mean < 10.0) {
-        // Survival function S(k) = P(N > k): k is the first with u ≥ S(k). Small u ↔ large k,
-        // so the rare outcomes are resolved at the word's finest resolution near 0.
-        const double u = uniformFromWord(word);
-        double s = -std::expm1(-mean);  // P(N ≥ 1)
-        if (u >= s) return 0.0;
-        double p = mean * std::exp(-mean);  // P(N = 1)
-        double k = 1.0;
-        for (;;) {
-            s -= p;
-            if (u >= s || k > mean + 60.0) return k;
-            k += 1.0;
-            p *= mean / k;
-        }
+        return poissonInversion(mean, -std::expm1(-mean), mean * std::exp(-mean),
+                                uniformFromWord(word));
     }
     const double slam = std::sqrt(mean);
     const double loglam = std::log(mean);
@@ -425,13 +432,25 @@ void poissonRow(const float* __restrict mean, const std::uint32_t* __restrict wo
         const float u = static_cast<float>(static_cast<std::int32_t>(words[i] >> 1)) * 0x1.0p-31f;
         out[i] = u >= mean[i] * (1.0f + 0x1.0p-20f) ? 0.0f : -1.0f;
     }
-    // Pass 2: the rest, exactly.
+    // Pass 2: the rest, exactly. Neighbours often share a mean (flat regions): the inversion's
+    // P(N ≥ 1) and P(N = 1) are kept for the last mean.
+    float lastMean = -1.0f;
+    double s0 = 0.0, p1 = 0.0;
     for (i = 0; i < n; ++i) {
-        if (out[i] < 0.0f) {
-            PixelStream more = rng.pixelStream(x0 + static_cast<std::uint32_t>(i), y);
-            out[i] =
-                static_cast<float>(poissonFromWord(static_cast<double>(mean[i]), words[i], more));
+        if (!(out[i] < 0.0f)) continue;
+        const float m = mean[i];
+        if (m > 0.0f && m < 10.0f) {
+            if (m != lastMean) {
+                lastMean = m;
+                s0 = -std::expm1(-static_cast<double>(m));
+                p1 = static_cast<double>(m) * std::exp(-static_cast<double>(m));
+            }
+            out[i] = static_cast<float>(
+                poissonInversion(static_cast<double>(m), s0, p1, uniformFromWord(words[i])));
+            continue;
         }
+        PixelStream more = rng.pixelStream(x0 + static_cast<std::uint32_t>(i), y);
+        out[i] = static_cast<float>(poissonFromWord(static_cast<double>(m), words[i], more));
     }
 }
 

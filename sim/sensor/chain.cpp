@@ -146,7 +146,8 @@ McpStage::McpStage(const CameraParams& c, std::uint64_t seed)
       noise_(c.mcp_noise && c.mcp_noise_factor > 1.0 + 1e-9),
       k_(c.mcp_noise_factor > 1.0 + 1e-9 ? 1.0 / (c.mcp_noise_factor - 1.0) : 0.0),
       seed_(seed),
-      words_(new std::uint32_t[2 * paddedRow(c.width)]) {}
+      words_(new std::uint32_t[2 * paddedRow(c.width)]),
+      z_(new float[2 * paddedRow(c.width)]) {}
 
 void McpStage::apply(ImageView<float> pe, FieldContext& ctx) noexcept {
     const double g = ctx.mcpGain;
@@ -181,7 +182,10 @@ void McpStage::apply(ImageView<float> pe, FieldContext& ctx) noexcept {
         if (active == 0) continue;
         const std::uint32_t yy = static_cast<std::uint32_t>(y);
         const bool wholeRow = active * 8 > w;
-        if (wholeRow) rng.rowWords(yy, 0, 0, blocksFor(2 * w), wz);
+        if (wholeRow) {
+            rng.rowWords(yy, 0, 0, blocksFor(2 * w), wz);
+            normalsFromWords(wz, z_.get(), 2 * w);  // even entries used
+        }
         double rowSum = 0.0;
         for (int x = 0; x < w; ++x) {
             const double n = static_cast<double>(v[x]);
@@ -203,7 +207,7 @@ void McpStage::apply(ImageView<float> pe, FieldContext& ctx) noexcept {
                     c = 1.0 / std::sqrt(9.0 * d);
                 }
                 // First attempt inline (accepted by the squeeze ~95 % of the time).
-                const double z = static_cast<double>(normalFromWord(wx[0]));
+                const double z = static_cast<double>(wholeRow ? z_[2 * x] : normalFromWord(wx[0]));
                 const double u = uniformFromWord(wx[1]);
                 double t = 1.0 + c * z;
                 t = t * t * t;

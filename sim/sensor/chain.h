@@ -128,6 +128,7 @@ class McpStage {
     double k_;  // 1/(F − 1)
     std::uint64_t seed_;
     std::unique_ptr<std::uint32_t[]> words_;  // one row of words, two per pixel
+    std::unique_ptr<float[]> z_;              // normals of those words
 };
 
 // ---- 6. Phosphor ----------------------------------------------------------------------------
