@@ -67,16 +67,16 @@ std::int64_t OpticsStage::apply(ImageView<const float> lpe, ImageView<float> rat
         const float* k = factor_.row(y);
         float* out = rate.row(y);
         float rowSum = 0.0f;
+        int rowBad = 0;
         for (int x = 0; x < lpe.width(); ++x) {
-            float v = in[x];
-            // NaN fails both comparisons; +inf fails the second.
-            if (!(v >= 0.0f && v < 3.0e38f)) {
-                ++bad;
-                v = 0.0f;
-            }
-            out[x] = v * k[x];
+            const float v = in[x];
+            // NaN fails both comparisons; +inf fails the second. Branch-free (vector loop).
+            const bool ok = (v >= 0.0f) & (v < 3.0e38f);
+            rowBad += static_cast<int>(!ok);
+            out[x] = (ok ? v : 0.0f) * k[x];
             rowSum += out[x];
         }
+        bad += rowBad;
         total += static_cast<double>(rowSum);
     }
     ctx.cathodeRate_pe_s += total;
@@ -551,16 +551,25 @@ std::int64_t CcdStage::bloomColumns(ImageView<float> e, float fw, const float* c
         --x1;
     if (x0 >= x1) return 0;
     const int n = x1 - x0;
+    // Value selects (not std::min/max, which return references) keep the loops branch-free.
+    const auto lo = [](float p, float q) { return p < q ? p : q; };
+    const auto hi = [](float p, float q) { return p > q ? p : q; };
     float* __restrict moving = line_.get();
     std::fill(moving, moving + n, 0.0f);
     for (int y = 0; y < h; ++y) {
         float* __restrict v = e.row(y) + x0;
         float* __restrict up = upCarry_.row(y) + x0;
         for (int i = 0; i < n; ++i) {
-            const float excess = std::max(v[i] - fw, 0.0f);
-            const float take = std::min(std::max(fw - v[i], 0.0f), moving[i]);
-            v[i] = std::min(v[i], fw) + take;
-            moving[i] += 0.5f * excess - take;
+            // d = c − fw: excess max(d, 0) = (d + |d|)/2 and room max(−d, 0) = (|d| − d)/2,
+            // both exact in floating point; min(c, fw) = c − excess.
+            const float c = v[i];
+            const float m = moving[i];
+            const float d = c - fw;
+            const float ad = std::fabs(d);
+            const float excess = 0.5f * (d + ad);
+            const float take = lo(0.5f * (ad - d), m);
+            v[i] = (c - excess) + take;
+            moving[i] = m + (0.5f * excess - take);
             up[i] = 0.5f * excess;
         }
     }
@@ -571,10 +580,10 @@ std::int64_t CcdStage::bloomColumns(ImageView<float> e, float fw, const float* c
         const float* __restrict up = upCarry_.row(y) + x0;
         int rowSat = 0;
         for (int i = 0; i < n; ++i) {
-            const float take = std::min(std::max(fw - v[i], 0.0f), moving[i]);
+            const float take = lo(hi(fw - v[i], 0.0f), moving[i]);
             v[i] += take;
             moving[i] += up[i] - take;
-            rowSat += v[i] >= fw ? 1 : 0;
+            rowSat += static_cast<int>(v[i] >= fw);
         }
         sat += rowSat;
     }
