@@ -43,6 +43,15 @@ namespace nvs::render {
 inline constexpr int kBandPe = 0;  // photoelectron radiance, weight QE(λ) λ/(hc)
 inline constexpr int kBandW = 1;   // band radiance, weight β(λ)
 inline constexpr int kBands = 2;
+
+// Terms of the radiance (Renderer::setTerms), for diagnostics and tests: a render with only
+// kTermMoon shows where the Moon's direct light reaches (its shadows are exact zeros).
+inline constexpr unsigned kTermMoon = 1u;      // Moon direct, shadow ray
+inline constexpr unsigned kTermLamps = 2u;     // lamp direct, shadow rays
+inline constexpr unsigned kTermSky = 4u;       // sky-view factor × sky irradiance
+inline constexpr unsigned kTermSpecular = 8u;  // one specular bounce
+inline constexpr unsigned kTermInView = 16u;   // sky, Moon disk, lamps and stars seen directly
+inline constexpr unsigned kTermAll = 31u;
 using BandValues = std::array<double, kBands>;
 
 struct PinholeCamera {
@@ -60,7 +69,7 @@ struct RenderConfig {
     Spectrum nightSkyShape;                   // relative spectrum of the night sky
     int coarseFactor = 1;                     // 1 = full rate
     int skyViewRays = 64;                     // per surface element, at setup
-    int lampShadowRays = 4;                   // per lamp with an aperture, per point
+    int lampShadowRays = 1;                   // per lamp with an aperture, per point
     bool specular = true;
 };
 
@@ -118,7 +127,11 @@ class Renderer {
     void setTime(double t_s) noexcept;
     void setCamera(const scene::CameraPose& pose) noexcept;
     void setLampOn(int lamp, bool on) noexcept { lampOn_[static_cast<std::size_t>(lamp)] = on; }
-    void setCoarseFactor(int f) noexcept;  // ≤ the factor given at setup
+    void setCoarseFactor(int f) noexcept;                       // ≤ the factor given at setup
+    void setTerms(unsigned terms) noexcept { terms_ = terms; }  // kTerm* mask; kTermAll
+    // Takes an object out of the scene (primary and shadow rays pass through it) or puts it
+    // back (for tests of what an object's shadow is). Recommits the Embree scene.
+    void setObjectEnabled(int object, bool enabled) noexcept;
     // Renders both bands. Images must be camera.width × camera.height.
     void render(const FrameSky& sky, ImageView<float> pe, ImageView<float> bandW,
                 RowExecutor& exec) noexcept;
@@ -139,6 +152,8 @@ class Renderer {
     double moonCoefficient(int material, int band) const { return rhoMoon_[idx(material, band)]; }
     // Embree's own single-ray throughput for primary rays of this view [rays/s] (benchmarks).
     double measureEmbreePrimaryRate(int repetitions) const;
+    // The same with coherent 16-ray packets (rtcIntersect16), as the renderer casts them.
+    double measureEmbreePacketRate(int repetitions) const;
 
     struct Impl;
 
@@ -150,6 +165,7 @@ class Renderer {
     std::vector<bool> lampOn_;
     RenderStats stats_;
     int coarse_ = 1;
+    unsigned terms_ = kTermAll;
 };
 
 }  // namespace nvs::render
