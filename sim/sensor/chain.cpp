@@ -709,16 +709,25 @@ VideoStage::VideoStage(const CameraParams& c) : cam_(&c), maxCount_((1 << c.adc_
         const double r = (k - 0.5 - offset) / span;
         thr_.push_back(r <= 0.0 ? 0.0f : static_cast<float>(span * std::pow(r, 1.0 / c.gamma)));
     }
-    // A grid of 16 cells per level: the search from lut_ takes one step or none.
-    const int cells = 16 * static_cast<int>(thr_.size() + 1);
-    lutScale_ = static_cast<float>(cells / span);
-    lut_.resize(static_cast<std::size_t>(cells) + 1);
-    std::size_t j = 0;
-    for (int i = 0; i <= cells; ++i) {
-        const float s = static_cast<float>(i) / lutScale_;
-        while (j < thr_.size() && thr_[j] <= s)
-            ++j;
-        lut_[static_cast<std::size_t>(i)] = static_cast<std::uint16_t>(j);
+    // A uniform grid over [0, span] fine enough that no cell holds two steps (16 cells per
+    // level to start, doubled where γ packs the low levels closer): then the level of a
+    // signal is lut_[cell] plus one if the next step is at or below it, with no loop.
+    int cells = 16 * static_cast<int>(thr_.size() + 1);
+    for (;;) {
+        lutScale_ = static_cast<float>(cells / span);
+        lut_.assign(static_cast<std::size_t>(cells) + 1, 0);
+        std::size_t j = 0, most = 0;
+        for (int i = 0; i <= cells; ++i) {
+            const float s = static_cast<float>(i) / lutScale_;
+            const std::size_t j0 = j;
+            while (j < thr_.size() && thr_[j] <= s)
+                ++j;
+            most = std::max(most, j - j0);
+            lut_[static_cast<std::size_t>(i)] = static_cast<std::uint16_t>(j);
+        }
+        oneStep_ = most <= 1;
+        if (oneStep_ || cells >= (1 << 22)) break;
+        cells *= 2;
     }
     thr_.push_back(3.0e38f);  // sentinel
 }
@@ -748,7 +757,19 @@ double VideoStage::apply(ImageView<const float> e, std::uint64_t field, ImageVie
             dc = (dc + 0x1.8p23f) - 0x1.8p23f;
             o[x] = std::clamp(dc, 0.0f, maxc);
         }
-        if (gamma_) {
+        if (gamma_ && oneStep_) {
+            const std::uint16_t* lut = lut_.data();
+            const float* thr = thr_.data();
+            const float top = static_cast<float>(cells);
+            for (int x = 0; x < w; ++x) {
+                const float sig = s[x] * gain;
+                const float cellf = std::min(std::max(sig * lutScale_, 0.0f), top);
+                const std::uint16_t j0 = lut[static_cast<int>(cellf)];
+                const int j = j0 + static_cast<int>(thr[j0] <= sig);
+                const float level = std::min(bottom + static_cast<float>(j), maxc);
+                o[x] = sig > 0.0f ? level : o[x];
+            }
+        } else if (gamma_) {
             for (int x = 0; x < w; ++x) {
                 const float sig = s[x] * gain;
                 if (!(sig > 0.0f)) continue;

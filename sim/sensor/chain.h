@@ -218,6 +218,7 @@ class VideoStage {
     // span·(s/span)^γ + offset, computed once in double). lut_ starts the search from a
     // uniform grid over [0, span].
     bool gamma_ = false;
+    bool oneStep_ = false;  // no grid cell holds two steps
     std::vector<float> thr_;
     std::vector<std::uint16_t> lut_;
     float lutScale_ = 0.0f;
