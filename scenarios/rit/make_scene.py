@@ -133,6 +133,17 @@ t.write("meshes/truck.obj", "sport-utility truck, object frame (placed by scene.
 b = Obj()
 b.box("face_building", -25, 25, -45, -18.5, 0.0, 14.0)
 b.box("face_glass_mir_cis", -25, 25, -18.52, -18.5, 3.0, 12.0)
+# The building corner that casts the full-Moon shadow (thesis §9.1, Table 9-1): "a noticeable
+# shadow in the lower right hand corner of the image ... from the corner of the CIS building",
+# gone at 3/4 Moon (15 degrees higher, similar azimuth); at 1/4 Moon "the long shadow through
+# the middle of the image ... from the roof-edge", top lit, bottom half in shadow. The thesis
+# gives no plan of the building. Inference: a lower wing in front of the roof edge, left of
+# the field of view, 8.5 m high, front face 9.0 m ahead of the roof edge, 4 m wide. Its height
+# and front follow from two of the remarks (the full-Moon shadow reaches ~1.5 m up the right
+# edge of the view, and at 1/4 Moon its shadow edge crosses the image centre); the third (no
+# shadow at 3/4 Moon) is then a check. The main roof edge alone shades only the bottom
+# quarter at 1/4 Moon and nothing at full Moon.
+b.box("face_building", -8.0, -4.0, -19.0, -9.48, 0.0, 8.5)
 b.write("meshes/building.obj", "CIS building block under the camera")
 
 # Reflectances: 1 − visible emissivity of the material files (thesis Appendix D, matfile
