@@ -172,6 +172,12 @@ std::string statsJson(const FrameLoop& loop, const PlatformSource& platform,
 }
 
 int runScenario(const RunRequest& req, std::FILE* status) {
+    // SIGINT and SIGTERM stop the run from the start, setup included. A shell without job
+    // control starts background commands with SIGINT ignored; sigaction replaces that inherited
+    // SIG_IGN on purpose: a stimulator asked to stop must stop, whoever started it. A signal
+    // that arrives during setup (camera FFT plans, telemetry files) is kept and honoured as
+    // soon as the loop exists.
+    installStopSignals();
     // Setup: everything that can fail fails here, before the first frame.
     const Scenario sc = loadScenario(req.scenario);
     LoopConfig cfg;
@@ -212,11 +218,11 @@ int runScenario(const RunRequest& req, std::FILE* status) {
     for (auto& s : sinks)
         raw.push_back(s.get());
 
-    installStopSignals();
     std::string mainMsg;
     applyThreadSpec(kThreadMain, false, mainMsg);
     FrameLoop loop(cfg, *platform, render, *camera, raw);
     std::vector<std::string> messages;
+    if (stopRequested().load(std::memory_order_relaxed)) loop.requestStop();
     loop.start(messages);
     for (const auto& m : messages)
         std::fprintf(status, "nvstim run: %s\n", m.c_str());

@@ -190,6 +190,26 @@ TEST_F(RunTest, AFullDiskLeavesNothingCorruptBehind) {
     EXPECT_NE(r.out.find("File too large"), std::string::npos) << r.out;
 }
 
+// A script's background job starts with SIGINT ignored (no job control); `kill -INT` must still
+// stop the run cleanly: last frame finished, outputs closed, statistics written, exit 0.
+TEST_F(RunTest, SigintStopsABackgroundRunStartedWithSigintIgnored) {
+    const fs::path stats = dir_ / "stats.json";
+    const std::string cmd = "trap '' INT; " + std::string(NVSTIM_EXE) + " run " +
+                            (dir_ / "scenario.toml").string() +
+                            " --clock wall --output meta:" + (dir_ / "m.jsonl").string() +
+                            " --stats " + stats.string() +
+                            " 2>/dev/null & pid=$!; sleep 0.5; kill -INT $pid; "
+                            "for i in 1 2 3 4 5 6 7 8 9 10 11 12 13 14 15 16 17 18 19 20; do "
+                            "kill -0 $pid 2>/dev/null || break; sleep 0.1; done; "
+                            "if kill -0 $pid 2>/dev/null; then kill -KILL $pid; echo hung; fi; "
+                            "wait $pid; echo rc=$?";
+    const Result r = sh(cmd);
+    EXPECT_EQ(r.out.find("hung"), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("rc=0"), std::string::npos) << r.out;
+    EXPECT_TRUE(fs::exists(stats));
+    EXPECT_TRUE(fs::exists(dir_ / "m.jsonl"));
+}
+
 TEST_F(RunTest, BadArgumentsAreOneLineSetupErrors) {
     Result r = sh(std::string(NVSTIM_EXE) + " run " + (dir_ / "scenario.toml").string() +
                   " --clock sim --frames 2 --output bogus:x 2>&1");
