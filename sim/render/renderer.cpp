@@ -136,6 +136,7 @@ struct Renderer::Impl {
     std::vector<float> nodeLight;
     std::vector<std::uint8_t> nodeValid;
     std::atomic<std::uint64_t> primary{0}, shadow{0}, secondary{0};
+    bool gValid = false;  // G-buffer matches the current camera and geometry
 
     ~Impl() {
         if (scene) rtcReleaseScene(scene);
@@ -374,11 +375,15 @@ void Renderer::setTime(double t_s) noexcept {
         rtcUpdateGeometryBuffer(od.geom, RTC_BUFFER_TYPE_VERTEX, 0);
         rtcCommitGeometry(od.geom);
     }
-    if (changed) rtcCommitScene(im.scene);
+    if (changed) {
+        rtcCommitScene(im.scene);
+        im.gValid = false;
+    }
 }
 
 void Renderer::setCamera(const scene::CameraPose& p) noexcept {
     Impl& im = *impl_;
+    im.gValid = false;
     im.camPos = p.position_m;
     im.camFwd = normalized(p.target_m - p.position_m);
     Vec3 right = cross(im.camFwd, p.up);
@@ -714,16 +719,14 @@ void shadeFull(const Ctx& c, int count, const std::size_t* i, const int* xs, int
     }
 }
 
-// Primary pass: packets of 16 pixels along a row; G-buffer; at full rate also the shading.
+// Primary pass: packets of 16 pixels along a row → the G-buffer (position, normal, material,
+// object, sky-view factor; kMiss where the ray leaves the scene).
 void primaryRows(void* vctx, int y0, int y1) {
     const Ctx& c = *static_cast<const Ctx*>(vctx);
     Renderer::Impl& im = *c.im;
     const PinholeCamera& cam = c.cfg->camera;
-    std::uint64_t prim = 0, sh = 0, sec = 0;
-    const bool full = c.coarse == 1;
+    std::uint64_t prim = 0;
     for (int y = y0; y < y1; ++y) {
-        float* pe = c.pe.row(y);
-        float* bw = c.bw.row(y);
         for (int x0 = 0; x0 < im.W; x0 += kPacket) {
             const int count = std::min(kPacket, im.W - x0);
             int valid[kPacket];
@@ -739,16 +742,9 @@ void primaryRows(void* vctx, int y0, int y1) {
             RTCIntersectContext ctx = coherentContext();
             rtcIntersect16(valid, im.scene, &ctx, &rh);
             prim += static_cast<std::uint64_t>(count);
-            std::size_t hi[kPacket];
-            int hx[kPacket], nh = 0;
             for (int k = 0; k < count; ++k) {
-                const int x = x0 + k;
-                const std::size_t i = static_cast<std::size_t>(y) * im.W + x;
+                const std::size_t i = static_cast<std::size_t>(y) * im.W + x0 + k;
                 if (rh.hit.geomID[k] == RTC_INVALID_GEOMETRY_ID) {
-                    BandValues l;
-                    skyRadiance(c, d[k], l);
-                    pe[x] = static_cast<float>(l[kBandPe]);
-                    bw[x] = static_cast<float>(l[kBandW]);
                     im.gMat[i] = kMiss;
                     im.gObj[i] = -1;
                     continue;
@@ -766,13 +762,45 @@ void primaryRows(void* vctx, int y0, int y1) {
                 im.gNrm[3 * i + 1] = static_cast<float>(n.y);
                 im.gNrm[3 * i + 2] = static_cast<float>(n.z);
                 im.gSvf[i] = static_cast<float>(svf);
-                hi[nh] = i;
-                hx[nh++] = x;
             }
-            if (full && nh > 0) shadeFull(c, nh, hi, hx, y, &sh, &sec);
         }
     }
     im.primary += prim;
+}
+
+// Sky radiance for the pixels whose primary ray left the scene.
+inline void skyPixel(const Ctx& c, int x, int y, float* pe, float* bw) noexcept {
+    BandValues l;
+    skyRadiance(c, c.im->pixelDir(x + 0.5, y + 0.5, c.cfg->camera), l);
+    pe[x] = static_cast<float>(l[kBandPe]);
+    bw[x] = static_cast<float>(l[kBandW]);
+}
+
+// Full-rate shading of the G-buffer, 16 pixels at a time.
+void shadeRows(void* vctx, int y0, int y1) {
+    const Ctx& c = *static_cast<const Ctx*>(vctx);
+    Renderer::Impl& im = *c.im;
+    std::uint64_t sh = 0, sec = 0;
+    for (int y = y0; y < y1; ++y) {
+        float* pe = c.pe.row(y);
+        float* bw = c.bw.row(y);
+        std::size_t qi[kPacket];
+        int qx[kPacket], nq = 0;
+        for (int x = 0; x < im.W; ++x) {
+            const std::size_t i = static_cast<std::size_t>(y) * im.W + x;
+            if (im.gMat[i] == kMiss) {
+                skyPixel(c, x, y, pe, bw);
+                continue;
+            }
+            qi[nq] = i;
+            qx[nq++] = x;
+            if (nq == kPacket) {
+                shadeFull(c, nq, qi, qx, y, &sh, &sec);
+                nq = 0;
+            }
+        }
+        if (nq > 0) shadeFull(c, nq, qi, qx, y, &sh, &sec);
+    }
     im.shadow += sh;
     im.secondary += sec;
 }
@@ -837,51 +865,66 @@ void nodeRows(void* vctx, int j0, int j1) {
 }
 
 // Upsampling guided by the full-resolution geometry; pixels with no node on their surface are
-// shaded at full rate (16 at a time).
+// shaded at full rate (16 at a time). Single precision: the weights and the tests need none
+// better, and the loop runs for every pixel.
 void upsampleRows(void* vctx, int y0, int y1) {
     const Ctx& c = *static_cast<const Ctx*>(vctx);
     Renderer::Impl& im = *c.im;
     const int f = c.coarse;
-    const std::size_t ns = static_cast<std::size_t>(im.nodeStride);
+    const float invF = 1.0f / static_cast<float>(f);
+    const int ns = im.nodeStride;
+    const float cx = static_cast<float>(im.camPos.x), cy = static_cast<float>(im.camPos.y),
+                cz = static_cast<float>(im.camPos.z);
     std::uint64_t sh = 0, sec = 0;
     float acc[kMaxStride];
     for (int y = y0; y < y1; ++y) {
         float* pe = c.pe.row(y);
         float* bw = c.bw.row(y);
         const int j = y / f;
-        const double fy = static_cast<double>(y - j * f) / f;
+        const float fy = static_cast<float>(y - j * f) * invF;
+        const int jj[2] = {j, std::min(j + 1, im.nodeH - 1)};
+        const int nyRow[2] = {std::min(jj[0] * f, im.H - 1), std::min(jj[1] * f, im.H - 1)};
         std::size_t qi[kPacket];
         int qx[kPacket], nq = 0;
         for (int x = 0; x < im.W; ++x) {
             const std::size_t i = static_cast<std::size_t>(y) * im.W + x;
             const int m = im.gMat[i];
-            if (m == kMiss) continue;  // sky already written by the primary pass
-            const Vec3 p = g3(im.gPos, i);
-            const Vec3 n = g3(im.gNrm, i);
-            const double planeTol = 0.02 + 2e-3 * norm(p - im.camPos);
+            if (m == kMiss) {
+                skyPixel(c, x, y, pe, bw);
+                continue;
+            }
+            const float* pp = &im.gPos[3 * i];
+            const float* pn = &im.gNrm[3 * i];
+            const float dx = pp[0] - cx, dy = pp[1] - cy, dz = pp[2] - cz;
+            const float planeTol = 0.02f + 2e-3f * std::sqrt(dx * dx + dy * dy + dz * dz);
             const int k = x / f;
-            const double fx = static_cast<double>(x - k * f) / f;
-            std::fill(acc, acc + ns, 0.0f);
-            double wsum = 0.0;
+            const float fx = static_cast<float>(x - k * f) * invF;
+            const int kk[2] = {k, std::min(k + 1, im.nodeW - 1)};
+            for (int s = 0; s < ns; ++s)
+                acc[s] = 0.0f;
+            float wsum = 0.0f;
+            const std::int16_t obj = im.gObj[i];
             for (int dj = 0; dj < 2; ++dj) {
                 for (int dk = 0; dk < 2; ++dk) {
-                    const int jj = std::min(j + dj, im.nodeH - 1),
-                              kk = std::min(k + dk, im.nodeW - 1);
-                    const std::size_t ni = static_cast<std::size_t>(jj) * im.nodeW + kk;
+                    const std::size_t ni = static_cast<std::size_t>(jj[dj]) * im.nodeW + kk[dk];
                     if (!im.nodeValid[ni]) continue;
-                    const int ny = std::min(jj * f, im.H - 1), nx = std::min(kk * f, im.W - 1);
-                    const std::size_t q = static_cast<std::size_t>(ny) * im.W + nx;
-                    if (im.gObj[q] != im.gObj[i] || im.gMat[q] != m) continue;
-                    if (dot(g3(im.gNrm, q), n) < 0.95) continue;
-                    if (std::abs(dot(g3(im.gPos, q) - p, n)) > planeTol) continue;
-                    const double w = (dk ? fx : 1.0 - fx) * (dj ? fy : 1.0 - fy) + 1e-6;
-                    const float* src = &im.nodeLight[ni * ns];
-                    for (std::size_t s = 0; s < ns; ++s)
-                        acc[s] += static_cast<float>(w) * src[s];
+                    const std::size_t q =
+                        static_cast<std::size_t>(nyRow[dj]) * im.W + std::min(kk[dk] * f, im.W - 1);
+                    if (im.gObj[q] != obj || im.gMat[q] != m) continue;
+                    const float* qn = &im.gNrm[3 * q];
+                    if (qn[0] * pn[0] + qn[1] * pn[1] + qn[2] * pn[2] < 0.95f) continue;
+                    const float* qp = &im.gPos[3 * q];
+                    const float off =
+                        (qp[0] - pp[0]) * pn[0] + (qp[1] - pp[1]) * pn[1] + (qp[2] - pp[2]) * pn[2];
+                    if (std::abs(off) > planeTol) continue;
+                    const float w = (dk ? fx : 1.0f - fx) * (dj ? fy : 1.0f - fy) + 1e-6f;
+                    const float* src = &im.nodeLight[ni * static_cast<std::size_t>(ns)];
+                    for (int s = 0; s < ns; ++s)
+                        acc[s] += w * src[s];
                     wsum += w;
                 }
             }
-            if (!(wsum > 0.0)) {
+            if (!(wsum > 0.0f)) {
                 // No sample on this surface nearby: full rate here.
                 qi[nq] = i;
                 qx[nq++] = x;
@@ -891,15 +934,17 @@ void upsampleRows(void* vctx, int y0, int y1) {
                 }
                 continue;
             }
-            const float inv = static_cast<float>(1.0 / wsum);
-            for (std::size_t s = 0; s < ns; ++s)
+            const float inv = 1.0f / wsum;
+            for (int s = 0; s < ns; ++s)
                 acc[s] *= inv;
             BandValues l;
             diffuseShade(c, m, static_cast<double>(im.gSvf[i]), acc, l);
-            const double s = im.materials[static_cast<std::size_t>(m)].specularity;
-            for (int b = 0; b < kBands; ++b) {
-                l[b] += s * (*c.rhoMoon)[static_cast<std::size_t>(m) * kBands + b] *
-                        static_cast<double>(acc[ns - 2 + static_cast<std::size_t>(b)]);
+            const double sp = im.materials[static_cast<std::size_t>(m)].specularity;
+            if (sp > 0.0) {
+                for (int b = 0; b < kBands; ++b) {
+                    l[b] += sp * (*c.rhoMoon)[static_cast<std::size_t>(m) * kBands + b] *
+                            static_cast<double>(acc[ns - 2 + b]);
+                }
             }
             pe[x] = static_cast<float>(l[kBandPe]);
             bw[x] = static_cast<float>(l[kBandW]);
@@ -923,10 +968,17 @@ void Renderer::render(const FrameSky& sky, ImageView<float> pe, ImageView<float>
     im.shadow = 0;
     im.secondary = 0;
     Ctx c{&im, &config_, &sky, &rhoMoon_, &rhoNight_, &lampOn_, pe, bandW, coarse_, terms_};
-    exec.run(im.H, &primaryRows, &c);
+    // The primary rays depend only on the camera and the geometry: with neither changed since
+    // the last frame (a fixed camera over a static scene), the G-buffer is reused.
+    if (!im.gValid) {
+        exec.run(im.H, &primaryRows, &c);
+        im.gValid = true;
+    }
     if (coarse_ > 1) {
         exec.run(im.nodeH, &nodeRows, &c);
         exec.run(im.H, &upsampleRows, &c);
+    } else {
+        exec.run(im.H, &shadeRows, &c);
     }
     // Lamps in view: each lamp's light reaching the lens, spread over the pixel it falls in
     // (I / r² / Ω_pixel: the pixel-mean radiance of a source smaller than a pixel).
@@ -1052,6 +1104,7 @@ void Renderer::setObjectEnabled(int object, bool enabled) noexcept {
         rtcDisableGeometry(g);
     }
     rtcCommitScene(im.scene);
+    im.gValid = false;
 }
 
 }  // namespace nvs::render

@@ -1,0 +1,133 @@
+// Speed of the renderer on the RIT scene, 768 x 494 (issue acceptance: full rate ≤ 30 ms, with
+// coarse radiance tiles ≤ 8 ms, on this project's 2-core machine). Scenario: "stlamp" (thesis
+// Table 9-2: Moon at 14° with shadows, lunar and night sky, the 40 W street lamp in its
+// apertured housing, specular asphalt and panels). Each render benchmark runs with 1 and 2
+// threads (a RowExecutor handing row bands to std::threads started once, woken per pass) and
+// reports its rays/s next to Embree's own primary-ray throughput on the same view, measured in
+// the same run: single rays (rtcIntersect1 loop, no shading) and coherent 16-ray packets
+// (rtcIntersect16, as the renderer casts them).
+
+#include <benchmark/benchmark.h>
+
+#include <condition_variable>
+#include <filesystem>
+#include <mutex>
+#include <thread>
+#include <vector>
+
+#include "sim/render/setup.h"
+
+namespace {
+
+using nvs::render::RowExecutor;
+
+// A fixed pool: worker i runs band i of each pass; the caller runs band 0.
+class PoolExecutor final : public RowExecutor {
+  public:
+    explicit PoolExecutor(int threads) : n_(threads) {
+        for (int i = 1; i < n_; ++i)
+            workers_.emplace_back([this, i] { loop(i); });
+    }
+    ~PoolExecutor() override {
+        {
+            std::lock_guard<std::mutex> g(m_);
+            stop_ = true;
+            ++gen_;
+        }
+        cv_.notify_all();
+        for (auto& t : workers_)
+            t.join();
+    }
+    void run(int rows, void (*fn)(void*, int, int), void* ctx) noexcept override {
+        {
+            std::lock_guard<std::mutex> g(m_);
+            rows_ = rows, fn_ = fn, ctx_ = ctx, pending_ = n_ - 1;
+            ++gen_;
+        }
+        cv_.notify_all();
+        fn(ctx, 0, rows / n_);
+        std::unique_lock<std::mutex> l(m_);
+        done_.wait(l, [this] { return pending_ == 0; });
+    }
+
+  private:
+    void loop(int i) {
+        unsigned long seen = 0;
+        for (;;) {
+            std::unique_lock<std::mutex> l(m_);
+            cv_.wait(l, [&] { return gen_ != seen; });
+            seen = gen_;
+            if (stop_) return;
+            const int rows = rows_;
+            auto* fn = fn_;
+            void* ctx = ctx_;
+            l.unlock();
+            fn(ctx, rows * i / n_, rows * (i + 1) / n_);
+            l.lock();
+            if (--pending_ == 0) done_.notify_one();
+        }
+    }
+    int n_;
+    std::vector<std::thread> workers_;
+    std::mutex m_;
+    std::condition_variable cv_, done_;
+    unsigned long gen_ = 0;
+    bool stop_ = false;
+    int rows_ = 0, pending_ = 0;
+    void (*fn_)(void*, int, int) = nullptr;
+    void* ctx_ = nullptr;
+};
+
+struct Setup {
+    std::unique_ptr<nvs::render::ScenarioRenderer> sr;
+    nvs::render::FrameSky sky;
+    double embreeSingle = 0.0, embreePacket = 0.0;
+};
+
+Setup& setup() {
+    static Setup s = [] {
+        Setup r;
+        r.sr = nvs::render::ScenarioRenderer::create(
+            std::filesystem::path(NVS_SOURCE_DIR) / "scenarios/rit/stlamp.toml", 4);
+        r.sky = r.sr->prepare(0.0);
+        r.embreeSingle = r.sr->renderer().measureEmbreePrimaryRate(5);
+        r.embreePacket = r.sr->renderer().measureEmbreePacketRate(5);
+        return r;
+    }();
+    return s;
+}
+
+void render(benchmark::State& state, int coarse) {
+    Setup& s = setup();
+    auto& r = s.sr->renderer();
+    r.setCoarseFactor(coarse);
+    const int threads = static_cast<int>(state.range(0));
+    PoolExecutor ex(threads);
+    nvs::ImageF pe(r.camera().width, r.camera().height), w(r.camera().width, r.camera().height);
+    std::uint64_t rays = 0;
+    for (auto _ : state) {
+        r.render(s.sky, pe.view(), w.view(), ex);
+        rays += r.lastStats().total();
+        benchmark::DoNotOptimize(pe.view()(0, 0));
+    }
+    state.counters["threads"] = threads;
+    state.counters["rays_per_s"] =
+        benchmark::Counter(static_cast<double>(rays), benchmark::Counter::kIsRate);
+    state.counters["rays_per_frame"] = static_cast<double>(r.lastStats().total());
+    state.counters["embree_single_primary_per_s"] = s.embreeSingle;
+    state.counters["embree_packet16_primary_per_s"] = s.embreePacket;
+}
+
+void BM_RenderFullRate(benchmark::State& state) {
+    render(state, 1);
+}
+void BM_RenderCoarse4(benchmark::State& state) {
+    render(state, 4);
+}
+
+BENCHMARK(BM_RenderFullRate)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_RenderCoarse4)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+}  // namespace
+
+BENCHMARK_MAIN();
