@@ -337,19 +337,23 @@ Renderer::Renderer(const scene::Scene& sc, const RenderConfig& config)
     im.gSvf.assign(np, 0.0f);
     im.gMat.assign(np, kMiss);
     im.gObj.assign(np, -1);
-    coarse_ = config.coarseFactor;
-    const int f = config.coarseFactor;
-    im.nodeW = (im.W - 1) / f + 2;
-    im.nodeH = (im.H - 1) / f + 2;
+    // Node arrays sized for the densest grid a later setCoarseFactor may ask for (f = 2).
+    const int fMin = std::min(2, config.coarseFactor);
+    const std::size_t maxNodes = static_cast<std::size_t>((im.W - 1) / fMin + 2) *
+                                 static_cast<std::size_t>((im.H - 1) / fMin + 2);
     im.nodeStride = 1 + static_cast<int>(im.lamps.size()) + 2;
-    im.nodeLight.assign(static_cast<std::size_t>(im.nodeW) * im.nodeH * im.nodeStride, 0.0f);
-    im.nodeValid.assign(static_cast<std::size_t>(im.nodeW) * im.nodeH, 0);
+    im.nodeLight.assign(maxNodes * static_cast<std::size_t>(im.nodeStride), 0.0f);
+    im.nodeValid.assign(maxNodes, 0);
+    setCoarseFactor(config.coarseFactor);
 }
 
 Renderer::~Renderer() = default;
 
 void Renderer::setCoarseFactor(int f) noexcept {
     coarse_ = std::clamp(f, 1, config_.coarseFactor);
+    Impl& im = *impl_;
+    im.nodeW = (im.W - 1) / coarse_ + 2;
+    im.nodeH = (im.H - 1) / coarse_ + 2;
 }
 
 void Renderer::setTime(double t_s) noexcept {
