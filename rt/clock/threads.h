@@ -14,14 +14,22 @@ struct ThreadSpec {
     int cpu;
 };
 
-enum ThreadId : int { kThreadMain = 0, kThreadRender = 1, kThreadOutput = 2, kThreadCount = 3 };
+enum ThreadId : int {
+    kThreadMain = 0,
+    kThreadRender = 1,
+    kThreadOutput = 2,
+    kThreadGpio = 3,
+    kThreadCount = 4
+};
 
 inline constexpr ThreadSpec kThreadTable[kThreadCount] = {
     {"nvs-main", "setup, signals, live status once a second, shutdown and statistics", 0, -1},
     {"nvs-render", "frame k+1: poll telemetry, pose at mid-exposure, render stage, camera stage",
      70, 0},
-    {"nvs-output",
-     "frame k: sleep to its absolute deadline, emit to every sink, gate pulse, statistics", 80, 1},
+    {"nvs-output", "frame k: sleep to its absolute deadline, emit to every sink, statistics", 80,
+     1},
+    {"nvs-gpio",
+     "gpio: output only: gate pulse per frame, raised at emission, lowered gate_s later", 85, 1},
 };
 
 // Names the calling thread after its table entry and, when `realtime`, applies its priority

@@ -1,7 +1,9 @@
 #include "rt/run/telemetry_factory.h"
 
+#include <cstdlib>
 #include <cstring>
 
+#include "drivers/gpio/gpio.h"
 #include "drivers/v4l2/v4l2.h"
 #include "rt/telemetry/sources.h"
 #include "sim/core/error.h"
@@ -39,6 +41,29 @@ std::unique_ptr<FrameSink> makeDeviceSink(Spec& spec, const Scenario& sc, const 
         return std::make_unique<drivers::V4l2Sink>(std::make_unique<drivers::KernelV4l2Ops>(),
                                                    spec.target, sc.width, sc.height, sc.bits,
                                                    format, io);
+    }
+    if (spec.scheme == "gpio") {
+        // gpio:CHIP:LINE[?active=high|low]
+        const auto colon = spec.target.rfind(':');
+        if (colon == std::string::npos || colon == 0 || colon + 1 == spec.target.size()) {
+            throw SetupError(what + ": expected gpio:CHIP:LINE (e.g. gpio:gpiochip0:17)");
+        }
+        const std::string chip = spec.target.substr(0, colon);
+        const std::string lineText = spec.target.substr(colon + 1);
+        char* end = nullptr;
+        const unsigned long line = std::strtoul(lineText.c_str(), &end, 10);
+        if (*end != '\0' || line > 1023) {
+            throw SetupError(what + ": line '" + lineText + "' is not a line offset");
+        }
+        bool activeLow = false;
+        if (const auto a = spec.take("active")) {
+            if (*a != "high" && *a != "low") {
+                throw SetupError(what + ": active must be high or low, not '" + *a + "'");
+            }
+            activeLow = *a == "low";
+        }
+        return std::make_unique<drivers::GpioGateSink>(std::make_unique<drivers::GpiodLine>(), chip,
+                                                       static_cast<unsigned>(line), activeLow);
     }
     return nullptr;
 }

@@ -11,7 +11,7 @@
 
 namespace nvs::rt {
 
-// v4l2:/dev/videoN[?format=GREY|Y16|YUYV&io=write|mmap], gpio:CHIP:LINE[?trigger=LINE];
+// v4l2:/dev/videoN[?format=GREY|Y16|YUYV&io=write|mmap], gpio:CHIP:LINE[?active=high|low];
 // nullptr for an unknown scheme.
 std::unique_ptr<FrameSink> makeDeviceSink(Spec& spec, const Scenario& sc, const std::string& what);
 // replay:FILE[?dbc=FILE], can:IFACE[?dbc=FILE&fd=1], serial:DEV?baud=N&proto=nmea|mavlink.
