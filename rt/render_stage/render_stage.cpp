@@ -1,0 +1,92 @@
+#include "rt/render_stage/render_stage.h"
+
+#include <cmath>
+#include <ctime>
+
+#include "sim/astro/time.h"
+#include "sim/core/error.h"
+#include "sim/core/geometry.h"
+#include "sim/core/units.h"
+
+namespace nvs::rt {
+namespace {
+
+// WGS84 (NIMA TR8350.2).
+constexpr double kWgs84A_m = 6378137.0;
+constexpr double kWgs84E2 = 6.69437999014e-3;
+
+double unixFromCalendar(const astro::CalendarInstant& c) {
+    std::tm tm{};
+    tm.tm_year = c.year - 1900;
+    tm.tm_mon = c.month - 1;
+    tm.tm_mday = c.day;
+    tm.tm_hour = c.hour;
+    tm.tm_min = c.minute;
+    return static_cast<double>(timegm(&tm)) + c.second;
+}
+
+}  // namespace
+
+std::unique_ptr<SceneRenderStage> SceneRenderStage::create(const std::filesystem::path& scenario,
+                                                           int width, int height, int coarseFactor,
+                                                           int threads) {
+    auto s = std::unique_ptr<SceneRenderStage>(new SceneRenderStage());
+    s->sr_ = render::ScenarioRenderer::create(scenario, coarseFactor);
+    const scene::RenderScenario& rs = s->sr_->scenario();
+    if (rs.width != width || rs.height != height) {
+        throw SetupError(rs.file.string() + ": the render size " + std::to_string(rs.width) + "x" +
+                         std::to_string(rs.height) + " differs from the run's " +
+                         std::to_string(width) + "x" + std::to_string(height));
+    }
+    s->pool_ = std::make_unique<RowPool>(threads);
+    s->band_ = ImageF(width, height);
+    s->epochUnix_s_ =
+        unixFromCalendar(astro::parseIsoUtc(rs.utcStart, rs.file.string() + ": utc_start"));
+    s->lat0_rad_ = rs.site.lat_deg * kRadPerDeg;
+    s->lon0_rad_ = rs.site.lon_deg * kRadPerDeg;
+    s->h0_m_ = rs.site.height_m;
+    const double sl = std::sin(s->lat0_rad_);
+    const double w = std::sqrt(1.0 - kWgs84E2 * sl * sl);
+    s->primeVerticalRadius_m_ = kWgs84A_m / w;
+    s->meridianRadius_m_ = kWgs84A_m * (1.0 - kWgs84E2) / (w * w * w);
+    const auto& lamps = s->sr_->scene().lamps;
+    s->lampCount_ = static_cast<int>(std::min<std::size_t>(lamps.size(), 32));
+    for (int i = 0; i < s->lampCount_; ++i) {
+        if (lamps[static_cast<std::size_t>(i)].on) s->initialLamps_ |= 1u << i;
+    }
+    return s;
+}
+
+scene::CameraPose SceneRenderStage::poseFor(const PlatformState& p) const noexcept {
+    scene::CameraPose pose;
+    const double east = (p.lon_deg * kRadPerDeg - lon0_rad_) * (primeVerticalRadius_m_ + h0_m_) *
+                        std::cos(lat0_rad_);
+    const double north = (p.lat_deg * kRadPerDeg - lat0_rad_) * (meridianRadius_m_ + h0_m_);
+    pose.position_m = {east, north, p.alt_m - h0_m_};
+    const Mat3 enuFromBody = enuFromNed() * nedFromBodyYpr(p.yaw_rad, p.pitch_rad, p.roll_rad);
+    const Vec3 forward_enu = enuFromBody * Vec3{1.0, 0.0, 0.0};
+    pose.target_m = pose.position_m + forward_enu;
+    pose.up = enuFromBody * Vec3{0.0, 0.0, -1.0};
+    pose.twist_rad = 0.0;
+    return pose;
+}
+
+void SceneRenderStage::render(const FrameRequest& req, ImageView<float> lpe,
+                              FrameMeta& meta) noexcept {
+    render::Renderer& r = sr_->renderer();
+    const double t_s =
+        req.platform.utc_unix_s > 0.0 ? req.platform.utc_unix_s - epochUnix_s_ : req.t_sample_s;
+    for (int i = 0; i < lampCount_; ++i)
+        r.setLampOn(i, ((req.platform.lampMask >> i) & 1u) != 0);
+    if (req.platform.poseFromTelemetry) r.setCamera(poseFor(req.platform));
+    const render::FrameSky sky = sr_->prepare(t_s);
+    r.render(sky, lpe, band_.view(), *pool_);
+    const int n = r.truthBoxes(ids_, boxes_, kMaxTruthBoxes);
+    meta.truthCount = n;
+    for (int i = 0; i < n; ++i) {
+        meta.truth[i] = TruthBox{ids_[i], boxes_[4 * i], boxes_[4 * i + 1], boxes_[4 * i + 2],
+                                 boxes_[4 * i + 3]};
+    }
+}
+
+}  // namespace nvs::rt

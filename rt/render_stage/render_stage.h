@@ -1,0 +1,64 @@
+#pragma once
+// The renderer as the runtime's render stage (rt/msg/stages.h).
+//
+// UNIT: the image this stage writes is the photoelectron radiance at the lens, Lpe
+// [pe s⁻¹ m⁻² sr⁻¹] in the scenario camera's band (DESIGN §3) — what the IICCD chain consumes
+// directly. The band-integrated radiance [W m⁻² sr⁻¹] of the same frame is kept alongside
+// (bandRadiance()) for the EXR sink and for comparison with the thesis.
+//
+// Per frame it takes from the request:
+//   time     the platform's UTC (telemetry time) if set, else the scenario epoch + t_sample_s;
+//   pose     when the pose comes from telemetry: latitude, longitude, altitude and the
+//            aerospace yaw/pitch/roll of the body, the camera looking along body x with image
+//            right = body y and image down = body z. The position is placed in the scene's
+//            local ENU frame (origin at the scenario site) through the WGS84 radii of curvature
+//            at the site (east = Δλ·(N + h)·cos φ, north = Δφ·(M + h), up = Δh), which is
+//            within 0.1 m of the exact transformation over ±1 km. Without telemetry the
+//            scene's own camera is used (a fixed camera such as the RIT roof);
+//   lamps    bit i of lampMask switches lamp i (scene order) on;
+// and it writes the truth boxes of the scene's tracked objects into the frame's metadata.
+
+#include <filesystem>
+#include <memory>
+
+#include "rt/msg/stages.h"
+#include "rt/render_stage/row_pool.h"
+#include "sim/render/setup.h"
+
+namespace nvs::rt {
+
+class SceneRenderStage final : public RenderStage {
+  public:
+    // Setup: loads the scenario's scene, camera preset and sky (throws SetupError). The
+    // runtime's image must be width × height of the scenario.
+    static std::unique_ptr<SceneRenderStage> create(const std::filesystem::path& scenario,
+                                                    int width, int height, int coarseFactor,
+                                                    int threads);
+
+    void render(const FrameRequest& req, ImageView<float> lpe, FrameMeta& meta) noexcept override;
+
+    // The last frame's band radiance [W m⁻² sr⁻¹].
+    ImageView<const float> bandRadiance() const { return band_.cview(); }
+    // Lamps of the scene switched on by the scenario at the start, as a lamp mask.
+    std::uint32_t initialLampMask() const { return initialLamps_; }
+    const render::ScenarioRenderer& scenario() const { return *sr_; }
+    double epochUnix_s() const { return epochUnix_s_; }
+
+    // The scene-frame camera pose for a platform state (exposed for tests).
+    scene::CameraPose poseFor(const PlatformState& p) const noexcept;
+
+  private:
+    SceneRenderStage() = default;
+    std::unique_ptr<render::ScenarioRenderer> sr_;
+    std::unique_ptr<RowPool> pool_;
+    ImageF band_;
+    double epochUnix_s_ = 0.0;
+    double lat0_rad_ = 0.0, lon0_rad_ = 0.0, h0_m_ = 0.0;
+    double meridianRadius_m_ = 0.0, primeVerticalRadius_m_ = 0.0;
+    std::uint32_t initialLamps_ = 0;
+    int lampCount_ = 0;
+    int ids_[kMaxTruthBoxes] = {};
+    float boxes_[4 * kMaxTruthBoxes] = {};
+};
+
+}  // namespace nvs::rt
