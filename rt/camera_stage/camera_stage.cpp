@@ -16,7 +16,7 @@ IiccdCameraStage::IiccdCameraStage(const sensor::CameraParams& cam, const std::s
     : cam_(cam),
       camAuto_(autoParams(cam)),
       controls_(controls),
-      lpePerL_(sensor::peRadiancePerBandRadiance(cam, spectrum)),
+      lpePerL_(spectrum == "pe" ? 1.0 : sensor::peRadiancePerBandRadiance(cam, spectrum)),
       optics_(cam_),
       gate_(cam_),
       cathode_(cam_, seed),

@@ -10,7 +10,8 @@
 // Input conversion: the render stage gives band radiance L [W m⁻² sr⁻¹]; the chain takes
 // photoelectron radiance Lpe = L·k [pe s⁻¹ m⁻² sr⁻¹], with k = peRadiancePerBandRadiance(camera,
 // spectrum) computed once at setup (sim/sensor/camera.h; `spectrum` flat | blackbody:T | moon |
-// night_sky names the source spectrum's shape).
+// night_sky names the source spectrum's shape). With spectrum "pe" the render stage already
+// gives photoelectron radiance (the scene renderer, rt/render_stage) and k = 1.
 //
 // Controls per frame (Controls::Platform, the default): the camera obeys the platform state
 // (telemetry, or the scenario's held [platform] values):

@@ -11,7 +11,9 @@
 #include "drivers/sinks/sinks.h"
 #include "rt/camera_stage/camera_stage.h"
 #include "rt/clock/threads.h"
+#include "rt/render_stage/render_stage.h"
 #include "rt/run/telemetry_factory.h"
+#include "rt/run/timeline.h"
 #include "rt/synth/synth.h"
 #include "sim/core/error.h"
 
@@ -179,7 +181,7 @@ int runScenario(const RunRequest& req, std::FILE* status) {
     // soon as the loop exists.
     installStopSignals();
     // Setup: everything that can fail fails here, before the first frame.
-    const Scenario sc = loadScenario(req.scenario);
+    Scenario sc = loadScenario(req.scenario);
     LoopConfig cfg;
     cfg.rate = sc.rate;
     cfg.clock = req.clock;
@@ -203,8 +205,30 @@ int runScenario(const RunRequest& req, std::FILE* status) {
         sinks.push_back(makeSink(o, sc));
     }
     if (toStdout > 1) throw SetupError("--output: only one output can go to stdout");
-    std::unique_ptr<PlatformSource> platform = makePlatformSource(req.telemetry, sc, req.clock);
-    TestPatternRender render(sc.testPattern.radianceMax_W_m2_sr, sc.testPattern.targetSpeed_px_s);
+    // Frames: the scene renderer (photoelectron radiance, which the camera takes as is) or the
+    // test pattern (band radiance).
+    std::unique_ptr<SceneRenderStage> sceneStage;
+    TestPatternRender testPattern(sc.testPattern.radianceMax_W_m2_sr,
+                                  sc.testPattern.targetSpeed_px_s);
+    RenderStage* render = &testPattern;
+    if (sc.rendered) {
+        sceneStage = SceneRenderStage::create(sc.file, sc.width, sc.height, sc.renderCoarse,
+                                              sc.renderThreads);
+        render = sceneStage.get();
+        sc.platform.lampMask = sceneStage->initialLampMask();
+        sc.camera.spectrum = "pe";
+        if (!sc.camera.enabled) {
+            throw SetupError(sc.file + ": a rendered scenario needs a [camera] preset");
+        }
+    }
+    std::unique_ptr<PlatformSource> platform =
+        makePlatformSource(req.telemetry ? req.telemetry : sc.telemetry, sc, req.clock);
+    if (!sc.events.empty()) {
+        platform = std::make_unique<TimelineSource>(
+            std::move(platform), resolveTimeline(sc, [&](const std::string& name) {
+                return sceneStage ? sceneStage->scenario().scene().lampIndex(name) : -1;
+            }));
+    }
     std::unique_ptr<CameraStage> camera;
     if (sc.camera.enabled) {
         camera = std::make_unique<IiccdCameraStage>(
@@ -220,7 +244,7 @@ int runScenario(const RunRequest& req, std::FILE* status) {
 
     std::string mainMsg;
     applyThreadSpec(kThreadMain, false, mainMsg);
-    FrameLoop loop(cfg, *platform, render, *camera, raw);
+    FrameLoop loop(cfg, *platform, *render, *camera, raw);
     std::vector<std::string> messages;
     if (stopRequested().load(std::memory_order_relaxed)) loop.requestStop();
     loop.start(messages);

@@ -1,5 +1,6 @@
 #include "rt/run/scenario.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <ctime>
@@ -54,7 +55,7 @@ T getOr(const std::optional<ConfigTable>& t, std::string_view key, const T& def)
 // [camera]: the preset with its overrides; the scenario's explicit size and ADC depth are
 // applied as overrides so that the preset's own validation sees them.
 void readCamera(const ConfigTable& t, std::optional<int> width, std::optional<int> height,
-                std::optional<int> bits, CameraSpec& out) {
+                std::optional<int> bits, std::uint64_t defaultSeed, CameraSpec& out) {
     const std::string preset = t.require<std::string>("preset");
     sensor::Overrides ov;
     try {
@@ -81,7 +82,7 @@ void readCamera(const ConfigTable& t, std::optional<int> width, std::optional<in
     } catch (const SetupError& e) {
         t.fail("spectrum", e.what());
     }
-    const std::int64_t seed = t.get<std::int64_t>("seed", 1);
+    const std::int64_t seed = t.get<std::int64_t>("seed", static_cast<std::int64_t>(defaultSeed));
     if (seed < 0) t.fail("seed", "must not be negative");
     out.seed = static_cast<std::uint64_t>(seed);
     const std::string controls = t.get<std::string>("controls", "platform");
@@ -99,12 +100,17 @@ Scenario fromDocument(const ConfigDocument& doc, const std::string& file) {
     const ConfigTable s = root.table("scenario");
     sc.name = s.require<std::string>("name");
     sc.description = s.get<std::string>("description", "");
+    sc.group = s.get<std::string>("group", "");
+    const std::int64_t scenarioSeed = s.get<std::int64_t>("seed", 1);
+    if (scenarioSeed < 0) s.fail("seed", "must not be negative");
+    sc.seed = static_cast<std::uint64_t>(scenarioSeed);
+    sc.rendered = root.contains("scene");
     const std::optional<double> hzGiven = s.optional<double>("frame_rate_hz");
     const std::optional<int> widthGiven = s.optional<int>("width");
     const std::optional<int> heightGiven = s.optional<int>("height");
     const std::optional<int> bitsGiven = s.optional<int>("bits");
     const std::optional<ConfigTable> cam = root.optionalTable("camera");
-    if (cam) readCamera(*cam, widthGiven, heightGiven, bitsGiven, sc.camera);
+    if (cam) readCamera(*cam, widthGiven, heightGiven, bitsGiven, sc.seed, sc.camera);
     const sensor::CameraParams& cp = sc.camera.params;
     const double camRate_hz =
         cp.scan == sensor::ScanMode::Field ? cp.field_rate_Hz : cp.field_rate_Hz / 2.0;
@@ -172,25 +178,96 @@ Scenario fromDocument(const ConfigDocument& doc, const std::string& file) {
     if (bad != "count" && bad != "stop") r->fail("bad_input", "must be \"count\" or \"stop\"");
     sc.badInputFatal = bad == "stop";
     sc.realtime = getOr<bool>(r, "realtime", false);
+    sc.renderThreads = getOr<int>(r, "render_threads", 2);
+    if (sc.renderThreads < 1 || sc.renderThreads > 16)
+        r->fail("render_threads", "must be in [1, 16]");
+    sc.renderCoarse = getOr<int>(r, "coarse_tiles", 1);
+    if (sc.renderCoarse < 1 || sc.renderCoarse > 8) r->fail("coarse_tiles", "must be in [1, 8]");
     sc.staleAfter_s = getOr<double>(r, "stale_after_s", 0.5);
     sc.maxExtrapolation_s = getOr<double>(r, "max_extrapolation_s", 0.1);
     if (!(sc.staleAfter_s > 0.0)) r->fail("stale_after_s", "must be positive");
     if (sc.maxExtrapolation_s < 0.0) r->fail("max_extrapolation_s", "must not be negative");
 
-    const auto sources = root.tableArray("source");
-    if (sources.size() != 1) {
-        throw SetupError(FileLoc{file, 0, 0},
-                         "exactly one [[source]] is needed (kind = \"test_pattern\")");
+    // Frames: rendered from a scene (its tables are sim/scene's), or the test pattern.
+    if (sc.rendered) {
+        for (const char* t : {"site", "atmosphere", "scene"})
+            root.skip(t);
+        if (root.contains("source")) {
+            throw SetupError(root.location("source"), "[[source]] and [scene] exclude each other");
+        }
+    } else {
+        const auto sources = root.tableArray("source");
+        if (sources.size() != 1) {
+            throw SetupError(FileLoc{file, 0, 0},
+                             "exactly one [[source]] is needed (kind = \"test_pattern\"), or a "
+                             "[scene]");
+        }
+        const ConfigTable src = sources[0];
+        const std::string kind = src.require<std::string>("kind");
+        if (kind != "test_pattern") src.fail("kind", "unknown source kind (known: test_pattern)");
+        TestPatternSpec& tp = sc.testPattern;
+        tp.radianceMax_W_m2_sr = src.get<double>("radiance_max_W_m2_sr", 1e-4);
+        tp.fullScale_W_m2_sr = src.get<double>("full_scale_W_m2_sr", tp.radianceMax_W_m2_sr);
+        tp.targetSpeed_px_s = src.get<double>("target_speed_px_s", 40.0);
+        if (!(tp.radianceMax_W_m2_sr > 0.0)) src.fail("radiance_max_W_m2_sr", "must be positive");
+        if (!(tp.fullScale_W_m2_sr > 0.0)) src.fail("full_scale_W_m2_sr", "must be positive");
     }
-    const ConfigTable src = sources[0];
-    const std::string kind = src.require<std::string>("kind");
-    if (kind != "test_pattern") src.fail("kind", "unknown source kind (known: test_pattern)");
-    TestPatternSpec& tp = sc.testPattern;
-    tp.radianceMax_W_m2_sr = src.get<double>("radiance_max_W_m2_sr", 1e-4);
-    tp.fullScale_W_m2_sr = src.get<double>("full_scale_W_m2_sr", tp.radianceMax_W_m2_sr);
-    tp.targetSpeed_px_s = src.get<double>("target_speed_px_s", 40.0);
-    if (!(tp.radianceMax_W_m2_sr > 0.0)) src.fail("radiance_max_W_m2_sr", "must be positive");
-    if (!(tp.fullScale_W_m2_sr > 0.0)) src.fail("full_scale_W_m2_sr", "must be positive");
+
+    // Telemetry recorded with the scenario: paths are relative to the scenario's folder.
+    if (const auto tel = root.optionalTable("telemetry")) {
+        std::string spec = tel->require<std::string>("source");
+        const auto colon = spec.find(':');
+        const std::string scheme = colon == std::string::npos ? "" : spec.substr(0, colon);
+        if (scheme != "replay" && scheme != "can" && scheme != "serial") {
+            tel->fail("source", "expected replay:LOG, can:IFACE or serial:DEV");
+        }
+        if (scheme == "replay") {
+            const auto q = spec.find('?');
+            std::filesystem::path log =
+                spec.substr(colon + 1, q == std::string::npos ? q : q - colon - 1);
+            if (log.is_relative()) log = std::filesystem::path(file).parent_path() / log;
+            if (!std::filesystem::exists(log)) {
+                tel->fail("source", "telemetry log not found: " + log.string());
+            }
+            spec = "replay:" + log.string() + (q == std::string::npos ? "" : spec.substr(q));
+        }
+        sc.telemetry = spec;
+    }
+
+    // The timeline.
+    for (const ConfigTable& e : root.tableArray("event")) {
+        TimelineEvent ev;
+        ev.loc = e.location("t_s");
+        ev.t_s = e.require<double>("t_s");
+        if (ev.t_s < 0.0) e.fail("t_s", "must not be negative");
+        if (sc.duration_s && ev.t_s > *sc.duration_s) {
+            e.fail("t_s", "the event at " + std::to_string(ev.t_s) +
+                              " s is after the end of the scenario (duration_s = " +
+                              std::to_string(*sc.duration_s) + ")");
+        }
+        if (const auto lamp = e.optional<std::string>("lamp")) {
+            if (!sc.rendered) e.fail("lamp", "lamps need a [scene]");
+            ev.lamp = *lamp;
+            ev.lampOn = e.get<bool>("on", true);
+        } else if (e.contains("on")) {
+            e.fail("on", "needs lamp = NAME");
+        }
+        ev.gain_V = e.optional<double>("gain_V");
+        if (ev.gain_V && *ev.gain_V < 0.0) e.fail("gain_V", "must not be negative");
+        ev.agc = e.optional<bool>("agc");
+        ev.gate_s = e.optional<double>("gate_s");
+        if (ev.gate_s && *ev.gate_s < 0.0) e.fail("gate_s", "must not be negative");
+        ev.gateMode = e.optional<int>("gate_mode");
+        if (ev.gateMode && (*ev.gateMode < 0 || *ev.gateMode > 2))
+            e.fail("gate_mode", "must be 0, 1 or 2");
+        if (!ev.lamp && !ev.gain_V && !ev.agc && !ev.gate_s && !ev.gateMode) {
+            throw SetupError(
+                ev.loc, "the event changes nothing (give lamp, gain_V, agc, gate_s or gate_mode)");
+        }
+        sc.events.push_back(ev);
+    }
+    std::stable_sort(sc.events.begin(), sc.events.end(),
+                     [](const TimelineEvent& a, const TimelineEvent& b) { return a.t_s < b.t_s; });
     doc.finish();
     return sc;
 }

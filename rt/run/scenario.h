@@ -21,7 +21,14 @@
 //                                      realtime        bool (SCHED_FIFO+mlockall) false
 //                                      stale_after_s   s                      0.5
 //                                      max_extrapolation_s s                  0.1
-//   [[source]]  exactly one, kind = "test_pattern" (rt/synth):
+//                                      render_threads  1..16 (2), coarse_tiles 1..8 (1)
+//   [scenario] also: group (string), seed (integer ≥ 0, default 1: the noise seed)
+//   [scene]     the frames are rendered (sim/render): file, lamps_on; with it [site] and
+//               [atmosphere] (docs/scene.md), and no [[source]]
+//   [telemetry] source = "replay:LOG" | "can:…" | "serial:…" (LOG relative to the scenario)
+//   [[event]]   t_s (s, ≥ 0, ≤ duration_s) and any of: lamp = NAME with on = bool; gain_V;
+//               agc (bool); gate_s; gate_mode (0..2)
+//   [[source]]  exactly one without [scene], kind = "test_pattern" (rt/synth):
 //                                      radiance_max_W_m2_sr   W/m²/sr   1e-4
 //                                      full_scale_W_m2_sr     W/m²/sr   radiance_max
 //                                      target_speed_px_s      px/s      40
@@ -42,6 +49,7 @@
 #include <filesystem>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "rt/clock/clock.h"
 #include "rt/loop/frame_loop.h"
@@ -65,10 +73,34 @@ struct CameraSpec {
     bool controlsFromPlatform = true;
 };
 
+// One scripted event of the [[event]] timeline: at run time t_s (seconds from the start) the
+// named lamp is switched, or the camera controls change; it holds until a later event.
+struct TimelineEvent {
+    double t_s = 0.0;
+    FileLoc loc;                      // the event's place in the file, for errors
+    std::optional<std::string> lamp;  // a lamp of the scene, by name
+    bool lampOn = true;
+    std::optional<double> gain_V;
+    std::optional<bool> agc;
+    std::optional<double> gate_s;
+    std::optional<int> gateMode;
+};
+
 struct Scenario {
     std::string file;
     std::string name;
     std::string description;
+    std::string group;       // e.g. "thesis", "tracking", "airborne"
+    std::uint64_t seed = 1;  // noise seed (the camera's unless [camera] seed is given)
+    // The scenario has a [scene] table: frames are rendered from it (sim/render) instead of
+    // the test pattern; its [site], [atmosphere] and [scene] tables are read by sim/scene.
+    bool rendered = false;
+    // [telemetry] source: an --telemetry spec, file paths resolved against the scenario's
+    // folder; --telemetry on the command line takes precedence.
+    std::optional<std::string> telemetry;
+    std::vector<TimelineEvent> events;  // sorted by t_s
+    int renderThreads = 2;  // [runtime] render_threads: rows split over this many threads
+    int renderCoarse = 1;   // [runtime] coarse_tiles: lighting every N-th pixel (1 = full rate)
     FrameRate rate;
     int width = 320;
     int height = 240;

@@ -39,7 +39,8 @@ std::unique_ptr<ScenarioRenderer> ScenarioRenderer::create(const std::filesystem
             r->scene_.lamps[static_cast<std::size_t>(i)].on = true;
         }
     }
-    r->camera_ = sensor::loadCamera(r->scenario_.cameraPreset);
+    r->camera_ = sensor::loadCamera(r->scenario_.cameraPreset,
+                                    sensor::parseOverrides(r->scenario_.cameraOverrides));
     r->ephemeris_ = std::make_unique<astro::Ephemeris>(r->scenario_.site);
     r->epoch_ = astro::astroTimeFromUtc(
         astro::parseIsoUtc(r->scenario_.utcStart, r->scenario_.file.string() + ": utc_start"),

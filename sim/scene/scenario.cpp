@@ -11,9 +11,10 @@ namespace {
 
 // Keys of the runtime's minimal scenario format (docs/runtime.md) that the renderer does not
 // read: they are checked by rt/run, not here.
-constexpr const char* kRuntimeScenarioKeys[] = {"name", "description", "bits", "exposure_s",
-                                                "duration_s"};
-constexpr const char* kRuntimeTables[] = {"platform", "runtime", "source"};
+constexpr const char* kRuntimeScenarioKeys[] = {"name", "description", "group",     "seed",
+                                                "bits", "exposure_s",  "duration_s"};
+constexpr const char* kRuntimeTables[] = {"platform", "runtime", "source", "telemetry", "event"};
+constexpr const char* kRuntimeCameraKeys[] = {"spectrum", "seed", "controls"};
 
 double finiteIn(const ConfigTable& t, std::string_view key, double fallback, double lo, double hi) {
     const double v = t.get<double>(key, fallback);
@@ -72,6 +73,9 @@ RenderScenario loadRenderScenario(const std::filesystem::path& pathIn) {
 
     if (const auto cam = root.optionalTable("camera")) {
         s.cameraPreset = cam->get<std::string>("preset", s.cameraPreset);
+        s.cameraOverrides = cam->get<std::vector<std::string>>("set", {});
+        for (const char* k : kRuntimeCameraKeys)
+            cam->skip(k);
     }
 
     const ConfigTable scn = root.table("scene");

@@ -5,7 +5,7 @@
 //   [site]       lat_deg, lon_deg, height_m, pressure_hPa, temperature_C
 //   [atmosphere] visibility_km, aerosol, ozone_DU, precipitable_water_cm,
 //                cloud_optical_depth, ground_albedo
-//   [camera]     preset
+//   [camera]     preset, set (KEY=VALUE preset overrides, as the runtime applies them)
 //   [scene]      file (relative to the scenario file), lamps_on
 //
 // The loader is strict: an unknown key in these tables is an error naming file:line. Keys and
@@ -31,6 +31,7 @@ struct RenderScenario {
     astro::Site site;
     sky::AtmosphereParams atmosphere;
     std::string cameraPreset = "pulnix-ag5745ef3";
+    std::vector<std::string> cameraOverrides;         // [camera] set = ["KEY=VALUE", ...]
     std::filesystem::path sceneFile;                  // absolute
     std::optional<std::vector<std::string>> lampsOn;  // absent: each lamp's own `on`
 
