@@ -108,6 +108,10 @@ class PixelRng {
     // Block b of row y alone (the same four words rowWords gives), for sparse use.
     void block(std::uint32_t y, std::uint32_t plane, std::uint32_t b,
                std::uint32_t out[4]) const noexcept;
+    // Blocks blocks[0] … blocks[n−1] of row y (any order, repeats allowed): 4·n words, the
+    // same as block() gives one by one, made in bulk (for rows where few pixels draw).
+    void blocksAt(std::uint32_t y, std::uint32_t plane, const std::uint32_t* blocks, int n,
+                  std::uint32_t* out) const noexcept;
     PixelStream pixelStream(std::uint32_t x, std::uint32_t y) const noexcept;
 
   private:

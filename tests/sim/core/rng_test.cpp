@@ -289,6 +289,14 @@ TEST(PixelRng, RowWordsAreBlocksOfTheDocumentedCounterWhateverTheChunking) {
         for (std::uint32_t j = 0; j < 4; ++j)
             ASSERT_EQ(one[j], all[4 * b + j]) << b;
     }
+    // A list of blocks (out of order, repeated, a length that is no multiple of the lanes)
+    // gives the same words as the row.
+    const std::vector<std::uint32_t> list = {49, 0, 3, 3, 17, 2, 48, 11, 30, 1, 5};
+    std::vector<std::uint32_t> listed(4 * list.size());
+    rng.blocksAt(9, 1, list.data(), static_cast<int>(list.size()), listed.data());
+    for (std::size_t i = 0; i < list.size(); ++i)
+        for (std::uint32_t j = 0; j < 4; ++j)
+            ASSERT_EQ(listed[4 * i + j], all[4 * list[i] + j]) << i;
     // Another plane, row, frame or stream gives other words; a pixel stream meets no row word.
     std::vector<std::uint32_t> other(4 * 50);
     rng.rowWords(9, 0, 0, 50, other.data());
