@@ -15,9 +15,23 @@ BUILD    := build/$(PRESET)
 SUDO     := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 NVSTIM   := $(BUILD)/rt/cli/nvstim
 
+SCENARIO ?= scenarios/thesis-nolight
+OUT      := out
+
 .PHONY: run test
 run: .nvs-build
-	$(NVSTIM) --help
+	@mkdir -p $(OUT)
+	$(NVSTIM) run $(SCENARIO) --clock sim --output y4m:$(OUT)/$(notdir $(SCENARIO)).y4m \
+	  --output contact:$(OUT)/$(notdir $(SCENARIO))-contact.png \
+	  --output meta:$(OUT)/$(notdir $(SCENARIO)).jsonl
+	@if command -v ffmpeg >/dev/null; then \
+	  ffmpeg -y -loglevel error -i $(OUT)/$(notdir $(SCENARIO)).y4m -c:v libx264 -pix_fmt yuv420p \
+	    $(OUT)/$(notdir $(SCENARIO)).mp4 && echo "nvstim: video        $(OUT)/$(notdir $(SCENARIO)).mp4"; fi
+	@echo "nvstim: raw video    $(OUT)/$(notdir $(SCENARIO)).y4m   (play: ffplay $(OUT)/$(notdir $(SCENARIO)).y4m)"
+	@echo "nvstim: contact sheet $(OUT)/$(notdir $(SCENARIO))-contact.png"
+	@echo "nvstim: metadata     $(OUT)/$(notdir $(SCENARIO)).jsonl"
+	@echo "nvstim: to send the same to a V4L2 device in real time instead (docs/hil.md):"
+	@echo "  $(NVSTIM) run $(SCENARIO) --clock wall --output v4l2:/dev/videoN"
 
 test: .nvs-build
 	ctest --preset $(PRESET)

@@ -344,4 +344,95 @@ int MetaJsonlSink::close() noexcept {
     return rc;
 }
 
+// ---- contact sheet ----------------------------------------------------------------------------
+
+namespace {
+constexpr int kSheetGap_px = 4;
+}
+
+ContactSheetSink::ContactSheetSink(const std::string& path, int width, int height, int bits,
+                                   int cols, int rows, int shrink, std::int64_t frames,
+                                   std::int64_t every)
+    : name_("contact:" + path),
+      path_(path),
+      width_(width),
+      height_(height),
+      bits_(bits),
+      cols_(cols),
+      rows_(rows),
+      shrink_(shrink),
+      frames_(frames),
+      every_(every) {
+    checkSize(width, height, name_);
+    if (cols < 1 || rows < 1 || cols * rows > 64)
+        throw SetupError(name_ + ": cols x rows must be 1..64");
+    if (shrink < 1 || shrink > 16) throw SetupError(name_ + ": shrink must be 1..16");
+    if (frames_ <= 0 && every_ <= 0) {
+        throw SetupError(name_ + ": the run's length is not known: give every=N");
+    }
+    tileW_ = width / shrink;
+    tileH_ = height / shrink;
+    sheetW_ = cols * tileW_ + (cols + 1) * kSheetGap_px;
+    sheetH_ = rows * tileH_ + (rows + 1) * kSheetGap_px;
+    sheet_.assign(static_cast<std::size_t>(sheetW_) * static_cast<std::size_t>(sheetH_), 255);
+    const auto parent = std::filesystem::path(path).parent_path();
+    if (!parent.empty()) makeOutputDir(parent.string(), name_);
+}
+
+std::int64_t ContactSheetSink::tickOfTile(int i) const noexcept {
+    const int tiles = cols_ * rows_;
+    if (every_ > 0) return static_cast<std::int64_t>(i) * every_;
+    if (tiles == 1) return 0;
+    // Evenly from the first to the last frame.
+    return static_cast<std::int64_t>(
+        std::llround(static_cast<double>(i) * static_cast<double>(frames_ - 1) /
+                     static_cast<double>(tiles - 1)));
+}
+
+int ContactSheetSink::write(const rt::OutputFrame& frame) noexcept {
+    if (state_ == SinkState::Closed) return -EBADF;
+    if (next_ >= cols_ * rows_ || frame.tick < tickOfTile(next_)) return 0;
+    const int tx = kSheetGap_px + (next_ % cols_) * (tileW_ + kSheetGap_px);
+    const int ty = kSheetGap_px + (next_ / cols_) * (tileH_ + kSheetGap_px);
+    const int n = shrink_ * shrink_;
+    for (int y = 0; y < tileH_; ++y) {
+        unsigned char* dst =
+            &sheet_[static_cast<std::size_t>(ty + y) * static_cast<std::size_t>(sheetW_) +
+                    static_cast<std::size_t>(tx)];
+        for (int x = 0; x < tileW_; ++x) {
+            int sum = 0;
+            for (int dy = 0; dy < shrink_; ++dy) {
+                const std::uint16_t* row = frame.counts.row(y * shrink_ + dy);
+                for (int dx = 0; dx < shrink_; ++dx)
+                    sum += to8(row[x * shrink_ + dx], bits_);
+            }
+            dst[x] = static_cast<unsigned char>((sum + n / 2) / n);
+        }
+    }
+    ++next_;
+    ++counters_.frames;
+    return 0;
+}
+
+int ContactSheetSink::close() noexcept {
+    if (state_ == SinkState::Closed) return 0;
+    state_ = SinkState::Closed;
+    const std::string temp = path_ + ".part";
+    png_image image;
+    std::memset(&image, 0, sizeof image);
+    image.version = PNG_IMAGE_VERSION;
+    image.width = static_cast<png_uint_32>(sheetW_);
+    image.height = static_cast<png_uint_32>(sheetH_);
+    image.format = PNG_FORMAT_GRAY;
+    if (png_image_write_to_file(&image, temp.c_str(), 0, sheet_.data(), 0, nullptr) == 0 ||
+        std::rename(temp.c_str(), path_.c_str()) != 0) {
+        const int rc = errno != 0 ? -errno : -EIO;
+        std::remove(temp.c_str());
+        ++counters_.errors;
+        return rc;
+    }
+    counters_.bytes += static_cast<std::int64_t>(sheet_.size());
+    return 0;
+}
+
 }  // namespace nvs::drivers

@@ -142,4 +142,29 @@ class MetaJsonlSink final : public rt::FrameSink {
 // Creates DIR (and parents) at setup; throws SetupError naming `what` on failure.
 void makeOutputDir(const std::string& dir, const std::string& what);
 
+// A contact sheet: `cols × rows` frames spread evenly over a run of `frames` frames (or every
+// `every`-th frame when the length is not known), each shrunk by `shrink` (box filter), 8-bit,
+// on a white grid, written as one PNG when the run closes. A glance at a run's content.
+class ContactSheetSink final : public rt::FrameSink {
+  public:
+    ContactSheetSink(const std::string& path, int width, int height, int bits, int cols, int rows,
+                     int shrink, std::int64_t frames, std::int64_t every);
+    const char* name() const noexcept override { return name_.c_str(); }
+    int write(const rt::OutputFrame& frame) noexcept override;
+    int close() noexcept override;
+    std::string status() const override { return describe(name_.c_str(), state_, counters_); }
+    // The tick that fills tile i (exposed for tests).
+    std::int64_t tickOfTile(int i) const noexcept;
+
+  private:
+    std::string name_, path_;
+    int width_, height_, bits_, cols_, rows_, shrink_;
+    int tileW_, tileH_, sheetW_, sheetH_;
+    std::int64_t frames_, every_;
+    int next_ = 0;  // next tile to fill
+    std::vector<unsigned char> sheet_;
+    SinkState state_ = SinkState::Open;
+    SinkCounters counters_;
+};
+
 }  // namespace nvs::drivers

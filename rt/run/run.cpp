@@ -65,7 +65,8 @@ Spec parseSpec(const std::string& text, const std::string& what) {
     return s;
 }
 
-std::unique_ptr<FrameSink> makeSink(const std::string& text, const Scenario& sc) {
+std::unique_ptr<FrameSink> makeSink(const std::string& text, const Scenario& sc,
+                                    std::int64_t frames) {
     Spec s = parseSpec(text, "--output");
     const std::string what = "--output " + text;
     std::unique_ptr<FrameSink> sink;
@@ -79,11 +80,25 @@ std::unique_ptr<FrameSink> makeSink(const std::string& text, const Scenario& sc)
         sink = std::make_unique<drivers::ExrSequenceSink>(s.target, sc.width, sc.height);
     } else if (s.scheme == "meta") {
         sink = std::make_unique<drivers::MetaJsonlSink>(s.target);
+    } else if (s.scheme == "contact") {
+        const auto num = [&](const char* key, int def) {
+            const auto v = s.take(key);
+            if (!v) return def;
+            char* end = nullptr;
+            const long n = std::strtol(v->c_str(), &end, 10);
+            if (end == v->c_str() || *end != '\0')
+                throw SetupError(what + ": " + key + " must be an integer");
+            return static_cast<int>(n);
+        };
+        const int cols = num("cols", 4), rows = num("rows", 3), shrink = num("shrink", 2);
+        const int every = num("every", 0);
+        sink = std::make_unique<drivers::ContactSheetSink>(s.target, sc.width, sc.height, sc.bits,
+                                                           cols, rows, shrink, frames, every);
     } else {
         sink = makeDeviceSink(s, sc, what);
         if (!sink) {
             throw SetupError(what + ": unknown output scheme '" + s.scheme +
-                             "' (known: v4l2, y4m, pgm, png, exr, meta, gpio)");
+                             "' (known: v4l2, y4m, pgm, png, exr, meta, contact, gpio)");
         }
     }
     s.finish(what);
@@ -202,7 +217,7 @@ int runScenario(const RunRequest& req, std::FILE* status) {
     std::vector<std::unique_ptr<FrameSink>> sinks;
     for (const std::string& o : req.outputs) {
         if (o.size() > 2 && o.compare(o.size() - 2, 2, ":-") == 0) ++toStdout;
-        sinks.push_back(makeSink(o, sc));
+        sinks.push_back(makeSink(o, sc, cfg.frames));
     }
     if (toStdout > 1) throw SetupError("--output: only one output can go to stdout");
     // Frames: the scene renderer (photoelectron radiance, which the camera takes as is) or the

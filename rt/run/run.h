@@ -38,7 +38,9 @@ Spec parseSpec(const std::string& text, const std::string& what);
 
 // Output spec → sink (throws SetupError naming the spec). Known schemes: y4m, pgm, png, exr,
 // meta (files), v4l2 (drivers/v4l2), gpio (drivers/gpio).
-std::unique_ptr<FrameSink> makeSink(const std::string& spec, const Scenario& sc);
+// `frames` is the run's length when known (≤ 0 otherwise; the contact sheet needs it or every=N).
+std::unique_ptr<FrameSink> makeSink(const std::string& spec, const Scenario& sc,
+                                    std::int64_t frames);
 // Telemetry spec → platform source; none → the scenario's held pose.
 std::unique_ptr<PlatformSource> makePlatformSource(const std::optional<std::string>& spec,
                                                    const Scenario& sc, ClockKind clock);

@@ -1,0 +1,117 @@
+// The scenario format's bad input: unknown keys, a missing telemetry log, a timeline event after
+// the end, an unknown lamp — each a clear error naming file:line.
+#include <gtest/gtest.h>
+
+#include <fstream>
+
+#include "rt/run/run.h"
+#include "rt/run/scenario.h"
+#include "sim/core/error.h"
+#include "sim/scene/scenario.h"
+
+namespace nvs::rt {
+namespace {
+namespace fs = std::filesystem;
+
+const fs::path kRit = fs::path(NVS_SOURCE_DIR) / "scenarios" / "rit" / "scene.toml";
+
+fs::path writeScenario(const char* name, const std::string& body) {
+    const fs::path d = fs::temp_directory_path() / name;
+    fs::remove_all(d);
+    fs::create_directories(d);
+    std::ofstream(d / "scenario.toml") << body;
+    return d;
+}
+
+std::string rendered(const std::string& extra) {
+    return "[scenario]\nname = \"t\"\nduration_s = 1.0\nframe_rate_hz = 10\nwidth = 96\nheight = "
+           "64\n"
+           "[site]\nlat_deg = 43.16856\nlon_deg = -77.61583\nheight_m = 218.0\n"
+           "[camera]\npreset = \"pulnix-ag5745ef3\"\n[scene]\nfile = \"" +
+           kRit.string() + "\"\n" + extra;
+}
+
+std::string errorOf(const fs::path& dir) {
+    try {
+        loadScenario(dir);
+    } catch (const SetupError& e) {
+        return e.what();
+    }
+    return "";
+}
+
+TEST(ScenarioFormat, ShippedScenariosLoad) {
+    int n = 0;
+    for (const auto& e : fs::directory_iterator(fs::path(NVS_SOURCE_DIR) / "scenarios")) {
+        if (!fs::exists(e.path() / "scenario.toml")) continue;
+        const Scenario sc = loadScenario(e.path());
+        EXPECT_TRUE(sc.rendered) << e.path();
+        EXPECT_FALSE(sc.group.empty()) << e.path();
+        EXPECT_TRUE(sc.duration_s.has_value()) << e.path();
+        // The render tables of the same file are strict too.
+        EXPECT_NO_THROW(scene::loadRenderScenario(e.path())) << e.path();
+        ++n;
+    }
+    EXPECT_GE(n, 9);
+}
+
+TEST(ScenarioFormat, UnknownKeyNamesFileAndLine) {
+    const fs::path d = writeScenario("nvs_sf_key", rendered("[platform]\ngian_V = 4.0\n"));
+    const std::string msg = errorOf(d);
+    EXPECT_NE(msg.find("scenario.toml:16:1: unknown key 'platform.gian_V'"), std::string::npos)
+        << msg;
+    EXPECT_NE(msg.find("did you mean 'gain_V'"), std::string::npos) << msg;
+}
+
+TEST(ScenarioFormat, MissingTelemetryLogNamesFileAndLine) {
+    const fs::path d =
+        writeScenario("nvs_sf_log", rendered("[telemetry]\nsource = \"replay:no-such.candump\"\n"));
+    const std::string msg = errorOf(d);
+    EXPECT_NE(msg.find("scenario.toml:16:10: key 'telemetry.source': telemetry log not found"),
+              std::string::npos)
+        << msg;
+}
+
+TEST(ScenarioFormat, EventAfterTheEndNamesFileAndLine) {
+    const fs::path d =
+        writeScenario("nvs_sf_event", rendered("[[event]]\nt_s = 2.5\ngain_V = 5.0\n"));
+    const std::string msg = errorOf(d);
+    EXPECT_NE(msg.find("scenario.toml:16:7: key 'event[0].t_s': the event at 2.5"),
+              std::string::npos)
+        << msg;
+    EXPECT_NE(msg.find("after the end of the scenario"), std::string::npos) << msg;
+}
+
+TEST(ScenarioFormat, EventThatChangesNothingOrOnWithoutLamp) {
+    EXPECT_NE(errorOf(writeScenario("nvs_sf_empty", rendered("[[event]]\nt_s = 0.5\n")))
+                  .find("changes nothing"),
+              std::string::npos);
+    EXPECT_NE(errorOf(writeScenario("nvs_sf_on", rendered("[[event]]\nt_s = 0.5\non = true\n")))
+                  .find("needs lamp = NAME"),
+              std::string::npos);
+}
+
+TEST(ScenarioFormat, SourceAndSceneExcludeEachOther) {
+    const fs::path d =
+        writeScenario("nvs_sf_src", rendered("[[source]]\nkind = \"test_pattern\"\n"));
+    EXPECT_NE(errorOf(d).find("[[source]] and [scene] exclude each other"), std::string::npos);
+}
+
+TEST(ScenarioFormat, UnknownLampInAnEventFailsAtRunSetup) {
+    const fs::path d = writeScenario(
+        "nvs_sf_lamp", rendered("[[event]]\nt_s = 0.5\nlamp = \"moon_lamp\"\non = true\n"));
+    RunRequest req;
+    req.scenario = d.string();
+    req.clock = ClockKind::Sim;
+    try {
+        runScenario(req, stderr);
+        FAIL();
+    } catch (const SetupError& e) {
+        EXPECT_NE(std::string(e.what()).find("scenario.toml:16:7: unknown lamp 'moon_lamp'"),
+                  std::string::npos)
+            << e.what();
+    }
+}
+
+}  // namespace
+}  // namespace nvs::rt
