@@ -12,22 +12,25 @@ namespace nvs::cli {
 
 int runReplay(const ReplayOptions& opts) {
     const std::filesystem::path self = std::filesystem::read_symlink("/proc/self/exe");
+    std::string dir = opts.scenarioDir;
+    while (dir.size() > 1 && dir.back() == '/')
+        dir.pop_back();
     if (opts.bless) {
-        rt::blessScenario(opts.scenarioDir, self);
-        std::printf("replay %s: blessed (expectations written to %s/expected)\n",
-                    opts.scenarioDir.c_str(), opts.scenarioDir.c_str());
+        rt::blessScenario(dir, self);
+        std::printf("replay %s: blessed (expectations written to %s/expected)\n", dir.c_str(),
+                    dir.c_str());
         return kExitOk;
     }
     if (opts.check) {
-        const rt::ReplayResult r = rt::checkScenario(opts.scenarioDir, self);
+        const rt::ReplayResult r = rt::checkScenario(dir, self);
         std::fputs(r.report.c_str(), stdout);
         return r.passed ? kExitOk : kExitFailure;
     }
     // Plain replay: run it and say where the frames are.
     const auto work = std::filesystem::temp_directory_path() / "nvstim-replay-out";
-    const auto frames = rt::replayScenario(opts.scenarioDir, self, work);
-    std::printf("replay %s: frames in %s, metadata in %s\n", opts.scenarioDir.c_str(),
-                frames.c_str(), (work / "meta.jsonl").c_str());
+    const auto frames = rt::replayScenario(dir, self, work);
+    std::printf("replay %s: frames in %s, metadata in %s\n", dir.c_str(), frames.c_str(),
+                (work / "meta.jsonl").c_str());
     return kExitOk;
 }
 

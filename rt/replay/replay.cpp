@@ -29,6 +29,12 @@ constexpr double kZLimit = 5.0;
 constexpr double kMeanFloor_counts = 0.5;
 constexpr double kVarianceTolerance = 0.25;
 constexpr int kMaxWindows = 3;
+// Whole-window limits: |z| of the mean shift, the shift it must also exceed, and the relative
+// change of the mean noise variance (its sampling error over ~6000 blocks × 30 frames is well
+// under 1 %).
+constexpr double kGlobalZLimit = 6.0;
+constexpr double kGlobalMeanFloor_counts = 0.05;
+constexpr double kGlobalVarianceTolerance = 0.03;
 
 std::string sha256File(const fs::path& p) {
     std::ifstream in(p, std::ios::binary);
@@ -407,7 +413,34 @@ ReplayResult checkScenario(const fs::path& dir, const fs::path& nvstimExe) {
             }
         }
         const int nb = w.blocksX * w.blocksY;
-        if (meanMoved > 0 || varMoved > 0) {
+        // Whole-window test: a small shift of every block (a gain change of a few percent)
+        // stays under each block's noise but not under the window's. The blocks are 8 px, wider
+        // than the MTF's correlation, so their mean errors add as independent ones.
+        double dSum = 0.0, seSum = 0.0, pv = 0.0, pvRef = 0.0;
+        for (int by = 0; by < w.blocksY; ++by) {
+            for (int bx = 0; bx < w.blocksX; ++bx) {
+                dSum += static_cast<double>(diff(bx, by));
+                seSum += (static_cast<double>(w.meanVar(bx, by)) +
+                          static_cast<double>(rMeanVar(bx, by))) /
+                         n;
+                pv += static_cast<double>(w.pixVar(bx, by));
+                pvRef += static_cast<double>(rPixVar(bx, by));
+            }
+        }
+        const double zGlobal = seSum > 0.0 ? dSum / std::sqrt(seSum) : (dSum != 0.0 ? 1e3 : 0.0);
+        const double varRatio = pvRef > 0.0 ? pv / pvRef : (pv > 0.0 ? 2.0 : 1.0);
+        const bool globalMoved =
+            std::fabs(zGlobal) > kGlobalZLimit && std::fabs(dSum / nb) > kGlobalMeanFloor_counts;
+        const bool globalVarMoved = std::fabs(varRatio - 1.0) > kGlobalVarianceTolerance;
+        if (globalMoved || globalVarMoved) r.passed = false;
+        std::snprintf(
+            line, sizeof line,
+            "  window %zu whole image: mean shift %+.3f counts (z %.1f)%s; noise variance "
+            "ratio %.4f%s\n",
+            i, dSum / nb, zGlobal, globalMoved ? " MOVED" : "", varRatio,
+            globalVarMoved ? " MOVED" : "");
+        rep << line;
+        if (meanMoved > 0 || varMoved > 0 || globalMoved || globalVarMoved) {
             r.passed = false;
             fs::create_directories(failDir);
             writeZMap(failDir / (stem + "_z.pgm"), z);

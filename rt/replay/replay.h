@@ -17,8 +17,10 @@
 //      z = (μ − μ_ref)/√((s²_ref + s²)/n) with s² the variance of the per-frame block mean
 //      (which carries the spatial correlation the MTF gives the noise), and the ratio of the
 //      per-pixel temporal variance. A block fails when |z| > 5 (and the mean moved by more
-//      than half a count) or its noise variance moved by more than 25 %. On another machine
-//      this is the whole check.
+//      than half a count) or its noise variance moved by more than 25 %; and over the whole
+//      window, a Z-test of the mean shift of all blocks (|z| > 6) and the ratio of the mean
+//      noise variance (more than 3 % off), which catch a change of a few percent in gain or
+//      noise that no single block shows. On another machine this is the whole check.
 // On failure, z-maps and mean-difference images are written to DIR/check-failures/ and one
 // readable line per moved statistic is printed.
 
