@@ -33,6 +33,235 @@ inline int blocksFor(int n) {
 
 }  // namespace
 
+// The per-pixel row loops below are compiled for the x86-64 baseline, AVX2 and AVX-512
+// (x86-64-v4) and picked at load time (GCC function multi-versioning). The library is built
+// with -ffp-contract=off, so every version does the same IEEE operations: the same bits on
+// any CPU.
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+#define NVS_ROW_CLONES __attribute__((target_clones("arch=x86-64-v4", "avx2", "default")))
+#else
+#define NVS_ROW_CLONES
+#endif
+
+namespace {
+
+// Optics row: rate = Lpe·k with bad pixels as 0; returns the bad count. The row sum is kept in
+// 16 lanes (so that the loop vectorises) and added up in double.
+NVS_ROW_CLONES int opticsRowKernel(const float* __restrict in, const float* __restrict k,
+                                   float* __restrict out, int w, double* rowSum) noexcept {
+    constexpr int kL = 16;
+    float acc[kL] = {};
+    int bad = 0;
+    int x = 0;
+    for (; x + kL <= w; x += kL) {
+        for (int j = 0; j < kL; ++j) {
+            const float v = in[x + j];
+            // NaN fails both comparisons; +inf fails the second.
+            const bool ok = (v >= 0.0f) & (v < 3.0e38f);
+            bad += static_cast<int>(!ok);
+            const float r = (ok ? v : 0.0f) * k[x + j];
+            out[x + j] = r;
+            acc[j] += r;
+        }
+    }
+    for (; x < w; ++x) {
+        const float v = in[x];
+        const bool ok = (v >= 0.0f) & (v < 3.0e38f);
+        bad += static_cast<int>(!ok);
+        const float r = (ok ? v : 0.0f) * k[x];
+        out[x] = r;
+        acc[x % kL] += r;
+    }
+    double sum = 0.0;
+    for (int j = 0; j < kL; ++j)
+        sum += static_cast<double>(acc[j]);
+    *rowSum = sum;
+    return bad;
+}
+
+// Photocathode means: (rate + ebi)·t.
+NVS_ROW_CLONES void cathodeMeanKernel(const float* __restrict r, float* __restrict mean, int w,
+                                      float ebi, float t) noexcept {
+    for (int x = 0; x < w; ++x)
+        mean[x] = (r[x] + ebi) * t;
+}
+
+// Noise-free MCP: v·G in place, the row sum in 16 lanes.
+NVS_ROW_CLONES double mcpMeanKernel(float* __restrict v, int w, float g) noexcept {
+    constexpr int kL = 16;
+    float acc[kL] = {};
+    int x = 0;
+    for (; x + kL <= w; x += kL) {
+        for (int j = 0; j < kL; ++j) {
+            v[x + j] *= g;
+            acc[j] += v[x + j];
+        }
+    }
+    for (; x < w; ++x) {
+        v[x] *= g;
+        acc[x % kL] += v[x];
+    }
+    double sum = 0.0;
+    for (int j = 0; j < kL; ++j)
+        sum += static_cast<double>(acc[j]);
+    return sum;
+}
+
+// Marsaglia–Tsang's first attempt for m listed pixels: e = θ·d·(1 + c·z)³ when the squeeze
+// accepts, else 0 (the caller finishes those, and shapes below 1, with gammaFromWords).
+NVS_ROW_CLONES void gammaFirstAttemptKernel(const float* __restrict v, const int* __restrict idx,
+                                            const float* __restrict z,
+                                            const std::uint32_t* __restrict uw,
+                                            double* __restrict e, int m, double k,
+                                            double theta) noexcept {
+    for (int j = 0; j < m; ++j) {
+        const double shape = static_cast<double>(v[idx[j]]) * k;
+        const double d = shape - 1.0 / 3.0;
+        const double c = 1.0 / std::sqrt(9.0 * (shape >= 1.0 ? d : 1.0));
+        const double zz = static_cast<double>(z[j]);
+        const double u = uniformFromWord(uw[j]);
+        double t = 1.0 + c * zz;
+        t = t * t * t;
+        const bool ok = (shape >= 1.0) & (t > 0.0) & (u < 1.0 - 0.0331 * (zz * zz) * (zz * zz));
+        e[j] = ok ? theta * d * t : 0.0;
+    }
+}
+
+// Phosphor row with M stored components (a fixed shape, so that the loop vectorises).
+template <int M>
+inline __attribute__((always_inline)) void phosphorRowBody(
+    const float* __restrict in, float* __restrict out, float* __restrict s0, float* __restrict s1,
+    float* __restrict s2, float* __restrict s3, int w, float nowEta, const float* k,
+    const float* dc, const float* em) noexcept {
+    const float k0 = k[0], k1 = k[1], k2 = k[2], k3 = k[3];
+    const float d0 = dc[0], d1 = dc[1], d2 = dc[2], d3 = dc[3];
+    const float m0 = em[0], m1 = em[1], m2 = em[2], m3 = em[3];
+    for (int x = 0; x < w; ++x) {
+        const float e = in[x];
+        float o = e * nowEta;
+        if constexpr (M > 0) {
+            const float a = s0[x];
+            o += a * m0;
+            s0[x] = a * d0 + e * k0;
+        }
+        if constexpr (M > 1) {
+            const float a = s1[x];
+            o += a * m1;
+            s1[x] = a * d1 + e * k1;
+        }
+        if constexpr (M > 2) {
+            const float a = s2[x];
+            o += a * m2;
+            s2[x] = a * d2 + e * k2;
+        }
+        if constexpr (M > 3) {
+            const float a = s3[x];
+            o += a * m3;
+            s3[x] = a * d3 + e * k3;
+        }
+        out[x] = o;
+    }
+}
+
+#define NVS_PHOSPHOR_ROW(M)                                                                  \
+    NVS_ROW_CLONES void phosphorRow##M(const float* in, float* out, float* const* st, int w, \
+                                       float nowEta, const float* k, const float* dc,        \
+                                       const float* em) noexcept {                           \
+        phosphorRowBody<M>(in, out, st[0], st[1], st[2], st[3], w, nowEta, k, dc, em);       \
+    }
+NVS_PHOSPHOR_ROW(0)
+NVS_PHOSPHOR_ROW(1)
+NVS_PHOSPHOR_ROW(2)
+NVS_PHOSPHOR_ROW(3)
+NVS_PHOSPHOR_ROW(4)
+#undef NVS_PHOSPHOR_ROW
+
+// CCD load: max(src, 0)·(1 + PRNU) + dark, the column maxima and the column sums.
+NVS_ROW_CLONES void ccdLoadKernel(const float* __restrict src, const float* __restrict prnu,
+                                  float* __restrict dst, float* __restrict cmax,
+                                  float* __restrict csum, int w, float dark) noexcept {
+    if (prnu) {
+        for (int x = 0; x < w; ++x) {
+            const float s = src[x];
+            const float v = (s < 0.0f ? 0.0f : s) * prnu[x] + dark;
+            dst[x] = v;
+            cmax[x] = cmax[x] < v ? v : cmax[x];
+            csum[x] += v;
+        }
+    } else {
+        for (int x = 0; x < w; ++x) {
+            const float s = src[x];
+            const float v = (s < 0.0f ? 0.0f : s) + dark;
+            dst[x] = v;
+            cmax[x] = cmax[x] < v ? v : cmax[x];
+            csum[x] += v;
+        }
+    }
+}
+
+// Read-out row: v += smear + σ·z.
+NVS_ROW_CLONES void ccdReadKernel(float* __restrict v, const float* __restrict cs,
+                                  const float* __restrict z, int w, float sigma) noexcept {
+    for (int x = 0; x < w; ++x)
+        v[x] += cs[x] + sigma * z[x];
+}
+
+// Video, linear: round to nearest even by the 1.5·2²³ trick (exact for |x| < 2²²; the value
+// is clamped to [−1, max + 1] first), then clamp to the ADC range. Returns the row's sum.
+NVS_ROW_CLONES std::int64_t videoLinearKernel(const float* __restrict s, float* __restrict o,
+                                              std::uint16_t* __restrict v, int w, float gain,
+                                              float offset, float maxc) noexcept {
+    std::int32_t sum = 0;
+    for (int x = 0; x < w; ++x) {
+        float dc = s[x] * gain + offset;
+        dc = dc < -1.0f ? -1.0f : dc;
+        dc = dc > maxc + 1.0f ? maxc + 1.0f : dc;
+        dc = (dc + 0x1.8p23f) - 0x1.8p23f;
+        dc = dc < 0.0f ? 0.0f : dc;
+        dc = dc > maxc ? maxc : dc;
+        o[x] = dc;
+        const std::int32_t n = static_cast<std::int32_t>(dc);
+        v[x] = static_cast<std::uint16_t>(n);
+        sum += n;
+    }
+    return sum;
+}
+
+// Video, gamma with a one-step threshold table (VideoStage): signals above zero take the
+// table's level, the others the linear conversion.
+NVS_ROW_CLONES std::int64_t videoGammaKernel(const float* __restrict s, float* __restrict o,
+                                             std::uint16_t* __restrict v, int w, float gain,
+                                             float offset, float maxc,
+                                             const std::int32_t* __restrict lut,
+                                             const float* __restrict thr, float lutScale, float top,
+                                             float bottom) noexcept {
+    std::int32_t sum = 0;
+    for (int x = 0; x < w; ++x) {
+        float dc = s[x] * gain + offset;
+        dc = dc < -1.0f ? -1.0f : dc;
+        dc = dc > maxc + 1.0f ? maxc + 1.0f : dc;
+        dc = (dc + 0x1.8p23f) - 0x1.8p23f;
+        dc = dc < 0.0f ? 0.0f : dc;
+        dc = dc > maxc ? maxc : dc;
+        const float sig = s[x] * gain;
+        float cellf = sig * lutScale;
+        cellf = cellf > 0.0f ? cellf : 0.0f;
+        cellf = cellf < top ? cellf : top;
+        const std::int32_t j0 = lut[static_cast<std::int32_t>(cellf)];
+        const std::int32_t j = j0 + static_cast<std::int32_t>(thr[j0] <= sig);
+        float level = bottom + static_cast<float>(j);
+        level = level < maxc ? level : maxc;
+        const float out = sig > 0.0f ? level : dc;
+        o[x] = out;
+        const std::int32_t n = static_cast<std::int32_t>(out);
+        v[x] = static_cast<std::uint16_t>(n);
+        sum += n;
+    }
+    return sum;
+}
+
+}  // namespace
+
 // ---- 1. Optics ------------------------------------------------------------------------------
 
 OpticsStage::OpticsStage(const CameraParams& c) : factor_(c.width, c.height) {
@@ -63,24 +292,16 @@ std::int64_t OpticsStage::apply(ImageView<const float> lpe, ImageView<float> rat
     std::int64_t bad = 0;
     double total = 0.0;
     for (int y = 0; y < lpe.height(); ++y) {
-        const float* in = lpe.row(y);
-        const float* k = factor_.row(y);
-        float* out = rate.row(y);
-        float rowSum = 0.0f;
-        int rowBad = 0;
-        for (int x = 0; x < lpe.width(); ++x) {
-            const float v = in[x];
-            // NaN fails both comparisons; +inf fails the second. Branch-free (vector loop).
-            const bool ok = (v >= 0.0f) & (v < 3.0e38f);
-            rowBad += static_cast<int>(!ok);
-            out[x] = (ok ? v : 0.0f) * k[x];
-            rowSum += out[x];
-        }
-        bad += rowBad;
-        total += static_cast<double>(rowSum);
+        double rowSum = 0.0;
+        bad += applyRow(lpe.row(y), rate.row(y), y, rowSum);
+        total += rowSum;
     }
     ctx.cathodeRate_pe_s += total;
     return bad;
+}
+
+int OpticsStage::applyRow(const float* lpe, float* rate, int y, double& rowSum) const noexcept {
+    return opticsRowKernel(lpe, factor_.row(y), rate, factor_.width(), &rowSum);
 }
 
 // ---- 2. Gate --------------------------------------------------------------------------------
@@ -103,27 +324,31 @@ PhotocathodeStage::PhotocathodeStage(const CameraParams& c, std::uint64_t seed)
 
 void PhotocathodeStage::apply(ImageView<const float> rate, ImageView<float> pe,
                               FieldContext& ctx) noexcept {
-    const float t = static_cast<float>(ctx.gate_s);
+    begin(ctx, rate.width(), rate.height());
+    for (int y = 0; y < rate.height(); ++y)
+        applyRow(rate.row(y), pe.row(y), rate.width(), y);
+}
+
+void PhotocathodeStage::begin(FieldContext& ctx, int w, int h) noexcept {
+    t_s_ = static_cast<float>(ctx.gate_s);
+    field_ = ctx.field;
+    ctx.cathodeRate_pe_s += ebi_pe_s_ * w * h;
+}
+
+void PhotocathodeStage::applyRow(const float* rate, float* pe, int w, int y) noexcept {
     const float ebi = static_cast<float>(ebi_pe_s_);
-    const int w = rate.width();
-    ctx.cathodeRate_pe_s += ebi_pe_s_ * w * rate.height();
-    const PixelRng rng(seed_, RngStream::Photocathode, ctx.field);
-    float* __restrict mean = mean_.get();
-    for (int y = 0; y < rate.height(); ++y) {
-        const float* __restrict r = rate.row(y);
-        float* __restrict out = pe.row(y);
-        if (!noise_) {
-            for (int x = 0; x < w; ++x)
-                out[x] = (r[x] + ebi) * t;
-            continue;
-        }
-        // One word per pixel; Poisson by the exact row sampler (zeros settled in a vector
-        // pass, the rest by inversion or PTRS).
-        for (int x = 0; x < w; ++x)
-            mean[x] = (r[x] + ebi) * t;
-        rng.rowWords(static_cast<std::uint32_t>(y), 0, 0, blocksFor(w), words_.get());
-        poissonRow(mean, words_.get(), out, w, rng, 0, static_cast<std::uint32_t>(y));
+    if (!noise_) {
+        cathodeMeanKernel(rate, pe, w, ebi, t_s_);
+        return;
     }
+    // One word per pixel; Poisson by the exact row sampler (zeros settled in a vector pass,
+    // the rest by inversion or PTRS).
+    float* __restrict mean = mean_.get();
+    cathodeMeanKernel(rate, mean, w, ebi, t_s_);
+    const PixelRng rng(seed_, RngStream::Photocathode, field_);
+    const std::uint32_t yy = static_cast<std::uint32_t>(y);
+    rng.rowWords(yy, 0, 0, blocksFor(w), words_.get());
+    poissonRow(mean, words_.get(), pe, w, rng, 0, yy);
 }
 
 // ---- 4. BSP ---------------------------------------------------------------------------------
@@ -147,84 +372,82 @@ McpStage::McpStage(const CameraParams& c, std::uint64_t seed)
       k_(c.mcp_noise_factor > 1.0 + 1e-9 ? 1.0 / (c.mcp_noise_factor - 1.0) : 0.0),
       seed_(seed),
       words_(new std::uint32_t[2 * paddedRow(c.width)]),
-      z_(new float[2 * paddedRow(c.width)]) {}
+      idx_(new int[paddedRow(c.width)]),
+      blocks_(new std::uint32_t[paddedRow(c.width)]),
+      zWords_(new std::uint32_t[paddedRow(c.width)]),
+      uWords_(new std::uint32_t[paddedRow(c.width)]),
+      z_(new float[paddedRow(c.width)]),
+      e_(new double[paddedRow(c.width)]) {}
 
 void McpStage::apply(ImageView<float> pe, FieldContext& ctx) noexcept {
-    const double g = ctx.mcpGain;
-    const int w = pe.width();
+    begin(ctx);
     double total = 0.0;
-    const PixelRng rng(seed_, RngStream::McpGain, ctx.field);
-    std::uint32_t* wz = words_.get();
-    // Marsaglia–Tsang constants for the last shape seen (runs of equal counts are common).
-    double lastShape = -1.0, d = 0.0, c = 0.0;
-    const double theta = k_ > 0.0 ? g / k_ : 0.0;
-    for (int y = 0; y < pe.height(); ++y) {
-        float* __restrict v = pe.row(y);
-        if (!noise_) {
-            const float gf = static_cast<float>(g);
-            float rowSum = 0.0f;
-            for (int x = 0; x < w; ++x) {
-                v[x] *= gf;
-                rowSum += v[x];
-            }
-            total += static_cast<double>(rowSum);
-            continue;
-        }
-        // The gain of one electron has mean G and variance (F − 1)G²: a Gamma(k, G/k) with
-        // k = 1/(F − 1). N independent ones sum to Gamma(N·k, G/k) exactly. Pixels with
-        // N = 0 draw nothing; pixel x takes words 2x (normal) and 2x + 1 (uniform) of its row
-        // for the first Marsaglia–Tsang attempt, its pixel stream for any further one. The
-        // words of pixel x are block x/2 of the row: made for the whole row when many pixels
-        // need them, one block per pixel when few do; the same words either way.
-        int active = 0;
-        for (int x = 0; x < w; ++x)
-            active += v[x] > 0.0f ? 1 : 0;
-        if (active == 0) continue;
-        const std::uint32_t yy = static_cast<std::uint32_t>(y);
-        const bool wholeRow = active * 8 > w;
-        if (wholeRow) {
-            rng.rowWords(yy, 0, 0, blocksFor(2 * w), wz);
-            normalsFromWords(wz, z_.get(), 2 * w);  // even entries used
-        }
-        double rowSum = 0.0;
-        for (int x = 0; x < w; ++x) {
-            const double n = static_cast<double>(v[x]);
-            if (!(n > 0.0)) continue;
-            std::uint32_t block[4];
-            const std::uint32_t* wx = nullptr;
-            if (wholeRow) {
-                wx = wz + 2 * x;
-            } else {
-                rng.block(yy, 0, static_cast<std::uint32_t>(x / 2), block);
-                wx = block + 2 * (x % 2);
-            }
-            const double shape = n * k_;
-            double e = 0.0;
-            if (shape >= 1.0) {
-                if (shape != lastShape) {
-                    lastShape = shape;
-                    d = shape - 1.0 / 3.0;
-                    c = 1.0 / std::sqrt(9.0 * d);
-                }
-                // First attempt inline (accepted by the squeeze ~95 % of the time).
-                const double z = static_cast<double>(wholeRow ? z_[2 * x] : normalFromWord(wx[0]));
-                const double u = uniformFromWord(wx[1]);
-                double t = 1.0 + c * z;
-                t = t * t * t;
-                if (t > 0.0 && u < 1.0 - 0.0331 * (z * z) * (z * z)) {
-                    e = theta * d * t;
-                }
-            }
-            if (e == 0.0) {
-                PixelStream more = rng.pixelStream(static_cast<std::uint32_t>(x), yy);
-                e = gammaFromWords(shape, theta, wx[0], wx[1], more);
-            }
-            v[x] = static_cast<float>(e);
-            rowSum += e;
-        }
-        total += rowSum;
-    }
+    for (int y = 0; y < pe.height(); ++y)
+        total += applyRow(pe.row(y), pe.width(), y);
     ctx.mcpOut_e = total;
+}
+
+void McpStage::begin(const FieldContext& ctx) noexcept {
+    gain_ = ctx.mcpGain;
+    field_ = ctx.field;
+}
+
+double McpStage::applyRow(float* __restrict v, int w, int y) noexcept {
+    const double g = gain_;
+    if (!noise_) return mcpMeanKernel(v, w, static_cast<float>(g));
+    // The gain of one electron has mean G and variance (F − 1)G²: a Gamma(k, G/k) with
+    // k = 1/(F − 1). N independent ones sum to Gamma(N·k, G/k) exactly. Pixels with N = 0
+    // draw nothing; pixel x takes words 2x (normal) and 2x + 1 (uniform) of its row, i.e. of
+    // its row's block x/2, for the first Marsaglia–Tsang attempt, and its pixel stream for any
+    // further one. The blocks are made for the whole row when many pixels draw, for the
+    // drawing pixels alone when few do: the same words either way.
+    int* __restrict idx = idx_.get();
+    int m = 0;
+    for (int x = 0; x < w; ++x) {
+        idx[m] = x;
+        m += v[x] > 0.0f ? 1 : 0;
+    }
+    if (m == 0) return 0.0;
+    const PixelRng rng(seed_, RngStream::McpGain, field_);
+    const std::uint32_t yy = static_cast<std::uint32_t>(y);
+    std::uint32_t* __restrict wz = words_.get();
+    std::uint32_t* __restrict zw = zWords_.get();
+    std::uint32_t* __restrict uw = uWords_.get();
+    if (2 * m > w) {
+        rng.rowWords(yy, 0, 0, blocksFor(2 * w), wz);
+        for (int j = 0; j < m; ++j) {
+            zw[j] = wz[2 * idx[j]];
+            uw[j] = wz[2 * idx[j] + 1];
+        }
+    } else {
+        std::uint32_t* __restrict b = blocks_.get();
+        for (int j = 0; j < m; ++j)
+            b[j] = static_cast<std::uint32_t>(idx[j] / 2);
+        rng.blocksAt(yy, 0, b, m, wz);
+        for (int j = 0; j < m; ++j) {
+            const int o = 4 * j + 2 * (idx[j] % 2);
+            zw[j] = wz[o];
+            uw[j] = wz[o + 1];
+        }
+    }
+    normalsFromWords(zw, z_.get(), m);
+    // First attempt in a vector pass (accepted by the squeeze ~95 % of the time), the rest
+    // exactly, one pixel at a time.
+    const double theta = k_ > 0.0 ? g / k_ : 0.0;
+    double* __restrict e = e_.get();
+    gammaFirstAttemptKernel(v, idx, z_.get(), uw, e, m, k_, theta);
+    double rowSum = 0.0;
+    for (int j = 0; j < m; ++j) {
+        const int x = idx[j];
+        double ej = e[j];
+        if (ej == 0.0) {
+            PixelStream more = rng.pixelStream(static_cast<std::uint32_t>(x), yy);
+            ej = gammaFromWords(static_cast<double>(v[x]) * k_, theta, zw[j], uw[j], more);
+        }
+        v[x] = static_cast<float>(ej);
+        rowSum += ej;
+    }
+    return rowSum;
 }
 
 // ---- 6. Phosphor ----------------------------------------------------------------------------
@@ -253,6 +476,7 @@ PhosphorStage::PhosphorStage(const CameraParams& c)
         stored_[i] = carried * weight_[i] > 1e-7;
         if (stored_[i]) state_[i] = ImageF(c.width, c.height);
     }
+    row_.reset(new float[paddedRow(c.width)]);
 }
 
 void PhosphorStage::reset() noexcept {
@@ -262,12 +486,19 @@ void PhosphorStage::reset() noexcept {
 
 void PhosphorStage::apply(ImageView<float> s, const FieldContext& ctx) noexcept {
     if (!enabled_) return;
+    begin(ctx);
+    const int w = s.width();
+    for (int y = 0; y < s.height(); ++y) {
+        float* v = s.row(y);
+        std::copy(v, v + w, row_.get());
+        applyRow(row_.get(), v, w, y);
+    }
+}
+
+void PhosphorStage::begin(const FieldContext& ctx) noexcept {
+    if (!enabled_) return;
     float now = 0.0f;  // fraction of this period's excitation seen in this period
-    float keep[4] = {};
-    float decay[4] = {};
-    float emit[4] = {};
-    int m = 0;
-    int idx[4] = {};
+    m_ = 0;
     for (int i = 0; i < n_; ++i) {
         const double f = inPeriodFraction(tau_s_[i], ctx.gate_s, ctx.period_s);
         if (!stored_[i]) {
@@ -276,75 +507,35 @@ void PhosphorStage::apply(ImageView<float> s, const FieldContext& ctx) noexcept 
         }
         now += static_cast<float>(weight_[i] * f);
         const double d = std::exp(-ctx.period_s / tau_s_[i]);
-        idx[m] = i;
-        keep[m] = static_cast<float>(weight_[i] * (1.0 - f));
-        decay[m] = static_cast<float>(d);
-        emit[m] = static_cast<float>(1.0 - d);
-        ++m;
+        idx_[m_] = i;
+        keepEta_[m_] = static_cast<float>(weight_[i] * (1.0 - f)) * static_cast<float>(eta_);
+        decay_[m_] = static_cast<float>(d);
+        emit_[m_] = static_cast<float>(1.0 - d);
+        ++m_;
     }
-    switch (m) {
-        case 0:
-            applyRows<0>(s, now, keep, decay, emit, idx);
-            break;
-        case 1:
-            applyRows<1>(s, now, keep, decay, emit, idx);
-            break;
-        case 2:
-            applyRows<2>(s, now, keep, decay, emit, idx);
-            break;
-        case 3:
-            applyRows<3>(s, now, keep, decay, emit, idx);
-            break;
-        default:
-            applyRows<4>(s, now, keep, decay, emit, idx);
-            break;
-    }
+    nowEta_ = now * static_cast<float>(eta_);
 }
 
-// The number of stored components is a template parameter so that the per-pixel loop has a
-// fixed shape and vectorises.
-template <int M>
-void PhosphorStage::applyRows(ImageView<float> s, float now, const float* keep, const float* decay,
-                              const float* emit, const int* idx) noexcept {
-    const float eta = static_cast<float>(eta_);
-    float k[M > 0 ? M : 1], dc[M > 0 ? M : 1], em[M > 0 ? M : 1];
-    for (int j = 0; j < M; ++j) {
-        k[j] = keep[j] * eta;
-        dc[j] = decay[j];
-        em[j] = emit[j];
-    }
-    const float nowEta = now * eta;
-    const int w = s.width();
-    for (int y = 0; y < s.height(); ++y) {
-        float* __restrict v = s.row(y);
-        float* __restrict st[M > 0 ? M : 1];
-        for (int j = 0; j < M; ++j)
-            st[j] = state_[idx[j]].row(y);
-        for (int x = 0; x < w; ++x) {
-            const float e = v[x];
-            float out = e * nowEta;
-            if constexpr (M > 0) {
-                const float s0 = st[0][x];
-                out += s0 * em[0];
-                st[0][x] = s0 * dc[0] + e * k[0];
-            }
-            if constexpr (M > 1) {
-                const float s1 = st[1][x];
-                out += s1 * em[1];
-                st[1][x] = s1 * dc[1] + e * k[1];
-            }
-            if constexpr (M > 2) {
-                const float s2 = st[2][x];
-                out += s2 * em[2];
-                st[2][x] = s2 * dc[2] + e * k[2];
-            }
-            if constexpr (M > 3) {
-                const float s3 = st[3][x];
-                out += s3 * em[3];
-                st[3][x] = s3 * dc[3] + e * k[3];
-            }
-            v[x] = out;
-        }
+void PhosphorStage::applyRow(const float* in, float* out, int w, int y) noexcept {
+    float* st[4] = {nullptr, nullptr, nullptr, nullptr};
+    for (int j = 0; j < m_; ++j)
+        st[j] = state_[idx_[j]].row(y);
+    switch (m_) {
+        case 0:
+            phosphorRow0(in, out, st, w, nowEta_, keepEta_, decay_, emit_);
+            break;
+        case 1:
+            phosphorRow1(in, out, st, w, nowEta_, keepEta_, decay_, emit_);
+            break;
+        case 2:
+            phosphorRow2(in, out, st, w, nowEta_, keepEta_, decay_, emit_);
+            break;
+        case 3:
+            phosphorRow3(in, out, st, w, nowEta_, keepEta_, decay_, emit_);
+            break;
+        default:
+            phosphorRow4(in, out, st, w, nowEta_, keepEta_, decay_, emit_);
+            break;
     }
 }
 
@@ -433,30 +624,56 @@ BlurStage::~BlurStage() = default;
 
 void BlurStage::apply(ImageView<float> img) noexcept {
     if (!enabled_) return;
-    float* r = fft_->real;
-    for (int y = 0; y < hp_; ++y) {
-        const float* src = img.row(padIndex(y, h_, hp_));
-        float* dst = r + static_cast<std::ptrdiff_t>(y) * wp_;
-        std::copy(src, src + w_, dst);
-        for (int x = w_; x < wp_; ++x)
-            dst[x] = src[padIndex(x, w_, wp_)];
-    }
-    fftwf_execute(fft_->fwd);
-    const int wc = wp_ / 2 + 1;
-    const std::size_t nc = static_cast<std::size_t>(wc) * static_cast<std::size_t>(hp_);
-    fftwf_complex* s = fft_->spec;
-    const float* f = fft_->filter;
-    for (std::size_t i = 0; i < nc; ++i) {
-        s[i][0] *= f[i];
-        s[i][1] *= f[i];
-    }
-    fftwf_execute(fft_->inv);
     for (int y = 0; y < h_; ++y) {
-        const float* src = r + static_cast<std::ptrdiff_t>(y) * wp_;
+        const float* src = img.row(y);
+        std::copy(src, src + w_, inputRow(y));
+    }
+    filter();
+    for (int y = 0; y < h_; ++y) {
+        const float* src = outputRow(y);
         float* dst = img.row(y);
         for (int x = 0; x < w_; ++x)
             dst[x] = std::max(src[x], 0.0f);  // ringing below zero is not charge
     }
+}
+
+float* BlurStage::inputRow(int y) noexcept {
+    return fft_->real + static_cast<std::ptrdiff_t>(y) * wp_;
+}
+
+const float* BlurStage::outputRow(int y) const noexcept {
+    return fft_->real + static_cast<std::ptrdiff_t>(y) * wp_;
+}
+
+namespace {
+NVS_ROW_CLONES void applyFilterKernel(fftwf_complex* __restrict s, const float* __restrict f,
+                                      std::size_t n) noexcept {
+    float* __restrict p = reinterpret_cast<float*>(s);
+    for (std::size_t i = 0; i < n; ++i) {
+        p[2 * i] *= f[i];
+        p[2 * i + 1] *= f[i];
+    }
+}
+}  // namespace
+
+void BlurStage::filter() noexcept {
+    if (!enabled_) return;
+    // Mirrored margins: the columns past the image in each image row, then the rows past it.
+    float* r = fft_->real;
+    for (int y = 0; y < h_; ++y) {
+        float* row = r + static_cast<std::ptrdiff_t>(y) * wp_;
+        for (int x = w_; x < wp_; ++x)
+            row[x] = row[padIndex(x, w_, wp_)];
+    }
+    for (int y = h_; y < hp_; ++y) {
+        const float* src = r + static_cast<std::ptrdiff_t>(padIndex(y, h_, hp_)) * wp_;
+        std::copy(src, src + wp_, r + static_cast<std::ptrdiff_t>(y) * wp_);
+    }
+    fftwf_execute(fft_->fwd);
+    const int wc = wp_ / 2 + 1;
+    applyFilterKernel(fft_->spec, fft_->filter,
+                      static_cast<std::size_t>(wc) * static_cast<std::size_t>(hp_));
+    fftwf_execute(fft_->inv);
 }
 
 // ---- 8. CCD ---------------------------------------------------------------------------------
@@ -468,7 +685,8 @@ CcdStage::CcdStage(const CameraParams& c, std::uint64_t seed)
       colSum_(new float[paddedRow(c.width)]),
       colMax_(new float[paddedRow(c.width)]),
       words_(new std::uint32_t[paddedRow(c.width)]),
-      z_(new float[paddedRow(c.width)]) {
+      z_(new float[paddedRow(c.width)]),
+      row_(new float[paddedRow(c.width)]) {
     if (c.full_well_e > 0.0 && c.bloom == BloomDirection::Vertical)
         upCarry_ = ImageF(c.width, c.height);
     if (c.prnu_rel > 0.0) {
@@ -536,12 +754,15 @@ std::int64_t CcdStage::bloomLine(float* v, int n, std::ptrdiff_t step, float fw,
     return sat;
 }
 
-std::int64_t CcdStage::bloomColumns(ImageView<float> e, float fw, const float* cmax) noexcept {
+std::int64_t CcdStage::bloomColumns(ImageView<float> e, float fw, const float* cmax,
+                                    float* colSum) noexcept {
     // bloomLine's sweeps for every column at once, row by row (cache-friendly, vector code),
     // over the span of columns that reach full well: down the columns each cell over full
     // well keeps fw, sends half its excess down (filling cells below to fw on the way) and
     // stores the other half; then up the columns the stored halves fill the cells above.
-    // Columns below full well carry nothing and are unchanged, as in bloomLine.
+    // Columns below full well carry nothing and are unchanged, as in bloomLine. The up sweep
+    // leaves the final charge: it also forms the column sums of the swept columns (colSum,
+    // if given).
     const int w = e.width();
     const int h = e.height();
     int x0 = 0, x1 = w;
@@ -574,6 +795,8 @@ std::int64_t CcdStage::bloomColumns(ImageView<float> e, float fw, const float* c
         }
     }
     std::fill(moving, moving + n, 0.0f);
+    float* __restrict cs = colSum ? colSum + x0 : line_.get() + n;
+    std::fill(cs, cs + n, 0.0f);
     std::int64_t sat = 0;
     for (int y = h - 1; y >= 0; --y) {
         float* __restrict v = e.row(y) + x0;
@@ -581,9 +804,11 @@ std::int64_t CcdStage::bloomColumns(ImageView<float> e, float fw, const float* c
         int rowSat = 0;
         for (int i = 0; i < n; ++i) {
             const float take = lo(hi(fw - v[i], 0.0f), moving[i]);
-            v[i] += take;
+            const float c = v[i] + take;
+            v[i] = c;
             moving[i] += up[i] - take;
-            rowSat += static_cast<int>(v[i] >= fw);
+            rowSat += static_cast<int>(c >= fw);
+            cs[i] += c;
         }
         sat += rowSat;
     }
@@ -591,41 +816,60 @@ std::int64_t CcdStage::bloomColumns(ImageView<float> e, float fw, const float* c
 }
 
 std::int64_t CcdStage::apply(ImageView<float> e, const FieldContext& ctx) noexcept {
+    begin(ctx);
+    for (int y = 0; y < e.height(); ++y)
+        loadRow(e.row(y), e.row(y), y);
+    const std::int64_t saturated = bloom(e);
+    for (int y = 0; y < e.height(); ++y)
+        finishRow(e.row(y), y);
+    return saturated;
+}
+
+void CcdStage::begin(const FieldContext& ctx) noexcept {
+    const CameraParams& c = *cam_;
+    field_ = ctx.field;
+    dark_e_ = static_cast<float>(c.dark_e_s * ctx.period_s);
+    // Read noise, the dark charge's shot noise, and the video pre-amplifier noise referred
+    // back to electrons, all additive and Gaussian, in one draw per cell.
+    const double darkVar = static_cast<double>(dark_e_);
+    sigma_e_ = static_cast<float>(std::sqrt(noiseSigma_e_ * noiseSigma_e_ + darkVar));
+    // Read noise belongs to the rows read out: in field mode only this field's lines.
+    readY0_ = c.scan == ScanMode::Field ? static_cast<int>(ctx.field & 1u) : 0;
+    readDy_ = c.scan == ScanMode::Field ? 2 : 1;
+    const int w = c.width;
+    std::fill(colMax_.get(), colMax_.get() + w, 0.0f);
+    std::fill(colSum_.get(), colSum_.get() + w, 0.0f);
+}
+
+void CcdStage::loadRow(const float* src, float* dst, int y) noexcept {
+    // Fixed pattern and dark charge; the largest charge of each column (which columns need
+    // the blooming sweep) and the column sums (smear).
+    const int w = cam_->width;
+    if (src == dst) {
+        std::copy(src, src + w, row_.get());
+        src = row_.get();
+    }
+    ccdLoadKernel(src, prnu_.empty() ? nullptr : prnu_.row(y), dst, colMax_.get(), colSum_.get(), w,
+                  dark_e_);
+}
+
+std::int64_t CcdStage::bloom(ImageView<float> e) noexcept {
     const CameraParams& c = *cam_;
     const int w = e.width();
     const int h = e.height();
-    const float dark = static_cast<float>(c.dark_e_s * ctx.period_s);
-    const bool fullWell = c.full_well_e > 0.0;
-    const float fw = static_cast<float>(c.full_well_e);
-    // Pass 1: fixed pattern and dark charge, and the largest charge of each column (which
-    // columns need the blooming sweep).
-    float* __restrict cmax = colMax_.get();
-    std::fill(cmax, cmax + w, 0.0f);
-    const bool prnu = !prnu_.empty();
-    for (int y = 0; y < h; ++y) {
-        float* __restrict v = e.row(y);
-        if (prnu) {
-            const float* __restrict p = prnu_.row(y);
-            for (int x = 0; x < w; ++x)
-                v[x] = v[x] * p[x] + dark;
-        } else if (dark > 0.0f) {
-            for (int x = 0; x < w; ++x)
-                v[x] += dark;
-        }
-        if (fullWell) {
-            for (int x = 0; x < w; ++x)
-                cmax[x] = std::max(cmax[x], v[x]);
-        }
-    }
+    const bool smear = c.smear_rel > 0.0;
+    float* __restrict cs = colSum_.get();
     std::int64_t saturated = 0;
-    if (fullWell) {
-        float* carry = line_.get();
+    if (c.full_well_e > 0.0) {
+        const float fw = static_cast<float>(c.full_well_e);
+        const float* cmax = colMax_.get();
         if (c.bloom == BloomDirection::Vertical) {
-            saturated += bloomColumns(e, fw, cmax);
+            saturated += bloomColumns(e, fw, cmax, smear ? cs : nullptr);
         } else {
             bool any = false;
             for (int x = 0; x < w; ++x)
                 any = any || cmax[x] >= fw;
+            float* carry = line_.get();
             for (int y = 0; any && y < h; ++y) {
                 float* v = e.row(y);
                 if (c.bloom == BloomDirection::Horizontal) {
@@ -639,57 +883,51 @@ std::int64_t CcdStage::apply(ImageView<float> e, const FieldContext& ctx) noexce
                     }
                 }
             }
+            if (any && smear) {  // charge moved along rows: the column sums again
+                std::fill(cs, cs + w, 0.0f);
+                for (int y = 0; y < h; ++y) {
+                    const float* v = e.row(y);
+                    for (int x = 0; x < w; ++x)
+                        cs[x] += v[x];
+                }
+            }
         }
     }
     // Interline smear: light leaking into the vertical register while the column is clocked
     // out adds a fraction of the column's mean charge to every cell of it.
-    const bool smear = c.smear_rel > 0.0;
-    float* __restrict cs = colSum_.get();
     if (smear) {
-        std::fill(cs, cs + w, 0.0f);
-        for (int y = 0; y < h; ++y) {
-            const float* __restrict v = e.row(y);
-            for (int x = 0; x < w; ++x)
-                cs[x] += v[x];
-        }
         const float k = static_cast<float>(c.smear_rel / h);
         for (int x = 0; x < w; ++x)
             cs[x] *= k;
-    }
-    // Read noise, the dark charge's shot noise, and the video pre-amplifier noise referred
-    // back to electrons, all additive and Gaussian, in one draw per cell (one word per cell,
-    // inverse-CDF normals), in the same pass as the smear.
-    const double darkVar = static_cast<double>(dark);
-    const float sigma = static_cast<float>(std::sqrt(noiseSigma_e_ * noiseSigma_e_ + darkVar));
-    if (!(sigma > 0.0f) && !smear) return saturated;
-    const PixelRng rng(seed_, RngStream::ReadNoise, ctx.field);
-    float* __restrict z = z_.get();
-    if (!(sigma > 0.0f)) std::fill(z, z + w, 0.0f);
-    // Read noise belongs to the rows read out: in field mode only this field's lines.
-    const int readY0 = c.scan == ScanMode::Field ? static_cast<int>(ctx.field & 1u) : 0;
-    const int readDy = c.scan == ScanMode::Field ? 2 : 1;
-    for (int y = 0; y < h; ++y) {
-        float* __restrict v = e.row(y);
-        const bool read = y >= readY0 && (y - readY0) % readDy == 0;
-        if (!read && !smear) continue;
-        if (!read) {
-            for (int x = 0; x < w; ++x)
-                v[x] += cs[x];
-            continue;
-        }
-        if (sigma > 0.0f) {
-            rng.rowWords(static_cast<std::uint32_t>(y), 0, 0, blocksFor(w), words_.get());
-            normalsFromWords(words_.get(), z, w);
-        }
-        if (smear) {
-            for (int x = 0; x < w; ++x)
-                v[x] += cs[x] + sigma * z[x];
-        } else {
-            for (int x = 0; x < w; ++x)
-                v[x] += sigma * z[x];
-        }
+    } else {
+        std::fill(cs, cs + w, 0.0f);
     }
     return saturated;
+}
+
+void CcdStage::finishRow(float* v, int y) noexcept {
+    const CameraParams& c = *cam_;
+    const int w = c.width;
+    const bool smear = c.smear_rel > 0.0;
+    const float* cs = colSum_.get();
+    const bool read = y >= readY0_ && (y - readY0_) % readDy_ == 0;
+    if (!read) {
+        if (smear) {
+            for (int x = 0; x < w; ++x)
+                v[x] += cs[x];
+        }
+        return;
+    }
+    if (sigma_e_ > 0.0f) {
+        // One word per cell, inverse-CDF normals.
+        const PixelRng rng(seed_, RngStream::ReadNoise, field_);
+        rng.rowWords(static_cast<std::uint32_t>(y), 0, 0, blocksFor(w), words_.get());
+        normalsFromWords(words_.get(), z_.get(), w);
+        ccdReadKernel(v, cs, z_.get(), w, sigma_e_);
+    } else if (smear) {
+        for (int x = 0; x < w; ++x)
+            v[x] += cs[x];
+    }
 }
 
 // ---- 9. Video -------------------------------------------------------------------------------
@@ -723,7 +961,7 @@ VideoStage::VideoStage(const CameraParams& c) : cam_(&c), maxCount_((1 << c.adc_
             while (j < thr_.size() && thr_[j] <= s)
                 ++j;
             most = std::max(most, j - j0);
-            lut_[static_cast<std::size_t>(i)] = static_cast<std::uint16_t>(j);
+            lut_[static_cast<std::size_t>(i)] = static_cast<std::int32_t>(j);
         }
         oneStep_ = most <= 1;
         if (oneStep_ || cells >= (1 << 22)) break;
@@ -734,61 +972,48 @@ VideoStage::VideoStage(const CameraParams& c) : cam_(&c), maxCount_((1 << c.adc_
 
 double VideoStage::apply(ImageView<const float> e, std::uint64_t field, ImageView<float> counts,
                          ImageView<std::uint16_t> video) const noexcept {
+    double sum = 0.0;
+    std::int64_t n = 0;
+    for (int y = 0; y < e.height(); ++y) {
+        if (!readsRow(field, y)) continue;
+        sum += static_cast<double>(applyRow(e.row(y), counts.row(y), video.row(y), e.width()));
+        n += e.width();
+    }
+    return n > 0 ? sum / static_cast<double>(n) : 0.0;
+}
+
+bool VideoStage::readsRow(std::uint64_t field, int y) const noexcept {
+    return cam_->scan != ScanMode::Field || (y & 1) == static_cast<int>(field & 1u);
+}
+
+std::int64_t VideoStage::applyRow(const float* s, float* o, std::uint16_t* v,
+                                  int w) const noexcept {
     const CameraParams& c = *cam_;
     const float gain = static_cast<float>(c.video_gain_dc_per_e);
     const float offset = static_cast<float>(c.video_offset_dc);
     const float maxc = static_cast<float>(maxCount_);
     const float bottom = std::clamp(std::nearbyint(offset), 0.0f, maxc);
-    const int parity = static_cast<int>(field & 1u);
-    const int y0 = c.scan == ScanMode::Field ? parity : 0;
-    const int dy = c.scan == ScanMode::Field ? 2 : 1;
-    const int w = e.width();
+    if (!gamma_) return videoLinearKernel(s, o, v, w, gain, offset, maxc);
     const int cells = static_cast<int>(lut_.size()) - 1;
-    double sum = 0.0;
-    std::int64_t n = 0;
-    for (int y = y0; y < e.height(); y += dy) {
-        const float* __restrict s = e.row(y);
-        float* __restrict o = counts.row(y);
-        std::uint16_t* __restrict v = video.row(y);
-        // Linear: round to nearest even by the 1.5·2²³ trick (exact for |x| < 2²²; the
-        // value is clamped to [−1, max + 1] first), then clamp to the ADC range.
-        for (int x = 0; x < w; ++x) {
-            float dc = std::clamp(s[x] * gain + offset, -1.0f, maxc + 1.0f);
-            dc = (dc + 0x1.8p23f) - 0x1.8p23f;
-            o[x] = std::clamp(dc, 0.0f, maxc);
-        }
-        if (gamma_ && oneStep_) {
-            const std::uint16_t* lut = lut_.data();
-            const float* thr = thr_.data();
-            const float top = static_cast<float>(cells);
-            for (int x = 0; x < w; ++x) {
-                const float sig = s[x] * gain;
-                const float cellf = std::min(std::max(sig * lutScale_, 0.0f), top);
-                const std::uint16_t j0 = lut[static_cast<int>(cellf)];
-                const int j = j0 + static_cast<int>(thr[j0] <= sig);
-                const float level = std::min(bottom + static_cast<float>(j), maxc);
-                o[x] = sig > 0.0f ? level : o[x];
-            }
-        } else if (gamma_) {
-            for (int x = 0; x < w; ++x) {
-                const float sig = s[x] * gain;
-                if (!(sig > 0.0f)) continue;
-                const int cell = std::min(static_cast<int>(sig * lutScale_), cells);
-                std::size_t j = lut_[static_cast<std::size_t>(cell)];
-                while (thr_[j] <= sig)
-                    ++j;
-                o[x] = std::min(bottom + static_cast<float>(j), maxc);
-            }
-        }
-        float rowSum = 0.0f;
-        for (int x = 0; x < w; ++x) {
-            v[x] = static_cast<std::uint16_t>(static_cast<std::int32_t>(o[x]));
-            rowSum += o[x];
-        }
-        sum += static_cast<double>(rowSum);
-        n += w;
+    if (oneStep_) {
+        return videoGammaKernel(s, o, v, w, gain, offset, maxc, lut_.data(), thr_.data(), lutScale_,
+                                static_cast<float>(cells), bottom);
     }
-    return n > 0 ? sum / static_cast<double>(n) : 0.0;
+    videoLinearKernel(s, o, v, w, gain, offset, maxc);
+    std::int64_t sum = 0;
+    for (int x = 0; x < w; ++x) {
+        const float sig = s[x] * gain;
+        if (sig > 0.0f) {
+            const int cell = std::min(static_cast<int>(sig * lutScale_), cells);
+            std::size_t j = lut_[static_cast<std::size_t>(cell)];
+            while (thr_[j] <= sig)
+                ++j;
+            o[x] = std::min(bottom + static_cast<float>(j), maxc);
+            v[x] = static_cast<std::uint16_t>(static_cast<std::int32_t>(o[x]));
+        }
+        sum += v[x];
+    }
+    return sum;
 }
 
 // ---- 10. AGC loop ---------------------------------------------------------------------------
@@ -866,7 +1091,9 @@ IiccdChain::IiccdChain(const CameraParams& cam, std::uint64_t seed, ChainOptions
       rate_(cam_.width, cam_.height),
       sig_(cam_.width, cam_.height),
       counts_(cam_.width, cam_.height),
-      video_(cam_.width, cam_.height) {
+      video_(cam_.width, cam_.height),
+      rowRate_(new float[paddedRow(cam_.width)]),
+      rowSig_(new float[paddedRow(cam_.width)]) {
     counts_.fill(static_cast<float>(std::clamp(cam_.video_offset_dc, 0.0, 65535.0)));
 }
 
@@ -889,6 +1116,8 @@ const FieldInfo& IiccdChain::process(ImageView<const float> lpe) noexcept {
         info_.size_mismatch = true;
         return info_;
     }
+    const int w = cam_.width;
+    const int h = cam_.height;
     FieldContext ctx;
     ctx.field = field_;
     ctx.period_s = cam_.integrationPeriod_s();
@@ -896,27 +1125,74 @@ const FieldInfo& IiccdChain::process(ImageView<const float> lpe) noexcept {
         cam_.agc == AgcMode::Off || cam_.agc == AgcMode::Bsp || cam_.agc == AgcMode::Autogate
             ? cam_.gain_V
             : agc_.gain_V(field_);
-    // 1. optics
-    info_.bad_input_px = optics_.apply(lpe, rate_.view(), ctx);
     // 2. gate
     const double scale = cam_.agc == AgcMode::Autogate ? agc_.gateScale(field_) : 1.0;
     ctx.gate_s = gate_.gate_s(ctx.period_s, scale);
-    // 3. photocathode
-    cathode_.apply(rate_.cview(), sig_.view(), ctx);
-    const double cathode_A = ctx.cathodeRate_pe_s * ctx.gate_s / ctx.period_s * 1.602176634e-19;
-    // 4. bright-source protection, 5. MCP
-    const double bspFactor = bsp_.factor(cathode_A);
+    // 1. optics: the whole image first only where the gain depends on it (BSP: the cathode
+    // current); otherwise row by row below. Both give the same sums in the same order.
+    const bool opticsFirst = bsp_.enabled();
+    double opticsTotal = 0.0;
+    if (opticsFirst) {
+        info_.bad_input_px = optics_.apply(lpe, rate_.view(), ctx);
+        cathode_.begin(ctx, w, h);
+    }
+    // 4. bright-source protection (the gain for this field), 5. MCP gain
+    const auto cathodeCurrent_A = [&] {
+        return ctx.cathodeRate_pe_s * ctx.gate_s / ctx.period_s * 1.602176634e-19;
+    };
+    const double bspFactor = opticsFirst ? bsp_.factor(cathodeCurrent_A()) : 1.0;
     ctx.mcpGain = cam_.mcpGain(ctx.gain_V) * bspFactor;
-    if (mcp_.enabled())
-        mcp_.apply(sig_.view(), ctx);
-    else
-        ctx.mcpOut_e = ctx.cathodeRate_pe_s * ctx.gate_s;
-    // 6. phosphor, 7. blur, 8. CCD
-    phosphor_.apply(sig_.view(), ctx);
-    blur_.apply(sig_.view());
-    info_.saturated_px = ccd_.apply(sig_.view(), ctx);
-    // 9. video
-    info_.level_dc = videoStage_.apply(sig_.cview(), field_, counts_.view(), video_.view());
+    FieldContext rowCtx = ctx;  // photocathode constants for the row-by-row case
+    if (!opticsFirst) cathode_.begin(rowCtx, w, h);
+    mcp_.begin(ctx);
+    phosphor_.begin(ctx);
+    // 1, 3, 5, 6 row by row: optics → photocathode → MCP → phosphor, written straight into
+    // the blur's FFT input (or the signal image when the MTF is off).
+    double mcpTotal = 0.0;
+    std::int64_t bad = 0;
+    float* rate = rowRate_.get();
+    float* sig = rowSig_.get();
+    for (int y = 0; y < h; ++y) {
+        const float* r = rate_.row(y);
+        if (!opticsFirst) {
+            double rowSum = 0.0;
+            bad += optics_.applyRow(lpe.row(y), rate, y, rowSum);
+            opticsTotal += rowSum;
+            r = rate;
+        }
+        cathode_.applyRow(r, sig, w, y);
+        if (mcp_.enabled()) mcpTotal += mcp_.applyRow(sig, w, y);
+        float* dst = blur_.enabled() ? blur_.inputRow(y) : sig_.row(y);
+        if (phosphor_.enabled())
+            phosphor_.applyRow(sig, dst, w, y);
+        else
+            std::copy(sig, sig + w, dst);
+    }
+    if (!opticsFirst) {
+        info_.bad_input_px = bad;
+        ctx.cathodeRate_pe_s += opticsTotal;
+        cathode_.begin(ctx, w, h);  // the EBI, added after the optics as apply() does
+    }
+    const double cathode_A = cathodeCurrent_A();
+    ctx.mcpOut_e = mcp_.enabled() ? mcpTotal : ctx.cathodeRate_pe_s * ctx.gate_s;
+    // 7. blur
+    blur_.filter();
+    // 8. CCD, 9. video: load (PRNU, dark) row by row from the blurred image, bloom, then
+    // smear and read noise row by row, each row read out converted at once.
+    ccd_.begin(ctx);
+    for (int y = 0; y < h; ++y)
+        ccd_.loadRow(blur_.enabled() ? blur_.outputRow(y) : sig_.row(y), sig_.row(y), y);
+    info_.saturated_px = ccd_.bloom(sig_.view());
+    double sum = 0.0;
+    std::int64_t n = 0;
+    for (int y = 0; y < h; ++y) {
+        float* v = sig_.row(y);
+        ccd_.finishRow(v, y);
+        if (!videoStage_.readsRow(field_, y)) continue;
+        sum += static_cast<double>(videoStage_.applyRow(v, counts_.row(y), video_.row(y), w));
+        n += w;
+    }
+    info_.level_dc = n > 0 ? sum / static_cast<double>(n) : 0.0;
     // 10. AGC loop
     agc_.update(ctx, info_.level_dc);
 

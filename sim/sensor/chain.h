@@ -14,6 +14,12 @@
 //   1 Optics  2 Gate  3 Photocathode  4 BSP  5 MCP (+ABC)  6 Phosphor  7 Blur (MTF)
 //   8 CCD (FPN, dark, full well, blooming, smear, read noise)  9 Video (gain, offset, gamma,
 //   interlace, ADC)  10 AGC loop (one-field lag, time constant, limits).
+//
+// Each stage's whole-image apply() is made of its row operations (applyRow …), and
+// IiccdChain::process runs the same row operations interleaved: optics → photocathode → MCP →
+// phosphor row by row straight into the blur's FFT buffer, then CCD → video row by row. The
+// two orders give the same bits (each row operation depends only on its row and the per-field
+// constants), so a caller composing the stages one by one matches IiccdChain exactly.
 
 #include <cstdint>
 #include <memory>
@@ -67,6 +73,8 @@ class OpticsStage {
     // adds the expected total rate to ctx.cathodeRate_pe_s.
     std::int64_t apply(ImageView<const float> lpe, ImageView<float> rate,
                        FieldContext& ctx) const noexcept;
+    // Row y of apply(): returns the bad pixels; rowSum = the row's expected rate.
+    int applyRow(const float* lpe, float* rate, int y, double& rowSum) const noexcept;
 
   private:
     ImageF factor_;  // per-pixel pe/s per unit Lpe, cos⁴θ included
@@ -91,11 +99,17 @@ class PhotocathodeStage {
     // pe = Poisson((rate + ebi)·t_gate), or its mean when shot noise is off.
     void apply(ImageView<const float> rate, ImageView<float> pe, FieldContext& ctx) noexcept;
     double ebiRate_pe_s() const { return ebi_pe_s_; }
+    // apply() by rows: begin() adds the EBI to ctx.cathodeRate_pe_s and fixes the field's
+    // exposure and noise key; applyRow() then draws row y.
+    void begin(FieldContext& ctx, int w, int h) noexcept;
+    void applyRow(const float* rate, float* pe, int w, int y) noexcept;
 
   private:
     bool noise_;
     double ebi_pe_s_;  // per pixel
     std::uint64_t seed_;
+    std::uint64_t field_ = 0;
+    float t_s_ = 0.0f;                        // this field's gate
     std::unique_ptr<float[]> mean_;           // one row of means
     std::unique_ptr<std::uint32_t[]> words_;  // one row of words
 };
@@ -121,14 +135,25 @@ class McpStage {
     bool enabled() const { return enabled_; }
     // electrons = Σ of N single-electron gains ~ Gamma(N·k, G/k), k = 1/(F − 1).
     void apply(ImageView<float> pe, FieldContext& ctx) noexcept;
+    // apply() by rows: begin() fixes the gain (ctx.mcpGain) and noise key, applyRow()
+    // multiplies row y in place and returns its sum of electrons.
+    void begin(const FieldContext& ctx) noexcept;
+    double applyRow(float* pe, int w, int y) noexcept;
 
   private:
     bool enabled_;
     bool noise_;
     double k_;  // 1/(F − 1)
     std::uint64_t seed_;
-    std::unique_ptr<std::uint32_t[]> words_;  // one row of words, two per pixel
-    std::unique_ptr<float[]> z_;              // normals of those words
+    std::uint64_t field_ = 0;
+    double gain_ = 1.0;
+    std::unique_ptr<std::uint32_t[]> words_;   // one row of words, two per pixel
+    std::unique_ptr<int[]> idx_;               // pixels of the row that draw
+    std::unique_ptr<std::uint32_t[]> blocks_;  // their Philox blocks
+    std::unique_ptr<std::uint32_t[]> zWords_;  // their normal words
+    std::unique_ptr<std::uint32_t[]> uWords_;  // their uniform words
+    std::unique_ptr<float[]> z_;               // normals of the normal words
+    std::unique_ptr<double[]> e_;              // their electrons
 };
 
 // ---- 6. Phosphor ----------------------------------------------------------------------------
@@ -139,6 +164,11 @@ class PhosphorStage {
     // in it and the afterglow stored from earlier ones. Carries the stored energy.
     void apply(ImageView<float> signal, const FieldContext& ctx) noexcept;
     void reset() noexcept;
+    bool enabled() const { return enabled_; }
+    // apply() by rows: begin() fixes this field's coefficients, applyRow() converts row y of
+    // MCP electrons `in` into CCD electrons `out` (distinct rows) and updates the state.
+    void begin(const FieldContext& ctx) noexcept;
+    void applyRow(const float* in, float* out, int w, int y) noexcept;
     // Fraction of an excitation spread over a gate of length g at the start of a period T
     // that component τ emits within that period (docs/sensor.md, step 6).
     static double inPeriodFraction(double tau_s, double gate_s, double period_s);
@@ -151,9 +181,16 @@ class PhosphorStage {
     double weight_[4] = {};
     bool stored_[4] = {};  // components whose afterglow outlives a period
     ImageF state_[4];      // stored energy per component, in CCD electrons
-    template <int M>
-    void applyRows(ImageView<float> s, float now, const float* keep, const float* decay,
-                   const float* emit, const int* idx) noexcept;
+    // This field's coefficients (begin()): m_ stored components idx_[], each keeping
+    // keepEta_ of the excitation, decaying by decay_ and emitting emit_ of its store; nowEta_
+    // of the excitation is emitted at once.
+    int m_ = 0;
+    int idx_[4] = {};
+    float nowEta_ = 0.0f;
+    float keepEta_[4] = {};
+    float decay_[4] = {};
+    float emit_[4] = {};
+    std::unique_ptr<float[]> row_;  // in-place apply(): a copy of the row
 };
 
 // ---- 7. Blur (MTF) --------------------------------------------------------------------------
@@ -167,6 +204,12 @@ class BlurStage {
     void apply(ImageView<float> img) noexcept;
     int paddedWidth() const { return wp_; }
     int paddedHeight() const { return hp_; }
+    // apply() in steps: write image row y (w floats) into inputRow(y) for every row, then
+    // filter() pads, transforms, applies the MTF and transforms back; outputRow(y) is then the
+    // blurred row (ringing below zero not yet removed: the CCD's loadRow clamps it).
+    float* inputRow(int y) noexcept;
+    void filter() noexcept;
+    const float* outputRow(int y) const noexcept;
 
   private:
     struct Fft;
@@ -181,6 +224,13 @@ class CcdStage {
     CcdStage(const CameraParams& cam, std::uint64_t seed);
     // Returns the number of cells that reached full well.
     std::int64_t apply(ImageView<float> e, const FieldContext& ctx) noexcept;
+    // apply() in steps: begin(); loadRow(src, e.row(y), y) for every row in order (src may be
+    // the row itself; charge below zero counts as none); bloom(e) (returns cells at full well);
+    // then finishRow(e.row(y), y) for every row (smear, and read noise on the rows read out).
+    void begin(const FieldContext& ctx) noexcept;
+    void loadRow(const float* src, float* dst, int y) noexcept;
+    std::int64_t bloom(ImageView<float> e) noexcept;
+    void finishRow(float* v, int y) noexcept;
     // Thesis Appendix L, charge-conserving form: excess over full well in one line spills
     // half each way along the line, filling neighbours to full well before passing on; what
     // leaves the ends is drained. Exposed for tests. Returns cells at full well.
@@ -188,9 +238,15 @@ class CcdStage {
                                   float* carryBuf) noexcept;
 
   private:
-    std::int64_t bloomColumns(ImageView<float> e, float fw, const float* colMax) noexcept;
+    std::int64_t bloomColumns(ImageView<float> e, float fw, const float* colMax,
+                              float* colSum) noexcept;
     const CameraParams* cam_;
     std::uint64_t seed_;
+    // This field (begin()).
+    std::uint64_t field_ = 0;
+    float dark_e_ = 0.0f;
+    float sigma_e_ = 0.0f;
+    int readY0_ = 0, readDy_ = 1;
     ImageF upCarry_;                 // vertical blooming: charge bound up the column
     ImageF prnu_;                    // 1 + fixed-pattern gain deviation, empty if off
     std::unique_ptr<float[]> line_;  // scratch for blooming (max(w, h) floats)
@@ -198,6 +254,7 @@ class CcdStage {
     std::unique_ptr<float[]> colMax_;
     std::unique_ptr<std::uint32_t[]> words_;  // one row of words
     std::unique_ptr<float[]> z_;              // one row of normals
+    std::unique_ptr<float[]> row_;            // in-place loadRow(): a copy of the row
     double noiseSigma_e_;  // read noise ⊕ video pre-amplifier noise referred to electrons
 };
 
@@ -209,6 +266,11 @@ class VideoStage {
     double apply(ImageView<const float> e, std::uint64_t field, ImageView<float> counts,
                  ImageView<std::uint16_t> video) const noexcept;
     int maxCount() const { return maxCount_; }
+    // Whether row y is read out in this field, and that row's conversion (returns the sum of
+    // its output counts); apply() is the mean over the rows read out.
+    bool readsRow(std::uint64_t field, int y) const noexcept;
+    std::int64_t applyRow(const float* e, float* counts, std::uint16_t* video,
+                          int w) const noexcept;
 
   private:
     const CameraParams* cam_;
@@ -220,7 +282,7 @@ class VideoStage {
     bool gamma_ = false;
     bool oneStep_ = false;  // no grid cell holds two steps
     std::vector<float> thr_;
-    std::vector<std::uint16_t> lut_;
+    std::vector<std::int32_t> lut_;  // 32-bit entries: vector gathers
     float lutScale_ = 0.0f;
 };
 
@@ -284,6 +346,8 @@ class IiccdChain {
     ImageF sig_;
     ImageF counts_;
     ImageU16 video_;
+    std::unique_ptr<float[]> rowRate_;  // one row of optics output
+    std::unique_ptr<float[]> rowSig_;   // one row of photoelectrons / MCP electrons
     FieldInfo info_;
 };
 
