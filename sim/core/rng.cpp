@@ -481,11 +481,35 @@ void poissonRow(const float* __restrict mean, const std::uint32_t* __restrict wo
     }
     // Pass 2: the rest, exactly. Neighbours often share a mean (flat regions): the inversion's
     // P(N ≥ 1) and P(N = 1) are kept for the last mean.
+    // Below a mean of 1 most of these are settled first without exp: the alternating series
+    //   S(0) = P(N ≥ 1) = m − m²/2 + m³/6 − …,   S(1) = P(N ≥ 2) = m²/2 − m³/3 + m⁴/8 − …
+    // have terms of falling size for m < 1, so m − m²/2 ≤ S(0) ≤ m − m²/2 + m³/6 and
+    // m²/2 − m³/3 ≤ S(1) ≤ m²/2. A u more than kSqueeze (far above the rounding of either
+    // side) from the bounds is on the same side of the computed S(0) and S(1) as of the
+    // bounds, so k = 0 (u ≥ S(0)) and k = 1 (S(1) ≤ u < S(0)) come out exactly as the
+    // inversion would give them; the rest (k ≥ 2, or u near a bound) go on to it.
+    constexpr double kSqueeze = 1e-12;
     float lastMean = -1.0f;
     double s0 = 0.0, p1 = 0.0;
     for (i = 0; i < n; ++i) {
         if (!(out[i] < 0.0f)) continue;
         const float m = mean[i];
+        if (m > 0.0f && m < 1.0f) {
+            const double md = static_cast<double>(m);
+            const double m2 = md * md;
+            const double lo0 = md - 0.5 * m2;
+            const double hi0 = lo0 + m2 * md / 6.0;
+            const double hi1 = 0.5 * m2;
+            const double u = uniformFromWord(words[i]);
+            if (u >= hi0 + kSqueeze) {
+                out[i] = 0.0f;
+                continue;
+            }
+            if (u < lo0 - kSqueeze && u >= hi1 + kSqueeze) {
+                out[i] = 1.0f;
+                continue;
+            }
+        }
         if (m > 0.0f && m < 10.0f) {
             if (m != lastMean) {
                 lastMean = m;

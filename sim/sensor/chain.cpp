@@ -474,14 +474,28 @@ PhosphorStage::PhosphorStage(const CameraParams& c)
         // is below 1e-7 needs no state and costs nothing.
         const double carried = std::min(1.0, tau_s_[i] / c.integrationPeriod_s());
         stored_[i] = carried * weight_[i] > 1e-7;
-        if (stored_[i]) state_[i] = ImageF(c.width, c.height);
     }
+    // Planes of w·h floats, rounded up to whole 64-byte lines and then by further lines
+    // until any two planes' offsets differ by at least 512 bytes modulo 4 KiB.
+    const std::size_t px = static_cast<std::size_t>(c.width) * static_cast<std::size_t>(c.height);
+    const auto apart = [](std::size_t plane) {
+        for (std::size_t j = 1; j < 4; ++j) {
+            const std::size_t r = (plane * j * sizeof(float)) % 4096;
+            if (r < 512 || r > 4096 - 512) return false;
+        }
+        return true;
+    };
+    std::size_t plane = (px + 15) / 16 * 16;
+    while (!apart(plane))
+        plane += 16;
+    state_ = ImageF(static_cast<int>(plane), n_);
+    state_.fill(0.0f);
     row_.reset(new float[paddedRow(c.width)]);
 }
 
 void PhosphorStage::reset() noexcept {
     for (int i = 0; i < n_; ++i)
-        if (stored_[i]) state_[i].fill(0.0f);
+        if (stored_[i]) std::fill(state_.row(i), state_.row(i) + state_.width(), 0.0f);
 }
 
 void PhosphorStage::apply(ImageView<float> s, const FieldContext& ctx) noexcept {
@@ -519,7 +533,7 @@ void PhosphorStage::begin(const FieldContext& ctx) noexcept {
 void PhosphorStage::applyRow(const float* in, float* out, int w, int y) noexcept {
     float* st[4] = {nullptr, nullptr, nullptr, nullptr};
     for (int j = 0; j < m_; ++j)
-        st[j] = state_[idx_[j]].row(y);
+        st[j] = state_.row(idx_[j]) + static_cast<std::ptrdiff_t>(y) * w;
     switch (m_) {
         case 0:
             phosphorRow0(in, out, st, w, nowEta_, keepEta_, decay_, emit_);

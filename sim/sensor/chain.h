@@ -180,7 +180,11 @@ class PhosphorStage {
     double tau_s_[4] = {};
     double weight_[4] = {};
     bool stored_[4] = {};  // components whose afterglow outlives a period
-    ImageF state_[4];      // stored energy per component, in CCD electrons
+    // Stored energy per component, in CCD electrons: row y of component i at
+    // state_.row(i) + y·width. One block, its rows (the planes) padded so that the same pixel
+    // of two components never shares its address modulo 4 KiB (the loop reads and writes all
+    // of them; equal low address bits make the CPU stall loads behind unrelated stores).
+    ImageF state_;
     // This field's coefficients (begin()): m_ stored components idx_[], each keeping
     // keepEta_ of the excitation, decaying by decay_ and emitting emit_ of its store; nowEta_
     // of the excitation is emitted at once.

@@ -427,6 +427,34 @@ TEST(PixelRng, PoissonRowMatchesPmfAndSingleDraws) {
     EXPECT_EQ(o0[2], 0.0f);
 }
 
+// Below a mean of 1 poissonRow settles most k = 0 and k = 1 by series bounds, without exp:
+// every draw equals the inversion's, over means spread across (0, 1) and words near the
+// bounds included (1.6 million draws).
+TEST(PixelRng, PoissonRowSqueezeEqualsInversion) {
+    const int w = 800, rows = 2000;
+    std::vector<std::uint32_t> words(static_cast<std::size_t>(w));
+    std::vector<float> mean(static_cast<std::size_t>(w)), out(static_cast<std::size_t>(w));
+    const PixelRng rng(11, RngStream::Photocathode, 3);
+    long ones = 0;
+    for (int y = 0; y < rows; ++y) {
+        for (int x = 0; x < w; ++x)  // means from 1e-4 to 1, a different set on each row
+            mean[static_cast<std::size_t>(x)] =
+                static_cast<float>(std::pow(10.0, -4.0 * ((x * 7919 + y * 104729) % w) / w));
+        rng.rowWords(static_cast<std::uint32_t>(y), 0, 0, w / 4, words.data());
+        poissonRow(mean.data(), words.data(), out.data(), w, rng, 0, static_cast<std::uint32_t>(y));
+        for (int x = 0; x < w; ++x) {
+            const std::size_t i = static_cast<std::size_t>(x);
+            PixelStream more =
+                rng.pixelStream(static_cast<std::uint32_t>(x), static_cast<std::uint32_t>(y));
+            ASSERT_EQ(static_cast<double>(out[i]),
+                      poissonFromWord(static_cast<double>(mean[i]), words[i], more))
+                << x << " " << y;
+            ones += out[i] == 1.0f ? 1 : 0;
+        }
+    }
+    EXPECT_GT(ones, 10000);  // the k = 1 branch was taken
+}
+
 TEST(PixelRng, GammaFromWordsMomentsAndSummedShape) {
     const int n = 200000;
     const PixelRng rng(4, RngStream::McpGain, 1);
