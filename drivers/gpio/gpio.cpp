@@ -3,8 +3,12 @@
 #include <gpiod.h>
 #include <time.h>
 
+#include <algorithm>
 #include <cerrno>
+#include <chrono>
+#include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 
 #include "rt/clock/clock.h"
@@ -118,10 +122,11 @@ int FakeGpioLine::requestRisingEdges(const std::string& chipName, unsigned line)
 }
 
 int FakeGpioLine::setValue(int value) noexcept {
-    if (failErr_ != 0) {
+    const int err = failErr_.load();
+    if (err != 0) {
         ++counters_.errors;
-        counters_.lastErrno = failErr_;
-        return -failErr_;
+        counters_.lastErrno = err;
+        return -err;
     }
     if (state_ != GpioState::Output) return -EBADF;
     if (changes_.size() < changes_.capacity()) changes_.push_back({value, rt::monotonicNow_ns()});
@@ -129,14 +134,46 @@ int FakeGpioLine::setValue(int value) noexcept {
     return 0;
 }
 
-int FakeGpioLine::waitEdge(std::int64_t /*timeout_ns*/, std::int64_t* edge_ns) noexcept {
-    if (failErr_ != 0) return -failErr_;
+void FakeGpioLine::pushEdge(std::int64_t t_ns) {
+    {
+        const std::lock_guard<std::mutex> lock(edgeMutex_);
+        edges_.push_back(t_ns);
+    }
+    edgeCv_.notify_all();
+}
+
+int FakeGpioLine::waitEdge(std::int64_t timeout_ns, std::int64_t* edge_ns) noexcept {
+    if (failErr_.load() != 0) return -failErr_.load();
     if (state_ != GpioState::Input) return -EBADF;
-    if (edges_.empty()) return 0;  // a timeout: the fake does not sleep
-    *edge_ns = edges_.front();
-    edges_.pop_front();
-    ++counters_.edges;
-    return 1;
+    const std::int64_t until_ns = rt::monotonicNow_ns() + timeout_ns;
+    std::unique_lock<std::mutex> lock(edgeMutex_);
+    for (;;) {
+        const std::int64_t now_ns = rt::monotonicNow_ns();
+        // An edge is delivered once its time has come, as the kernel delivers a real one.
+        if (!edges_.empty() && edges_.front() <= now_ns) {
+            *edge_ns = edges_.front();
+            edges_.pop_front();
+            ++counters_.edges;
+            return 1;
+        }
+        if (now_ns >= until_ns) return 0;
+        const std::int64_t wake_ns = edges_.empty() ? until_ns : std::min(until_ns, edges_.front());
+        // steady_clock is CLOCK_MONOTONIC (libstdc++ on Linux).
+        edgeCv_.wait_until(
+            lock, std::chrono::steady_clock::time_point(std::chrono::nanoseconds(wake_ns)));
+    }
+}
+
+bool parseGpioTarget(const std::string& target, std::string* chip, unsigned* line) {
+    const auto colon = target.rfind(':');
+    if (colon == std::string::npos || colon == 0 || colon + 1 == target.size()) return false;
+    const std::string lineText = target.substr(colon + 1);
+    char* end = nullptr;
+    const unsigned long n = std::strtoul(lineText.c_str(), &end, 10);
+    if (*end != '\0' || n > 1023 || lineText[0] == '-' || lineText[0] == '+') return false;
+    *chip = target.substr(0, colon);
+    *line = static_cast<unsigned>(n);
+    return true;
 }
 
 // ---- gate pulse sink -------------------------------------------------------------------------
@@ -157,38 +194,71 @@ GpioGateSink::~GpioGateSink() {
     close();
 }
 
+void GpioGateSink::exposureScheduled(const rt::ExposureWindow& w) noexcept {
+    if (closed_) return;
+    // Width: the gate when the photocathode is gated within the exposure, else the exposure.
+    const double width_s = w.gate_s > 0.0 && w.gate_s < w.exposure_s ? w.gate_s : w.exposure_s;
+    const std::uint32_t t = tail_.load(std::memory_order_relaxed);
+    if (t - head_.load(std::memory_order_acquire) >= kQueue) {
+        lost_.fetch_add(1, std::memory_order_relaxed);
+        return;
+    }
+    queue_[t % kQueue] = Pulse{w.startMonotonic_ns, std::llround(width_s * 1e9)};
+    tail_.store(t + 1, std::memory_order_release);
+    tail_.notify_one();
+}
+
 void GpioGateSink::pulseThread() {
     std::string msg;
     rt::applyThreadSpec(rt::kThreadGpio, false, msg);
-    std::uint32_t seen = 0;
+    std::int64_t lastFall_ns = 0;
     for (;;) {
-        seq_.wait(seen, std::memory_order_acquire);
+        const std::uint32_t h = head_.load(std::memory_order_relaxed);
+        const std::uint32_t t = tail_.load(std::memory_order_acquire);
         if (stop_.load(std::memory_order_acquire)) break;
-        seen = seq_.load(std::memory_order_acquire);
-        // Step 1: raise at once (the frame is being emitted now).
+        if (h == t) {
+            tail_.wait(t, std::memory_order_acquire);  // close() bumps tail_ too
+            continue;
+        }
+        const Pulse p = queue_[h % kQueue];
+        head_.store(h + 1, std::memory_order_release);
+        const std::int64_t now_ns = rt::monotonicNow_ns();
+        // Step 1: the start of the exposure on CLOCK_MONOTONIC (sim clock: now).
+        std::int64_t start_ns = p.start_ns != 0 ? p.start_ns : now_ns;
+        if (start_ns - now_ns > 2'000'000'000) {
+            // More than two seconds ahead cannot come from the loop's timeline.
+            errors_.fetch_add(1, std::memory_order_relaxed);
+            continue;
+        }
+        if (start_ns < lastFall_ns) {
+            // Exposure windows that overlap cannot both be marked on one line: this one rises
+            // when the previous pulse ends.
+            overlapped_.fetch_add(1, std::memory_order_relaxed);
+            start_ns = lastFall_ns;
+        }
+        // Step 2: rise at the start (absolute sleep: never early).
+        while (rt::WallClock::sleepUntil(start_ns) == -EINTR) {
+        }
         const std::int64_t rise_ns = rt::monotonicNow_ns();
         if (line_->setValue(1) != 0) errors_.fetch_add(1, std::memory_order_relaxed);
-        // Step 2: lower gate_s after the rise, on the absolute CLOCK_MONOTONIC instant.
-        const std::int64_t end_ns = rise_ns + width_ns_.load(std::memory_order_acquire);
-        while (rt::WallClock::sleepUntil(end_ns) == -EINTR) {
+        // Step 3: fall at the end of the window, start + width. A pulse that could not rise on
+        // time (scheduled after its start: trigger clock, late render) keeps its full width
+        // from the rise instead, and is counted late.
+        std::int64_t fall_ns = start_ns + p.width_ns;
+        if (rise_ns - start_ns > kGateLate_ns) {
+            late_.fetch_add(1, std::memory_order_relaxed);
+            fall_ns = rise_ns + p.width_ns;
+        }
+        while (rt::WallClock::sleepUntil(fall_ns) == -EINTR) {
         }
         if (line_->setValue(0) != 0) errors_.fetch_add(1, std::memory_order_relaxed);
+        lastFall_ns = fall_ns;
         pulses_.fetch_add(1, std::memory_order_relaxed);
-        // A request that came while the line was high starts late: count it.
-        if (seq_.load(std::memory_order_acquire) != seen) {
-            overlapped_.fetch_add(1, std::memory_order_relaxed);
-        }
     }
 }
 
-int GpioGateSink::write(const rt::OutputFrame& frame) noexcept {
+int GpioGateSink::write(const rt::OutputFrame& /*frame*/) noexcept {
     if (closed_) return -EBADF;
-    const double gate_s = frame.meta->platform.gate_s;
-    const double width_s =
-        gate_s > 0.0 && gate_s < frame.meta->exposure_s ? gate_s : frame.meta->exposure_s;
-    width_ns_.store(static_cast<std::int64_t>(width_s * 1e9), std::memory_order_release);
-    seq_.fetch_add(1, std::memory_order_release);
-    seq_.notify_one();
     if (line_->state() == GpioState::Failed || errors_.load(std::memory_order_relaxed) > 0) {
         return -(line_->counters().lastErrno != 0 ? line_->counters().lastErrno : EIO);
     }
@@ -199,8 +269,10 @@ int GpioGateSink::close() noexcept {
     if (closed_) return 0;
     closed_ = true;
     stop_.store(true, std::memory_order_release);
-    seq_.fetch_add(1, std::memory_order_release);
-    seq_.notify_one();
+    // Wake the pulse thread (it waits for tail_ to change); it sees stop_ before it would
+    // read this non-entry, after the pulse in hand.
+    tail_.fetch_add(1, std::memory_order_release);
+    tail_.notify_all();
     if (thread_.joinable()) thread_.join();
     line_->setValue(0);
     line_->release();
@@ -208,12 +280,52 @@ int GpioGateSink::close() noexcept {
 }
 
 std::string GpioGateSink::status() const {
+    char buf[320];
+    const GpioCounters& c = line_->counters();
+    std::snprintf(
+        buf, sizeof buf, "%s: pulses %lld, late %lld, overlapped %lld, lost %lld, errors %lld%s%s",
+        name_.c_str(), static_cast<long long>(pulses_.load()), static_cast<long long>(late_.load()),
+        static_cast<long long>(overlapped_.load()), static_cast<long long>(lost_.load()),
+        static_cast<long long>(errors_.load()), c.lastErrno != 0 ? ", last error: " : "",
+        c.lastErrno != 0 ? std::strerror(c.lastErrno) : "");
+    return buf;
+}
+
+// ---- trigger input ---------------------------------------------------------------------------
+
+GpioTrigger::GpioTrigger(std::unique_ptr<GpioLine> line, const std::string& chip, unsigned offset)
+    : line_(std::move(line)), name_("gpio:" + chip + ":" + std::to_string(offset)) {
+    const int rc = line_->requestRisingEdges(chip, offset);
+    if (rc != 0) {
+        throw SetupError("trigger " + name_ +
+                         ": cannot request the line for rising edges: " + std::strerror(-rc) +
+                         " (gpiodetect / gpioinfo list the chips and lines; see docs/hil.md)");
+    }
+}
+
+int GpioTrigger::waitEdge(std::int64_t timeout_ns, std::int64_t* edgeMonotonic_ns) noexcept {
+    std::int64_t t_ns = 0;
+    const int rc = line_->waitEdge(timeout_ns, &t_ns);
+    if (rc != 1) return rc;
+    // Kernels before 5.7 stamp v1 line events with CLOCK_REALTIME: a stamp nearer to the
+    // realtime clock than to the monotonic one is moved by their present difference.
+    const std::int64_t mono_ns = rt::monotonicNow_ns();
+    const std::int64_t real_ns = rt::realtimeNow_ns();
+    if (std::llabs(t_ns - real_ns) < std::llabs(t_ns - mono_ns)) {
+        t_ns += mono_ns - real_ns;
+        ++realtimeStamps_;
+    }
+    *edgeMonotonic_ns = t_ns;
+    return 1;
+}
+
+std::string GpioTrigger::status() const {
     char buf[256];
     const GpioCounters& c = line_->counters();
-    std::snprintf(buf, sizeof buf, "%s: pulses %lld, overlapped %lld, errors %lld%s%s",
-                  name_.c_str(), static_cast<long long>(pulses_.load()),
-                  static_cast<long long>(overlapped_.load()),
-                  static_cast<long long>(errors_.load()), c.lastErrno != 0 ? ", last error: " : "",
+    std::snprintf(buf, sizeof buf, "%s: edges %lld, errors %lld%s%s%s", name_.c_str(),
+                  static_cast<long long>(c.edges), static_cast<long long>(c.errors),
+                  realtimeStamps_ > 0 ? ", CLOCK_REALTIME stamps converted" : "",
+                  c.lastErrno != 0 ? ", last error: " : "",
                   c.lastErrno != 0 ? std::strerror(c.lastErrno) : "");
     return buf;
 }

@@ -9,20 +9,36 @@
 //                     gpiod_line_request_output / gpiod_line_set_value /
 //                     gpiod_line_request_rising_edge_events / gpiod_line_event_wait / _read.
 //                     RAII: the line is released and the chip closed on destruction.
-//   FakeGpioLine      records every value set with its CLOCK_MONOTONIC time; edges are pushed.
-//   GpioGateSink      rt::FrameSink: each emitted frame raises the line at emission and lowers
-//                     it gate_s later (the frame's gate, or its exposure when ungated), from a
-//                     pulse thread (rt/clock/threads.h: nvs-gpio) so the output thread never
-//                     sleeps. A pulse still high when the next frame comes is cut short
-//                     (counted as overlapped). Line errors are counted, never fatal.
+//   FakeGpioLine      records every value set with its CLOCK_MONOTONIC time; edges are pushed
+//                     (from any thread) with their time and delivered when that time has come:
+//                     waitEdge sleeps until the first queued edge is due, up to its timeout.
+//   GpioGateSink      rt::FrameSink and rt::ExposureObserver: one pulse per exposure (frame, or
+//                     field when interlaced), marking the exposure window on the loop's
+//                     timeline. The render thread schedules each exposure ahead of emission
+//                     (exposureScheduled: start on CLOCK_MONOTONIC, gate); a pulse thread
+//                     (rt/clock/threads.h: nvs-gpio) sleeps to the start with an absolute
+//                     clock_nanosleep, raises the line, and lowers it `width` later, with
+//                     width = gate_s when 0 < gate_s < exposure, else the exposure. A request
+//                     that comes after its start (trigger clock, a late render) rises at once and
+//                     is counted late; one that starts before the previous pulse has ended
+//                     (windows that overlap) rises when it ends and is counted overlapped. Line
+//                     errors are counted, never fatal. Under the sim clock (no wall time) a pulse
+//                     rises as soon as its exposure is scheduled.
+//   GpioTrigger       rt::TriggerSource: rising edges of an input line with the kernel's
+//                     timestamps, on CLOCK_MONOTONIC (the v1 uAPI stamps events with
+//                     CLOCK_MONOTONIC since Linux 5.7 and CLOCK_REALTIME before: a stamp closer
+//                     to CLOCK_REALTIME is moved onto CLOCK_MONOTONIC).
 //
 // Output spec: gpio:CHIP:LINE[?active=high|low] — CHIP as gpiod_chip_open_by_name takes it
 // ("gpiochip0"), LINE the offset on that chip; active=low drives the line low during the pulse.
+// Trigger spec (scenario [runtime] trigger): gpio:CHIP:LINE.
 
 #include <atomic>
+#include <condition_variable>
 #include <cstdint>
 #include <deque>
 #include <memory>
+#include <mutex>
 #include <string>
 #include <thread>
 #include <vector>
@@ -101,7 +117,8 @@ class FakeGpioLine final : public GpioLine {
     std::string chip = "gpiochip0";  // the only chip that exists
     unsigned lines = 32;             // lines it has
     bool activeLow = false;
-    void pushEdge(std::int64_t t_ns) { edges_.push_back(t_ns); }
+    // Queues a rising edge stamped t_ns (CLOCK_MONOTONIC), delivered once t_ns has come.
+    void pushEdge(std::int64_t t_ns);
     void fail(int err) { failErr_ = err; }  // from now on every call fails with -err
     // Written by setValue (up to the capacity given; read after the writer has stopped).
     const std::vector<Change>& changes() const { return changes_; }
@@ -110,36 +127,71 @@ class FakeGpioLine final : public GpioLine {
     GpioState state_ = GpioState::Closed;
     GpioCounters counters_;
     std::vector<Change> changes_;
+    std::mutex edgeMutex_;
+    std::condition_variable edgeCv_;
     std::deque<std::int64_t> edges_;
-    int failErr_ = 0;
+    std::atomic<int> failErr_{0};
 };
 
-class GpioGateSink final : public rt::FrameSink {
+class GpioGateSink final : public rt::FrameSink, public rt::ExposureObserver {
   public:
     // Requests the line (throws SetupError naming the spec) and starts the pulse thread.
     GpioGateSink(std::unique_ptr<GpioLine> line, const std::string& chip, unsigned offset,
                  bool activeLow);
     ~GpioGateSink() override;
     const char* name() const noexcept override { return name_.c_str(); }
+    // Emission: nothing to do (pulses follow exposures); reports line errors to the loop.
     int write(const rt::OutputFrame& frame) noexcept override;
     int close() noexcept override;
     std::string status() const override;
+    // Render thread: queue the pulse of one exposure.
+    void exposureScheduled(const rt::ExposureWindow& w) noexcept override;
     std::int64_t pulses() const { return pulses_.load(); }
     std::int64_t overlapped() const { return overlapped_.load(); }
+    std::int64_t late() const { return late_.load(); }
+    std::int64_t lost() const { return lost_.load(); }
 
   private:
+    struct Pulse {
+        std::int64_t start_ns = 0;  // CLOCK_MONOTONIC; 0: as soon as possible
+        std::int64_t width_ns = 0;
+    };
+    static constexpr std::uint32_t kQueue = 16;
     void pulseThread();
     std::unique_ptr<GpioLine> line_;
     std::string name_;
-    // One-slot mailbox: the output thread stores a request and bumps seq_.
-    std::atomic<std::uint32_t> seq_{0};
-    std::atomic<std::int64_t> width_ns_{0};
+    // Single-producer (render thread) single-consumer (pulse thread) queue of pulses.
+    Pulse queue_[kQueue];
+    std::atomic<std::uint32_t> head_{0};
+    std::atomic<std::uint32_t> tail_{0};
     std::atomic<bool> stop_{false};
     std::atomic<std::int64_t> pulses_{0};
     std::atomic<std::int64_t> overlapped_{0};
+    std::atomic<std::int64_t> late_{0};  // rose more than kLate_ns after the exposure start
+    std::atomic<std::int64_t> lost_{0};  // queue full: the render ran far ahead
     std::atomic<std::int64_t> errors_{0};
     std::thread thread_;
     bool closed_ = false;
 };
+
+// Late: a rise more than this after its exposure start (wake-up delays are far shorter).
+inline constexpr std::int64_t kGateLate_ns = 1'000'000;
+
+class GpioTrigger final : public rt::TriggerSource {
+  public:
+    // Requests the line for rising edges (throws SetupError naming the spec).
+    GpioTrigger(std::unique_ptr<GpioLine> line, const std::string& chip, unsigned offset);
+    const char* name() const noexcept override { return name_.c_str(); }
+    int waitEdge(std::int64_t timeout_ns, std::int64_t* edgeMonotonic_ns) noexcept override;
+    std::string status() const override;
+
+  private:
+    std::unique_ptr<GpioLine> line_;
+    std::string name_;
+    std::int64_t realtimeStamps_ = 0;  // edges stamped on CLOCK_REALTIME (kernels before 5.7)
+};
+
+// "CHIP:LINE" → chip and line offset (false when malformed).
+bool parseGpioTarget(const std::string& target, std::string* chip, unsigned* line);
 
 }  // namespace nvs::drivers

@@ -24,12 +24,18 @@ enum ThreadId : int {
 
 inline constexpr ThreadSpec kThreadTable[kThreadCount] = {
     {"nvs-main", "setup, signals, live status once a second, shutdown and statistics", 0, -1},
-    {"nvs-render", "frame k+1: poll telemetry, pose at mid-exposure, render stage, camera stage",
+    {"nvs-render",
+     "frame k+1 (trigger clock: after its edge): poll telemetry, pose at each exposure's "
+     "mid-time, render and camera stages per frame or field, schedule the exposures",
      70, 0},
-    {"nvs-output", "frame k: sleep to its absolute deadline, emit to every sink, statistics", 80,
-     1},
+    {"nvs-output",
+     "frame k: sleep to its absolute deadline (trigger clock: until ready), emit to every sink, "
+     "statistics",
+     80, 1},
     {"nvs-gpio",
-     "gpio: output only: gate pulse per frame, raised at emission, lowered gate_s later", 85, 1},
+     "gpio: output only: gate pulse per exposure, raised at the exposure start on the loop's "
+     "timeline, lowered gate_s later",
+     85, 1},
 };
 
 // Names the calling thread after its table entry and, when `realtime`, applies its priority

@@ -1,8 +1,12 @@
 #include "rt/loop/frame_loop.h"
 
+#include <algorithm>
 #include <cerrno>
+#include <cmath>
+#include <cstring>
 
 #include "rt/clock/threads.h"
+#include "sim/core/error.h"
 
 namespace nvs::rt {
 
@@ -15,12 +19,31 @@ FrameLoop::FrameLoop(const LoopConfig& config, PlatformSource& platform, RenderS
       sinks_(std::move(sinks)),
       wall_(config.rate),
       sim_(config.rate),
-      exposure_s_(config.exposure_s > 0.0 ? config.exposure_s : config.rate.period_s()) {
+      fields_(config.scan == ScanKind::Interlaced ? 2 : 1),
+      field_s_(config.rate.period_s() / (config.scan == ScanKind::Interlaced ? 2.0 : 1.0)),
+      period_ns_(WallClock(config.rate).deadline_ns(1)) {
+    // Default exposure: one frame (progressive) or one field (interlaced).
+    exposure_s_ = config.exposure_s > 0.0 ? config.exposure_s : field_s_;
+    if (config.clock == ClockKind::Trigger && config.trigger == nullptr) {
+        throw SetupError("the trigger clock needs a trigger input");
+    }
     for (int i = 0; i < kSlots; ++i) {
         slots_[i].radiance = ImageF(config.width, config.height);
         slots_[i].counts = ImageU16(config.width, config.height);
         free_.push(i);
     }
+    if (fields_ == 2) {
+        fieldRadiance_ = ImageF(config.width, config.height);
+        fieldCounts_ = ImageU16(config.width, config.height);
+    }
+    for (FrameSink* sink : sinks_) {
+        if (auto* o = dynamic_cast<ExposureObserver*>(sink)) observers_.push_back(o);
+    }
+    // Stalled: no edge for the timeout (default three nominal periods).
+    triggerTimeout_ns_ =
+        config.triggerTimeout_s > 0.0
+            ? static_cast<std::int64_t>(std::llround(config.triggerTimeout_s * 1e9))
+            : 3 * period_ns_;
 }
 
 FrameLoop::~FrameLoop() {
@@ -38,7 +61,9 @@ void FrameLoop::start(std::vector<std::string>& messages) {
         if (lockMemory(msg) != 0) messages.push_back(msg);
     }
     // Tick 0 is one period away, so frame 0 has a whole period to render.
-    wall_.start(monotonicNow_ns() + wall_.deadline_ns(1));
+    const std::int64_t now_ns = monotonicNow_ns();
+    wall_.start(now_ns + wall_.deadline_ns(1));
+    triggerRef_ns_ = now_ns;
     const bool rt = config_.realtime;
     renderThread_ = std::thread([this, rt] { renderThread(rt); });
     outputThread_ = std::thread([this, rt] { outputThread(rt); });
@@ -73,11 +98,147 @@ void FrameLoop::join() {
 
 // ---- render thread ---------------------------------------------------------------------------
 
+void FrameLoop::produce(Slot& s, std::int64_t r, double t_k, double now_s,
+                        std::int64_t edge_ns) noexcept {
+    const bool realClock = config_.clock != ClockKind::Sim;
+    bool stale = false;
+    for (int f = 0; f < fields_; ++f) {
+        // Field f of an interlaced frame: t_f = t_k − (1 − f)·T_f; progressive: t_k.
+        const double t_f = t_k - static_cast<double>(fields_ - 1 - f) * field_s_;
+        // Field 0 (or the whole frame) straight into the slot; field 1 into the field buffer.
+        ImageView<float> radiance = f == 0 ? s.radiance.view() : fieldRadiance_.view();
+        ImageView<std::uint16_t> counts = f == 0 ? s.counts.view() : fieldCounts_.view();
+        FrameMeta& m = f == 0 ? s.meta : fieldMeta_;
+        FrameRequest req;
+        req.frame = r;
+        req.t_sample_s = t_f;
+        req.exposure_s = exposure_s_;
+        platform_.sample(t_f, now_s, req.platform);
+        m.truthCount = 0;
+        render_.render(req, radiance, m);
+        camera_.expose(req,
+                       ImageView<const float>(radiance.row(0), radiance.width(), radiance.height(),
+                                              radiance.stride_px()),
+                       counts, m);
+        m.frame = r;
+        m.t_sample_s = t_f;
+        m.exposure_s = exposure_s_;
+        // The camera stage may have changed gain/gate (AGC); keep what it set.
+        const double gain = m.platform.gain_V;
+        const double gate = m.platform.gate_s;
+        const bool cameraSet = m.platform.t_sample_s == t_f;
+        m.platform = req.platform;
+        if (cameraSet) {
+            m.platform.gain_V = gain;
+            m.platform.gate_s = gate;
+        }
+        s.meta.field[f] = FieldMeta{t_f, m.platform.gain_V, m.platform.gate_s};
+        stale = stale || req.platform.stale;
+        // The exposure on the loop's timeline, for the gate pulse: it is scheduled now, while
+        // the frame is rendered ahead of its emission.
+        if (!observers_.empty()) {
+            ExposureWindow w;
+            w.frame = r;
+            w.field = f;
+            w.t_sample_s = t_f;
+            w.start_s = t_f - 0.5 * exposure_s_;
+            w.exposure_s = exposure_s_;
+            w.gate_s = m.platform.gate_s;
+            w.startMonotonic_ns = realClock ? wall_.start_ns() + std::llround(w.start_s * 1e9) : 0;
+            for (ExposureObserver* o : observers_)
+                o->exposureScheduled(w);
+        }
+    }
+    if (fields_ == 2) {
+        // Weave: the odd rows are field 1's. The frame is described by field 1, which
+        // completes it (messages.h); field[0] keeps the first field's own exposure.
+        const std::size_t radBytes = static_cast<std::size_t>(config_.width) * sizeof(float);
+        const std::size_t cntBytes =
+            static_cast<std::size_t>(config_.width) * sizeof(std::uint16_t);
+        for (int y = 1; y < config_.height; y += 2) {
+            std::memcpy(s.radiance.view().row(y), fieldRadiance_.cview().row(y), radBytes);
+            std::memcpy(s.counts.view().row(y), fieldCounts_.cview().row(y), cntBytes);
+        }
+        s.meta.t_sample_s = fieldMeta_.t_sample_s;
+        s.meta.platform = fieldMeta_.platform;
+        s.meta.truthCount = fieldMeta_.truthCount;
+        for (int i = 0; i < fieldMeta_.truthCount && i < kMaxTruthBoxes; ++i)
+            s.meta.truth[i] = fieldMeta_.truth[i];
+    }
+    s.meta.fieldCount = fields_;
+    s.meta.triggerEdge_ns = edge_ns;
+    s.frame = r;
+    if (stale) ++staleFrames_;
+    live_.stale.store(stale, std::memory_order_relaxed);
+}
+
+bool FrameLoop::acceptEdge(std::int64_t t_ns) noexcept {
+    ++trigger_.edges;
+    if (lastEdge_ns_ != 0) {
+        const std::int64_t d = t_ns - lastEdge_ns_;
+        if (2 * d < period_ns_) {
+            // Less than half a period after the last good edge: a glitch or a double pulse.
+            ++trigger_.extra;
+            live_.triggerExtra.fetch_add(1, std::memory_order_relaxed);
+            return false;
+        }
+        // n = round(d/dt) periods since the last good edge: n − 1 edges went missing.
+        const std::int64_t n = (2 * d + period_ns_) / (2 * period_ns_);
+        if (n >= 2) {
+            trigger_.missing += n - 1;
+            live_.triggerMissing.fetch_add(n - 1, std::memory_order_relaxed);
+        }
+        trigger_.interval.add(static_cast<double>(d) * 1e-9);
+    }
+    lastEdge_ns_ = t_ns;
+    triggerRef_ns_ = t_ns;
+    stalled_ = false;
+    live_.triggerStalled.store(false, std::memory_order_relaxed);
+    return true;
+}
+
+bool FrameLoop::waitTrigger(std::int64_t& edge_ns) noexcept {
+    // Wait in short slices so that a stop request is seen within 20 ms.
+    const std::int64_t slice_ns = std::min<std::int64_t>(period_ns_, 20'000'000);
+    TriggerSource& trig = *config_.trigger;
+    for (;;) {
+        if (stop_.load(std::memory_order_acquire)) return false;
+        std::int64_t t = 0;
+        const int rc = trig.waitEdge(slice_ns, &t);
+        if (rc == 1) {
+            if (!acceptEdge(t)) continue;
+            // Edges that queued up while the last frame rendered: the newest one starts this
+            // frame (the older exposures are over); the others are overruns.
+            std::int64_t t2 = 0;
+            while (trig.waitEdge(0, &t2) == 1) {
+                if (acceptEdge(t2)) {
+                    ++trigger_.overruns;
+                    t = t2;
+                }
+            }
+            ++trigger_.frames;
+            edge_ns = t;
+            return true;
+        }
+        if (rc < 0) {
+            // A failing input returns at once: count it and wait a slice before retrying.
+            ++trigger_.errors;
+            WallClock::sleepUntil(monotonicNow_ns() + slice_ns);
+        }
+        if (!stalled_ && monotonicNow_ns() - triggerRef_ns_ > triggerTimeout_ns_) {
+            stalled_ = true;
+            ++trigger_.stalls;
+            live_.triggerStalled.store(true, std::memory_order_relaxed);
+        }
+    }
+}
+
 void FrameLoop::renderThread(bool realtime) {
     std::string msg;
     applyThreadSpec(kThreadRender, realtime, msg);
     renderMessage_ = msg.empty() ? "ok" : msg;
     const bool wall = config_.clock == ClockKind::Wall;
+    const bool trig = config_.clock == ClockKind::Trigger;
     std::int64_t r = 0;
     for (;;) {
         if (stop_.load(std::memory_order_acquire)) break;
@@ -100,35 +261,20 @@ void FrameLoop::renderThread(bool realtime) {
             freeSeq_.wait(seq, std::memory_order_acquire);
         }
         {
-            Slot& s = slots_[slot];
+            // Trigger clock: the slot is in hand, so the frame starts as soon as its edge comes.
+            std::int64_t edge_ns = 0;
+            if (trig && !waitTrigger(edge_ns)) goto done;
             const std::int64_t t0_ns = monotonicNow_ns();
-            FrameRequest req;
-            req.frame = r;
-            req.t_sample_s = tickTime_s(r);
-            req.exposure_s = exposure_s_;
+            // t_k: the time of the frame's (last) exposure. Trigger: the edge starts the
+            // (first) exposure, so t_sample_s = t_edge + e/2, and field 1 one field later.
+            const double t_k = trig ? wall_.runTime_s(edge_ns) + 0.5 * exposure_s_ +
+                                          static_cast<double>(fields_ - 1) * field_s_
+                                    : tickTime_s(r);
             // "Now" for telemetry: the wall clock's reading, or under the sim clock the
             // instant this frame's render nominally starts, one period before its deadline.
             const double now_s =
-                wall ? wall_.runTime_s(t0_ns) : (r > 0 ? sim_.tickTime_s(r - 1) : 0.0);
-            platform_.sample(req.t_sample_s, now_s, req.platform);
-            s.meta.truthCount = 0;
-            render_.render(req, s.radiance.view(), s.meta);
-            camera_.expose(req, s.radiance.cview(), s.counts.view(), s.meta);
-            s.meta.frame = r;
-            s.meta.t_sample_s = req.t_sample_s;
-            s.meta.exposure_s = req.exposure_s;
-            // The camera stage may have changed gain/gate (AGC); keep what it set.
-            const double gain = s.meta.platform.gain_V;
-            const double gate = s.meta.platform.gate_s;
-            const bool cameraSet = s.meta.platform.t_sample_s == req.t_sample_s;
-            s.meta.platform = req.platform;
-            if (cameraSet) {
-                s.meta.platform.gain_V = gain;
-                s.meta.platform.gate_s = gate;
-            }
-            s.frame = r;
-            if (req.platform.stale) ++staleFrames_;
-            live_.stale.store(req.platform.stale, std::memory_order_relaxed);
+                wall || trig ? wall_.runTime_s(t0_ns) : (r > 0 ? sim_.tickTime_s(r - 1) : 0.0);
+            produce(slots_[slot], r, t_k, now_s, edge_ns);
             frameTime_.add(static_cast<double>(monotonicNow_ns() - t0_ns) * 1e-9);
         }
         ++framesRendered_;
@@ -160,7 +306,7 @@ bool FrameLoop::waitReady(std::int64_t k) noexcept {
 
 void FrameLoop::emit(int slot, std::int64_t tick, bool repeat, std::int64_t now_ns) {
     const Slot& s = slots_[slot];
-    const bool wall = config_.clock == ClockKind::Wall;
+    const bool wall = config_.clock != ClockKind::Sim;  // emission times are real
     OutputFrame of;
     of.meta = &s.meta;
     of.radiance_W_m2_sr = s.radiance.cview();
@@ -189,6 +335,9 @@ void FrameLoop::emit(int slot, std::int64_t tick, bool repeat, std::int64_t now_
         if (lastEmit_ns_ != 0) stats_.period.add(static_cast<double>(now_ns - lastEmit_ns_) * 1e-9);
         lastEmit_ns_ = now_ns;
     }
+    if (s.meta.triggerEdge_ns != 0 && !repeat) {
+        trigger_.latency.add(static_cast<double>(s1 - s.meta.triggerEdge_ns) * 1e-9);
+    }
     const double rx_s = s.meta.platform.telemetryRx_s;
     if (rx_s >= 0.0) {
         // Telemetry receive → frame emitted (written to every sink).
@@ -204,6 +353,7 @@ void FrameLoop::outputThread(bool realtime) {
     applyThreadSpec(kThreadOutput, realtime, msg);
     outputMessage_ = msg.empty() ? "ok" : msg;
     const bool wall = config_.clock == ClockKind::Wall;
+    const bool trig = config_.clock == ClockKind::Trigger;
     const std::int64_t period_ns = wall_.deadline_ns(1) - wall_.start_ns();
     int held = -1;
     const std::int64_t t_start = monotonicNow_ns();
@@ -231,6 +381,8 @@ void FrameLoop::outputThread(bool realtime) {
             stats_.wakeLate.add(static_cast<double>(now_ns - wall_.deadline_ns(k)) * 1e-9);
         } else if (!waitReady(k)) {
             break;
+        } else if (trig) {
+            now_ns = monotonicNow_ns();  // emitted as soon as it is ready
         }
         const std::int64_t w0 = monotonicNow_ns();
         ++stats_.counters.ticks;
@@ -257,7 +409,7 @@ void FrameLoop::outputThread(bool realtime) {
             held = use;
             freeSeq_.fetch_add(1, std::memory_order_release);
             freeSeq_.notify_all();
-            emit(held, k, false, wall ? now_ns : 0);
+            emit(held, k, false, now_ns);
             ++stats_.counters.framesEmitted;
             live_.emitted.fetch_add(1, std::memory_order_relaxed);
         } else if (!wall && renderDone_.load(std::memory_order_acquire)) {

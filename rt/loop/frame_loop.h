@@ -1,10 +1,12 @@
 #pragma once
 // The frame loop (DESIGN §5): two pipelined threads (rt/clock/threads.h).
 //
-//   render thread   frame k+1: telemetry → pose at t_{k+1}, render stage, camera stage, into a
-//                   free slot; hands the slot to the output thread.
-//   output thread   tick k: sleep to deadline k (wall clock) or wait for frame k (sim clock),
-//                   emit frame k to every sink, hand the previous slot back.
+//   render thread   frame k+1: (trigger clock: wait for its edge) telemetry → pose at each
+//                   exposure's mid-time, render stage, camera stage, into a free slot; tells the
+//                   exposure observers (GPIO gate pulse) when each exposure is; hands the slot
+//                   to the output thread.
+//   output thread   tick k: sleep to deadline k (wall clock) or wait for frame k (sim and
+//                   trigger clocks), emit frame k to every sink, hand the previous slot back.
 //
 // Three preallocated slots circulate through two single-producer/single-consumer rings
 // (free → render → ready → output → free); the output thread keeps the slot it emitted last
@@ -20,6 +22,33 @@
 // thread itself wakes a whole period late, the lost ticks are counted and skipped.
 // Under the sim clock nothing is ever late: the output waits for every frame, so two runs are
 // identical bit for bit.
+//
+// Scan (DESIGN §5 pacing modes). dt is the period of the emitted frames (frame_rate_hz).
+//   Progressive   one exposure per frame: t_sample_s = t_k, exposure [t_k − e/2, t_k + e/2]
+//                 (e = exposure_s, default dt). A field-scan camera stage run this way counts
+//                 each frame as one field and weaves its own video: that is the field-rate
+//                 interlaced mode (59.94 Hz out, each frame the latest two fields).
+//   Interlaced    frame-rate interlaced output: each frame is woven from two fields of period
+//                 T_f = dt/2, each rendered and exposed at its own time,
+//                     field f ∈ {0, 1}:  t_f = t_k − (1 − f)·T_f   (default e = T_f),
+//                 field 0 on the even rows, field 1 on the odd rows (as sim/sensor's video stage
+//                 numbers fields). The render and camera stages are called once per field, one
+//                 after the other in the same slot: field 0 straight into the slot, field 1 into
+//                 one preallocated field buffer whose odd rows are then copied over. The loop
+//                 itself stays one tick per output frame, so pacing, repeats, statistics and
+//                 the output thread do not change. A frame is complete when its second field
+//                 is, so its t_sample_s is t_k, as in progressive scan.
+//
+// Trigger clock (ClockKind::Trigger): frames are locked to rising edges from the equipment
+// under test (LoopConfig::trigger, e.g. a GPIO input). Each good edge at time t_e (CLOCK_MONOTONIC,
+// on the run clock of the wall clock) starts one exposure: the frame's (first field's)
+//     t_sample_s = t_e + e/2,
+// and the frame is emitted as soon as it is ready (no deadline, never repeated). Edges are
+// checked against the nominal period dt: an edge less than dt/2 after the previous one is an
+// extra edge (counted, ignored); an interval of n·dt with n ≥ 2 counts n − 1 missing edges;
+// edges that queued up while a frame rendered are overruns (counted; the newest one is used).
+// No edge for trigger timeout (default three periods) marks the trigger stalled in the live
+// counters until the next edge. Latency edge → frame written to every sink is a histogram.
 
 #include <atomic>
 #include <cstdint>
@@ -34,7 +63,8 @@
 
 namespace nvs::rt {
 
-enum class ClockKind { Sim, Wall };
+enum class ClockKind { Sim, Wall, Trigger };
+enum class ScanKind { Progressive, Interlaced };
 enum class LatePolicy { Repeat, Drop };
 enum class SinkErrorPolicy { Count, Stop };
 
@@ -48,6 +78,23 @@ struct LoopConfig {
     int width = 320;
     int height = 240;
     bool realtime = false;  // SCHED_FIFO per the thread table, and mlockall
+    ScanKind scan = ScanKind::Progressive;
+    TriggerSource* trigger = nullptr;  // ClockKind::Trigger: the edges (outlives the loop)
+    double triggerTimeout_s = 0.0;     // no edge for this long: stalled; 0: three periods
+};
+
+// Trigger-clock counters (render thread) and edge → emission latency (output thread); read
+// after join().
+struct TriggerStats {
+    std::int64_t edges = 0;      // rising edges read
+    std::int64_t frames = 0;     // edges that started a frame
+    std::int64_t missing = 0;    // edges absent from the nominal cadence
+    std::int64_t extra = 0;      // edges less than half a period after the previous one
+    std::int64_t overruns = 0;   // good edges superseded while a frame was rendering
+    std::int64_t stalls = 0;     // times the trigger went silent for the timeout
+    std::int64_t errors = 0;     // failed waits on the trigger input
+    DurationHistogram interval;  // between consecutive good edges
+    DurationHistogram latency;   // edge → frame written to every sink
 };
 
 // Single-producer single-consumer ring of small integers (slot numbers).
@@ -88,6 +135,10 @@ struct LiveCounters {
     std::atomic<std::int64_t> sinkErrors{0};
     std::atomic<std::int64_t> lastLatency_ns{-1};
     std::atomic<bool> stale{false};
+    // Trigger clock.
+    std::atomic<bool> triggerStalled{false};
+    std::atomic<std::int64_t> triggerMissing{0};
+    std::atomic<std::int64_t> triggerExtra{0};
 };
 
 class FrameLoop {
@@ -113,6 +164,11 @@ class FrameLoop {
     const std::string& failure() const { return failure_; }
     const LoopConfig& config() const { return config_; }
     double tickTime_s(std::int64_t k) const;
+    // The run clock's origin and deadlines on CLOCK_MONOTONIC (wall and trigger clocks).
+    const WallClock& wallClock() const { return wall_; }
+    const TriggerStats& triggerStats() const { return trigger_; }
+    // Exposure time of one frame (progressive) or field (interlaced) [s].
+    double exposure_s() const { return exposure_s_; }
 
   private:
     struct Slot {
@@ -125,6 +181,11 @@ class FrameLoop {
     void outputThread(bool realtime);
     void emit(int slot, std::int64_t tick, bool repeat, std::int64_t now_ns);
     bool waitReady(std::int64_t k) noexcept;  // sim clock: until frame k or the end
+    // Renders and exposes frame r (its fields) into slot s; t_k is its (last field's) time.
+    void produce(Slot& s, std::int64_t r, double t_k, double now_s, std::int64_t edge_ns) noexcept;
+    // Trigger clock: the next good edge (false when stopping).
+    bool waitTrigger(std::int64_t& edge_ns) noexcept;
+    bool acceptEdge(std::int64_t t_ns) noexcept;  // classifies one edge; false: extra
 
     LoopConfig config_;
     PlatformSource& platform_;
@@ -134,6 +195,14 @@ class FrameLoop {
     WallClock wall_;
     SimClock sim_;
     double exposure_s_;
+    int fields_;      // exposures per frame: 1 progressive, 2 interlaced
+    double field_s_;  // field period (interlaced) [s]
+    std::int64_t period_ns_;
+    std::vector<ExposureObserver*> observers_;
+    // Interlaced: the second field's buffers.
+    ImageF fieldRadiance_;
+    ImageU16 fieldCounts_;
+    FrameMeta fieldMeta_;
 
     static constexpr int kSlots = 3;
     Slot slots_[kSlots];
@@ -159,6 +228,12 @@ class FrameLoop {
     std::int64_t framesRendered_ = 0;
     std::int64_t renderDropped_ = 0;
     std::int64_t staleFrames_ = 0;
+    // Trigger clock (render thread, except trigger_.latency: output thread).
+    TriggerStats trigger_;
+    std::int64_t lastEdge_ns_ = 0;
+    std::int64_t triggerRef_ns_ = 0;  // last good edge, or the start: stall reference
+    std::int64_t triggerTimeout_ns_ = 0;
+    bool stalled_ = false;
     LiveCounters live_;
 };
 

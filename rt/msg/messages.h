@@ -45,14 +45,31 @@ struct FrameRequest {
     PlatformState platform;   // pose and camera settings at t_sample_s
 };
 
+// One exposure of a frame: the whole frame (progressive scan) or one field (interlaced scan).
+struct FieldMeta {
+    double t_sample_s = 0.0;  // exposure mid-time (run clock)
+    double gain_V = 0.0;      // applied by the camera stage (or commanded, linear camera)
+    double gate_s = 0.0;      // applied gate (0: continuous)
+};
+inline constexpr int kMaxFields = 2;
+
 // What a frame carries besides its pixels (the JSON-lines metadata record, DESIGN §6).
+// Interlaced scan (rt/loop/frame_loop.h): a frame is woven from two fields, field 0 on the even
+// rows, exposed one field period before field 1 on the odd rows. The frame-level fields
+// (t_sample_s, platform, truth) are those of field 1, the field that completes the frame;
+// `field[f]` holds each field's own exposure. Progressive scan: fieldCount = 1 and field[0]
+// repeats the frame's.
 struct FrameMeta {
     std::int64_t frame = 0;
     double t_sample_s = 0.0;
-    double exposure_s = 0.0;
+    double exposure_s = 0.0;  // of one exposure (a field when interlaced)
     PlatformState platform;
     std::int32_t truthCount = 0;
     TruthBox truth[kMaxTruthBoxes];
+    std::int32_t fieldCount = 1;
+    FieldMeta field[kMaxFields];
+    // Trigger clock: CLOCK_MONOTONIC time of the rising edge that started the exposure (0 else).
+    std::int64_t triggerEdge_ns = 0;
 };
 
 }  // namespace nvs::rt

@@ -7,6 +7,8 @@
 //   RenderStage     FrameRequest → radiance image [W m⁻² sr⁻¹] + truth   (render thread)
 //   CameraStage     radiance image → digital counts (ADC bits)           (render thread)
 //   FrameSink       one emitted frame → a device or file                 (output thread)
+//   ExposureObserver an exposure scheduled on the loop's timeline        (render thread)
+//   TriggerSource   rising edges that start exposures (trigger clock)    (render thread)
 //
 // The synthetic stages in rt/synth stand in until the renderer and the camera model
 // (sim/sensor) are plugged in through the same two interfaces.
@@ -59,6 +61,40 @@ struct OutputFrame {
     bool repeat = false;                // a repeat of the previous frame (late-frame policy)
     double emit_s = 0.0;                // run-clock time of emission
     std::int64_t emitMonotonic_ns = 0;  // CLOCK_MONOTONIC of emission (0 under the sim clock)
+};
+
+// The exposure of one frame or field, on the loop's timeline, as the render thread schedules it
+// (before the frame is emitted: rendering runs ahead of the output).
+struct ExposureWindow {
+    std::int64_t frame = 0;
+    std::int32_t field = 0;   // 0, or 1 for the second field of an interlaced frame
+    double t_sample_s = 0.0;  // exposure mid-time (run clock)
+    double start_s = 0.0;     // exposure start = t_sample_s − exposure_s/2 (run clock)
+    double exposure_s = 0.0;  // integration time of the frame or field
+    double gate_s = 0.0;      // photocathode gate applied (≤ exposure_s; 0: continuous)
+    std::int64_t startMonotonic_ns = 0;  // start_s on CLOCK_MONOTONIC; 0 under the sim clock
+};
+
+// Told of every exposure as soon as it is scheduled (render thread, after the camera stage, so
+// the gate the camera applied is known). A sink that also implements this interface is
+// registered by the frame loop automatically (the GPIO gate pulse, drivers/gpio).
+class ExposureObserver {
+  public:
+    virtual ~ExposureObserver() = default;
+    virtual void exposureScheduled(const ExposureWindow& w) noexcept = 0;
+};
+
+// External trigger input (the trigger clock, rt/loop/frame_loop.h): rising edges from the
+// equipment under test, each starting one exposure.
+class TriggerSource {
+  public:
+    virtual ~TriggerSource() = default;
+    virtual const char* name() const noexcept = 0;
+    // Waits up to `timeout_ns` (0: does not wait) for the next rising edge: 1 and its time on
+    // CLOCK_MONOTONIC, 0 on timeout, -errno on failure.
+    virtual int waitEdge(std::int64_t timeout_ns, std::int64_t* edgeMonotonic_ns) noexcept = 0;
+    // Counters and state, one line (end of run; may allocate).
+    virtual std::string status() const = 0;
 };
 
 class FrameSink {

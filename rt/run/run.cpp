@@ -170,16 +170,33 @@ std::string statsJson(const FrameLoop& loop, const PlatformSource& platform,
                   "\"frames_rendered\":%lld,\"frames_emitted\":%lld,\"deadline_misses\":%lld,"
                   "\"repeats\":%lld,\"dropped_frames\":%lld,\"skipped_ticks\":%lld,"
                   "\"sink_errors\":%lld,\"stale_frames\":%lld,",
-                  cfg.clock == ClockKind::Wall ? "wall" : "sim", cfg.rate.hz(), st.elapsed_s,
-                  static_cast<long long>(c.ticks), static_cast<long long>(c.framesRendered),
-                  static_cast<long long>(c.framesEmitted), static_cast<long long>(c.deadlineMisses),
-                  static_cast<long long>(c.repeats), static_cast<long long>(c.droppedFrames),
-                  static_cast<long long>(c.skippedTicks), static_cast<long long>(c.sinkErrors),
-                  static_cast<long long>(c.staleFrames));
+                  cfg.clock == ClockKind::Wall
+                      ? "wall"
+                      : (cfg.clock == ClockKind::Trigger ? "trigger" : "sim"),
+                  cfg.rate.hz(), st.elapsed_s, static_cast<long long>(c.ticks),
+                  static_cast<long long>(c.framesRendered), static_cast<long long>(c.framesEmitted),
+                  static_cast<long long>(c.deadlineMisses), static_cast<long long>(c.repeats),
+                  static_cast<long long>(c.droppedFrames), static_cast<long long>(c.skippedTicks),
+                  static_cast<long long>(c.sinkErrors), static_cast<long long>(c.staleFrames));
     j += buf;
     j += "\"period\":" + st.period.json() + ",\"wake_late\":" + st.wakeLate.json() +
          ",\"frame_time\":" + st.frameTime.json() + ",\"overhead\":" + st.overhead.json() +
          ",\"sink_time\":" + st.sinkTime.json() + ",\"latency\":" + st.latency.json();
+    j += std::string(",\"scan\":\"") +
+         (cfg.scan == ScanKind::Interlaced ? "interlaced" : "progressive") + "\"";
+    if (cfg.clock == ClockKind::Trigger && cfg.trigger != nullptr) {
+        const TriggerStats& t = loop.triggerStats();
+        std::snprintf(buf, sizeof buf,
+                      ",\"trigger\":{\"edges\":%lld,\"frames\":%lld,\"missing\":%lld,"
+                      "\"extra\":%lld,\"overruns\":%lld,\"stalls\":%lld,\"errors\":%lld,",
+                      static_cast<long long>(t.edges), static_cast<long long>(t.frames),
+                      static_cast<long long>(t.missing), static_cast<long long>(t.extra),
+                      static_cast<long long>(t.overruns), static_cast<long long>(t.stalls),
+                      static_cast<long long>(t.errors));
+        j += buf;
+        j += "\"interval\":" + t.interval.json() + ",\"latency\":" + t.latency.json() +
+             ",\"input\":\"" + jsonEscape(cfg.trigger->status()) + "\"}";
+    }
     j += ",\"telemetry\":\"" + jsonEscape(platform.status()) + "\",\"outputs\":[";
     for (std::size_t i = 0; i < sinks.size(); ++i) {
         j += (i > 0 ? ",\"" : "\"") + jsonEscape(sinks[i]->status()) + "\"";
@@ -206,6 +223,8 @@ int runScenario(const RunRequest& req, std::FILE* status) {
     cfg.width = sc.width;
     cfg.height = sc.height;
     cfg.realtime = sc.realtime;
+    cfg.scan = sc.scan;
+    cfg.triggerTimeout_s = sc.triggerTimeout_s;
     if (req.frames) {
         cfg.frames = *req.frames;
     } else if (sc.duration_s) {
@@ -256,11 +275,23 @@ int runScenario(const RunRequest& req, std::FILE* status) {
     std::vector<FrameSink*> raw;
     for (auto& s : sinks)
         raw.push_back(s.get());
+    // External trigger: the frames follow its edges on the wall clock. The sim clock keeps
+    // its nominal cadence, so a triggered scenario still replays bit for bit.
+    std::vector<std::string> notes;
+    std::unique_ptr<TriggerSource> trigger;
+    if (sc.trigger && req.clock == ClockKind::Wall) {
+        trigger = makeTrigger(*sc.trigger, sc.file + ": [runtime] trigger");
+        cfg.clock = ClockKind::Trigger;
+        cfg.trigger = trigger.get();
+    } else if (sc.trigger) {
+        notes.push_back("[runtime] trigger is not used with --clock sim (nominal " +
+                        std::to_string(sc.rate.hz()) + " Hz)");
+    }
 
     std::string mainMsg;
     applyThreadSpec(kThreadMain, false, mainMsg);
     FrameLoop loop(cfg, *platform, *render, *camera, raw);
-    std::vector<std::string> messages;
+    std::vector<std::string> messages = notes;
     if (stopRequested().load(std::memory_order_relaxed)) loop.requestStop();
     loop.start(messages);
     for (const auto& m : messages)
@@ -280,16 +311,23 @@ int runScenario(const RunRequest& req, std::FILE* status) {
             const LiveCounters& l = loop.live();
             const std::int64_t e = l.emitted.load();
             const std::int64_t lat = l.lastLatency_ns.load();
+            char trig[128] = "";
+            if (cfg.clock == ClockKind::Trigger) {
+                std::snprintf(trig, sizeof trig, "  trigger missing %lld extra %lld%s",
+                              static_cast<long long>(l.triggerMissing.load()),
+                              static_cast<long long>(l.triggerExtra.load()),
+                              l.triggerStalled.load() ? "  TRIGGER STALLED" : "");
+            }
             std::fprintf(status,
                          "nvstim run: frame %lld  %.2f fps  misses %lld  repeats %lld  "
-                         "dropped %lld  sink errors %lld  latency %s%.2f ms%s\n",
+                         "dropped %lld  sink errors %lld  latency %s%.2f ms%s%s\n",
                          static_cast<long long>(e), static_cast<double>(e - lastEmitted) / dt,
                          static_cast<long long>(l.misses.load()),
                          static_cast<long long>(l.repeats.load()),
                          static_cast<long long>(l.dropped.load()),
                          static_cast<long long>(l.sinkErrors.load()), lat < 0 ? "n/a " : "",
                          lat < 0 ? 0.0 : static_cast<double>(lat) * 1e-6,
-                         l.stale.load() ? "  TELEMETRY STALE" : "");
+                         l.stale.load() ? "  TELEMETRY STALE" : "", trig);
             std::fflush(status);
             lastPrint = now;
             lastEmitted = e;

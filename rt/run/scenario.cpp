@@ -112,9 +112,27 @@ Scenario fromDocument(const ConfigDocument& doc, const std::string& file) {
     const std::optional<ConfigTable> cam = root.optionalTable("camera");
     if (cam) readCamera(*cam, widthGiven, heightGiven, bitsGiven, sc.seed, sc.camera);
     const sensor::CameraParams& cp = sc.camera.params;
-    const double camRate_hz =
-        cp.scan == sensor::ScanMode::Field ? cp.field_rate_Hz : cp.field_rate_Hz / 2.0;
-    const double hz = hzGiven ? *hzGiven : (cam ? camRate_hz : 60.0);
+    const std::string scan = s.get<std::string>("scan", "progressive");
+    if (scan == "progressive") {
+        sc.scan = ScanKind::Progressive;
+    } else if (scan == "interlaced") {
+        sc.scan = ScanKind::Interlaced;
+    } else {
+        s.fail("scan", "must be \"progressive\" or \"interlaced\"");
+    }
+    const bool interlaced = sc.scan == ScanKind::Interlaced;
+    if (interlaced && cam && cp.scan != sensor::ScanMode::Field) {
+        s.fail("scan",
+               "interlaced output needs a field-scan camera preset (the preset has "
+               "scan = \"frame\")");
+    }
+    // Default rate: the preset's field rate (progressive: one field per frame, woven by the
+    // camera) or frame rate (interlaced, and frame-scan presets); without a camera 60 Hz
+    // progressive, 30 Hz interlaced.
+    const double camRate_hz = cp.scan == sensor::ScanMode::Field && !interlaced
+                                  ? cp.field_rate_Hz
+                                  : cp.field_rate_Hz / 2.0;
+    const double hz = hzGiven ? *hzGiven : (cam ? camRate_hz : (interlaced ? 30.0 : 60.0));
     try {
         sc.rate = FrameRate::fromHz(hz);
     } catch (const SetupError& e) {
@@ -127,9 +145,10 @@ Scenario fromDocument(const ConfigDocument& doc, const std::string& file) {
     sc.bits = bitsGiven ? *bitsGiven : (cam ? cp.adc_bits : 8);
     if (sc.bits < 1 || sc.bits > 16) s.fail("bits", "must be in [1, 16]");
     if (cam) {
-        // The camera runs at the loop's rate: one call per emitted frame.
+        // The camera runs at the loop's rate: one call per emitted frame (progressive), or one
+        // per field, two per emitted frame (interlaced).
         sc.camera.params.field_rate_Hz =
-            cp.scan == sensor::ScanMode::Field ? sc.rate.hz() : 2.0 * sc.rate.hz();
+            cp.scan == sensor::ScanMode::Field && !interlaced ? sc.rate.hz() : 2.0 * sc.rate.hz();
     }
     sc.exposure_s = s.get<double>("exposure_s", 0.0);
     if (sc.exposure_s < 0.0) s.fail("exposure_s", "must not be negative");
@@ -187,6 +206,20 @@ Scenario fromDocument(const ConfigDocument& doc, const std::string& file) {
     sc.maxExtrapolation_s = getOr<double>(r, "max_extrapolation_s", 0.1);
     if (!(sc.staleAfter_s > 0.0)) r->fail("stale_after_s", "must be positive");
     if (sc.maxExtrapolation_s < 0.0) r->fail("max_extrapolation_s", "must not be negative");
+    // External trigger: gpio:CHIP:LINE, used with --clock wall (rt/loop: trigger clock).
+    if (const auto trig = r ? r->optional<std::string>("trigger") : std::nullopt) {
+        if (trig->rfind("gpio:", 0) != 0) {
+            r->fail("trigger", "expected gpio:CHIP:LINE (e.g. gpio:gpiochip0:18)");
+        }
+        const std::string target = trig->substr(5);
+        const auto colon = target.rfind(':');
+        const bool lineOk = colon != std::string::npos && colon > 0 && colon + 1 < target.size() &&
+                            target.find_first_not_of("0123456789", colon + 1) == std::string::npos;
+        if (!lineOk) r->fail("trigger", "expected gpio:CHIP:LINE (e.g. gpio:gpiochip0:18)");
+        sc.trigger = *trig;
+    }
+    sc.triggerTimeout_s = getOr<double>(r, "trigger_timeout_s", 0.0);
+    if (sc.triggerTimeout_s < 0.0) r->fail("trigger_timeout_s", "must not be negative");
 
     // Frames: rendered from a scene (its tables are sim/scene's), or the test pattern.
     if (sc.rendered) {

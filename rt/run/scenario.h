@@ -11,6 +11,9 @@
 //                                      exposure_s      s        one period
 //                                      utc_start       ISO 8601 "2000-01-01T00:00:00Z"
 //                                      duration_s      s        unbounded (frames = ⌈d·rate⌉)
+//                                      scan            "progressive" | "interlaced" (progressive):
+//                                                      interlaced = frame_rate_hz frames woven
+//                                                      from two fields at their own times
 //   [platform]  held pose and camera   lat_deg lon_deg alt_m yaw_deg pitch_deg roll_deg
 //               settings without       gain_V gate_s              (all 0)
 //               telemetry              agc             bool      true
@@ -22,6 +25,9 @@
 //                                      stale_after_s   s                      0.5
 //                                      max_extrapolation_s s                  0.1
 //                                      render_threads  1..16 (2), coarse_tiles 1..8 (1)
+//                                      trigger         "gpio:CHIP:LINE": with --clock wall,
+//                                                      frames follow its rising edges
+//                                      trigger_timeout_s s: no edge → stalled (3 periods)
 //   [scenario] also: group (string), seed (integer ≥ 0, default 1: the noise seed)
 //   [scene]     the frames are rendered (sim/render): file, lamps_on; with it [site] and
 //               [atmosphere] (docs/scene.md), and no [[source]]
@@ -42,8 +48,9 @@
 //                                                      gain_V/agc/gate from the platform state
 //               With [camera], width, height and bits default to the preset's (when given in
 //               [scenario] they override it), and frame_rate_hz defaults to the preset's field
-//               rate (scan = "field") or frame rate (scan = "frame"); the camera is driven at
-//               the scenario's rate.
+//               rate (scan = "field") or frame rate (scan = "frame", or an interlaced
+//               scenario); the camera is driven at the scenario's rate, or at twice it when
+//               interlaced (one call per field; interlaced needs a field-scan preset).
 
 #include <cstdint>
 #include <filesystem>
@@ -101,7 +108,10 @@ struct Scenario {
     std::vector<TimelineEvent> events;  // sorted by t_s
     int renderThreads = 2;  // [runtime] render_threads: rows split over this many threads
     int renderCoarse = 1;   // [runtime] coarse_tiles: lighting every N-th pixel (1 = full rate)
-    FrameRate rate;
+    FrameRate rate;         // of the emitted frames
+    ScanKind scan = ScanKind::Progressive;
+    std::optional<std::string> trigger;  // [runtime] trigger, "gpio:CHIP:LINE"
+    double triggerTimeout_s = 0.0;       // 0: three periods
     int width = 320;
     int height = 240;
     int bits = 8;

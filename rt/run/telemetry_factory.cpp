@@ -44,16 +44,10 @@ std::unique_ptr<FrameSink> makeDeviceSink(Spec& spec, const Scenario& sc, const 
     }
     if (spec.scheme == "gpio") {
         // gpio:CHIP:LINE[?active=high|low]
-        const auto colon = spec.target.rfind(':');
-        if (colon == std::string::npos || colon == 0 || colon + 1 == spec.target.size()) {
+        std::string chip;
+        unsigned line = 0;
+        if (!drivers::parseGpioTarget(spec.target, &chip, &line)) {
             throw SetupError(what + ": expected gpio:CHIP:LINE (e.g. gpio:gpiochip0:17)");
-        }
-        const std::string chip = spec.target.substr(0, colon);
-        const std::string lineText = spec.target.substr(colon + 1);
-        char* end = nullptr;
-        const unsigned long line = std::strtoul(lineText.c_str(), &end, 10);
-        if (*end != '\0' || line > 1023) {
-            throw SetupError(what + ": line '" + lineText + "' is not a line offset");
         }
         bool activeLow = false;
         if (const auto a = spec.take("active")) {
@@ -63,9 +57,19 @@ std::unique_ptr<FrameSink> makeDeviceSink(Spec& spec, const Scenario& sc, const 
             activeLow = *a == "low";
         }
         return std::make_unique<drivers::GpioGateSink>(std::make_unique<drivers::GpiodLine>(), chip,
-                                                       static_cast<unsigned>(line), activeLow);
+                                                       line, activeLow);
     }
     return nullptr;
+}
+
+std::unique_ptr<TriggerSource> makeTrigger(const std::string& text, const std::string& what) {
+    std::string chip;
+    unsigned line = 0;
+    if (text.rfind("gpio:", 0) != 0 || !drivers::parseGpioTarget(text.substr(5), &chip, &line)) {
+        throw SetupError(what + " '" + text + "': expected gpio:CHIP:LINE");
+    }
+    return std::make_unique<drivers::GpioTrigger>(std::make_unique<drivers::GpiodLine>(), chip,
+                                                  line);
 }
 
 std::unique_ptr<PlatformSource> makeTelemetrySource(Spec& spec, const Scenario& sc, ClockKind clock,

@@ -14,6 +14,8 @@ namespace nvs::rt {
 // v4l2:/dev/videoN[?format=GREY|Y16|YUYV&io=write|mmap], gpio:CHIP:LINE[?active=high|low];
 // nullptr for an unknown scheme.
 std::unique_ptr<FrameSink> makeDeviceSink(Spec& spec, const Scenario& sc, const std::string& what);
+// gpio:CHIP:LINE → a trigger input (rising edges); throws SetupError naming `what`.
+std::unique_ptr<TriggerSource> makeTrigger(const std::string& spec, const std::string& what);
 // replay:FILE[?dbc=FILE], can:IFACE[?dbc=FILE&fd=1], serial:DEV?baud=N&proto=nmea|mavlink.
 std::unique_ptr<PlatformSource> makeTelemetrySource(Spec& spec, const Scenario& sc, ClockKind clock,
                                                     const std::string& what);

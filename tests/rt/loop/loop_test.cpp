@@ -84,6 +84,12 @@ class RecordingSink final : public FrameSink {
     const char* name() const noexcept override { return "record"; }
     int write(const OutputFrame& f) noexcept override {
         if (n < kMax) {
+            if (n < kKeep) {
+                meta[n] = *f.meta;
+                for (int y = 0; y < f.counts.height() && y < kRows; ++y)
+                    for (int x = 0; x < f.counts.width() && x < kCols; ++x)
+                        px[n][y][x] = f.counts.row(y)[x];
+            }
             frame[n] = f.meta->frame;
             tick[n] = f.tick;
             repeat[n] = f.repeat;
@@ -95,6 +101,9 @@ class RecordingSink final : public FrameSink {
     int close() noexcept override { return 0; }
     std::string status() const override { return "record"; }
     static constexpr int kMax = 4096;
+    static constexpr int kKeep = 16, kRows = 32, kCols = 256;  // pixels of the first frames
+    FrameMeta meta[kKeep];
+    std::uint16_t px[kKeep][kRows][kCols] = {};
     std::int64_t frame[kMax] = {}, tick[kMax] = {}, mono[kMax] = {};
     bool repeat[kMax] = {};
     int n = 0;
@@ -187,6 +196,70 @@ TEST(FrameLoop, WallClockHoldsCadenceWhenAFrameIsLate) {
         EXPECT_LT(lateSum_s / 20.0, 0.002);
         // After the late frame the loop is back on fresh frames.
         EXPECT_EQ(sink.frame[sink.n - 1], 79);
+    }
+}
+
+// The first column of a row at the target's count (the target is the only full-scale pixel run
+// in the pose strip when the heading is 0), or −1.
+int targetColumn(const RecordingSink& sink, int frame, int y, int width, std::uint16_t full) {
+    for (int x = 0; x < width; ++x)
+        if (sink.px[frame][y][x] == full) return x;
+    return -1;
+}
+
+// Interlaced frame-rate output, 30 Hz: every frame is woven from two fields one field period
+// (1/60 s) apart, field 0 on the even rows. The test pattern's target moves at v = 630 px/s,
+// so between the even and odd rows of one frame it moves v·T_f = 10.5 px: the even rows show
+// it at floor(v·(t_k − T_f)), the odd rows at floor(v·t_k). Progressive: the same rows agree.
+TEST(FrameLoop, InterlacedFramesWeaveTwoFieldsExposedAtTheirOwnTimes) {
+    const double v_px_s = 630.0;
+    const double frame_s = 1.0 / 30.0;
+    const double field_s = frame_s / 2.0;
+    for (ScanKind scan : {ScanKind::Interlaced, ScanKind::Progressive}) {
+        const bool interlaced = scan == ScanKind::Interlaced;
+        LoopConfig cfg;
+        cfg.rate = FrameRate{30, 1};
+        cfg.clock = ClockKind::Sim;
+        cfg.frames = 9;
+        cfg.width = 256;
+        cfg.height = 32;  // target side h/8 = 4 px on rows 28–31
+        cfg.scan = scan;
+        HeldPlatform platform(PlatformState{});
+        TestPatternRender render(1.0, v_px_s);
+        LinearCamera camera(1.0, 8);
+        RecordingSink sink;
+        FrameLoop loop(cfg, platform, render, camera, {&sink});
+        std::vector<std::string> msgs;
+        loop.start(msgs);
+        loop.join();
+        ASSERT_EQ(sink.n, 9);
+        // Default exposure: one field (interlaced) or one frame.
+        EXPECT_DOUBLE_EQ(loop.exposure_s(), interlaced ? field_s : frame_s);
+        // Frame 0's first field lies before t = 0, where the target wraps: start at frame 1.
+        for (int k = 1; k < 9; ++k) {
+            const FrameMeta& m = sink.meta[k];
+            const double t_k = k * frame_s;
+            EXPECT_NEAR(m.t_sample_s, t_k, 1e-12) << k;
+            const int xEven = targetColumn(sink, k, 28, 256, 255);
+            const int xOdd = targetColumn(sink, k, 29, 256, 255);
+            ASSERT_GE(xEven, 0) << k;
+            ASSERT_GE(xOdd, 0) << k;
+            if (interlaced) {
+                ASSERT_EQ(m.fieldCount, 2);
+                EXPECT_NEAR(m.field[0].t_sample_s, t_k - field_s, 1e-12) << k;
+                EXPECT_NEAR(m.field[1].t_sample_s, t_k, 1e-12) << k;
+                EXPECT_EQ(xEven, static_cast<int>(std::floor(v_px_s * (t_k - field_s) + 1e-9)));
+                EXPECT_EQ(xOdd, static_cast<int>(std::floor(v_px_s * t_k + 1e-9)));
+                EXPECT_NEAR(xOdd - xEven, v_px_s * field_s, 1.0) << k;
+                // The frame's truth box is its second field's.
+                EXPECT_FLOAT_EQ(m.truth[0].x_px, static_cast<float>(xOdd));
+            } else {
+                EXPECT_EQ(m.fieldCount, 1);
+                EXPECT_EQ(m.field[0].t_sample_s, m.t_sample_s);
+                EXPECT_EQ(xEven, xOdd) << k;
+                EXPECT_EQ(xEven, static_cast<int>(std::floor(v_px_s * t_k + 1e-9)));
+            }
+        }
     }
 }
 
