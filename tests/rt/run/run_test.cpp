@@ -223,5 +223,47 @@ TEST_F(RunTest, BadArgumentsAreOneLineSetupErrors) {
     EXPECT_NE(r.out.find("bad.toml:3"), std::string::npos) << r.out;
 }
 
+// Interlaced frame-rate output through nvstim run with the IICCD camera (field-scan NTSC
+// preset): 29.97 Hz frames, each woven from two 59.94 Hz fields; the metadata's t_sample_s is
+// each frame's second field, one NTSC frame period apart.
+TEST_F(RunTest, InterlacedScenarioRunsTheCameraPerField) {
+    std::ofstream(dir_ / "il.toml") << "[scenario]\nname = \"il\"\nscan = \"interlaced\"\n"
+                                       "width = 64\nheight = 48\n"
+                                       "[camera]\npreset = \"pulnix-ag5745ef3\"\n"
+                                       "[[source]]\nkind = \"test_pattern\"\n";
+    const Result r = sh(std::string(NVSTIM_EXE) + " run " + (dir_ / "il.toml").string() +
+                        " --clock sim --frames 6 --output meta:" + (dir_ / "m.jsonl").string() +
+                        " --stats " + (dir_ / "s.json").string() + " 2>&1");
+    ASSERT_EQ(r.status, 0) << r.out;
+    const std::string stats = slurp(dir_ / "s.json");
+    EXPECT_NE(stats.find("\"scan\":\"interlaced\""), std::string::npos) << stats;
+    EXPECT_NE(stats.find("\"frame_rate_hz\":29.970030"), std::string::npos) << stats;
+    std::istringstream in(slurp(dir_ / "m.jsonl"));
+    std::string line;
+    int n = 0;
+    while (std::getline(in, line)) {
+        const double t = std::stod(line.substr(line.find("\"t_sample_s\":") + 13));
+        EXPECT_NEAR(t, n * 1001.0 / 30000.0, 1e-9) << line;
+        ++n;
+    }
+    EXPECT_EQ(n, 6);
+}
+
+// A trigger input that does not exist stops the setup with a message naming it (--clock wall);
+// under --clock sim the trigger is not used and the scenario runs at its nominal rate.
+TEST_F(RunTest, TriggerIsAWallClockDevice) {
+    std::ofstream(dir_ / "tr.toml") << "[scenario]\nname = \"tr\"\nwidth = 32\nheight = 32\n"
+                                       "[runtime]\ntrigger = \"gpio:nvs-no-such-chip:4\"\n"
+                                       "[[source]]\nkind = \"test_pattern\"\n";
+    Result r = sh(std::string(NVSTIM_EXE) + " run " + (dir_ / "tr.toml").string() +
+                  " --clock wall --frames 3 2>&1");
+    EXPECT_EQ(r.status, 2) << r.out;
+    EXPECT_NE(r.out.find("gpio:nvs-no-such-chip:4"), std::string::npos) << r.out;
+    r = sh(std::string(NVSTIM_EXE) + " run " + (dir_ / "tr.toml").string() +
+           " --clock sim --frames 3 --stats " + (dir_ / "s.json").string() + " 2>&1");
+    EXPECT_EQ(r.status, 0) << r.out;
+    EXPECT_NE(r.out.find("trigger is not used with --clock sim"), std::string::npos) << r.out;
+}
+
 }  // namespace
 }  // namespace nvs

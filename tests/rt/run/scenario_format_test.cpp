@@ -113,5 +113,59 @@ TEST(ScenarioFormat, UnknownLampInAnEventFailsAtRunSetup) {
     }
 }
 
+std::string pattern(const std::string& scenarioExtra, const std::string& tables) {
+    return "[scenario]\nname = \"p\"\n" + scenarioExtra + "[[source]]\nkind = \"test_pattern\"\n" +
+           tables;
+}
+
+// Pacing modes: scan = progressive | interlaced; the rate given is the output frame rate, and a
+// camera preset is driven once per field (twice the frame rate) when interlaced.
+TEST(ScenarioFormat, ScanSelectsThePacingMode) {
+    Scenario sc = parseScenario(pattern("", ""), "p.toml");
+    EXPECT_EQ(sc.scan, ScanKind::Progressive);
+    EXPECT_EQ(sc.rate.num, 60);
+    sc = parseScenario(pattern("scan = \"interlaced\"\n", ""), "p.toml");
+    EXPECT_EQ(sc.scan, ScanKind::Interlaced);
+    EXPECT_EQ(sc.rate.num, 30);  // 30 Hz frames of 60 Hz fields without a camera
+    // The field-scan NTSC preset: 29.97 Hz frames, the camera at 59.94 fields/s.
+    sc = parseScenario(pattern("scan = \"interlaced\"\nwidth = 64\nheight = 48\n",
+                               "[camera]\npreset = \"pulnix-ag5745ef3\"\n"),
+                       "p.toml");
+    EXPECT_EQ(sc.rate.num, 30000);
+    EXPECT_EQ(sc.rate.den, 1001);
+    EXPECT_NEAR(sc.camera.params.field_rate_Hz, 60000.0 / 1001.0, 1e-9);
+    // Progressive with the same preset keeps the field-rate loop (one field per frame).
+    sc = parseScenario(
+        pattern("width = 64\nheight = 48\n", "[camera]\npreset = \"pulnix-ag5745ef3\"\n"),
+        "p.toml");
+    EXPECT_EQ(sc.rate.num, 60000);
+    EXPECT_NEAR(sc.camera.params.field_rate_Hz, 60000.0 / 1001.0, 1e-9);
+}
+
+TEST(ScenarioFormat, BadScanAndTriggerNameFileAndLine) {
+    const auto err = [](const std::string& text) {
+        try {
+            parseScenario(text, "s.toml");
+        } catch (const SetupError& e) {
+            return std::string(e.what());
+        }
+        return std::string();
+    };
+    std::string msg = err(pattern("scan = \"sideways\"\n", ""));
+    EXPECT_NE(msg.find("s.toml:3"), std::string::npos) << msg;
+    msg = err(pattern("scan = \"interlaced\"\nwidth = 64\nheight = 48\n",
+                      "[camera]\npreset = \"thesis-eq7.1\"\n"));
+    EXPECT_NE(msg.find("field-scan"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("s.toml:3"), std::string::npos) << msg;
+    msg = err(pattern("", "[runtime]\ntrigger = \"gpio:gpiochip0\"\n"));
+    EXPECT_NE(msg.find("s.toml:6"), std::string::npos) << msg;
+    msg = err(pattern("", "[runtime]\ntrigger = \"can:vcan0\"\n"));
+    EXPECT_NE(msg.find("gpio:CHIP:LINE"), std::string::npos) << msg;
+    const Scenario sc =
+        parseScenario(pattern("", "[runtime]\ntrigger = \"gpio:gpiochip0:18\"\n"), "s.toml");
+    ASSERT_TRUE(sc.trigger.has_value());
+    EXPECT_EQ(*sc.trigger, "gpio:gpiochip0:18");
+}
+
 }  // namespace
 }  // namespace nvs::rt
