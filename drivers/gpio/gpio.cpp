@@ -205,7 +205,8 @@ void GpioGateSink::exposureScheduled(const rt::ExposureWindow& w) noexcept {
     }
     queue_[t % kQueue] = Pulse{w.startMonotonic_ns, std::llround(width_s * 1e9)};
     tail_.store(t + 1, std::memory_order_release);
-    tail_.notify_one();
+    wake_.fetch_add(1, std::memory_order_release);
+    wake_.notify_one();
 }
 
 void GpioGateSink::pulseThread() {
@@ -213,11 +214,14 @@ void GpioGateSink::pulseThread() {
     rt::applyThreadSpec(rt::kThreadGpio, false, msg);
     std::int64_t lastFall_ns = 0;
     for (;;) {
+        const std::uint32_t seen = wake_.load(std::memory_order_acquire);
         const std::uint32_t h = head_.load(std::memory_order_relaxed);
         const std::uint32_t t = tail_.load(std::memory_order_acquire);
-        if (stop_.load(std::memory_order_acquire)) break;
         if (h == t) {
-            tail_.wait(t, std::memory_order_acquire);  // close() bumps tail_ too
+            // Stop once every scheduled pulse is out (close() comes after the loop's end, so
+            // nothing more is scheduled; the last ones end within a period or two).
+            if (stop_.load(std::memory_order_acquire)) break;
+            wake_.wait(seen, std::memory_order_acquire);
             continue;
         }
         const Pulse p = queue_[h % kQueue];
@@ -241,14 +245,12 @@ void GpioGateSink::pulseThread() {
         }
         const std::int64_t rise_ns = rt::monotonicNow_ns();
         if (line_->setValue(1) != 0) errors_.fetch_add(1, std::memory_order_relaxed);
-        // Step 3: fall at the end of the window, start + width. A pulse that could not rise on
-        // time (scheduled after its start: trigger clock, late render) keeps its full width
-        // from the rise instead, and is counted late.
-        std::int64_t fall_ns = start_ns + p.width_ns;
-        if (rise_ns - start_ns > kGateLate_ns) {
-            late_.fetch_add(1, std::memory_order_relaxed);
-            fall_ns = rise_ns + p.width_ns;
-        }
+        // Step 3: fall at the end of the window, start + width, on the absolute clock: a late
+        // rise (scheduled after its start: trigger clock, a late render; or a late wake-up)
+        // shortens the pulse but never shifts the windows after it. A window already over
+        // still gives a pulse, as short as the line allows, so that pulses can be counted.
+        const std::int64_t fall_ns = std::max(start_ns + p.width_ns, rise_ns);
+        if (rise_ns - start_ns > kGateLate_ns) late_.fetch_add(1, std::memory_order_relaxed);
         while (rt::WallClock::sleepUntil(fall_ns) == -EINTR) {
         }
         if (line_->setValue(0) != 0) errors_.fetch_add(1, std::memory_order_relaxed);
@@ -269,10 +271,8 @@ int GpioGateSink::close() noexcept {
     if (closed_) return 0;
     closed_ = true;
     stop_.store(true, std::memory_order_release);
-    // Wake the pulse thread (it waits for tail_ to change); it sees stop_ before it would
-    // read this non-entry, after the pulse in hand.
-    tail_.fetch_add(1, std::memory_order_release);
-    tail_.notify_all();
+    wake_.fetch_add(1, std::memory_order_release);
+    wake_.notify_all();
     if (thread_.joinable()) thread_.join();
     line_->setValue(0);
     line_->release();

@@ -17,13 +17,15 @@
 //                     timeline. The render thread schedules each exposure ahead of emission
 //                     (exposureScheduled: start on CLOCK_MONOTONIC, gate); a pulse thread
 //                     (rt/clock/threads.h: nvs-gpio) sleeps to the start with an absolute
-//                     clock_nanosleep, raises the line, and lowers it `width` later, with
-//                     width = gate_s when 0 < gate_s < exposure, else the exposure. A request
-//                     that comes after its start (trigger clock, a late render) rises at once and
-//                     is counted late; one that starts before the previous pulse has ended
+//                     clock_nanosleep, raises the line, and lowers it at start + width (also
+//                     absolute), width = gate_s when 0 < gate_s < exposure, else the exposure.
+//                     A request that comes after its start (trigger clock, a late render) rises
+//                     at once, still falls at the window's end (at once when that has passed)
+//                     and is counted late; one that starts before the previous pulse has ended
 //                     (windows that overlap) rises when it ends and is counted overlapped. Line
 //                     errors are counted, never fatal. Under the sim clock (no wall time) a pulse
-//                     rises as soon as its exposure is scheduled.
+//                     rises as soon as its exposure is scheduled. close() lets the pulses already
+//                     scheduled finish.
 //   GpioTrigger       rt::TriggerSource: rising edges of an input line with the kernel's
 //                     timestamps, on CLOCK_MONOTONIC (the v1 uAPI stamps events with
 //                     CLOCK_MONOTONIC since Linux 5.7 and CLOCK_REALTIME before: a stamp closer
@@ -164,6 +166,7 @@ class GpioGateSink final : public rt::FrameSink, public rt::ExposureObserver {
     Pulse queue_[kQueue];
     std::atomic<std::uint32_t> head_{0};
     std::atomic<std::uint32_t> tail_{0};
+    std::atomic<std::uint32_t> wake_{0};  // bumped on every push and at close
     std::atomic<bool> stop_{false};
     std::atomic<std::int64_t> pulses_{0};
     std::atomic<std::int64_t> overlapped_{0};
@@ -174,7 +177,8 @@ class GpioGateSink final : public rt::FrameSink, public rt::ExposureObserver {
     bool closed_ = false;
 };
 
-// Late: a rise more than this after its exposure start (wake-up delays are far shorter).
+// Late: a rise more than this after its exposure start (wake-up delays are shorter on an idle
+// machine).
 inline constexpr std::int64_t kGateLate_ns = 1'000'000;
 
 class GpioTrigger final : public rt::TriggerSource {
