@@ -459,28 +459,15 @@ double poissonFromWord(double mean, std::uint32_t word, PixelStream& more) noexc
     }
 }
 
-void poissonRow(const float* __restrict mean, const std::uint32_t* __restrict words,
-                float* __restrict out, int n, const PixelRng& rng, std::uint32_t x0,
-                std::uint32_t y) noexcept {
-    // Pass 1 (vector): 0 where u ≥ m certainly, −1 where the exact sampler must decide.
-    // u_f = ⌊w/2⌋·2⁻³¹ rounded to float is at most u·(1 + 2⁻²⁴); the margin 2⁻²⁰ covers it.
-    // m ≤ 0 gives 0 here (u_f ≥ 0); NaN fails the test and gets 0 from poissonFromWord.
-    int i = 0;
-    for (; i + kChunk <= n; i += kChunk) {
-        const float* mc = mean + i;
-        const std::uint32_t* wc = words + i;
-        float* oc = out + i;
-        for (int j = 0; j < kChunk; ++j) {
-            const float u = static_cast<float>(static_cast<std::int32_t>(wc[j] >> 1)) * 0x1.0p-31f;
-            oc[j] = u >= mc[j] * (1.0f + 0x1.0p-20f) ? 0.0f : -1.0f;
-        }
-    }
-    for (; i < n; ++i) {
-        const float u = static_cast<float>(static_cast<std::int32_t>(words[i] >> 1)) * 0x1.0p-31f;
-        out[i] = u >= mean[i] * (1.0f + 0x1.0p-20f) ? 0.0f : -1.0f;
-    }
-    // Pass 2: the rest, exactly. Neighbours often share a mean (flat regions): the inversion's
-    // P(N ≥ 1) and P(N = 1) are kept for the last mean.
+NVS_BULK_CLONES void poissonRow(const float* __restrict mean, const std::uint32_t* __restrict words,
+                                float* __restrict out, int n, const PixelRng& rng, std::uint32_t x0,
+                                std::uint32_t y) noexcept {
+    // Blocks of kBlock pixels: pass 1, then the pixels pass 1 left undecided listed, then
+    // pass 2 over that list alone.
+    constexpr int kBlock = 256;
+    int cand[kBlock];
+    // Pass 2: the listed pixels, exactly. Neighbours often share a mean (flat regions): the
+    // inversion's P(N ≥ 1) and P(N = 1) are kept for the last mean.
     // Below a mean of 1 most of these are settled first without exp: the alternating series
     //   S(0) = P(N ≥ 1) = m − m²/2 + m³/6 − …,   S(1) = P(N ≥ 2) = m²/2 − m³/3 + m⁴/8 − …
     // have terms of falling size for m < 1, so m − m²/2 ≤ S(0) ≤ m − m²/2 + m³/6 and
@@ -491,37 +478,65 @@ void poissonRow(const float* __restrict mean, const std::uint32_t* __restrict wo
     constexpr double kSqueeze = 1e-12;
     float lastMean = -1.0f;
     double s0 = 0.0, p1 = 0.0;
-    for (i = 0; i < n; ++i) {
-        if (!(out[i] < 0.0f)) continue;
-        const float m = mean[i];
-        if (m > 0.0f && m < 1.0f) {
-            const double md = static_cast<double>(m);
-            const double m2 = md * md;
-            const double lo0 = md - 0.5 * m2;
-            const double hi0 = lo0 + m2 * md / 6.0;
-            const double hi1 = 0.5 * m2;
-            const double u = uniformFromWord(words[i]);
-            if (u >= hi0 + kSqueeze) {
-                out[i] = 0.0f;
-                continue;
-            }
-            if (u < lo0 - kSqueeze && u >= hi1 + kSqueeze) {
-                out[i] = 1.0f;
-                continue;
+    for (int b = 0; b < n; b += kBlock) {
+        const int nb = std::min(kBlock, n - b);
+        // Pass 1 (vector): 0 where u ≥ m certainly, −1 where the exact sampler must decide.
+        // u_f = ⌊w/2⌋·2⁻³¹ rounded to float is at most u·(1 + 2⁻²⁴); the margin 2⁻²⁰ covers
+        // it. m ≤ 0 gives 0 here (u_f ≥ 0); NaN fails the test and gets 0 from
+        // poissonFromWord.
+        int j = 0;
+        for (; j + kChunk <= nb; j += kChunk) {
+            const float* mc = mean + b + j;
+            const std::uint32_t* wc = words + b + j;
+            float* oc = out + b + j;
+            for (int l = 0; l < kChunk; ++l) {
+                const float u =
+                    static_cast<float>(static_cast<std::int32_t>(wc[l] >> 1)) * 0x1.0p-31f;
+                oc[l] = u >= mc[l] * (1.0f + 0x1.0p-20f) ? 0.0f : -1.0f;
             }
         }
-        if (m > 0.0f && m < 10.0f) {
-            if (m != lastMean) {
-                lastMean = m;
-                s0 = -std::expm1(-static_cast<double>(m));
-                p1 = static_cast<double>(m) * std::exp(-static_cast<double>(m));
-            }
-            out[i] = static_cast<float>(
-                poissonInversion(static_cast<double>(m), s0, p1, uniformFromWord(words[i])));
-            continue;
+        for (; j < nb; ++j) {
+            const float u =
+                static_cast<float>(static_cast<std::int32_t>(words[b + j] >> 1)) * 0x1.0p-31f;
+            out[b + j] = u >= mean[b + j] * (1.0f + 0x1.0p-20f) ? 0.0f : -1.0f;
         }
-        PixelStream more = rng.pixelStream(x0 + static_cast<std::uint32_t>(i), y);
-        out[i] = static_cast<float>(poissonFromWord(static_cast<double>(m), words[i], more));
+        int listed = 0;
+        for (j = 0; j < nb; ++j) {
+            cand[listed] = b + j;
+            listed += out[b + j] < 0.0f ? 1 : 0;
+        }
+        for (int c = 0; c < listed; ++c) {
+            const int i = cand[c];
+            const float m = mean[i];
+            if (m > 0.0f && m < 1.0f) {
+                const double md = static_cast<double>(m);
+                const double m2 = md * md;
+                const double lo0 = md - 0.5 * m2;
+                const double hi0 = lo0 + m2 * md * (1.0 / 6.0);
+                const double hi1 = 0.5 * m2;
+                const double u = uniformFromWord(words[i]);
+                if (u >= hi0 + kSqueeze) {
+                    out[i] = 0.0f;
+                    continue;
+                }
+                if (u < lo0 - kSqueeze && u >= hi1 + kSqueeze) {
+                    out[i] = 1.0f;
+                    continue;
+                }
+            }
+            if (m > 0.0f && m < 10.0f) {
+                if (m != lastMean) {
+                    lastMean = m;
+                    s0 = -std::expm1(-static_cast<double>(m));
+                    p1 = static_cast<double>(m) * std::exp(-static_cast<double>(m));
+                }
+                out[i] = static_cast<float>(
+                    poissonInversion(static_cast<double>(m), s0, p1, uniformFromWord(words[i])));
+                continue;
+            }
+            PixelStream more = rng.pixelStream(x0 + static_cast<std::uint32_t>(i), y);
+            out[i] = static_cast<float>(poissonFromWord(static_cast<double>(m), words[i], more));
+        }
     }
 }
 

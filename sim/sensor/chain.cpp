@@ -768,15 +768,55 @@ std::int64_t CcdStage::bloomLine(float* v, int n, std::ptrdiff_t step, float fw,
     return sat;
 }
 
+namespace {
+// bloomLine's sweeps for every column at once, row by row (cache-friendly, vector code): down
+// the columns each cell over full well keeps fw, sends half its excess down (filling cells
+// below to fw on the way) and stores the other half (up); then up the columns the stored
+// halves fill the cells above. A column below full well carries nothing and is unchanged, as
+// in bloomLine. Value selects (not std::min/max, which return references) keep the loops
+// branch-free.
+NVS_ROW_CLONES void bloomDownKernel(float* __restrict v, float* __restrict moving,
+                                    float* __restrict up, int n, float fw) noexcept {
+    for (int i = 0; i < n; ++i) {
+        // d = c − fw: excess max(d, 0) = (d + |d|)/2 and room max(−d, 0) = (|d| − d)/2, both
+        // exact in floating point; min(c, fw) = c − excess.
+        const float c = v[i];
+        const float m = moving[i];
+        const float d = c - fw;
+        const float ad = std::fabs(d);
+        const float excess = 0.5f * (d + ad);
+        const float room = 0.5f * (ad - d);
+        const float take = room < m ? room : m;
+        v[i] = (c - excess) + take;
+        moving[i] = m + (0.5f * excess - take);
+        up[i] = 0.5f * excess;
+    }
+}
+
+// The up sweep leaves the final charge: it also adds it to the column sums and counts the
+// cells at full well.
+NVS_ROW_CLONES int bloomUpKernel(float* __restrict v, float* __restrict moving,
+                                 const float* __restrict up, float* __restrict cs, int n,
+                                 float fw) noexcept {
+    int sat = 0;
+    for (int i = 0; i < n; ++i) {
+        const float r = fw - v[i];
+        const float room = r > 0.0f ? r : 0.0f;
+        const float take = room < moving[i] ? room : moving[i];
+        const float c = v[i] + take;
+        v[i] = c;
+        moving[i] += up[i] - take;
+        sat += static_cast<int>(c >= fw);
+        cs[i] += c;
+    }
+    return sat;
+}
+}  // namespace
+
 std::int64_t CcdStage::bloomColumns(ImageView<float> e, float fw, const float* cmax,
                                     float* colSum) noexcept {
-    // bloomLine's sweeps for every column at once, row by row (cache-friendly, vector code),
-    // over the span of columns that reach full well: down the columns each cell over full
-    // well keeps fw, sends half its excess down (filling cells below to fw on the way) and
-    // stores the other half; then up the columns the stored halves fill the cells above.
-    // Columns below full well carry nothing and are unchanged, as in bloomLine. The up sweep
-    // leaves the final charge: it also forms the column sums of the swept columns (colSum,
-    // if given).
+    // The down sweep was made row by row in loadRow(); the up sweep over the span of columns
+    // that reached full well (the others are unchanged), their column sums formed anew.
     const int w = e.width();
     const int h = e.height();
     int x0 = 0, x1 = w;
@@ -786,46 +826,13 @@ std::int64_t CcdStage::bloomColumns(ImageView<float> e, float fw, const float* c
         --x1;
     if (x0 >= x1) return 0;
     const int n = x1 - x0;
-    // Value selects (not std::min/max, which return references) keep the loops branch-free.
-    const auto lo = [](float p, float q) { return p < q ? p : q; };
-    const auto hi = [](float p, float q) { return p > q ? p : q; };
     float* __restrict moving = line_.get();
-    std::fill(moving, moving + n, 0.0f);
-    for (int y = 0; y < h; ++y) {
-        float* __restrict v = e.row(y) + x0;
-        float* __restrict up = upCarry_.row(y) + x0;
-        for (int i = 0; i < n; ++i) {
-            // d = c − fw: excess max(d, 0) = (d + |d|)/2 and room max(−d, 0) = (|d| − d)/2,
-            // both exact in floating point; min(c, fw) = c − excess.
-            const float c = v[i];
-            const float m = moving[i];
-            const float d = c - fw;
-            const float ad = std::fabs(d);
-            const float excess = 0.5f * (d + ad);
-            const float take = lo(0.5f * (ad - d), m);
-            v[i] = (c - excess) + take;
-            moving[i] = m + (0.5f * excess - take);
-            up[i] = 0.5f * excess;
-        }
-    }
     std::fill(moving, moving + n, 0.0f);
     float* __restrict cs = colSum ? colSum + x0 : line_.get() + n;
     std::fill(cs, cs + n, 0.0f);
     std::int64_t sat = 0;
-    for (int y = h - 1; y >= 0; --y) {
-        float* __restrict v = e.row(y) + x0;
-        const float* __restrict up = upCarry_.row(y) + x0;
-        int rowSat = 0;
-        for (int i = 0; i < n; ++i) {
-            const float take = lo(hi(fw - v[i], 0.0f), moving[i]);
-            const float c = v[i] + take;
-            v[i] = c;
-            moving[i] += up[i] - take;
-            rowSat += static_cast<int>(c >= fw);
-            cs[i] += c;
-        }
-        sat += rowSat;
-    }
+    for (int y = h - 1; y >= 0; --y)
+        sat += bloomUpKernel(e.row(y) + x0, moving, upCarry_.row(y) + x0, cs, n, fw);
     return sat;
 }
 
@@ -853,6 +860,7 @@ void CcdStage::begin(const FieldContext& ctx) noexcept {
     const int w = c.width;
     std::fill(colMax_.get(), colMax_.get() + w, 0.0f);
     std::fill(colSum_.get(), colSum_.get() + w, 0.0f);
+    std::fill(line_.get() + w, line_.get() + 2 * w, 0.0f);  // loadRow's down sweep
 }
 
 void CcdStage::loadRow(const float* src, float* dst, int y) noexcept {
@@ -865,6 +873,10 @@ void CcdStage::loadRow(const float* src, float* dst, int y) noexcept {
     }
     ccdLoadKernel(src, prnu_.empty() ? nullptr : prnu_.row(y), dst, colMax_.get(), colSum_.get(), w,
                   dark_e_);
+    // Vertical blooming's down sweep, on the row while it is in cache (bloomColumns).
+    if (!upCarry_.empty())
+        bloomDownKernel(dst, line_.get() + w, upCarry_.row(y), w,
+                        static_cast<float>(cam_->full_well_e));
 }
 
 std::int64_t CcdStage::bloom(ImageView<float> e) noexcept {
