@@ -6,6 +6,8 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <numeric>
+#include <string>
 
 #include "sim/sky/sky_model.h"
 
@@ -16,6 +18,13 @@ namespace {
 constexpr double kPi = 3.14159265358979323846;
 constexpr float kInf = std::numeric_limits<float>::infinity();
 constexpr std::uint16_t kMiss = 0xFFFF;
+constexpr std::uint16_t kNotSpecular = 0xFFFE;
+constexpr int kMaxLampsStatic = 32;
+// The sky radiance grid (sim/sky/atmosphere_table.h: view zenith 0–90° and Δφ 0–180°).
+constexpr int kSkyZ = sky::AtmosphereTable::kViewZeniths;
+constexpr int kSkyA = sky::AtmosphereTable::kAzimuths;
+constexpr double kSkyStepZ_deg = 90.0 / (kSkyZ - 1);
+constexpr double kSkyStepA_deg = 180.0 / (kSkyA - 1);
 
 struct Vec3f {
     float x, y, z;
@@ -131,10 +140,32 @@ struct Renderer::Impl {
     std::vector<float> gSvf;
     std::vector<std::uint16_t> gMat;
     std::vector<std::int16_t> gObj;
-    // Coarse lighting nodes: per node [moon, lamps..., spec_pe, spec_W]
-    int nodeW = 0, nodeH = 0, nodeStride = 0;
-    std::vector<float> nodeLight;
-    std::vector<std::uint8_t> nodeValid;
+    // Static lighting data per pixel: everything about a pixel's light that depends only on the
+    // geometry, the camera and the lamps' placement, kept as long as the G-buffer is (a fixed
+    // camera over a static scene computes it once). Built lazily for the pixels that are shaded
+    // at full rate or are coarse nodes; staticNeed says which lamps (bits 0..31) and whether the
+    // specular bounce (kSpecBit) it covers.
+    std::vector<std::uint8_t> sValid;
+    std::vector<float> sLamp;          // [i nl + l] lamp factors at the primary hit
+    std::vector<std::uint16_t> sqMat;  // specular hit's material; kMiss: sky; kNotSpecular
+    std::vector<float> sqPos, sqNrm;   // specular hit (on a miss: direction; zenith, azimuth)
+    std::vector<float> sqSvf;          // specular hit's sky-view factor
+    std::vector<float> sqLamp;         // [i nl + l] lamp factors at the specular hit
+    std::uint64_t staticNeed = 0;
+    // Coarse lighting nodes: radiance without the sky term [node kBands + b]; upsampling
+    // weights per pixel (4 taps: (j, k), (j, k+1), (j+1, k), (j+1, k+1)) and kind (kUpMiss,
+    // kUpInterp, kUpFull), built for coarse factor uFactor (0: not built).
+    int nodeW = 0, nodeH = 0;
+    std::vector<float> nodeRad;
+    std::vector<float> uW;
+    std::vector<std::uint8_t> uKind;
+    int uFactor = 0;
+    // Per-frame coefficients [m kBands + b] (kLamp: [(l nm + m) kBands + b]): radiance per unit
+    // factor, with the frame's source levels, the material's (1 − s) and the term switches.
+    std::vector<float> kMoon, kSky, kSpec, kLamp;
+    // Per-frame sky radiance in view [b][view zenith][Δφ] on the atmosphere table's own grid
+    // (night sky + E_toa × lunar sky radiance at this frame's Moon zenith).
+    std::vector<float> skyTab;
     std::atomic<std::uint64_t> primary{0}, shadow{0}, secondary{0};
     bool gValid = false;  // G-buffer matches the current camera and geometry
 
@@ -341,9 +372,25 @@ Renderer::Renderer(const scene::Scene& sc, const RenderConfig& config)
     const int fMin = std::min(2, config.coarseFactor);
     const std::size_t maxNodes = static_cast<std::size_t>((im.W - 1) / fMin + 2) *
                                  static_cast<std::size_t>((im.H - 1) / fMin + 2);
-    im.nodeStride = 1 + static_cast<int>(im.lamps.size()) + 2;
-    im.nodeLight.assign(maxNodes * static_cast<std::size_t>(im.nodeStride), 0.0f);
-    im.nodeValid.assign(maxNodes, 0);
+    const std::size_t nl = im.lamps.size();
+    if (nl > static_cast<std::size_t>(kMaxLampsStatic)) {
+        throw SetupError("render: at most " + std::to_string(kMaxLampsStatic) + " lamps");
+    }
+    im.sValid.assign(np, 0);
+    im.sLamp.assign(np * nl, 0.0f);
+    im.sqMat.assign(np, kMiss);
+    im.sqPos.assign(np * 3, 0.0f);
+    im.sqNrm.assign(np * 3, 0.0f);
+    im.sqSvf.assign(np, 0.0f);
+    im.sqLamp.assign(np * nl, 0.0f);
+    im.nodeRad.assign(maxNodes * kBands, 0.0f);
+    im.uW.assign(np * 4, 0.0f);
+    im.uKind.assign(np, 0);
+    im.kMoon.assign(nm * kBands, 0.0f);
+    im.kSky.assign(nm * kBands, 0.0f);
+    im.kSpec.assign(nm * kBands, 0.0f);
+    im.kLamp.assign(nl * nm * kBands, 0.0f);
+    im.skyTab.assign(static_cast<std::size_t>(kBands) * kSkyZ * kSkyA, 0.0f);
     setCoarseFactor(config.coarseFactor);
 }
 
@@ -422,29 +469,62 @@ bool Renderer::pixelHit(int x, int y, Vec3* p, int* material, int* object) const
 }
 
 // ------------------------------------------------------------------------------------------
-// Shading helpers (per frame).
+// Shading (per frame). Rays go to Embree in packets of 16 (rtcIntersect16 / rtcOccluded16):
+// the points of 16 neighbouring pixels of a row, whose Moon shadow rays (parallel), shadow rays
+// toward one lamp and mirror rays are coherent, which the packet kernels traverse together.
+//
+// The work is split by what it depends on:
+//   static (geometry, camera, lamp placement): the G-buffer, the lamp factors (shadow rays to
+//     the lamps, inverse square, cosines) and the specular ray's hit with its own lamp factors,
+//     and the upsampling weights of the coarse tiles. Kept while the camera and the geometry
+//     stay (a fixed camera over a static scene computes them once);
+//   per frame (Moon, sky, lamp switches): the Moon's shadow rays, the sky radiance, and the
+//     sums with per-(material, band) coefficients computed once per frame.
+// Radiance of a hit pixel with material m (docs/render.md):
+//   L_b = kMoon_m,b V☾ cos θ☾ + Σ_l kLamp_l,m,b f_l + kSky_m,b F + kSpec_m,b L_spec,b
+//   kMoon = (1−s) ρ☾ E☾ / π, kLamp = (1−s) C_l,m (0 while off), kSky = (1−s)(ρ☾ E_sky☾ +
+//   ρ_n E_night) / π, kSpec = s ρ☾; L_spec is the same sum at the mirror ray's hit, or the sky.
 // ------------------------------------------------------------------------------------------
-// Shading helpers (per frame). Rays go to Embree in packets of 16 (rtcIntersect16 /
-// rtcOccluded16): primary rays of 16 neighbouring pixels of a row, the Moon's parallel shadow
-// rays and the shadow rays toward one lamp from those pixels are coherent, which the packet
-// kernels traverse together.
 namespace {
 
 constexpr int kPacket = 16;
 constexpr int kTileW = 16, kTileH = 1;  // a packet's pixels
-constexpr int kMaxLamps = 32;
-constexpr int kMaxStride = 1 + kMaxLamps + 2;
+constexpr std::uint64_t kSpecBit = std::uint64_t{1} << kMaxLampsStatic;
+constexpr std::uint8_t kUpMiss = 0, kUpInterp = 1, kUpFull = 2;
 
 struct Ctx {
     Renderer::Impl* im;
     const RenderConfig* cfg;
     const FrameSky* sky;
-    const std::vector<double>* rhoMoon;
-    const std::vector<double>* rhoNight;
-    const std::vector<bool>* lampOn;
     ImageView<float> pe, bw;
     int coarse;
     unsigned terms;
+    bool moonOn;                             // Moon up and its term asked for
+    bool buildWeights;                       // the upsampling pass (re)builds its weights
+    int rowStepImage = 1, rowStepNodes = 1;  // rowStep(H), rowStep(nodeH)
+    // Sky in view: the Moon's azimuth, its disk (cos of its angular radius, radiance E☾/Ω☾).
+    float moonAz_rad = 0.0f;
+    float moonDir[3] = {0.0f, 0.0f, 1.0f};
+    float cosMoonRadius = 2.0f;  // > 1: no disk
+    float moonDisk[kBands] = {0.0f, 0.0f};
+};
+
+// Rows are handed to the executor in a scrambled order so that each thread's contiguous share
+// of the "rows" spreads over the whole image (sky at the top and shadowed ground at the bottom
+// cost differently): logical row r is image row (r · step) mod n, step ≈ 0.618 n and coprime
+// with n (a Weyl sequence: any run of consecutive r covers [0, n) nearly uniformly).
+inline int rowStep(int n) noexcept {
+    int s = std::max(1, static_cast<int>(0.6180339887 * n));
+    while (std::gcd(s, n) != 1)
+        ++s;
+    return s;
+}
+inline int rowAt(int r, int step, int n) noexcept {
+    return static_cast<int>((static_cast<long long>(r) * step) % n);
+}
+
+struct Counts {
+    std::uint64_t shadow = 0, secondary = 0;
 };
 
 inline RTCIntersectContext coherentContext() {
@@ -469,43 +549,63 @@ inline void setLane(RTCRay16& r, int k, const Vec3& o, const Vec3& d, float tfar
     r.flags[k] = 0;
 }
 
-// Sky radiance seen along the unit direction d (ENU), both bands, including the Moon's disk.
-void skyRadiance(const Ctx& c, const Vec3& d, BandValues& out) noexcept {
-    out = {0.0, 0.0};
-    if (!(c.terms & kTermInView) || d.z < 0.0) return;
-    const FrameSky& s = *c.sky;
-    const double vzc = std::min(std::acos(std::clamp(d.z, -1.0, 1.0)), kPi / 2);
-    const double az = std::atan2(d.x, d.y);
-    const double rel = std::abs(std::remainder(az - s.moonAz_rad, 2.0 * kPi));
-    for (int b = 0; b < kBands; ++b) {
-        double l = 0.0;
-        if (s.model != nullptr) {
-            const auto& t = s.model->table();
-            const int tb = s.tableBand[static_cast<std::size_t>(b)];
-            l = t.nightSkyRadiance(tb, vzc);
-            if (s.moonZenith_rad < 1.6755)
-                l += s.moonToa[b] * t.skyRadiance(tb, vzc, rel, s.moonZenith_rad);
-        } else {
-            l = (s.moonSkyHorizontal[b] + s.nightSkyHorizontal[b]) / kPi;
-        }
-        out[b] = l;
-    }
-    if (s.moonUp && dot(d, s.moonDir_enu) > std::cos(s.moonAngularRadius_rad)) {
-        const double omega = kPi * s.moonAngularRadius_rad * s.moonAngularRadius_rad;
-        for (int b = 0; b < kBands; ++b)
-            out[b] += s.moonNormal[b] / omega;
+inline void initHits(RTCRayHit16& rh) {
+    for (int k = 0; k < kPacket; ++k) {
+        rh.hit.geomID[k] = RTC_INVALID_GEOMETRY_ID;
+        rh.hit.instID[0][k] = RTC_INVALID_GEOMETRY_ID;
     }
 }
 
-// Direct-light geometric factors at `count` (≤ 16) points, out[k * stride + s]:
-//   s = 0:      Moon, V cos θ
-//   s = 1 + l:  lamp l, cos θr / r² V (point source) or Σ_k A_k cos θe cos θr / r_k² V
-//               (aperture samples; visibility from lampShadowRays rays, each standing for an
-//               interleaved subset of the samples)
-// Returns the number of shadow rays cast.
-int directFactors(const Ctx& c, int count, const Vec3* p, const Vec3* n, float* out,
-                  int stride) noexcept {
-    const Renderer::Impl& im = *c.im;
+// Where direction d falls on the sky grid: view zenith in grid steps (clamped to the horizon)
+// and azimuth (from north through east).
+inline void skyGridPos(const Vec3& d, double* gz, double* az) {
+    const double vzc = std::min(std::acos(std::clamp(d.z, -1.0, 1.0)), kPi / 2);
+    *gz = vzc * (180.0 / kPi) / kSkyStepZ_deg;
+    *az = std::atan2(d.x, d.y);
+}
+
+// Sky radiance seen along the unit direction dir (ENU; grid position gz, azimuth az), both
+// bands, including the Moon's disk: bilinear in (view zenith, Δφ) on the frame's sky table,
+// which is the atmosphere table's trilinear lookup at the frame's Moon zenith (the table is
+// linear in each axis, so sampling it at its own nodes and interpolating gives the same).
+inline void skyLookup(const Ctx& c, const float* dir, float gz, float az, float* pe,
+                      float* bw) noexcept {
+    if (!(c.terms & kTermInView) || dir[2] < 0.0f) {
+        *pe = *bw = 0.0f;
+        return;
+    }
+    constexpr float kTwoPiF = static_cast<float>(2.0 * kPi), kPiF = static_cast<float>(kPi);
+    float a = az - c.moonAz_rad;
+    if (a > kPiF) a -= kTwoPiF;
+    if (a < -kPiF) a += kTwoPiF;
+    const float ga = std::min(std::abs(a), kPiF) * static_cast<float>(180.0 / kPi / kSkyStepA_deg);
+    const int iz = std::min(static_cast<int>(gz), kSkyZ - 2);
+    const int ia = std::min(static_cast<int>(ga), kSkyA - 2);
+    const float fz = gz - static_cast<float>(iz), fa = ga - static_cast<float>(ia);
+    const float w00 = (1.0f - fz) * (1.0f - fa), w01 = (1.0f - fz) * fa, w10 = fz * (1.0f - fa),
+                w11 = fz * fa;
+    const float* t = &c.im->skyTab[static_cast<std::size_t>(iz) * kSkyA + ia];
+    constexpr std::size_t kBandStride = static_cast<std::size_t>(kSkyZ) * kSkyA;
+    float l[kBands];
+    for (std::size_t b = 0; b < kBands; ++b) {
+        const float* tb = t + b * kBandStride;
+        l[b] = w00 * tb[0] + w01 * tb[1] + w10 * tb[kSkyA] + w11 * tb[kSkyA + 1];
+    }
+    if (dir[0] * c.moonDir[0] + dir[1] * c.moonDir[1] + dir[2] * c.moonDir[2] > c.cosMoonRadius) {
+        l[0] += c.moonDisk[0];
+        l[1] += c.moonDisk[1];
+    }
+    *pe = l[kBandPe];
+    *bw = l[kBandW];
+}
+
+// Lamp factors at `count` (≤ 16) points for the lamps in `mask`, out[k nl + l]:
+//   cos θr / r² V                        (point source)
+//   Σ_k A_k cos θe cos θr / r_k² V       (aperture samples; visibility from lampShadowRays
+//                                         rays, each standing for an interleaved subset)
+// 0 for lamps not in the mask. Returns the number of shadow rays cast.
+int lampFactors(const Renderer::Impl& im, const RenderConfig& cfg, std::uint64_t mask, int count,
+                const Vec3* p, const Vec3* n, float* out) noexcept {
     const int nl = static_cast<int>(im.lamps.size());
     int rays = 0;
     int valid[kPacket];
@@ -513,36 +613,14 @@ int directFactors(const Ctx& c, int count, const Vec3* p, const Vec3* n, float* 
     RTCRay16 r;
     for (int k = 0; k < count; ++k) {
         o[k] = p[k] + n[k] * kEps_m;
-        for (int s = 0; s < 1 + nl; ++s)
-            out[k * stride + s] = 0.0f;
+        for (int l = 0; l < nl; ++l)
+            out[k * nl + l] = 0.0f;
     }
-    // Moon: parallel rays.
-    if (c.sky->moonUp && (c.terms & kTermMoon)) {
-        float ct[kPacket];
-        int any = 0;
-        for (int k = 0; k < kPacket; ++k) {
-            valid[k] = 0;
-            if (k >= count) continue;
-            ct[k] = static_cast<float>(dot(n[k], c.sky->moonDir_enu));
-            if (ct[k] <= 0.0f) continue;
-            valid[k] = -1;
-            ++any;
-            setLane(r, k, o[k], c.sky->moonDir_enu, kInf);
-        }
-        if (any > 0) {
-            RTCIntersectContext ctx = coherentContext();
-            rtcOccluded16(valid, im.scene, &ctx, &r);
-            rays += any;
-            for (int k = 0; k < count; ++k)
-                if (valid[k] && r.tfar[k] >= 0.0f) out[k * stride] = ct[k];
-        }
-    }
-    if (!(c.terms & kTermLamps)) return rays;
     for (int l = 0; l < nl; ++l) {
-        if (!(*c.lampOn)[static_cast<std::size_t>(l)]) continue;
+        if (!(mask & (std::uint64_t{1} << l))) continue;
         const LampData& ld = im.lamps[static_cast<std::size_t>(l)];
         const int ns = ld.aperture ? static_cast<int>(ld.samples.size()) : 1;
-        const int nv = ld.aperture ? std::min(ns, std::max(1, c.cfg->lampShadowRays)) : 1;
+        const int nv = ld.aperture ? std::min(ns, std::max(1, cfg.lampShadowRays)) : 1;
         for (int g = 0; g < nv; ++g) {
             float part[kPacket];
             int any = 0;
@@ -589,29 +667,38 @@ int directFactors(const Ctx& c, int count, const Vec3* p, const Vec3* n, float* 
             rtcOccluded16(valid, im.scene, &ctx, &r);
             rays += any;
             for (int k = 0; k < count; ++k)
-                if (valid[k] && r.tfar[k] >= 0.0f) out[k * stride + 1 + l] += part[k];
+                if (valid[k] && r.tfar[k] >= 0.0f) out[k * nl + l] += part[k];
         }
     }
     return rays;
 }
 
-// Diffuse radiance of a surface point from its direct factors and sky-view factor.
-inline void diffuseShade(const Ctx& c, int m, double svf, const float* factors,
-                         BandValues& out) noexcept {
-    const Renderer::Impl& im = *c.im;
-    const double diffuse = 1.0 - im.materials[static_cast<std::size_t>(m)].specularity;
-    const double skyOn = (c.terms & kTermSky) ? 1.0 : 0.0;
-    for (int b = 0; b < kBands; ++b) {
-        const std::size_t k = static_cast<std::size_t>(m) * kBands + b;
-        double l = (*c.rhoMoon)[k] * c.sky->moonNormal[b] * static_cast<double>(factors[0]) / kPi;
-        l += skyOn * svf *
-             ((*c.rhoMoon)[k] * c.sky->moonSkyHorizontal[b] +
-              (*c.rhoNight)[k] * c.sky->nightSkyHorizontal[b]) /
-             kPi;
-        for (std::size_t li = 0; li < im.lamps.size(); ++li)
-            l += im.lamps[li].coef[k] * static_cast<double>(factors[1 + li]);
-        out[b] = diffuse * l;
+// Moon factor V cos θ☾ at the points with use[k] (0 elsewhere): parallel shadow rays.
+// Returns the number of rays cast.
+int moonFactors(const Ctx& c, int count, const Vec3* p, const Vec3* n, const bool* use,
+                float* out) noexcept {
+    const Vec3& md = c.sky->moonDir_enu;
+    int valid[kPacket];
+    RTCRay16 r;
+    int any = 0;
+    for (int k = 0; k < kPacket; ++k) {
+        valid[k] = 0;
+        if (k >= count) continue;
+        out[k] = 0.0f;
+        if (!use[k]) continue;
+        const double ct = dot(n[k], md);
+        if (ct <= 0.0) continue;
+        out[k] = static_cast<float>(ct);
+        valid[k] = -1;
+        ++any;
+        setLane(r, k, p[k] + n[k] * kEps_m, md, kInf);
     }
+    if (any == 0) return 0;
+    RTCIntersectContext ctx = coherentContext();
+    rtcOccluded16(valid, c.im->scene, &ctx, &r);
+    for (int k = 0; k < count; ++k)
+        if (valid[k] && r.tfar[k] < 0.0f) out[k] = 0.0f;
+    return any;
 }
 
 // Hit of lane k → position, camera-facing unit normal, material, sky-view factor.
@@ -632,105 +719,185 @@ void hitInfo(const Renderer::Impl& im, const RTCRayHit16& rh, int k, const Vec3&
            u * static_cast<double>(od.svf[base + 1]) + v * static_cast<double>(od.svf[base + 2]);
 }
 
-inline void initHits(RTCRayHit16& rh) {
-    for (int k = 0; k < kPacket; ++k) {
-        rh.hit.geomID[k] = RTC_INVALID_GEOMETRY_ID;
-        rh.hit.instID[0][k] = RTC_INVALID_GEOMETRY_ID;
-    }
+inline void put3(std::vector<float>& a, std::size_t i, const Vec3& v) {
+    a[3 * i] = static_cast<float>(v.x);
+    a[3 * i + 1] = static_cast<float>(v.y);
+    a[3 * i + 2] = static_cast<float>(v.z);
 }
 
-// One specular bounce for `count` points: radiance arriving along each mirror direction
-// (the diffuse radiance of what the reflected ray hits, or the sky). Returns rays cast.
-int specularRadiance(const Ctx& c, int count, const Vec3* p, const Vec3* n, const Vec3* dIn,
-                     BandValues* out) noexcept {
-    const Renderer::Impl& im = *c.im;
-    int valid[kPacket];
+// Static data of `count` (≤ 16) hit pixels: lamp factors, and for specular materials the
+// mirror ray's hit (or its sky direction) with the lamp factors there.
+void buildStatic(const Ctx& c, int count, const std::size_t* idx, Counts& n) noexcept {
+    Renderer::Impl& im = *c.im;
+    const std::size_t nl = im.lamps.size();
+    const std::uint64_t need = im.staticNeed;
+    Vec3 p[kPacket], nn[kPacket];
+    for (int k = 0; k < count; ++k) {
+        p[k] = g3(im.gPos, idx[k]);
+        nn[k] = g3(im.gNrm, idx[k]);
+    }
+    float fac[kPacket * kMaxLampsStatic];
+    if (nl > 0) {
+        n.shadow += static_cast<std::uint64_t>(lampFactors(im, *c.cfg, need, count, p, nn, fac));
+        for (int k = 0; k < count; ++k)
+            std::copy(fac + static_cast<std::size_t>(k) * nl,
+                      fac + static_cast<std::size_t>(k + 1) * nl, &im.sLamp[idx[k] * nl]);
+    }
+    // Mirror rays of the specular pixels among them.
+    int valid[kPacket], ns = 0, sk[kPacket];
     Vec3 o[kPacket], r[kPacket];
     RTCRayHit16 rh;
     initHits(rh);
-    for (int k = 0; k < kPacket; ++k) {
-        valid[k] = k < count ? -1 : 0;
-        if (k >= count) continue;
-        r[k] = dIn[k] - n[k] * (2.0 * dot(dIn[k], n[k]));
-        o[k] = p[k] + n[k] * kEps_m;
-        setLane(rh.ray, k, o[k], r[k], kInf);
+    for (int k = 0; k < kPacket; ++k)
+        valid[k] = 0;
+    for (int k = 0; k < count; ++k) {
+        const std::size_t i = idx[k];
+        im.sValid[i] = 1;
+        im.sqMat[i] = kNotSpecular;
+        if (!(need & kSpecBit) || !(im.materials[im.gMat[i]].specularity > 0.0)) {
+            continue;
+        }
+        const int x = static_cast<int>(i % static_cast<std::size_t>(im.W));
+        const int y = static_cast<int>(i / static_cast<std::size_t>(im.W));
+        const Vec3 dIn = im.pixelDir(x + 0.5, y + 0.5, c.cfg->camera);
+        r[ns] = dIn - nn[k] * (2.0 * dot(dIn, nn[k]));
+        o[ns] = p[k] + nn[k] * kEps_m;
+        setLane(rh.ray, ns, o[ns], r[ns], kInf);
+        valid[ns] = -1;
+        sk[ns++] = k;
     }
+    if (ns == 0) return;
     RTCIntersectContext ctx;
     rtcInitIntersectContext(&ctx);
     rtcIntersect16(valid, im.scene, &ctx, &rh);
-    int rays = count;
+    n.secondary += static_cast<std::uint64_t>(ns);
     Vec3 q[kPacket], nq[kPacket];
-    int mq[kPacket], idx[kPacket], nh = 0;
-    double svf[kPacket];
-    for (int k = 0; k < count; ++k) {
-        if (rh.hit.geomID[k] == RTC_INVALID_GEOMETRY_ID) {
-            skyRadiance(c, r[k], out[k]);
+    std::size_t qi[kPacket];
+    int nh = 0;
+    for (int s = 0; s < ns; ++s) {
+        const std::size_t i = idx[sk[s]];
+        if (rh.hit.geomID[s] == RTC_INVALID_GEOMETRY_ID) {
+            double gz, az;
+            skyGridPos(r[s], &gz, &az);
+            im.sqMat[i] = kMiss;
+            put3(im.sqPos, i, r[s]);
+            put3(im.sqNrm, i, Vec3{gz, az, 0.0});
             continue;
         }
-        hitInfo(im, rh, k, o[k], r[k], &q[nh], &nq[nh], &mq[nh], &svf[nh]);
-        idx[nh++] = k;
+        int m;
+        double svf;
+        hitInfo(im, rh, s, o[s], r[s], &q[nh], &nq[nh], &m, &svf);
+        im.sqMat[i] = static_cast<std::uint16_t>(m);
+        put3(im.sqPos, i, q[nh]);
+        put3(im.sqNrm, i, nq[nh]);
+        im.sqSvf[i] = static_cast<float>(svf);
+        qi[nh++] = i;
     }
-    if (nh > 0) {
-        float fac[kPacket * kMaxStride];
-        rays += directFactors(c, nh, q, nq, fac, kMaxStride);
+    if (nh > 0 && nl > 0) {
+        n.secondary += static_cast<std::uint64_t>(lampFactors(im, *c.cfg, need, nh, q, nq, fac));
         for (int h = 0; h < nh; ++h)
-            diffuseShade(c, mq[h], svf[h], fac + h * kMaxStride, out[idx[h]]);
+            std::copy(fac + static_cast<std::size_t>(h) * nl,
+                      fac + static_cast<std::size_t>(h + 1) * nl, &im.sqLamp[qi[h] * nl]);
     }
-    return rays;
 }
 
-// Full-rate shading of `count` G-buffer pixels (indices i[], pixel x[], row y).
-void shadeFull(const Ctx& c, int count, const std::size_t* i, const int* xs, int y,
-               std::uint64_t* sh, std::uint64_t* sec) noexcept {
+// Radiance of `count` (≤ 16) hit pixels, out[b][k]; with the sky term when withSky (coarse
+// nodes leave it to each pixel, whose sky-view factor it needs).
+void shadeBatch(const Ctx& c, int count, const std::size_t* idx, bool withSky,
+                float (*out)[kPacket], Counts& n) noexcept {
     Renderer::Impl& im = *c.im;
-    Vec3 p[kPacket], n[kPacket], d[kPacket];
-    for (int k = 0; k < count; ++k) {
-        p[k] = g3(im.gPos, i[k]);
-        n[k] = g3(im.gNrm, i[k]);
+    {
+        std::size_t bi[kPacket];
+        int nb = 0;
+        for (int k = 0; k < count; ++k)
+            if (!im.sValid[idx[k]]) bi[nb++] = idx[k];
+        if (nb > 0) buildStatic(c, nb, bi, n);
     }
-    float fac[kPacket * kMaxStride];
-    *sh += static_cast<std::uint64_t>(directFactors(c, count, p, n, fac, kMaxStride));
-    // Specular bounce for the specular pixels among them.
-    int ns = 0, sidx[kPacket];
-    Vec3 sp[kPacket], sn[kPacket];
-    BandValues spec[kPacket];
-    if (c.cfg->specular && (c.terms & kTermSpecular)) {
+    float moonF[kPacket], moonQ[kPacket];
+    for (int k = 0; k < kPacket; ++k)
+        moonF[k] = moonQ[k] = 0.0f;
+    if (c.moonOn) {
+        Vec3 p[kPacket], nn[kPacket];
+        bool use[kPacket] = {};
+        bool anyQ = false;
         for (int k = 0; k < count; ++k) {
-            if (im.materials[im.gMat[i[k]]].specularity <= 0.0) continue;
-            sidx[ns] = k;
-            sp[ns] = p[k];
-            sn[ns] = n[k];
-            d[ns] = im.pixelDir(xs[k] + 0.5, y + 0.5, c.cfg->camera);
-            ++ns;
+            p[k] = g3(im.gPos, idx[k]);
+            nn[k] = g3(im.gNrm, idx[k]);
+            use[k] = true;
         }
-        if (ns > 0) *sec += static_cast<std::uint64_t>(specularRadiance(c, ns, sp, sn, d, spec));
+        n.shadow += static_cast<std::uint64_t>(moonFactors(c, count, p, nn, use, moonF));
+        for (int k = 0; k < count; ++k) {
+            use[k] = im.sqMat[idx[k]] < kNotSpecular;
+            if (!use[k]) continue;
+            anyQ = true;
+            p[k] = g3(im.sqPos, idx[k]);
+            nn[k] = g3(im.sqNrm, idx[k]);
+        }
+        if (anyQ)
+            n.secondary += static_cast<std::uint64_t>(moonFactors(c, count, p, nn, use, moonQ));
     }
-    int s = 0;
-    float* pe = c.pe.row(y);
-    float* bw = c.bw.row(y);
+    const std::size_t nl = im.lamps.size();
+    const std::size_t nmb = im.materials.size() * kBands;
     for (int k = 0; k < count; ++k) {
-        const int m = im.gMat[i[k]];
-        BandValues l;
-        diffuseShade(c, m, static_cast<double>(im.gSvf[i[k]]), fac + k * kMaxStride, l);
-        if (s < ns && sidx[s] == k) {
-            const double sp_ = im.materials[static_cast<std::size_t>(m)].specularity;
-            for (int b = 0; b < kBands; ++b)
-                l[b] += sp_ * (*c.rhoMoon)[static_cast<std::size_t>(m) * kBands + b] * spec[s][b];
-            ++s;
+        const std::size_t i = idx[k];
+        const std::size_t m = im.gMat[i];
+        const float* fl = &im.sLamp[i * nl];
+        const std::uint16_t qm = im.sqMat[i];
+        float specL[kBands] = {0.0f, 0.0f};
+        if (qm != kNotSpecular && im.kSpec[m * kBands] != 0.0f) {
+            if (qm == kMiss) {
+                skyLookup(c, &im.sqPos[3 * i], im.sqNrm[3 * i], im.sqNrm[3 * i + 1],
+                          &specL[kBandPe], &specL[kBandW]);
+            } else {
+                const float* ql = &im.sqLamp[i * nl];
+                for (std::size_t b = 0; b < kBands; ++b) {
+                    const std::size_t mb = qm * std::size_t{kBands} + b;
+                    float l = im.kMoon[mb] * moonQ[k] + im.kSky[mb] * im.sqSvf[i];
+                    for (std::size_t li = 0; li < nl; ++li)
+                        l += im.kLamp[li * nmb + mb] * ql[li];
+                    specL[b] = l;
+                }
+            }
         }
-        pe[xs[k]] = static_cast<float>(l[kBandPe]);
-        bw[xs[k]] = static_cast<float>(l[kBandW]);
+        for (std::size_t b = 0; b < kBands; ++b) {
+            const std::size_t mb = m * kBands + b;
+            float l = im.kMoon[mb] * moonF[k] + im.kSpec[mb] * specL[b];
+            if (withSky) l += im.kSky[mb] * im.gSvf[i];
+            for (std::size_t li = 0; li < nl; ++li)
+                l += im.kLamp[li * nmb + mb] * fl[li];
+            out[b][k] = l;
+        }
+    }
+}
+
+// Sky radiance for a pixel whose primary ray left the scene (direction, zenith and azimuth
+// kept in the G-buffer).
+inline void skyPixel(const Ctx& c, std::size_t i, int x, float* pe, float* bw) noexcept {
+    const Renderer::Impl& im = *c.im;
+    skyLookup(c, &im.gPos[3 * i], im.gNrm[3 * i], im.gNrm[3 * i + 1], &pe[x], &bw[x]);
+}
+
+// Shades a batch of full-rate pixels of one row into the images.
+inline void flushFull(const Ctx& c, int count, const std::size_t* qi, const int* qx, float* pe,
+                      float* bw, Counts& n) noexcept {
+    float out[kBands][kPacket];
+    shadeBatch(c, count, qi, true, out, n);
+    for (int k = 0; k < count; ++k) {
+        pe[qx[k]] = out[kBandPe][k];
+        bw[qx[k]] = out[kBandW][k];
     }
 }
 
 // Primary pass: packets of 16 pixels along a row → the G-buffer (position, normal, material,
-// object, sky-view factor; kMiss where the ray leaves the scene).
+// object, sky-view factor; kMiss where the ray leaves the scene, with its direction, zenith
+// and azimuth in place of position and normal). Resets the pixels' static data.
 void primaryRows(void* vctx, int y0, int y1) {
     const Ctx& c = *static_cast<const Ctx*>(vctx);
     Renderer::Impl& im = *c.im;
     const PinholeCamera& cam = c.cfg->camera;
     std::uint64_t prim = 0;
-    for (int y = y0; y < y1; ++y) {
+    for (int yr = y0; yr < y1; ++yr) {
+        const int y = rowAt(yr, c.rowStepImage, im.H);
         for (int x0 = 0; x0 < im.W; x0 += kPacket) {
             const int count = std::min(kPacket, im.W - x0);
             int valid[kPacket];
@@ -748,9 +915,14 @@ void primaryRows(void* vctx, int y0, int y1) {
             prim += static_cast<std::uint64_t>(count);
             for (int k = 0; k < count; ++k) {
                 const std::size_t i = static_cast<std::size_t>(y) * im.W + x0 + k;
+                im.sValid[i] = 0;
                 if (rh.hit.geomID[k] == RTC_INVALID_GEOMETRY_ID) {
+                    double gz, az;
+                    skyGridPos(d[k], &gz, &az);
                     im.gMat[i] = kMiss;
                     im.gObj[i] = -1;
+                    put3(im.gPos, i, d[k]);
+                    put3(im.gNrm, i, Vec3{gz, az, 0.0});
                     continue;
                 }
                 Vec3 p, n;
@@ -759,12 +931,8 @@ void primaryRows(void* vctx, int y0, int y1) {
                 hitInfo(im, rh, k, im.camPos, d[k], &p, &n, &m, &svf);
                 im.gMat[i] = static_cast<std::uint16_t>(m);
                 im.gObj[i] = static_cast<std::int16_t>(rh.hit.geomID[k]);
-                im.gPos[3 * i] = static_cast<float>(p.x);
-                im.gPos[3 * i + 1] = static_cast<float>(p.y);
-                im.gPos[3 * i + 2] = static_cast<float>(p.z);
-                im.gNrm[3 * i] = static_cast<float>(n.x);
-                im.gNrm[3 * i + 1] = static_cast<float>(n.y);
-                im.gNrm[3 * i + 2] = static_cast<float>(n.z);
+                put3(im.gPos, i, p);
+                put3(im.gNrm, i, n);
                 im.gSvf[i] = static_cast<float>(svf);
             }
         }
@@ -772,20 +940,13 @@ void primaryRows(void* vctx, int y0, int y1) {
     im.primary += prim;
 }
 
-// Sky radiance for the pixels whose primary ray left the scene.
-inline void skyPixel(const Ctx& c, int x, int y, float* pe, float* bw) noexcept {
-    BandValues l;
-    skyRadiance(c, c.im->pixelDir(x + 0.5, y + 0.5, c.cfg->camera), l);
-    pe[x] = static_cast<float>(l[kBandPe]);
-    bw[x] = static_cast<float>(l[kBandW]);
-}
-
 // Full-rate shading of the G-buffer, 16 pixels at a time.
 void shadeRows(void* vctx, int y0, int y1) {
     const Ctx& c = *static_cast<const Ctx*>(vctx);
     Renderer::Impl& im = *c.im;
-    std::uint64_t sh = 0, sec = 0;
-    for (int y = y0; y < y1; ++y) {
+    Counts n;
+    for (int yr = y0; yr < y1; ++yr) {
+        const int y = rowAt(yr, c.rowStepImage, im.H);
         float* pe = c.pe.row(y);
         float* bw = c.bw.row(y);
         std::size_t qi[kPacket];
@@ -793,170 +954,160 @@ void shadeRows(void* vctx, int y0, int y1) {
         for (int x = 0; x < im.W; ++x) {
             const std::size_t i = static_cast<std::size_t>(y) * im.W + x;
             if (im.gMat[i] == kMiss) {
-                skyPixel(c, x, y, pe, bw);
+                skyPixel(c, i, x, pe, bw);
                 continue;
             }
             qi[nq] = i;
             qx[nq++] = x;
             if (nq == kPacket) {
-                shadeFull(c, nq, qi, qx, y, &sh, &sec);
+                flushFull(c, nq, qi, qx, pe, bw, n);
                 nq = 0;
             }
         }
-        if (nq > 0) shadeFull(c, nq, qi, qx, y, &sh, &sec);
+        if (nq > 0) flushFull(c, nq, qi, qx, pe, bw, n);
     }
-    im.shadow += sh;
-    im.secondary += sec;
+    im.shadow += n.shadow;
+    im.secondary += n.secondary;
 }
 
-// Coarse nodes: direct factors and the specular radiance at every f-th pixel, 16 at a time.
+// Coarse nodes: radiance without the sky term at every f-th pixel, 16 at a time.
 void nodeRows(void* vctx, int j0, int j1) {
     const Ctx& c = *static_cast<const Ctx*>(vctx);
     Renderer::Impl& im = *c.im;
-    const PinholeCamera& cam = c.cfg->camera;
     const int f = c.coarse;
-    const int stride = im.nodeStride;
-    const int nl = static_cast<int>(im.lamps.size());
-    std::uint64_t sh = 0, sec = 0;
-    for (int j = j0; j < j1; ++j) {
+    Counts n;
+    for (int jr = j0; jr < j1; ++jr) {
+        const int j = rowAt(jr, c.rowStepNodes, im.nodeH);
         const int y = std::min(j * f, im.H - 1);
-        for (int k0 = 0; k0 < im.nodeW; k0 += kPacket) {
-            Vec3 p[kPacket], n[kPacket], d[kPacket], sp[kPacket], sn[kPacket];
-            std::size_t ni[kPacket];
-            int nh = 0, ns = 0, sidx[kPacket];
-            for (int k = k0; k < std::min(k0 + kPacket, im.nodeW); ++k) {
-                const int x = std::min(k * f, im.W - 1);
-                const std::size_t i = static_cast<std::size_t>(y) * im.W + x;
-                const std::size_t node = static_cast<std::size_t>(j) * im.nodeW + k;
-                im.nodeValid[node] = im.gMat[i] != kMiss;
-                if (im.gMat[i] == kMiss) continue;
-                p[nh] = g3(im.gPos, i);
-                n[nh] = g3(im.gNrm, i);
-                ni[nh] = node;
-                float* spec = &im.nodeLight[node * static_cast<std::size_t>(stride)] + 1 + nl;
-                spec[0] = spec[1] = 0.0f;
-                if (c.cfg->specular && (c.terms & kTermSpecular) &&
-                    im.materials[im.gMat[i]].specularity > 0.0) {
-                    sidx[ns] = nh;
-                    sp[ns] = p[nh];
-                    sn[ns] = n[nh];
-                    d[ns] = im.pixelDir(x + 0.5, y + 0.5, cam);
-                    ++ns;
-                }
-                ++nh;
+        std::size_t qi[kPacket], qn[kPacket];
+        int nq = 0;
+        const auto flush = [&] {
+            float out[kBands][kPacket];
+            shadeBatch(c, nq, qi, false, out, n);
+            for (int k = 0; k < nq; ++k) {
+                im.nodeRad[qn[k] * kBands] = out[0][k];
+                im.nodeRad[qn[k] * kBands + 1] = out[1][k];
             }
-            if (nh == 0) continue;
-            float fac[kPacket * kMaxStride];
-            sh += static_cast<std::uint64_t>(directFactors(c, nh, p, n, fac, kMaxStride));
-            for (int h = 0; h < nh; ++h) {
-                float* out = &im.nodeLight[ni[h] * static_cast<std::size_t>(stride)];
-                std::copy(fac + h * kMaxStride, fac + h * kMaxStride + 1 + nl, out);
+            nq = 0;
+        };
+        for (int k = 0; k < im.nodeW; ++k) {
+            const int x = std::min(k * f, im.W - 1);
+            const std::size_t i = static_cast<std::size_t>(y) * im.W + x;
+            const std::size_t node = static_cast<std::size_t>(j) * im.nodeW + k;
+            if (im.gMat[i] == kMiss) {
+                im.nodeRad[node * kBands] = im.nodeRad[node * kBands + 1] = 0.0f;
+                continue;
             }
-            if (ns > 0) {
-                BandValues spec[kPacket];
-                sec += static_cast<std::uint64_t>(specularRadiance(c, ns, sp, sn, d, spec));
-                for (int s = 0; s < ns; ++s) {
-                    float* out =
-                        &im.nodeLight[ni[sidx[s]] * static_cast<std::size_t>(stride)] + 1 + nl;
-                    out[0] = static_cast<float>(spec[s][0]);
-                    out[1] = static_cast<float>(spec[s][1]);
-                }
-            }
+            qi[nq] = i;
+            qn[nq++] = node;
+            if (nq == kPacket) flush();
         }
+        if (nq > 0) flush();
     }
-    im.shadow += sh;
-    im.secondary += sec;
+    im.shadow += n.shadow;
+    im.secondary += n.secondary;
 }
 
-// Upsampling guided by the full-resolution geometry; pixels with no node on their surface are
-// shaded at full rate (16 at a time). Single precision: the weights and the tests need none
-// better, and the loop runs for every pixel.
+// Upsampling weights of row y (static: from the G-buffer only). A pixel takes the bilinear
+// weights of the four nodes around it, restricted to nodes on its own surface (same object and
+// material, normals within 18°, node within a plane tolerance of 2 cm + 0.2 % of the range),
+// normalised; with none it is shaded at full rate.
+void buildWeightsRow(const Ctx& c, int y) noexcept {
+    Renderer::Impl& im = *c.im;
+    const int f = c.coarse;
+    const float invF = 1.0f / static_cast<float>(f);
+    const float cx = static_cast<float>(im.camPos.x), cy = static_cast<float>(im.camPos.y),
+                cz = static_cast<float>(im.camPos.z);
+    const int j = y / f;
+    const float fy = static_cast<float>(y - j * f) * invF;
+    const int nyRow[2] = {std::min(j * f, im.H - 1), std::min((j + 1) * f, im.H - 1)};
+    for (int x = 0, k = 0, xr = 0; x < im.W; ++x, ++xr) {
+        if (xr == f) xr = 0, ++k;  // k = x / f, xr = x mod f
+        const std::size_t i = static_cast<std::size_t>(y) * im.W + x;
+        float* w = &im.uW[4 * i];
+        w[0] = w[1] = w[2] = w[3] = 0.0f;
+        const int m = im.gMat[i];
+        if (m == kMiss) {
+            im.uKind[i] = kUpMiss;
+            continue;
+        }
+        const float* pp = &im.gPos[3 * i];
+        const float* pn = &im.gNrm[3 * i];
+        const float dx = pp[0] - cx, dy = pp[1] - cy, dz = pp[2] - cz;
+        const float planeTol = 0.02f + 2e-3f * std::sqrt(dx * dx + dy * dy + dz * dz);
+        const float fx = static_cast<float>(xr) * invF;
+        const std::int16_t obj = im.gObj[i];
+        float wsum = 0.0f;
+        for (int t = 0; t < 4; ++t) {
+            const int dj = t >> 1, dk = t & 1;
+            const std::size_t q = static_cast<std::size_t>(nyRow[dj]) * im.W +
+                                  static_cast<std::size_t>(std::min((k + dk) * f, im.W - 1));
+            if (im.gMat[q] != m || im.gObj[q] != obj) continue;
+            const float* qn = &im.gNrm[3 * q];
+            if (qn[0] * pn[0] + qn[1] * pn[1] + qn[2] * pn[2] < 0.95f) continue;
+            const float* qp = &im.gPos[3 * q];
+            const float off =
+                (qp[0] - pp[0]) * pn[0] + (qp[1] - pp[1]) * pn[1] + (qp[2] - pp[2]) * pn[2];
+            if (std::abs(off) > planeTol) continue;
+            w[t] = (dk ? fx : 1.0f - fx) * (dj ? fy : 1.0f - fy) + 1e-6f;
+            wsum += w[t];
+        }
+        if (!(wsum > 0.0f)) {
+            im.uKind[i] = kUpFull;
+            continue;
+        }
+        const float inv = 1.0f / wsum;
+        for (int t = 0; t < 4; ++t)
+            w[t] *= inv;
+        im.uKind[i] = kUpInterp;
+    }
+}
+
+// Upsampling: each pixel's radiance from its nodes' (precomputed weights) plus its own sky
+// term; pixels with no node on their surface are shaded at full rate (16 at a time).
 void upsampleRows(void* vctx, int y0, int y1) {
     const Ctx& c = *static_cast<const Ctx*>(vctx);
     Renderer::Impl& im = *c.im;
     const int f = c.coarse;
-    const float invF = 1.0f / static_cast<float>(f);
-    const int ns = im.nodeStride;
-    const float cx = static_cast<float>(im.camPos.x), cy = static_cast<float>(im.camPos.y),
-                cz = static_cast<float>(im.camPos.z);
-    std::uint64_t sh = 0, sec = 0;
-    float acc[kMaxStride];
-    for (int y = y0; y < y1; ++y) {
+    const std::size_t nw = static_cast<std::size_t>(im.nodeW);
+    Counts n;
+    for (int yr = y0; yr < y1; ++yr) {
+        const int y = rowAt(yr, c.rowStepImage, im.H);
+        if (c.buildWeights) buildWeightsRow(c, y);
         float* pe = c.pe.row(y);
         float* bw = c.bw.row(y);
-        const int j = y / f;
-        const float fy = static_cast<float>(y - j * f) * invF;
-        const int jj[2] = {j, std::min(j + 1, im.nodeH - 1)};
-        const int nyRow[2] = {std::min(jj[0] * f, im.H - 1), std::min(jj[1] * f, im.H - 1)};
+        const std::size_t nodeRow = static_cast<std::size_t>(y / f) * nw;
         std::size_t qi[kPacket];
         int qx[kPacket], nq = 0;
-        for (int x = 0; x < im.W; ++x) {
+        for (int x = 0, k = 0, xr = 0; x < im.W; ++x, ++xr) {
+            if (xr == f) xr = 0, ++k;  // k = x / f
             const std::size_t i = static_cast<std::size_t>(y) * im.W + x;
-            const int m = im.gMat[i];
-            if (m == kMiss) {
-                skyPixel(c, x, y, pe, bw);
-                continue;
-            }
-            const float* pp = &im.gPos[3 * i];
-            const float* pn = &im.gNrm[3 * i];
-            const float dx = pp[0] - cx, dy = pp[1] - cy, dz = pp[2] - cz;
-            const float planeTol = 0.02f + 2e-3f * std::sqrt(dx * dx + dy * dy + dz * dz);
-            const int k = x / f;
-            const float fx = static_cast<float>(x - k * f) * invF;
-            const int kk[2] = {k, std::min(k + 1, im.nodeW - 1)};
-            for (int s = 0; s < ns; ++s)
-                acc[s] = 0.0f;
-            float wsum = 0.0f;
-            const std::int16_t obj = im.gObj[i];
-            for (int dj = 0; dj < 2; ++dj) {
-                for (int dk = 0; dk < 2; ++dk) {
-                    const std::size_t ni = static_cast<std::size_t>(jj[dj]) * im.nodeW + kk[dk];
-                    if (!im.nodeValid[ni]) continue;
-                    const std::size_t q =
-                        static_cast<std::size_t>(nyRow[dj]) * im.W + std::min(kk[dk] * f, im.W - 1);
-                    if (im.gObj[q] != obj || im.gMat[q] != m) continue;
-                    const float* qn = &im.gNrm[3 * q];
-                    if (qn[0] * pn[0] + qn[1] * pn[1] + qn[2] * pn[2] < 0.95f) continue;
-                    const float* qp = &im.gPos[3 * q];
-                    const float off =
-                        (qp[0] - pp[0]) * pn[0] + (qp[1] - pp[1]) * pn[1] + (qp[2] - pp[2]) * pn[2];
-                    if (std::abs(off) > planeTol) continue;
-                    const float w = (dk ? fx : 1.0f - fx) * (dj ? fy : 1.0f - fy) + 1e-6f;
-                    const float* src = &im.nodeLight[ni * static_cast<std::size_t>(ns)];
-                    for (int s = 0; s < ns; ++s)
-                        acc[s] += w * src[s];
-                    wsum += w;
-                }
-            }
-            if (!(wsum > 0.0f)) {
-                // No sample on this surface nearby: full rate here.
+            const std::uint8_t kind = im.uKind[i];
+            if (kind == kUpInterp) {
+                const float* w = &im.uW[4 * i];
+                const float* r0 = &im.nodeRad[(nodeRow + static_cast<std::size_t>(k)) * kBands];
+                const float* r1 = r0 + nw * kBands;
+                const std::size_t mb = std::size_t{im.gMat[i]} * kBands;
+                const float svf = im.gSvf[i];
+                pe[x] =
+                    w[0] * r0[0] + w[1] * r0[2] + w[2] * r1[0] + w[3] * r1[2] + im.kSky[mb] * svf;
+                bw[x] = w[0] * r0[1] + w[1] * r0[3] + w[2] * r1[1] + w[3] * r1[3] +
+                        im.kSky[mb + 1] * svf;
+            } else if (kind == kUpMiss) {
+                skyPixel(c, i, x, pe, bw);
+            } else {
                 qi[nq] = i;
                 qx[nq++] = x;
                 if (nq == kPacket) {
-                    shadeFull(c, nq, qi, qx, y, &sh, &sec);
+                    flushFull(c, nq, qi, qx, pe, bw, n);
                     nq = 0;
                 }
-                continue;
             }
-            const float inv = 1.0f / wsum;
-            for (int s = 0; s < ns; ++s)
-                acc[s] *= inv;
-            BandValues l;
-            diffuseShade(c, m, static_cast<double>(im.gSvf[i]), acc, l);
-            const double sp = im.materials[static_cast<std::size_t>(m)].specularity;
-            if (sp > 0.0) {
-                for (int b = 0; b < kBands; ++b) {
-                    l[b] += sp * (*c.rhoMoon)[static_cast<std::size_t>(m) * kBands + b] *
-                            static_cast<double>(acc[ns - 2 + b]);
-                }
-            }
-            pe[x] = static_cast<float>(l[kBandPe]);
-            bw[x] = static_cast<float>(l[kBandW]);
         }
-        if (nq > 0) shadeFull(c, nq, qi, qx, y, &sh, &sec);
+        if (nq > 0) flushFull(c, nq, qi, qx, pe, bw, n);
     }
-    im.shadow += sh;
-    im.secondary += sec;
+    im.shadow += n.shadow;
+    im.secondary += n.secondary;
 }
 
 }  // namespace
@@ -965,22 +1116,104 @@ void Renderer::render(const FrameSky& sky, ImageView<float> pe, ImageView<float>
                       RowExecutor& exec) noexcept {
     Impl& im = *impl_;
     if (pe.width() != im.W || pe.height() != im.H || bandW.width() != im.W ||
-        bandW.height() != im.H || im.lamps.size() > static_cast<std::size_t>(kMaxLamps)) {
+        bandW.height() != im.H) {
         return;
     }
     im.primary = 0;
     im.shadow = 0;
     im.secondary = 0;
-    Ctx c{&im, &config_, &sky, &rhoMoon_, &rhoNight_, &lampOn_, pe, bandW, coarse_, terms_};
+    const std::size_t nl = im.lamps.size(), nm = im.materials.size();
+    // What the static data must cover: the lamps that are on (with the lamp term) and the
+    // specular bounce. A lamp switched on that it does not cover rebuilds it; one switched off
+    // only drops out of the per-frame sums.
+    std::uint64_t need = 0;
+    if (terms_ & kTermLamps) {
+        for (std::size_t l = 0; l < nl; ++l)
+            if (lampOn_[l]) need |= std::uint64_t{1} << l;
+    }
+    if (config_.specular && (terms_ & kTermSpecular)) need |= kSpecBit;
+    if (need & ~im.staticNeed) {
+        im.staticNeed = need;
+        std::fill(im.sValid.begin(), im.sValid.end(), std::uint8_t{0});
+    }
+    // Per-frame coefficients.
+    const bool moonOn = sky.moonUp && (terms_ & kTermMoon);
+    const double skyOn = (terms_ & kTermSky) ? 1.0 : 0.0;
+    const double specOn = (config_.specular && (terms_ & kTermSpecular)) ? 1.0 : 0.0;
+    for (std::size_t m = 0; m < nm; ++m) {
+        const double s = im.materials[m].specularity, diffuse = 1.0 - s;
+        for (int b = 0; b < kBands; ++b) {
+            const std::size_t k = m * kBands + static_cast<std::size_t>(b);
+            im.kMoon[k] =
+                moonOn ? static_cast<float>(diffuse * rhoMoon_[k] * sky.moonNormal[b] / kPi) : 0.0f;
+            im.kSky[k] = static_cast<float>(skyOn * diffuse *
+                                            (rhoMoon_[k] * sky.moonSkyHorizontal[b] +
+                                             rhoNight_[k] * sky.nightSkyHorizontal[b]) /
+                                            kPi);
+            im.kSpec[k] = static_cast<float>(specOn * s * rhoMoon_[k]);
+            for (std::size_t l = 0; l < nl; ++l) {
+                const bool on = (need >> l) & 1u;
+                im.kLamp[l * nm * kBands + k] =
+                    on ? static_cast<float>(diffuse * im.lamps[l].coef[k]) : 0.0f;
+            }
+        }
+    }
+    Ctx c{&im,
+          &config_,
+          &sky,
+          pe,
+          bandW,
+          coarse_,
+          terms_,
+          moonOn,
+          im.uFactor != coarse_,
+          rowStep(im.H),
+          rowStep(im.nodeH)};
+    // Sky in view: the frame's table on the atmosphere table's (view zenith, Δφ) nodes.
+    for (int b = 0; b < kBands; ++b) {
+        float* t = &im.skyTab[static_cast<std::size_t>(b) * kSkyZ * kSkyA];
+        for (int iz = 0; iz < kSkyZ; ++iz) {
+            const double vz = iz * kSkyStepZ_deg * (kPi / 180.0);
+            for (int ia = 0; ia < kSkyA; ++ia) {
+                double l;
+                if (sky.model != nullptr) {
+                    const auto& tab = sky.model->table();
+                    const int tb = sky.tableBand[static_cast<std::size_t>(b)];
+                    l = tab.nightSkyRadiance(tb, vz);
+                    if (sky.moonZenith_rad < 1.6755) {
+                        l += sky.moonToa[b] * tab.skyRadiance(tb, vz,
+                                                              ia * kSkyStepA_deg * (kPi / 180.0),
+                                                              sky.moonZenith_rad);
+                    }
+                } else {
+                    l = (sky.moonSkyHorizontal[b] + sky.nightSkyHorizontal[b]) / kPi;
+                }
+                t[iz * kSkyA + ia] = static_cast<float>(l);
+            }
+        }
+    }
+    c.moonAz_rad = static_cast<float>(sky.moonAz_rad);
+    c.moonDir[0] = static_cast<float>(sky.moonDir_enu.x);
+    c.moonDir[1] = static_cast<float>(sky.moonDir_enu.y);
+    c.moonDir[2] = static_cast<float>(sky.moonDir_enu.z);
+    if (sky.moonUp) {
+        const double omega = kPi * sky.moonAngularRadius_rad * sky.moonAngularRadius_rad;
+        c.cosMoonRadius = static_cast<float>(std::cos(sky.moonAngularRadius_rad));
+        for (int b = 0; b < kBands; ++b)
+            c.moonDisk[b] = static_cast<float>(sky.moonNormal[b] / omega);
+    }
     // The primary rays depend only on the camera and the geometry: with neither changed since
     // the last frame (a fixed camera over a static scene), the G-buffer is reused.
     if (!im.gValid) {
         exec.run(im.H, &primaryRows, &c);
         im.gValid = true;
+        im.uFactor = 0;
+        c.buildWeights = coarse_ > 1;
     }
     if (coarse_ > 1) {
         exec.run(im.nodeH, &nodeRows, &c);
         exec.run(im.H, &upsampleRows, &c);
+        im.uFactor = coarse_;
     } else {
         exec.run(im.H, &shadeRows, &c);
     }
