@@ -27,15 +27,22 @@ function(nvs_add_library name)
   target_link_libraries(${name} INTERFACE nvs_sanitizers)
 endfunction()
 
-# nvs_add_test(NAME SOURCES... DEPS ...): one GoogleTest executable per source folder.
+# nvs_add_test(NAME [SERIAL] SOURCES... DEPS ...): one GoogleTest executable per source folder.
+# SERIAL: its tests measure wall-clock timing and run alone (ctest RUN_SERIAL), so that the
+# other tests running in parallel on a 2-core machine cannot make them miss deadlines.
 function(nvs_add_test name)
-  cmake_parse_arguments(ARG "" "" "SOURCES;DEPS" ${ARGN})
+  cmake_parse_arguments(ARG "SERIAL" "" "SOURCES;DEPS" ${ARGN})
   add_executable(${name} ${ARG_SOURCES})
   target_link_libraries(${name} PRIVATE ${ARG_DEPS} GTest::gtest GTest::gtest_main
                         nvs_warnings nvs_sanitizers)
   target_compile_definitions(${name} PRIVATE
     NVS_SOURCE_DIR="${PROJECT_SOURCE_DIR}"
     NVS_SHARED_DATA_DIR="${NVS_SHARED_DATA_DIR}")
+  set(serial FALSE)
+  if(ARG_SERIAL)
+    set(serial TRUE)
+  endif()
   gtest_discover_tests(${name} DISCOVERY_TIMEOUT 60
-    PROPERTIES ENVIRONMENT "NVS_CONFIG_DIR=${PROJECT_SOURCE_DIR}/config;NVS_CACHE_DIR=${PROJECT_BINARY_DIR}/cache")
+    PROPERTIES ENVIRONMENT "NVS_CONFIG_DIR=${PROJECT_SOURCE_DIR}/config;NVS_CACHE_DIR=${PROJECT_BINARY_DIR}/cache"
+               RUN_SERIAL ${serial})
 endfunction()
