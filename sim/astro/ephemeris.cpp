@@ -164,4 +164,29 @@ SunMoonState Ephemeris::compute(const AstroTime& t) const noexcept {
     return out;
 }
 
+void Ephemeris::stars(const AstroTime& t, const double* ra_rad, const double* dec_rad, int count,
+                      double* az_rad, double* alt_rad) const noexcept {
+    // Steps 1–3 of compute(): Earth, bias-precession-nutation, the observer's astrometry context.
+    double pvh[2][3], pvb[2][3];
+    eraEpv00(t.ttJd1, t.ttJd2, pvh, pvb);
+    double rbpn[3][3];
+    eraPnm00b(t.ttJd1, t.ttJd2, rbpn);
+    double x = 0.0, y = 0.0;
+    eraBpn2xy(rbpn, &x, &y);
+    const double s = eraS00(t.ttJd1, t.ttJd2, x, y);
+    const double theta = eraEra00(t.ut1Jd1, t.ut1Jd2);
+    eraASTROM astrom;
+    eraApco(t.ttJd1, t.ttJd2, pvb, pvh[0], x, y, s, theta, lon_rad_, lat_rad_, site_.height_m, 0.0,
+            0.0, 0.0, 0.0, 0.0, &astrom);
+    for (int k = 0; k < count; ++k) {
+        double ri = 0.0, di = 0.0;
+        eraAtciq(ra_rad[k], dec_rad[k], 0.0, 0.0, 0.0, 0.0, &astrom, &ri, &di);
+        double aob = 0.0, zob = 0.0, hob = 0.0, dob = 0.0, rob = 0.0;
+        eraAtioq(ri, di, &astrom, &aob, &zob, &hob, &dob, &rob);
+        az_rad[k] = eraAnp(aob);
+        const double altGeometric = 0.5 * kPi - zob;
+        alt_rad[k] = altGeometric + refraction_rad(altGeometric, refractionScale_);
+    }
+}
+
 }  // namespace nvs::astro

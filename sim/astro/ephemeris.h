@@ -77,6 +77,13 @@ class Ephemeris {
 
     // Per frame: no allocation, no throw.
     SunMoonState compute(const AstroTime& t) const noexcept;
+    // Stars: apparent (refracted) topocentric azimuth and altitude of `count` stars from their
+    // ICRS catalogue directions (ra_rad, dec_rad; proper motion, parallax and radial velocity
+    // taken as zero) at t. Steps 1–3 as for the Moon, then eraAtciq (light deflection, annual
+    // aberration, precession-nutation), eraAtioq (Earth rotation, diurnal aberration, no
+    // refraction) and refraction_rad as in step 6. Per frame: no allocation, no throw.
+    void stars(const AstroTime& t, const double* ra_rad, const double* dec_rad, int count,
+               double* az_rad, double* alt_rad) const noexcept;
 
     const Site& site() const { return site_; }
 

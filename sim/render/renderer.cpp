@@ -1246,6 +1246,19 @@ void Renderer::render(const FrameSky& sky, ImageView<float> pe, ImageView<float>
         pe(px, py) += static_cast<float>(ld.emitted[kBandPe] * toPixel);
         bandW(px, py) += static_cast<float>(ld.emitted[kBandW] * toPixel);
     }
+    // Stars in view: the irradiance each gives at the lens, spread over the pixel it falls in
+    // (E / Ω_pixel), if it is above the horizon and no geometry is in the way.
+    for (int k = 0; k < sky.starCount && (terms_ & kTermInView); ++k) {
+        const FrameStar& st = sky.stars[static_cast<std::size_t>(k)];
+        if (!(st.dir_enu.z > 0.0)) continue;
+        double u, v;
+        if (!im.project(im.camPos + st.dir_enu, cam, &u, &v)) continue;
+        if (u < 0 || v < 0 || u >= cam.width || v >= cam.height) continue;
+        if (im.occluded(im.camPos, st.dir_enu, kInf)) continue;
+        const int px = static_cast<int>(u), py = static_cast<int>(v);
+        pe(px, py) += static_cast<float>(st.irradiance[kBandPe] / omegaPixel);
+        bandW(px, py) += static_cast<float>(st.irradiance[kBandW] / omegaPixel);
+    }
     stats_.primaryRays = im.primary;
     stats_.shadowRays = im.shadow;
     stats_.secondaryRays = im.secondary;

@@ -73,6 +73,14 @@ struct RenderConfig {
     bool specular = true;
 };
 
+// A bright star for one frame (sim/render/stars.h): apparent direction and band irradiance at
+// the ground normal to the beam, after the atmosphere's direct transmittance [band m⁻²].
+inline constexpr int kMaxStars = 128;
+struct FrameStar {
+    Vec3 dir_enu{0.0, 0.0, 1.0};
+    BandValues irradiance{};
+};
+
 // The sky and Moon for one frame, band-integrated (from sky::SkyModel; see frameSky()).
 struct FrameSky {
     bool moonUp = false;
@@ -86,6 +94,8 @@ struct FrameSky {
     BandValues nightSkyHorizontal{};       // night-sky irradiance, horizontal
     const sky::SkyModel* model = nullptr;  // for sky radiance in view; null: isotropic E/π
     std::array<int, kBands> tableBand{-1, -1};
+    int starCount = 0;  // stars above the horizon, drawn where they are in view
+    std::array<FrameStar, kMaxStars> stars{};
 };
 
 // Fills a FrameSky from the sky model and the Sun/Moon state. tableBand[b] is the atmosphere

@@ -59,13 +59,43 @@ std::unique_ptr<ScenarioRenderer> ScenarioRenderer::create(const std::filesystem
     const sky::NightSkyModel night = sky::NightSkyModel::load();
     cfg.nightSkyShape = night.measured_W_m2_sr_nm();
     r->renderer_ = std::make_unique<Renderer>(r->scene_, cfg);
+    r->stars_ = loadStarCatalog(defaultStarCatalogPath());
+    if (r->stars_.size() > static_cast<std::size_t>(kMaxStars)) {
+        throw SetupError(r->stars_.file + ": more than " + std::to_string(kMaxStars) + " stars");
+    }
+    for (int b = 0; b < kBands; ++b) {
+        r->starBandPerLux_[static_cast<std::size_t>(b)] =
+            bandPerLux(cfg.bandWeight[static_cast<std::size_t>(b)], kStarTemperature_K);
+    }
+    r->starAz_.assign(r->stars_.size(), 0.0);
+    r->starAlt_.assign(r->stars_.size(), 0.0);
     return r;
 }
 
 FrameSky ScenarioRenderer::prepare(double t_s) noexcept {
-    sunMoon_ = ephemeris_->compute(epoch_.plusSeconds(t_s));
+    const astro::AstroTime t = epoch_.plusSeconds(t_s);
+    sunMoon_ = ephemeris_->compute(t);
     renderer_->setTime(t_s);
-    return frameSky(*sky_, tableBand_, sunMoon_.moon);
+    FrameSky s = frameSky(*sky_, tableBand_, sunMoon_.moon);
+    // Stars above the horizon: E_b = E_v(V) · (band per lux) · T_direct(z).
+    const int n = static_cast<int>(stars_.size());
+    ephemeris_->stars(t, stars_.ra_rad.data(), stars_.dec_rad.data(), n, starAz_.data(),
+                      starAlt_.data());
+    s.starCount = 0;
+    for (int k = 0; k < n; ++k) {
+        const std::size_t i = static_cast<std::size_t>(k);
+        if (!(starAlt_[i] > 0.0)) continue;
+        FrameStar& st = s.stars[static_cast<std::size_t>(s.starCount++)];
+        st.dir_enu = enuFromAzAlt(starAz_[i], starAlt_[i]);
+        const double z = 0.5 * 3.14159265358979323846 - starAlt_[i];
+        const double ev = starIlluminanceToa_lx(stars_.vMag[i]);
+        for (int b = 0; b < kBands; ++b) {
+            const int tb = tableBand_[static_cast<std::size_t>(b)];
+            st.irradiance[b] = ev * starBandPerLux_[static_cast<std::size_t>(b)] *
+                               sky_->table().directTransmittance(tb, z);
+        }
+    }
+    return s;
 }
 
 }  // namespace nvs::render

@@ -7,10 +7,12 @@
 #include <filesystem>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "sim/astro/ephemeris.h"
 #include "sim/astro/time.h"
 #include "sim/render/renderer.h"
+#include "sim/render/stars.h"
 #include "sim/scene/scenario.h"
 #include "sim/scene/scene.h"
 #include "sim/sensor/camera.h"
@@ -27,7 +29,7 @@ class ScenarioRenderer {
     static std::unique_ptr<ScenarioRenderer> create(const std::filesystem::path& scenarioPath,
                                                     int coarseFactor = 1);
 
-    // Sets the scene to frame k (moving objects, Sun/Moon) and returns the frame's sky.
+    // Sets the scene to frame k (moving objects, Sun/Moon, stars) and returns the frame's sky.
     // t_s is the time since the scenario epoch. No allocation, no throw.
     FrameSky prepare(double t_s) noexcept;
 
@@ -47,6 +49,9 @@ class ScenarioRenderer {
     std::array<int, kBands> tableBand_{-1, -1};
     std::unique_ptr<Renderer> renderer_;
     astro::SunMoonState sunMoon_;
+    StarCatalog stars_;
+    std::array<double, kBands> starBandPerLux_{};
+    std::vector<double> starAz_, starAlt_;  // per frame
 };
 
 }  // namespace nvs::render
