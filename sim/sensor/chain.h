@@ -77,7 +77,9 @@ class OpticsStage {
     int applyRow(const float* lpe, float* rate, int y, double& rowSum) const noexcept;
 
   private:
-    ImageF factor_;  // per-pixel pe/s per unit Lpe, cos⁴θ included
+    float onAxis_;            // pe/s per pixel per unit Lpe on the axis
+    std::vector<float> dx2_;  // (dx/f)² of each column (0 without cos⁴θ)
+    std::vector<float> dy2_;  // (dy/f)² of each row
 };
 
 // ---- 2. Gate --------------------------------------------------------------------------------
@@ -180,10 +182,9 @@ class PhosphorStage {
     double tau_s_[4] = {};
     double weight_[4] = {};
     bool stored_[4] = {};  // components whose afterglow outlives a period
-    // Stored energy per component, in CCD electrons: row y of component i at
-    // state_.row(i) + y·width. One block, its rows (the planes) padded so that the same pixel
-    // of two components never shares its address modulo 4 KiB (the loop reads and writes all
-    // of them; equal low address bits make the CPU stall loads behind unrelated stores).
+    // Stored energy of the stored components, in CCD electrons: row y holds the row's pixels
+    // in blocks of 16, each block the 16 values of the first stored component, then of the
+    // second, … (one memory stream for the per-pixel loop).
     ImageF state_;
     // This field's coefficients (begin()): m_ stored components idx_[], each keeping
     // keepEta_ of the excitation, decaying by decay_ and emitting emit_ of its store; nowEta_

@@ -303,6 +303,42 @@ TEST(Temporal, AbcBspAndAutogate) {
     EXPECT_NEAR(gate.info[59].gain_V, gate.info[9].gain_V, 1e-12);
 }
 
+// Optics: the camera equation's off-axis fall-off cos⁴θ, cos θ = f/√(f² + r²) with r the
+// distance from the axis on the cathode, computed here in double; bad pixels count and give 0.
+TEST(Optics, Cos4FalloffEqualsTheCameraEquation) {
+    const CameraParams cam = preset("pulnix-ag5745ef3", {});
+    OpticsStage optics(cam);
+    ImageF in = test::uniform(cam.width, cam.height, 1e10f);
+    in(3, 4) = std::nanf("");
+    in(5, 6) = -1.0f;
+    ImageF rate(cam.width, cam.height);
+    FieldContext ctx;
+    EXPECT_EQ(optics.apply(in.cview(), rate.view(), ctx), 2);
+    EXPECT_EQ(rate(3, 4), 0.0f);
+    EXPECT_EQ(rate(5, 6), 0.0f);
+    const double f_m = cam.focal_length_mm * 1e-3;
+    const double px_m = cam.pitch_x_um * 1e-6 * cam.taper_magnification;
+    const double py_m = cam.pitch_y_um * 1e-6 * cam.taper_magnification;
+    double worst = 0.0, sum = 0.0;
+    for (int y = 0; y < cam.height; ++y) {
+        for (int x = 0; x < cam.width; ++x) {
+            const double dx = (x - 0.5 * (cam.width - 1)) * px_m;
+            const double dy = (y - 0.5 * (cam.height - 1)) * py_m;
+            const double c2 = f_m * f_m / (f_m * f_m + dx * dx + dy * dy);
+            const double want = 1e10 * cam.peRatePerLpe_on_axis() * c2 * c2;
+            sum += static_cast<double>(rate(x, y));
+            if ((x == 3 && y == 4) || (x == 5 && y == 6)) continue;
+            worst = std::max(worst, std::fabs(static_cast<double>(rate(x, y)) / want - 1.0));
+        }
+    }
+    EXPECT_LT(worst, 1e-6);
+    EXPECT_NEAR(ctx.cathodeRate_pe_s, sum, 1e-6 * sum);
+    // The corner of the 768 x 494 cells (11 x 13 um) behind the 1.636x taper, at f = 36 mm:
+    // r = 9.6 mm on the cathode, tan θ = 0.27, cos⁴θ = 0.893.
+    const double corner = static_cast<double>(rate(0, 0) / rate(cam.width / 2, cam.height / 2));
+    EXPECT_NEAR(corner, 0.893, 0.002);
+}
+
 TEST(Ccd, BloomingConservesChargeAndStreaks) {
     std::vector<float> v(20, 10.0f), carry(42);
     v[10] = 500.0f;
