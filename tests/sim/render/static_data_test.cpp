@@ -1,0 +1,84 @@
+// The renderer keeps what depends only on the geometry, the camera and the lamps' placement
+// (G-buffer, lamp factors, specular hits, upsampling weights) from frame to frame. Whatever
+// changes in between — a lamp switched on, the terms asked for, an object taken out and put
+// back, the coarse factor, the camera — the image must be bit for bit the one a fresh renderer
+// gives for the same state.
+
+#include <gtest/gtest.h>
+
+#include <cstring>
+
+#include "sim/render/renderer.h"
+#include "sim/render/setup.h"
+#include "tests/sim/core/test_paths.h"
+
+namespace nvs::render {
+namespace {
+
+struct Frame {
+    ImageF pe{768, 494}, w{768, 494};
+};
+
+bool same(const Frame& a, const Frame& b) {
+    for (int y = 0; y < 494; ++y) {
+        if (std::memcmp(a.pe.view().row(y), b.pe.view().row(y), 768 * sizeof(float)) != 0 ||
+            std::memcmp(a.w.view().row(y), b.w.view().row(y), 768 * sizeof(float)) != 0) {
+            return false;
+        }
+    }
+    return true;
+}
+
+TEST(StaticData, ReusedStateGivesTheImageOfAFreshRenderer) {
+    const auto path = test::sourceDir() / "scenarios/rit/stlamp.toml";
+    auto a = ScenarioRenderer::create(path, 4);
+    auto b = ScenarioRenderer::create(path, 4);
+    const FrameSky sky = a->prepare(0.0);
+    (void)b->prepare(0.0);
+    const int lamp = a->scene().lampIndex("street_lamp");
+    ASSERT_GE(lamp, 0);
+    SerialExecutor ex;
+    Frame fa, fb;
+    for (int f : {1, 4}) {
+        a->renderer().setCoarseFactor(f);
+        b->renderer().setCoarseFactor(f);
+        // Lamp off for a frame, then on: as a renderer that always had it on.
+        a->renderer().setLampOn(lamp, false);
+        a->renderer().render(sky, fa.pe.view(), fa.w.view(), ex);
+        a->renderer().setLampOn(lamp, true);
+        a->renderer().render(sky, fa.pe.view(), fa.w.view(), ex);
+        b->renderer().render(sky, fb.pe.view(), fb.w.view(), ex);
+        EXPECT_TRUE(same(fa, fb)) << "lamp switched on, f = " << f;
+        // Only the Moon's term for a frame, then all.
+        a->renderer().setTerms(kTermMoon);
+        a->renderer().render(sky, fa.pe.view(), fa.w.view(), ex);
+        a->renderer().setTerms(kTermAll);
+        a->renderer().render(sky, fa.pe.view(), fa.w.view(), ex);
+        EXPECT_TRUE(same(fa, fb)) << "terms, f = " << f;
+        // An object out for a frame, then back.
+        a->renderer().setObjectEnabled(0, false);
+        a->renderer().render(sky, fa.pe.view(), fa.w.view(), ex);
+        a->renderer().setObjectEnabled(0, true);
+        a->renderer().render(sky, fa.pe.view(), fa.w.view(), ex);
+        EXPECT_TRUE(same(fa, fb)) << "object, f = " << f;
+        // The camera elsewhere for a frame, then back.
+        scene::CameraPose p = a->scene().camera;
+        p.target_m = p.target_m + Vec3{3.0, 0.0, 0.0};
+        a->renderer().setCamera(p);
+        a->renderer().render(sky, fa.pe.view(), fa.w.view(), ex);
+        a->renderer().setCamera(a->scene().camera);
+        a->renderer().render(sky, fa.pe.view(), fa.w.view(), ex);
+        EXPECT_TRUE(same(fa, fb)) << "camera, f = " << f;
+    }
+    // Coarse factor 2 after 4 and 1: as fresh.
+    a->renderer().setCoarseFactor(2);
+    a->renderer().render(sky, fa.pe.view(), fa.w.view(), ex);
+    auto c = ScenarioRenderer::create(path, 4);
+    (void)c->prepare(0.0);
+    c->renderer().setCoarseFactor(2);
+    c->renderer().render(sky, fb.pe.view(), fb.w.view(), ex);
+    EXPECT_TRUE(same(fa, fb)) << "coarse factor 2";
+}
+
+}  // namespace
+}  // namespace nvs::render
