@@ -1037,19 +1037,21 @@ void buildWeightsRow(const Ctx& c, int y) noexcept {
         const float planeTol = 0.02f + 2e-3f * std::sqrt(dx * dx + dy * dy + dz * dz);
         const float fx = static_cast<float>(xr) * invF;
         const std::int16_t obj = im.gObj[i];
+        // All four tests without early exits (the loads stay in the image; branch-free code
+        // keeps the pipeline full); invalid taps weigh 0, which adds nothing to the sum.
         float wsum = 0.0f;
         for (int t = 0; t < 4; ++t) {
             const int dj = t >> 1, dk = t & 1;
             const std::size_t q = static_cast<std::size_t>(nyRow[dj]) * im.W +
                                   static_cast<std::size_t>(std::min((k + dk) * f, im.W - 1));
-            if (im.gMat[q] != m || im.gObj[q] != obj) continue;
             const float* qn = &im.gNrm[3 * q];
-            if (qn[0] * pn[0] + qn[1] * pn[1] + qn[2] * pn[2] < 0.95f) continue;
             const float* qp = &im.gPos[3 * q];
+            const float cosN = qn[0] * pn[0] + qn[1] * pn[1] + qn[2] * pn[2];
             const float off =
                 (qp[0] - pp[0]) * pn[0] + (qp[1] - pp[1]) * pn[1] + (qp[2] - pp[2]) * pn[2];
-            if (std::abs(off) > planeTol) continue;
-            w[t] = (dk ? fx : 1.0f - fx) * (dj ? fy : 1.0f - fy) + 1e-6f;
+            const bool ok = (im.gMat[q] == m) & (im.gObj[q] == obj) & !(cosN < 0.95f) &
+                            !(std::abs(off) > planeTol);
+            w[t] = ok ? (dk ? fx : 1.0f - fx) * (dj ? fy : 1.0f - fy) + 1e-6f : 0.0f;
             wsum += w[t];
         }
         if (!(wsum > 0.0f)) {
