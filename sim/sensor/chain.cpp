@@ -137,6 +137,14 @@ NVS_ROW_CLONES void gammaFirstAttemptKernel(const float* __restrict v, const int
 // M (half the time of separate planes: the hardware prefetcher keeps up with one stream).
 constexpr int kPhosphorBlock = 16;
 
+// A stored afterglow below kPhosphorFloor_e CCD electrons is stored as zero. Without the
+// floor an unlit pixel's store decays geometrically through the subnormal floats (below
+// 1.2e-38), where each x86 multiply takes a microcode assist (~100x slower): in a dim scene,
+// where most pixels are unlit in any field, that was most of the phosphor's time. With the
+// floor every stored value is 0 or ≥ 1e-10, and its product with a decay factor ≥ 1e-20
+// (PhosphorStage treats smaller ones as 0) is a normal float.
+constexpr float kPhosphorFloor_e = 1e-10f;
+
 template <int M>
 inline __attribute__((always_inline)) void phosphorBlock(const float* __restrict in,
                                                          float* __restrict out, float* __restrict s,
@@ -150,7 +158,8 @@ inline __attribute__((always_inline)) void phosphorBlock(const float* __restrict
         for (int j = 0; j < M; ++j) {
             const float a = s[j * B + x];
             o += a * em[j];
-            s[j * B + x] = a * dc[j] + e * k[j];
+            const float next = a * dc[j] + e * k[j];
+            s[j * B + x] = next < kPhosphorFloor_e ? 0.0f : next;
         }
         out[x] = o;
     }
@@ -525,7 +534,10 @@ void PhosphorStage::begin(const FieldContext& ctx) noexcept {
             continue;
         }
         now += static_cast<float>(weight_[i] * f);
-        const double d = std::exp(-ctx.period_s / tau_s_[i]);
+        // Below 1e-20 a period's decay factor is 0: the store is all emitted in the next
+        // period (kPhosphorFloor_e needs decay factors that are 0 or ≥ 1e-20).
+        double d = std::exp(-ctx.period_s / tau_s_[i]);
+        if (d < 1e-20) d = 0.0;
         idx_[m_] = i;
         keepEta_[m_] = static_cast<float>(weight_[i] * (1.0 - f)) * static_cast<float>(eta_);
         decay_[m_] = static_cast<float>(d);
@@ -533,6 +545,17 @@ void PhosphorStage::begin(const FieldContext& ctx) noexcept {
         ++m_;
     }
     nowEta_ = now * static_cast<float>(eta_);
+}
+
+void PhosphorStage::prefetchRow(int y) const noexcept {
+    // The state rows come from main memory or a distant cache level; asking for one row ahead
+    // while the photocathode and MCP work on the current one hides that wait (the hardware
+    // prefetcher only starts once the phosphor loop runs).
+    if (state_.empty() || y < 0 || y >= state_.height()) return;
+    const char* p = reinterpret_cast<const char*>(state_.row(y));
+    const std::size_t bytes = static_cast<std::size_t>(state_.width()) * sizeof(float);
+    for (std::size_t i = 0; i < bytes; i += 64)
+        __builtin_prefetch(p + i, 1, 2);
 }
 
 void PhosphorStage::applyRow(const float* in, float* out, int w, int y) noexcept {
@@ -1181,7 +1204,9 @@ const FieldInfo& IiccdChain::process(ImageView<const float> lpe) noexcept {
     std::int64_t bad = 0;
     float* rate = rowRate_.get();
     float* sig = rowSig_.get();
+    phosphor_.prefetchRow(0);
     for (int y = 0; y < h; ++y) {
+        phosphor_.prefetchRow(y + 1);
         const float* r = rate_.row(y);
         if (!opticsFirst) {
             double rowSum = 0.0;
