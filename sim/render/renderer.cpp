@@ -767,8 +767,8 @@ void buildStatic(const Ctx& c, int count, const std::size_t* idx, Counts& n) noe
         sk[ns++] = k;
     }
     if (ns == 0) return;
-    RTCIntersectContext ctx;
-    rtcInitIntersectContext(&ctx);
+    // Mirror rays of neighbouring pixels on one surface are as coherent as the primary rays.
+    RTCIntersectContext ctx = coherentContext();
     rtcIntersect16(valid, im.scene, &ctx, &rh);
     n.secondary += static_cast<std::uint64_t>(ns);
     Vec3 q[kPacket], nq[kPacket];
