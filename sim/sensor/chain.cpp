@@ -547,17 +547,6 @@ void PhosphorStage::begin(const FieldContext& ctx) noexcept {
     nowEta_ = now * static_cast<float>(eta_);
 }
 
-void PhosphorStage::prefetchRow(int y) const noexcept {
-    // The state rows come from main memory or a distant cache level; asking for one row ahead
-    // while the photocathode and MCP work on the current one hides that wait (the hardware
-    // prefetcher only starts once the phosphor loop runs).
-    if (state_.empty() || y < 0 || y >= state_.height()) return;
-    const char* p = reinterpret_cast<const char*>(state_.row(y));
-    const std::size_t bytes = static_cast<std::size_t>(state_.width()) * sizeof(float);
-    for (std::size_t i = 0; i < bytes; i += 64)
-        __builtin_prefetch(p + i, 1, 2);
-}
-
 void PhosphorStage::applyRow(const float* in, float* out, int w, int y) noexcept {
     float* st = state_.empty() ? nullptr : state_.row(y);
     switch (m_) {
@@ -1204,9 +1193,7 @@ const FieldInfo& IiccdChain::process(ImageView<const float> lpe) noexcept {
     std::int64_t bad = 0;
     float* rate = rowRate_.get();
     float* sig = rowSig_.get();
-    phosphor_.prefetchRow(0);
     for (int y = 0; y < h; ++y) {
-        phosphor_.prefetchRow(y + 1);
         const float* r = rate_.row(y);
         if (!opticsFirst) {
             double rowSum = 0.0;

@@ -171,9 +171,6 @@ class PhosphorStage {
     // MCP electrons `in` into CCD electrons `out` (distinct rows) and updates the state.
     void begin(const FieldContext& ctx) noexcept;
     void applyRow(const float* in, float* out, int w, int y) noexcept;
-    // Asks the memory system for row y's state ahead of applyRow(y) (a hint; no effect on
-    // the result).
-    void prefetchRow(int y) const noexcept;
     // Fraction of an excitation spread over a gate of length g at the start of a period T
     // that component τ emits within that period (docs/sensor.md, step 6).
     static double inPeriodFraction(double tau_s, double gate_s, double period_s);
