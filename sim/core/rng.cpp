@@ -586,12 +586,14 @@ NVS_BULK_CLONES void poissonRow(const float* __restrict mean, const std::uint32_
     // Pass 2: the listed pixels, exactly. Neighbours often share a mean (flat regions): the
     // inversion's P(N ≥ 1) and P(N = 1) are kept for the last mean.
     // Below a mean of 1 most of these are settled first without exp: the alternating series
-    //   S(0) = P(N ≥ 1) = m − m²/2 + m³/6 − …,   S(1) = P(N ≥ 2) = m²/2 − m³/3 + m⁴/8 − …
-    // have terms of falling size for m < 1, so m − m²/2 ≤ S(0) ≤ m − m²/2 + m³/6 and
-    // m²/2 − m³/3 ≤ S(1) ≤ m²/2. A u more than kSqueeze (far above the rounding of either
-    // side) from the bounds is on the same side of the computed S(0) and S(1) as of the
-    // bounds, so k = 0 (u ≥ S(0)) and k = 1 (S(1) ≤ u < S(0)) come out exactly as the
-    // inversion would give them; the rest (k ≥ 2, or u near a bound) go on to it.
+    //   S(0) = P(N ≥ 1) = m − m²/2 + m³/6 − …,   S(1) = P(N ≥ 2) = m²/2 − m³/3 + m⁴/8 − …,
+    //   S(2) = P(N ≥ 3) = m³/6 − m⁴/8 + m⁵/20 − …
+    // have terms of falling size for m < 1, so m − m²/2 ≤ S(0) ≤ m − m²/2 + m³/6,
+    // m²/2 − m³/3 ≤ S(1) ≤ m²/2 and S(2) ≤ m³/6. A u more than kSqueeze (far above the
+    // rounding of either side) from the bounds is on the same side of the computed S(k) as
+    // of the bounds, so k = 0 (u ≥ S(0)), 1 (S(1) ≤ u < S(0)) and 2 (S(2) ≤ u < S(1)) come
+    // out exactly as the inversion would give them; the rest (k ≥ 3, or u near a bound) go
+    // on to it.
     constexpr double kSqueeze = 1e-12;
     float lastMean = -1.0f;
     double s0 = 0.0, p1 = 0.0;
@@ -631,6 +633,8 @@ NVS_BULK_CLONES void poissonRow(const float* __restrict mean, const std::uint32_
                 const double lo0 = md - 0.5 * m2;
                 const double hi0 = lo0 + m2 * md * (1.0 / 6.0);
                 const double hi1 = 0.5 * m2;
+                const double lo1 = hi1 - m2 * md * (1.0 / 3.0);
+                const double hi2 = m2 * md * (1.0 / 6.0);
                 const double u = uniformFromWord(words[i]);
                 if (u >= hi0 + kSqueeze) {
                     out[i] = 0.0f;
@@ -638,6 +642,10 @@ NVS_BULK_CLONES void poissonRow(const float* __restrict mean, const std::uint32_
                 }
                 if (u < lo0 - kSqueeze && u >= hi1 + kSqueeze) {
                     out[i] = 1.0f;
+                    continue;
+                }
+                if (u < lo1 - kSqueeze && u >= hi2 + kSqueeze) {
+                    out[i] = 2.0f;
                     continue;
                 }
             }

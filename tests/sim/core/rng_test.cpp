@@ -427,7 +427,7 @@ TEST(PixelRng, PoissonRowMatchesPmfAndSingleDraws) {
     EXPECT_EQ(o0[2], 0.0f);
 }
 
-// Below a mean of 1 poissonRow settles most k = 0 and k = 1 by series bounds, without exp:
+// Below a mean of 1 poissonRow settles most k = 0, 1 and 2 by series bounds, without exp:
 // every draw equals the inversion's, over means spread across (0, 1) and words near the
 // bounds included (1.6 million draws).
 TEST(PixelRng, PoissonRowSqueezeEqualsInversion) {
@@ -435,7 +435,7 @@ TEST(PixelRng, PoissonRowSqueezeEqualsInversion) {
     std::vector<std::uint32_t> words(static_cast<std::size_t>(w));
     std::vector<float> mean(static_cast<std::size_t>(w)), out(static_cast<std::size_t>(w));
     const PixelRng rng(11, RngStream::Photocathode, 3);
-    long ones = 0;
+    long ones = 0, twos = 0;
     for (int y = 0; y < rows; ++y) {
         for (int x = 0; x < w; ++x)  // means from 1e-4 to 1, a different set on each row
             mean[static_cast<std::size_t>(x)] =
@@ -450,9 +450,11 @@ TEST(PixelRng, PoissonRowSqueezeEqualsInversion) {
                       poissonFromWord(static_cast<double>(mean[i]), words[i], more))
                 << x << " " << y;
             ones += out[i] == 1.0f ? 1 : 0;
+            twos += out[i] == 2.0f ? 1 : 0;
         }
     }
-    EXPECT_GT(ones, 10000);  // the k = 1 branch was taken
+    EXPECT_GT(ones, 10000);  // the k = 1 and k = 2 branches were taken
+    EXPECT_GT(twos, 1000);
 }
 
 TEST(PixelRng, GammaFromWordsMomentsAndSummedShape) {
