@@ -524,9 +524,21 @@ NVS_BULK_CLONES void normalsFromWords(const std::uint32_t* __restrict words, flo
     // Pass 2: the tail words (q < 0.0034, w ≥ 5) again, by the tail branch. w ≥ 5 means
     // q(2 − q) ≤ e⁻⁵; testing the word against a threshold a little above that keeps the
     // branch choice identical to normalFromWord's.
+    // Chunks without a tail word (95 %) are passed over after one vector test.
     constexpr std::uint32_t kTailBits = 7400000u;  // q = 0.00345 > q(w = 5) = 0.003375
-    for (i = 0; i < n; ++i) {
-        if ((words[i] & 0x7FFFFFFFu) < kTailBits) z[i] = normalFromWord(words[i]);
+    for (i = 0; i < n; i += kChunk) {
+        const int m = std::min(kChunk, n - i);
+        int tail = 0;
+        if (m == kChunk) {
+            for (int j = 0; j < kChunk; ++j)
+                tail |= static_cast<int>((words[i + j] & 0x7FFFFFFFu) < kTailBits);
+        } else {
+            tail = 1;
+        }
+        if (!tail) continue;
+        for (int j = 0; j < m; ++j) {
+            if ((words[i + j] & 0x7FFFFFFFu) < kTailBits) z[i + j] = normalFromWord(words[i + j]);
+        }
     }
 }
 
