@@ -140,10 +140,23 @@ int runCli(int argc, const char* const* argv) {
     auto* benchCmd = app.add_subcommand("bench", "Run the performance benchmarks.");
     benchCmd->add_option("--json", bench.json, "Write results as JSON to OUT");
 
+    // CLI11 reports an unknown first word only as "a subcommand is required": name it instead.
+    if (argc > 1 && argv[1][0] != '-') {
+        bool known = false;
+        for (const CLI::App* sub : app.get_subcommands({}))
+            known = known || sub->get_name() == argv[1];
+        if (!known) {
+            std::fprintf(stderr, "nvstim: unknown subcommand '%s' (see --help)\n", argv[1]);
+            return kExitUsage;
+        }
+    }
     try {
         app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {
-        return app.exit(e) == 0 ? kExitOk : kExitUsage;
+        if (e.get_exit_code() == 0) return app.exit(e) == 0 ? kExitOk : kExitUsage;  // --help
+        // One line, naming the argument (CLI11's own exit() adds a second line).
+        std::fprintf(stderr, "nvstim: %s (see --help)\n", e.what());
+        return kExitUsage;
     }
 
     try {

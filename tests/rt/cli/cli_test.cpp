@@ -58,18 +58,25 @@ TEST(Cli, SubcommandHelpDocumentsContractOptions) {
 }
 
 TEST(Cli, BadUsageExitsTwoWithOneClearLine) {
-    Result r = runNvstim("");
-    EXPECT_EQ(r.status, cli::kExitUsage);
-    r = runNvstim("frobnicate");
-    EXPECT_EQ(r.status, cli::kExitUsage);
-    r = runNvstim("ephem --lat 95 --lon 0 --utc 2000-01-01T00:00:00Z");
-    EXPECT_EQ(r.status, cli::kExitUsage);
-    EXPECT_NE(r.out.find("--lat"), std::string::npos) << r.out;
-    r = runNvstim("run scenario.toml --clock sundial");
-    EXPECT_EQ(r.status, cli::kExitUsage);
-    EXPECT_NE(r.out.find("sundial"), std::string::npos) << r.out;
-    r = runNvstim("replay dir --check --bless");
-    EXPECT_EQ(r.status, cli::kExitUsage);
+    // Each bad invocation: exit 2 and exactly one line of output, naming what was wrong.
+    const auto oneLine = [](const Result& r) {
+        return !r.out.empty() && r.out.find('\n') == r.out.size() - 1;
+    };
+    struct Case {
+        const char* args;
+        const char* named;
+    };
+    for (const Case& c : {Case{"", "subcommand"}, Case{"frobnicate", "frobnicate"},
+                          Case{"ephem --lat 95 --lon 0 --utc 2000-01-01T00:00:00Z", "--lat"},
+                          Case{"ephem --lat 43 --lon 0 --utc 2000-13-01T00:00", "--utc"},
+                          Case{"ephem --lat 43 --lon 0 --utc 3000-01-01T00:00:00Z", "3000"},
+                          Case{"run scenario.toml --clock sundial", "sundial"},
+                          Case{"replay dir --check --bless", "--bless"}}) {
+        const Result r = runNvstim(c.args);
+        EXPECT_EQ(r.status, cli::kExitUsage) << c.args;
+        EXPECT_TRUE(oneLine(r)) << c.args << "\n" << r.out;
+        EXPECT_NE(r.out.find(c.named), std::string::npos) << c.args << "\n" << r.out;
+    }
 }
 
 TEST(Cli, VersionPrintsName) {
