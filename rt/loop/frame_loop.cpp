@@ -1,6 +1,7 @@
 #include "rt/loop/frame_loop.h"
 
 #include <algorithm>
+#include <array>
 #include <cerrno>
 #include <cmath>
 #include <cstring>
@@ -233,6 +234,18 @@ bool FrameLoop::waitTrigger(std::int64_t& edge_ns) noexcept {
     }
 }
 
+std::int64_t FrameLoop::expectedFrame_ns() const noexcept {
+    // The median of the last few frame times (a single slow frame does not move it), with a
+    // margin for the output thread's wake-up and the sinks. 0 until the first frame is done.
+    if (recentCount_ == 0) return 0;
+    std::array<std::int64_t, kRecentFrames> t = recentFrame_ns_;
+    for (int i = 1; i < recentCount_; ++i)  // insertion sort of at most kRecentFrames values
+        for (int j = i; j > 0 && t[j - 1] > t[j]; --j)
+            std::swap(t[j - 1], t[j]);
+    const std::int64_t median_ns = t[recentCount_ / 2];
+    return median_ns + median_ns / 10 + 500'000;
+}
+
 void FrameLoop::renderThread(bool realtime) {
     std::string msg;
     applyThreadSpec(kThreadRender, realtime, msg);
@@ -245,7 +258,15 @@ void FrameLoop::renderThread(bool realtime) {
         if (config_.frames >= 0 && r >= config_.frames) break;
         if (wall) {
             // A frame whose deadline has passed is worth nothing: skip to the next one due.
-            const std::int64_t due = outputTick_.load(std::memory_order_acquire);
+            // And when frames take longer than a period, the next one due cannot be on time
+            // either: aim at the first tick a frame started now can still meet, given how long
+            // frames take now (so a slow scene shows fewer fresh frames, each at its own tick,
+            // instead of none).
+            std::int64_t due = outputTick_.load(std::memory_order_acquire);
+            const std::int64_t expected_ns = expectedFrame_ns();
+            if (expected_ns > 0) {
+                due = std::max(due, wall_.tickAt(monotonicNow_ns() + expected_ns) + 1);
+            }
             if (r < due) {
                 renderDropped_ += due - r;
                 live_.dropped.fetch_add(due - r, std::memory_order_relaxed);
@@ -275,7 +296,11 @@ void FrameLoop::renderThread(bool realtime) {
             const double now_s =
                 wall || trig ? wall_.runTime_s(t0_ns) : (r > 0 ? sim_.tickTime_s(r - 1) : 0.0);
             produce(slots_[slot], r, t_k, now_s, edge_ns);
-            frameTime_.add(static_cast<double>(monotonicNow_ns() - t0_ns) * 1e-9);
+            const std::int64_t took_ns = monotonicNow_ns() - t0_ns;
+            frameTime_.add(static_cast<double>(took_ns) * 1e-9);
+            recentFrame_ns_[recentNext_] = took_ns;
+            recentNext_ = (recentNext_ + 1) % kRecentFrames;
+            recentCount_ = std::min(recentCount_ + 1, kRecentFrames);
         }
         ++framesRendered_;
         ready_.push(slot);

@@ -50,6 +50,7 @@
 // No edge for trigger timeout (default three periods) marks the trigger stalled in the live
 // counters until the next edge. Latency edge → frame written to every sink is a histogram.
 
+#include <array>
 #include <atomic>
 #include <cstdint>
 #include <string>
@@ -227,6 +228,12 @@ class FrameLoop {
     DurationHistogram frameTime_;
     std::int64_t framesRendered_ = 0;
     std::int64_t renderDropped_ = 0;
+    // Wall clock: the last frame times, to aim each frame at a tick it can meet.
+    static constexpr int kRecentFrames = 5;
+    std::array<std::int64_t, kRecentFrames> recentFrame_ns_{};
+    int recentNext_ = 0;
+    int recentCount_ = 0;
+    std::int64_t expectedFrame_ns() const noexcept;
     std::int64_t staleFrames_ = 0;
     // Trigger clock (render thread, except trigger_.latency: output thread).
     TriggerStats trigger_;

@@ -199,6 +199,63 @@ TEST(FrameLoop, WallClockHoldsCadenceWhenAFrameIsLate) {
     }
 }
 
+// A render stage slower than a period on every frame (a heavy scene at a high rate).
+class AlwaysSlowRender final : public RenderStage {
+  public:
+    explicit AlwaysSlowRender(double delay_s) : delay_(delay_s) {}
+    void render(const FrameRequest& req, ImageView<float> r, FrameMeta&) noexcept override {
+        r.fill(static_cast<float>(req.frame));
+        std::this_thread::sleep_for(std::chrono::duration<double>(delay_));
+    }
+
+  private:
+    double delay_;
+};
+
+// Every frame takes 1.4 periods: the loop must still emit fresh frames, each at its own tick
+// (rendered for the tick it is shown at), fill the other ticks by policy, and keep its cadence.
+TEST(FrameLoop, WallClockAimsEachFrameAtATickItCanMeetWhenEveryFrameIsSlow) {
+    for (LatePolicy policy : {LatePolicy::Repeat, LatePolicy::Drop}) {
+        LoopConfig cfg;
+        cfg.rate = FrameRate{100, 1};
+        cfg.clock = ClockKind::Wall;
+        cfg.frames = 100;
+        cfg.width = 16;
+        cfg.height = 16;
+        cfg.latePolicy = policy;
+        HeldPlatform platform(PlatformState{});
+        AlwaysSlowRender render(0.014);
+        LinearCamera camera(1000.0, 16);
+        RecordingSink sink;
+        FrameLoop loop(cfg, platform, render, camera, {&sink});
+        std::vector<std::string> msgs;
+        loop.start(msgs);
+        loop.join();
+        const RunCounters& c = loop.stats().counters;
+        // At most one frame per 14 ms can be made: about 100·10/14 ≈ 71 in 1 s; most of them
+        // (timing noise on a loaded machine aside) must reach their tick.
+        EXPECT_GE(c.framesEmitted, 40) << "policy " << static_cast<int>(policy);
+        EXPECT_LE(c.framesEmitted, 75);
+        int fresh = 0;
+        for (int i = 0; i < sink.n; ++i) {
+            if (!sink.repeat[i]) {
+                EXPECT_EQ(sink.frame[i], sink.tick[i]) << i;
+                ++fresh;
+            }
+            const double late_s = static_cast<double>(sink.mono[i] - sink.mono[0]) * 1e-9 -
+                                  static_cast<double>(sink.tick[i] - sink.tick[0]) * 0.01;
+            EXPECT_LT(late_s, 0.01) << i;
+        }
+        EXPECT_EQ(fresh, c.framesEmitted);
+        if (policy == LatePolicy::Repeat) {
+            // Every tick after the first fresh frame shows something.
+            EXPECT_GE(sink.n, 100 - sink.tick[0] - c.skippedTicks - 1);
+        } else {
+            EXPECT_EQ(c.repeats, 0);
+        }
+    }
+}
+
 // The first column of a row at the target's count (the target is the only full-scale pixel run
 // in the pose strip when the heading is 0), or −1.
 int targetColumn(const RecordingSink& sink, int frame, int y, int width, std::uint16_t full) {
