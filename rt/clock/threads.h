@@ -19,14 +19,15 @@ enum ThreadId : int {
     kThreadRender = 1,
     kThreadOutput = 2,
     kThreadGpio = 3,
-    kThreadCount = 4
+    kThreadCamera = 4,
+    kThreadCount = 5
 };
 
 inline constexpr ThreadSpec kThreadTable[kThreadCount] = {
     {"nvs-main", "setup, signals, live status once a second, shutdown and statistics", 0, -1},
     {"nvs-render",
-     "frame k+1 (trigger clock: after its edge): poll telemetry, pose at each exposure's "
-     "mid-time, render and camera stages per frame or field, schedule the exposures",
+     "frame k+2 (trigger clock: after its edge): poll telemetry, pose at each exposure's "
+     "mid-time, render stage per frame or field",
      70, 0},
     {"nvs-output",
      "frame k: sleep to its absolute deadline (trigger clock: until ready), emit to every sink, "
@@ -36,6 +37,10 @@ inline constexpr ThreadSpec kThreadTable[kThreadCount] = {
      "gpio: output only: gate pulse per exposure, raised at the exposure start on the loop's "
      "timeline, lowered gate_s later",
      85, 1},
+    {"nvs-camera",
+     "frame k+1: camera stage per frame or field (state carried in order), weave, schedule "
+     "the exposures",
+     75, 1},
 };
 
 // Names the calling thread after its table entry and, when `realtime`, applies its priority

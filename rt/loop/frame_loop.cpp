@@ -31,12 +31,10 @@ FrameLoop::FrameLoop(const LoopConfig& config, PlatformSource& platform, RenderS
     for (int i = 0; i < kSlots; ++i) {
         slots_[i].radiance = ImageF(config.width, config.height);
         slots_[i].counts = ImageU16(config.width, config.height);
+        if (fields_ == 2) slots_[i].fieldRadiance = ImageF(config.width, config.height);
         free_.push(i);
     }
-    if (fields_ == 2) {
-        fieldRadiance_ = ImageF(config.width, config.height);
-        fieldCounts_ = ImageU16(config.width, config.height);
-    }
+    if (fields_ == 2) fieldCounts_ = ImageU16(config.width, config.height);
     for (FrameSink* sink : sinks_) {
         if (auto* o = dynamic_cast<ExposureObserver*>(sink)) observers_.push_back(o);
     }
@@ -67,15 +65,20 @@ void FrameLoop::start(std::vector<std::string>& messages) {
     triggerRef_ns_ = now_ns;
     const bool rt = config_.realtime;
     renderThread_ = std::thread([this, rt] { renderThread(rt); });
+    cameraThread_ = std::thread([this, rt] { cameraThread(rt); });
     outputThread_ = std::thread([this, rt] { outputThread(rt); });
     // Give the threads a moment to report refused real-time settings.
     if (rt) {
-        for (int i = 0; i < 100 && (renderMessage_.empty() || outputMessage_.empty()); ++i)
+        for (int i = 0; i < 100 && (renderMessage_.empty() || cameraMessage_.empty() ||
+                                    outputMessage_.empty());
+             ++i)
             std::this_thread::sleep_for(std::chrono::milliseconds(1));
     }
-    if (!renderMessage_.empty() && renderMessage_ != "ok") messages.push_back(renderMessage_);
-    if (!outputMessage_.empty() && outputMessage_ != "ok" && outputMessage_ != renderMessage_) {
-        messages.push_back(outputMessage_);
+    for (const std::string* m : {&renderMessage_, &cameraMessage_, &outputMessage_}) {
+        if (!m->empty() && *m != "ok" &&
+            std::find(messages.begin(), messages.end(), *m) == messages.end()) {
+            messages.push_back(*m);
+        }
     }
 }
 
@@ -85,10 +88,13 @@ void FrameLoop::requestStop() noexcept {
     readySeq_.notify_all();
     freeSeq_.fetch_add(1, std::memory_order_release);
     freeSeq_.notify_all();
+    renderedSeq_.fetch_add(1, std::memory_order_release);
+    renderedSeq_.notify_all();
 }
 
 void FrameLoop::join() {
     if (renderThread_.joinable()) renderThread_.join();
+    if (cameraThread_.joinable()) cameraThread_.join();
     if (outputThread_.joinable()) outputThread_.join();
     stats_.frameTime = frameTime_;
     stats_.counters.framesRendered = framesRendered_;
@@ -99,28 +105,36 @@ void FrameLoop::join() {
 
 // ---- render thread ---------------------------------------------------------------------------
 
-void FrameLoop::produce(Slot& s, std::int64_t r, double t_k, double now_s,
-                        std::int64_t edge_ns) noexcept {
-    const bool realClock = config_.clock != ClockKind::Sim;
-    bool stale = false;
+void FrameLoop::renderFrame(Slot& s, std::int64_t r, double t_k, double now_s) noexcept {
     for (int f = 0; f < fields_; ++f) {
         // Field f of an interlaced frame: t_f = t_k − (1 − f)·T_f; progressive: t_k.
         const double t_f = t_k - static_cast<double>(fields_ - 1 - f) * field_s_;
-        // Field 0 (or the whole frame) straight into the slot; field 1 into the field buffer.
-        ImageView<float> radiance = f == 0 ? s.radiance.view() : fieldRadiance_.view();
-        ImageView<std::uint16_t> counts = f == 0 ? s.counts.view() : fieldCounts_.view();
-        FrameMeta& m = f == 0 ? s.meta : fieldMeta_;
-        FrameRequest req;
+        // Field 0 (or the whole frame) into the slot's image; field 1 into its field buffer.
+        ImageView<float> radiance = f == 0 ? s.radiance.view() : s.fieldRadiance.view();
+        FrameMeta& m = f == 0 ? s.meta : s.fieldMeta;
+        FrameRequest& req = s.request[f];
+        req = FrameRequest{};
         req.frame = r;
         req.t_sample_s = t_f;
         req.exposure_s = exposure_s_;
         platform_.sample(t_f, now_s, req.platform);
         m.truthCount = 0;
         render_.render(req, radiance, m);
-        camera_.expose(req,
-                       ImageView<const float>(radiance.row(0), radiance.width(), radiance.height(),
-                                              radiance.stride_px()),
-                       counts, m);
+    }
+    s.frame = r;
+}
+
+void FrameLoop::exposeFrame(Slot& s) noexcept {
+    const bool realClock = config_.clock != ClockKind::Sim;
+    const std::int64_t r = s.frame;
+    bool stale = false;
+    for (int f = 0; f < fields_; ++f) {
+        const FrameRequest& req = s.request[f];
+        const double t_f = req.t_sample_s;
+        const ImageF& radiance = f == 0 ? s.radiance : s.fieldRadiance;
+        ImageView<std::uint16_t> counts = f == 0 ? s.counts.view() : fieldCounts_.view();
+        FrameMeta& m = f == 0 ? s.meta : s.fieldMeta;
+        camera_.expose(req, radiance.cview(), counts, m);
         m.frame = r;
         m.t_sample_s = t_f;
         m.exposure_s = exposure_s_;
@@ -136,7 +150,7 @@ void FrameLoop::produce(Slot& s, std::int64_t r, double t_k, double now_s,
         s.meta.field[f] = FieldMeta{t_f, m.platform.gain_V, m.platform.gate_s};
         stale = stale || req.platform.stale;
         // The exposure on the loop's timeline, for the gate pulse: it is scheduled now, while
-        // the frame is rendered ahead of its emission.
+        // the frame is made ahead of its emission.
         if (!observers_.empty()) {
             ExposureWindow w;
             w.frame = r;
@@ -157,18 +171,17 @@ void FrameLoop::produce(Slot& s, std::int64_t r, double t_k, double now_s,
         const std::size_t cntBytes =
             static_cast<std::size_t>(config_.width) * sizeof(std::uint16_t);
         for (int y = 1; y < config_.height; y += 2) {
-            std::memcpy(s.radiance.view().row(y), fieldRadiance_.cview().row(y), radBytes);
+            std::memcpy(s.radiance.view().row(y), s.fieldRadiance.cview().row(y), radBytes);
             std::memcpy(s.counts.view().row(y), fieldCounts_.cview().row(y), cntBytes);
         }
-        s.meta.t_sample_s = fieldMeta_.t_sample_s;
-        s.meta.platform = fieldMeta_.platform;
-        s.meta.truthCount = fieldMeta_.truthCount;
-        for (int i = 0; i < fieldMeta_.truthCount && i < kMaxTruthBoxes; ++i)
-            s.meta.truth[i] = fieldMeta_.truth[i];
+        s.meta.t_sample_s = s.fieldMeta.t_sample_s;
+        s.meta.platform = s.fieldMeta.platform;
+        s.meta.truthCount = s.fieldMeta.truthCount;
+        for (int i = 0; i < s.fieldMeta.truthCount && i < kMaxTruthBoxes; ++i)
+            s.meta.truth[i] = s.fieldMeta.truth[i];
     }
     s.meta.fieldCount = fields_;
-    s.meta.triggerEdge_ns = edge_ns;
-    s.frame = r;
+    s.meta.triggerEdge_ns = s.edge_ns;
     if (stale) ++staleFrames_;
     live_.stale.store(stale, std::memory_order_relaxed);
 }
@@ -234,16 +247,18 @@ bool FrameLoop::waitTrigger(std::int64_t& edge_ns) noexcept {
     }
 }
 
-std::int64_t FrameLoop::expectedFrame_ns() const noexcept {
-    // The median of the last few frame times (a single slow frame does not move it), with a
-    // margin for the output thread's wake-up and the sinks. 0 until the first frame is done.
-    if (recentCount_ == 0) return 0;
+void FrameLoop::noteFrameLatency(std::int64_t took_ns) noexcept {
+    // The median of the last few frame latencies (a single slow frame does not move it), with
+    // a margin for the output thread's wake-up and the sinks.
+    recentFrame_ns_[recentNext_] = took_ns;
+    recentNext_ = (recentNext_ + 1) % kRecentFrames;
+    recentCount_ = std::min(recentCount_ + 1, kRecentFrames);
     std::array<std::int64_t, kRecentFrames> t = recentFrame_ns_;
     for (int i = 1; i < recentCount_; ++i)  // insertion sort of at most kRecentFrames values
         for (int j = i; j > 0 && t[j - 1] > t[j]; --j)
             std::swap(t[j - 1], t[j]);
     const std::int64_t median_ns = t[recentCount_ / 2];
-    return median_ns + median_ns / 10 + 500'000;
+    expectedFrame_ns_.store(median_ns + median_ns / 10 + 500'000, std::memory_order_relaxed);
 }
 
 void FrameLoop::renderThread(bool realtime) {
@@ -263,7 +278,7 @@ void FrameLoop::renderThread(bool realtime) {
             // frames take now (so a slow scene shows fewer fresh frames, each at its own tick,
             // instead of none).
             std::int64_t due = outputTick_.load(std::memory_order_acquire);
-            const std::int64_t expected_ns = expectedFrame_ns();
+            const std::int64_t expected_ns = expectedFrame_ns_.load(std::memory_order_relaxed);
             if (expected_ns > 0) {
                 due = std::max(due, wall_.tickAt(monotonicNow_ns() + expected_ns) + 1);
             }
@@ -295,21 +310,54 @@ void FrameLoop::renderThread(bool realtime) {
             // instant this frame's render nominally starts, one period before its deadline.
             const double now_s =
                 wall || trig ? wall_.runTime_s(t0_ns) : (r > 0 ? sim_.tickTime_s(r - 1) : 0.0);
-            produce(slots_[slot], r, t_k, now_s, edge_ns);
-            const std::int64_t took_ns = monotonicNow_ns() - t0_ns;
-            frameTime_.add(static_cast<double>(took_ns) * 1e-9);
-            recentFrame_ns_[recentNext_] = took_ns;
-            recentNext_ = (recentNext_ + 1) % kRecentFrames;
-            recentCount_ = std::min(recentCount_ + 1, kRecentFrames);
+            Slot& sl = slots_[slot];
+            sl.start_ns = t0_ns;
+            sl.edge_ns = edge_ns;
+            renderFrame(sl, r, t_k, now_s);
         }
+        rendered_.push(slot);
+        renderedSeq_.fetch_add(1, std::memory_order_release);
+        renderedSeq_.notify_all();
+        ++r;
+    }
+done:
+    renderFinished_.store(true, std::memory_order_release);
+    renderedSeq_.fetch_add(1, std::memory_order_release);
+    renderedSeq_.notify_all();
+}
+
+// ---- camera thread ---------------------------------------------------------------------------
+
+void FrameLoop::cameraThread(bool realtime) {
+    std::string msg;
+    applyThreadSpec(kThreadCamera, realtime, msg);
+    cameraMessage_ = msg.empty() ? "ok" : msg;
+    for (;;) {
+        int slot = -1;
+        bool got = false;
+        for (;;) {
+            const std::uint32_t seq = renderedSeq_.load(std::memory_order_acquire);
+            if (rendered_.pop(slot)) {
+                got = true;
+                break;
+            }
+            // Frames rendered before the render thread stopped are still exposed.
+            if (renderFinished_.load(std::memory_order_acquire) && !rendered_.peek(slot)) break;
+            if (stop_.load(std::memory_order_acquire)) break;
+            renderedSeq_.wait(seq, std::memory_order_acquire);
+        }
+        if (!got) break;
+        Slot& sl = slots_[slot];
+        exposeFrame(sl);
+        const std::int64_t took_ns = monotonicNow_ns() - sl.start_ns;
+        frameTime_.add(static_cast<double>(took_ns) * 1e-9);
+        noteFrameLatency(took_ns);
         ++framesRendered_;
         ready_.push(slot);
         readySeq_.fetch_add(1, std::memory_order_release);
         readySeq_.notify_all();
-        ++r;
     }
-done:
-    renderDone_.store(true, std::memory_order_release);
+    framesDone_.store(true, std::memory_order_release);
     readySeq_.fetch_add(1, std::memory_order_release);
     readySeq_.notify_all();
 }
@@ -321,7 +369,7 @@ bool FrameLoop::waitReady(std::int64_t k) noexcept {
         const std::uint32_t seq = readySeq_.load(std::memory_order_acquire);
         int slot = -1;
         if (ready_.peek(slot) && slots_[slot].frame >= k) return true;
-        if (renderDone_.load(std::memory_order_acquire)) {
+        if (framesDone_.load(std::memory_order_acquire)) {
             return ready_.peek(slot);  // frames handed over before the end
         }
         if (stop_.load(std::memory_order_acquire)) return false;
@@ -437,8 +485,8 @@ void FrameLoop::outputThread(bool realtime) {
             emit(held, k, false, now_ns);
             ++stats_.counters.framesEmitted;
             live_.emitted.fetch_add(1, std::memory_order_relaxed);
-        } else if (!wall && renderDone_.load(std::memory_order_acquire)) {
-            break;  // the render thread stopped early (stop requested)
+        } else if (!wall && framesDone_.load(std::memory_order_acquire)) {
+            break;  // the render and camera threads stopped early (stop requested)
         } else {
             ++stats_.counters.deadlineMisses;
             live_.misses.fetch_add(1, std::memory_order_relaxed);

@@ -1,16 +1,19 @@
 #pragma once
-// The frame loop (DESIGN §5): two pipelined threads (rt/clock/threads.h).
+// The frame loop (DESIGN §5): three pipelined threads (rt/clock/threads.h).
 //
-//   render thread   frame k+1: (trigger clock: wait for its edge) telemetry → pose at each
-//                   exposure's mid-time, render stage, camera stage, into a free slot; tells the
-//                   exposure observers (GPIO gate pulse) when each exposure is; hands the slot
-//                   to the output thread.
+//   render thread   frame k+2: (trigger clock: wait for its edge) telemetry → pose at each
+//                   exposure's mid-time, render stage, into a free slot; hands the slot on.
+//   camera thread   frame k+1: camera stage per exposure, in frame order (its state — phosphor,
+//                   AGC — runs on from frame to frame); tells the exposure observers (GPIO gate
+//                   pulse) when each exposure is; hands the slot to the output thread.
 //   output thread   tick k: sleep to deadline k (wall clock) or wait for frame k (sim and
 //                   trigger clocks), emit frame k to every sink, hand the previous slot back.
 //
-// Three preallocated slots circulate through two single-producer/single-consumer rings
-// (free → render → ready → output → free); the output thread keeps the slot it emitted last
-// so that it can repeat it. Nothing is allocated and nothing throws after start().
+// Render and camera run at once on different frames, so a frame costs the longer of the two
+// in throughput and their sum in latency. Five preallocated slots circulate through three
+// single-producer/single-consumer rings (free → render → rendered → camera → ready → output →
+// free); the output thread keeps the slot it emitted last so that it can repeat it. Nothing is
+// allocated and nothing throws after start().
 //
 // Timing. Frame k samples the world at t_sample_s = t_k = k·dt (its exposure's mid-time) and
 // is emitted at deadline k, which is t_k on the run clock: the equipment under test sees the
@@ -18,7 +21,8 @@
 // Late frames (wall clock): when frame k is not ready at deadline k, the tick is a deadline
 // miss and, by policy, the previous frame is repeated or nothing is sent. Deadlines are
 // absolute (k·dt from the start), so a late frame never shifts later ones: the loop holds its
-// cadence. The render thread skips frames whose deadline has already passed; when the output
+// cadence. The render thread skips frames whose deadline has already passed, and aims each frame
+// at the first tick it can meet given the latency of the last few frames; when the output
 // thread itself wakes a whole period late, the lost ticks are counted and skipped.
 // Under the sim clock nothing is ever late: the output waits for every frame, so two runs are
 // identical bit for bit.
@@ -32,9 +36,9 @@
 //                 T_f = dt/2, each rendered and exposed at its own time,
 //                     field f ∈ {0, 1}:  t_f = t_k − (1 − f)·T_f   (default e = T_f),
 //                 field 0 on the even rows, field 1 on the odd rows (as sim/sensor's video stage
-//                 numbers fields). The render and camera stages are called once per field, one
-//                 after the other in the same slot: field 0 straight into the slot, field 1 into
-//                 one preallocated field buffer whose odd rows are then copied over. The loop
+//                 numbers fields). The render and camera stages are called once per field, in
+//                 field order, in the same slot: field 0 straight into the slot, field 1 into
+//                 the slot's field buffer whose odd rows are then copied over. The loop
 //                 itself stays one tick per output frame, so pacing, repeats, statistics and
 //                 the output thread do not change. A frame is complete when its second field
 //                 is, so its t_sample_s is t_k, as in progressive scan.
@@ -177,13 +181,24 @@ class FrameLoop {
         FrameMeta meta;
         ImageF radiance;
         ImageU16 counts;
+        // Render → camera: each exposure's request; interlaced: field 1's radiance and meta.
+        FrameRequest request[2];
+        ImageF fieldRadiance;
+        FrameMeta fieldMeta;
+        std::int64_t start_ns = 0;  // when the render of this frame began (CLOCK_MONOTONIC)
+        std::int64_t edge_ns = 0;   // trigger clock: the edge that started it
     };
     void renderThread(bool realtime);
+    void cameraThread(bool realtime);
     void outputThread(bool realtime);
     void emit(int slot, std::int64_t tick, bool repeat, std::int64_t now_ns);
     bool waitReady(std::int64_t k) noexcept;  // sim clock: until frame k or the end
-    // Renders and exposes frame r (its fields) into slot s; t_k is its (last field's) time.
-    void produce(Slot& s, std::int64_t r, double t_k, double now_s, std::int64_t edge_ns) noexcept;
+    // Render thread: samples the pose and renders frame r (its fields) into slot s; t_k is its
+    // (last field's) time.
+    void renderFrame(Slot& s, std::int64_t r, double t_k, double now_s) noexcept;
+    // Camera thread: exposes the fields rendered into slot s, weaves them, schedules the
+    // exposures.
+    void exposeFrame(Slot& s) noexcept;
     // Trigger clock: the next good edge (false when stopping).
     bool waitTrigger(std::int64_t& edge_ns) noexcept;
     bool acceptEdge(std::int64_t t_ns) noexcept;  // classifies one edge; false: extra
@@ -200,40 +215,47 @@ class FrameLoop {
     double field_s_;  // field period (interlaced) [s]
     std::int64_t period_ns_;
     std::vector<ExposureObserver*> observers_;
-    // Interlaced: the second field's buffers.
-    ImageF fieldRadiance_;
+    // Interlaced: the second field's counts (camera thread).
     ImageU16 fieldCounts_;
-    FrameMeta fieldMeta_;
 
-    static constexpr int kSlots = 3;
+    // One slot with the output (kept to repeat), one rendering, one in the camera, and two
+    // made ahead of their ticks.
+    static constexpr int kSlots = 5;
     Slot slots_[kSlots];
     SlotRing free_;
+    SlotRing rendered_;
     SlotRing ready_;
+    std::atomic<std::uint32_t> renderedSeq_{0};
     std::atomic<std::uint32_t> readySeq_{0};
     std::atomic<std::uint32_t> freeSeq_{0};
     std::atomic<std::int64_t> outputTick_{0};
     std::atomic<bool> stop_{false};
-    std::atomic<bool> renderDone_{false};
+    std::atomic<bool> renderFinished_{false};  // the render thread will hand over no more
+    std::atomic<bool> framesDone_{false};      // the camera thread will hand over no more
     std::atomic<bool> outputDone_{false};
 
     std::thread renderThread_;
+    std::thread cameraThread_;
     std::thread outputThread_;
     std::string renderMessage_;
+    std::string cameraMessage_;
     std::string outputMessage_;
     std::string failure_;
     std::int64_t lastEmit_ns_ = 0;
 
     RunStats stats_;
-    // Render-thread statistics, merged into stats_ at join().
+    // Render- and camera-thread statistics, merged into stats_ at join().
     DurationHistogram frameTime_;
     std::int64_t framesRendered_ = 0;
     std::int64_t renderDropped_ = 0;
-    // Wall clock: the last frame times, to aim each frame at a tick it can meet.
+    // Wall clock: the last frame latencies (render start → camera done, camera thread), and
+    // from them the latency the render thread expects, to aim each frame at a tick it can meet.
     static constexpr int kRecentFrames = 5;
     std::array<std::int64_t, kRecentFrames> recentFrame_ns_{};
     int recentNext_ = 0;
     int recentCount_ = 0;
-    std::int64_t expectedFrame_ns() const noexcept;
+    std::atomic<std::int64_t> expectedFrame_ns_{0};
+    void noteFrameLatency(std::int64_t took_ns) noexcept;
     std::int64_t staleFrames_ = 0;
     // Trigger clock (render thread, except trigger_.latency: output thread).
     TriggerStats trigger_;
