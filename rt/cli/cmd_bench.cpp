@@ -142,16 +142,43 @@ int runBench(const BenchOptions& opts) {
     } else {
         renderNote = "RIT scenario not found at " + rit.string();
     }
-    // The camera chain, one field, every stage of the PULNiX preset.
+    // The camera chain, one field, every stage of the PULNiX preset (one thread), on the
+    // photoelectron radiance of the thesis scenes (rendered once: Moon and sky only, and with
+    // the street lamp on) and on a uniform bright field where every pixel draws.
     {
         const sensor::CameraParams cam = sensor::loadCamera("pulnix-ag5745ef3");
         sensor::IiccdChain chain(cam, 1);
         ImageF lpe(cam.width, cam.height);
-        lpe.fill(1e13f);
-        results.push_back(timeIt("sensor_chain",
-                                 "IICCD chain, one field " + std::to_string(cam.width) + "x" +
-                                     std::to_string(cam.height) + ", one thread",
-                                 6e-3, 4.0, 500, [&] { chain.process(lpe.cview()); }));
+        struct Input {
+            const char* name;
+            const char* scene;  // RIT scenario file, or nullptr: uniform
+            const char* what;
+        };
+        for (const Input& in :
+             {Input{"sensor_chain_rit_nolight", "nolight.toml", "RIT nolight render"},
+              Input{"sensor_chain_rit_stlamp", "stlamp.toml", "RIT stlamp render"},
+              Input{"sensor_chain_uniform", nullptr, "uniform 1e13 pe/s/m2/sr"}}) {
+            if (in.scene != nullptr) {
+                const auto file = rit.parent_path() / in.scene;
+                if (!std::filesystem::exists(file)) continue;
+                auto sr = render::ScenarioRenderer::create(file, 1);
+                if (sr->scenario().width != cam.width || sr->scenario().height != cam.height) {
+                    continue;
+                }
+                ImageF band(cam.width, cam.height);
+                rt::RowPool pool(1);
+                sr->renderer().render(sr->prepare(0.0), lpe.view(), band.view(), pool);
+            } else {
+                lpe.fill(1e13f);
+            }
+            const double pe = chain.process(lpe.cview()).mean_pe;
+            char what[160];
+            std::snprintf(what, sizeof what,
+                          "IICCD chain, one field %dx%d, one thread, %s (%.3g pe/px)", cam.width,
+                          cam.height, in.what, pe);
+            results.push_back(
+                timeIt(in.name, what, 6e-3, 3.0, 500, [&] { chain.process(lpe.cview()); }));
+        }
     }
 
     std::string json = "{\"benchmarks\":[";

@@ -3,8 +3,10 @@
 #include <Random123/philox.h>
 
 #include <algorithm>
+#include <array>
 #include <bit>
 #include <cmath>
+#include <cstring>
 
 #include "sim/core/units.h"
 
@@ -543,28 +545,107 @@ NVS_BULK_CLONES void normalsFromWords(const std::uint32_t* __restrict words, flo
 }
 
 namespace {
-// Inversion on the survival function S(k) = P(N > k): k is the first with u ≥ S(k). Small
-// u ↔ large k, so the rare outcomes are resolved at the word's finest resolution near 0.
-// s0 = P(N ≥ 1) = −expm1(−mean), p1 = P(N = 1).
-double poissonInversion(double mean, double s0, double p1, double u) {
-    double s = s0;
-    if (u >= s) return 0.0;
-    double p = p1;
-    double k = 1.0;
-    for (;;) {
-        s -= p;
-        if (u >= s || k > mean + 60.0) return k;
+// 1/(j + 2) for the inversion's recurrence p_{j+1} = p_j·(m·(1/(j + 1))) below; past the table
+// the scalar continuation divides (those k are so rare that the cost does not matter).
+constexpr int kInvTable = 64;
+constexpr std::array<double, kInvTable> kInvK = [] {
+    std::array<double, kInvTable> t{};
+    for (int j = 0; j < kInvTable; ++j)
+        t[static_cast<std::size_t>(j)] = 1.0 / static_cast<double>(j + 2);
+    return t;
+}();
+
+// The inversion's steps in the vector pass before the scalar continuation takes over.
+constexpr int kInversionVectorSteps = 8;
+
+// The scalar continuation of the inversion from state (s, p, k): k counts the S(j) above u,
+// s = S(k), p = P(N = k + 1). Used for whole draws too, so that a draw is the same whether
+// its first steps ran in the vector pass or here.
+double poissonInversionFrom(double mean, double u, double s, double p, double k) {
+    while (u < s && k < mean + 60.0) {
         k += 1.0;
-        p *= mean / k;
+        s -= p;
+        const int j = static_cast<int>(k) - 1;
+        p = j < kInvTable ? p * (mean * kInvK[static_cast<std::size_t>(j)])
+                          : p * (mean / (k + 1.0));
     }
+    return k;
+}
+
+// Eight doubles as one value: GCC's vector extensions, lowered to whatever the clone's target
+// has (one AVX-512 register, two AVX2 or four SSE2 ones), lane by lane the same IEEE
+// operations as the scalar code.
+// (Only inside this file and always inlined, so the -Wpsabi note on passing 64-byte vectors
+// between functions compiled for different targets does not apply.)
+#pragma GCC diagnostic ignored "-Wpsabi"
+using V8d = double __attribute__((vector_size(64)));
+using V8l = std::int64_t __attribute__((vector_size(64)));
+
+#define NVS_INLINE __attribute__((always_inline)) inline
+NVS_INLINE std::int64_t bitsOf(double x) {
+    return std::bit_cast<std::int64_t>(x);
+}
+NVS_INLINE V8l bitsOf(V8d x) {
+    return std::bit_cast<V8l>(x);
+}
+NVS_INLINE double fromBits(std::int64_t b) {
+    return std::bit_cast<double>(b);
+}
+NVS_INLINE V8d fromBits(V8l b) {
+    return std::bit_cast<V8d>(b);
+}
+
+// Body of poissonStart for one double or eight (below).
+template <class D>
+NVS_INLINE void poissonStartT(D m, D& s0, D& p1) noexcept {
+    // e^(−m) = 2^n·(1 + E) with n = round(−m/ln 2), r = −m − n·ln 2 ∈ [−0.347, 0.347] (Cody and
+    // Waite's two-part ln 2, whose high part has 11 trailing zero bits so n·ln2_hi is exact for
+    // |n| < 2048), and E = e^r − 1 = r(1 + r/2(1 + r/3(1 + …))) to r^15/15! (< 2e-18 relative
+    // at |r| = 0.347). Then S(0) = 1 − e^(−m) is −E when n = 0 (no cancellation for small m)
+    // and 1 − e^(−m) otherwise (e^(−m) < 0.71 there). Plain IEEE double operations only, no
+    // branches: the same bits in scalar code and in every vector version of the loops.
+    constexpr double kInvLn2 = 1.4426950408889634;
+    constexpr double kLn2Hi = 0.693147180369123816490;     // 0x3FE62E42FEE00000
+    constexpr double kLn2Lo = 1.90821492927058770002e-10;  // ln 2 − kLn2Hi
+    constexpr double kShifter = 0x1.8p52;                  // adding it rounds to an integer
+    const D x = -m;
+    const D t = x * kInvLn2 + kShifter;
+    const D n = t - kShifter;
+    const D r = (x - n * kLn2Hi) - n * kLn2Lo;
+    D e = 1.0 + r * (1.0 / 15.0);
+    e = 1.0 + r * (1.0 / 14.0) * e;
+    e = 1.0 + r * (1.0 / 13.0) * e;
+    e = 1.0 + r * (1.0 / 12.0) * e;
+    e = 1.0 + r * (1.0 / 11.0) * e;
+    e = 1.0 + r * (1.0 / 10.0) * e;
+    e = 1.0 + r * (1.0 / 9.0) * e;
+    e = 1.0 + r * (1.0 / 8.0) * e;
+    e = 1.0 + r * (1.0 / 7.0) * e;
+    e = 1.0 + r * (1.0 / 6.0) * e;
+    e = 1.0 + r * (1.0 / 5.0) * e;
+    e = 1.0 + r * (1.0 / 4.0) * e;
+    e = 1.0 + r * (1.0 / 3.0) * e;
+    e = 1.0 + r * 0.5 * e;
+    const D em1 = r * e;  // e^r − 1
+    // 2^n from its bits: n ∈ [−15, 0] for m ∈ (0, 10].
+    const auto ni = bitsOf(t) - bitsOf(kShifter);
+    const D scale = fromBits((ni + 1023) << 52);
+    const D expNeg = scale + scale * em1;
+    s0 = n == 0.0 ? -em1 : 1.0 - expNeg;
+    p1 = m * expNeg;
 }
 }  // namespace
+
+void poissonStart(double m, double& s0, double& p1) noexcept {
+    poissonStartT(m, s0, p1);
+}
 
 double poissonFromWord(double mean, std::uint32_t word, PixelStream& more) noexcept {
     if (!(mean > 0.0)) return 0.0;
     if (mean < 10.0) {
-        return poissonInversion(mean, -std::expm1(-mean), mean * std::exp(-mean),
-                                uniformFromWord(word));
+        double s0 = 0.0, p1 = 0.0;
+        poissonStartT(mean, s0, p1);
+        return poissonInversionFrom(mean, uniformFromWord(word), s0, p1, 0.0);
     }
     const double slam = std::sqrt(mean);
     const double loglam = std::log(mean);
@@ -591,30 +672,20 @@ double poissonFromWord(double mean, std::uint32_t word, PixelStream& more) noexc
 NVS_BULK_CLONES void poissonRow(const float* __restrict mean, const std::uint32_t* __restrict words,
                                 float* __restrict out, int n, const PixelRng& rng, std::uint32_t x0,
                                 std::uint32_t y) noexcept {
-    // Blocks of kBlock pixels: pass 1, then the pixels pass 1 left undecided listed, then
-    // pass 2 over that list alone.
+    // Blocks of kBlock pixels: pass 1 (vector) settles the certain zeros and lists the rest;
+    // pass 2 gathers the listed means below 10 and runs the inversion's start (e^(−m) by
+    // poissonStart) and its first kInversionVectorSteps steps over them as vector loops; pass 3
+    // continues the few draws that are still undecided, and draws the means of 10 and more by
+    // PTRS. Every draw equals poissonFromWord's (the same operations, in the same order).
     constexpr int kBlock = 256;
     int cand[kBlock];
-    // Pass 2: the listed pixels, exactly. Neighbours often share a mean (flat regions): the
-    // inversion's P(N ≥ 1) and P(N = 1) are kept for the last mean.
-    // Below a mean of 1 most of these are settled first without exp: the alternating series
-    //   S(0) = P(N ≥ 1) = m − m²/2 + m³/6 − …,   S(1) = P(N ≥ 2) = m²/2 − m³/3 + m⁴/8 − …,
-    //   S(2) = P(N ≥ 3) = m³/6 − m⁴/8 + m⁵/20 − …
-    // have terms of falling size for m < 1, so m − m²/2 ≤ S(0) ≤ m − m²/2 + m³/6,
-    // m²/2 − m³/3 ≤ S(1) ≤ m²/2 and S(2) ≤ m³/6. A u more than kSqueeze (far above the
-    // rounding of either side) from the bounds is on the same side of the computed S(k) as
-    // of the bounds, so k = 0 (u ≥ S(0)), 1 (S(1) ≤ u < S(0)) and 2 (S(2) ≤ u < S(1)) come
-    // out exactly as the inversion would give them; the rest (k ≥ 3, or u near a bound) go
-    // on to it.
-    constexpr double kSqueeze = 1e-12;
-    float lastMean = -1.0f;
-    double s0 = 0.0, p1 = 0.0;
+    int big[kBlock];
+    alignas(64) double cm[kBlock], cu[kBlock], cs[kBlock], cp[kBlock], ck[kBlock];
     for (int b = 0; b < n; b += kBlock) {
         const int nb = std::min(kBlock, n - b);
         // Pass 1 (vector): 0 where u ≥ m certainly, −1 where the exact sampler must decide.
         // u_f = ⌊w/2⌋·2⁻³¹ rounded to float is at most u·(1 + 2⁻²⁴); the margin 2⁻²⁰ covers
-        // it. m ≤ 0 gives 0 here (u_f ≥ 0); NaN fails the test and gets 0 from
-        // poissonFromWord.
+        // it. m ≤ 0 gives 0 here (u_f ≥ 0); NaN fails the test and gets 0 below.
         int j = 0;
         for (; j + kChunk <= nb; j += kChunk) {
             const float* mc = mean + b + j;
@@ -631,48 +702,62 @@ NVS_BULK_CLONES void poissonRow(const float* __restrict mean, const std::uint32_
                 static_cast<float>(static_cast<std::int32_t>(words[b + j] >> 1)) * 0x1.0p-31f;
             out[b + j] = u >= mean[b + j] * (1.0f + 0x1.0p-20f) ? 0.0f : -1.0f;
         }
-        int listed = 0;
+        // Listed pixels: means in (0, 10) gathered for pass 2; 10 and above (and NaN) apart.
+        int undecided = 0;
         for (j = 0; j < nb; ++j) {
-            cand[listed] = b + j;
-            listed += out[b + j] < 0.0f ? 1 : 0;
+            big[undecided] = b + j;
+            undecided += out[b + j] < 0.0f ? 1 : 0;
         }
-        for (int c = 0; c < listed; ++c) {
-            const int i = cand[c];
+        int listed = 0, nBig = 0;
+        for (int c = 0; c < undecided; ++c) {
+            const int i = big[c];  // nBig ≤ c: the large ones are moved down in place
             const float m = mean[i];
-            if (m > 0.0f && m < 1.0f) {
-                const double md = static_cast<double>(m);
-                const double m2 = md * md;
-                const double lo0 = md - 0.5 * m2;
-                const double hi0 = lo0 + m2 * md * (1.0 / 6.0);
-                const double hi1 = 0.5 * m2;
-                const double lo1 = hi1 - m2 * md * (1.0 / 3.0);
-                const double hi2 = m2 * md * (1.0 / 6.0);
-                const double u = uniformFromWord(words[i]);
-                if (u >= hi0 + kSqueeze) {
-                    out[i] = 0.0f;
-                    continue;
-                }
-                if (u < lo0 - kSqueeze && u >= hi1 + kSqueeze) {
-                    out[i] = 1.0f;
-                    continue;
-                }
-                if (u < lo1 - kSqueeze && u >= hi2 + kSqueeze) {
-                    out[i] = 2.0f;
-                    continue;
-                }
+            const bool small = m > 0.0f && m < 10.0f;
+            cand[listed] = i;
+            cm[listed] = static_cast<double>(m);
+            cu[listed] = uniformFromWord(words[i]);
+            listed += small ? 1 : 0;
+            big[nBig] = i;
+            nBig += small ? 0 : 1;
+        }
+        // Pass 2 (vector): S(0) and P(N = 1), then the first steps of the inversion, counting
+        // the S(j) above u (S falls with j, so the count is the first k with u ≥ S(k)).
+        const int listedPadded = (listed + kChunk - 1) / kChunk * kChunk;
+        for (j = listed; j < listedPadded; ++j) {  // padding lanes: a harmless mean of 1
+            cm[j] = 1.0;
+            cu[j] = 0.5;
+        }
+        for (j = 0; j < listedPadded; j += 8) {
+            V8d m, u;
+            std::memcpy(&m, cm + j, sizeof m);
+            std::memcpy(&u, cu + j, sizeof u);
+            V8d s, p;
+            poissonStartT(m, s, p);
+            V8d k = m * 0.0;
+            for (int step = 0; step < kInversionVectorSteps; ++step) {
+                // As poissonInversionFrom: k += 1, s = S(k), p = P(N = k + 1) while u < s.
+                const V8l go = u < s;
+                const V8d s2 = s - p;
+                const V8d p2 = p * (m * kInvK[static_cast<std::size_t>(step)]);
+                k = go ? k + 1.0 : k;
+                s = go ? s2 : s;
+                p = go ? p2 : p;
             }
-            if (m > 0.0f && m < 10.0f) {
-                if (m != lastMean) {
-                    lastMean = m;
-                    s0 = -std::expm1(-static_cast<double>(m));
-                    p1 = static_cast<double>(m) * std::exp(-static_cast<double>(m));
-                }
-                out[i] = static_cast<float>(
-                    poissonInversion(static_cast<double>(m), s0, p1, uniformFromWord(words[i])));
-                continue;
-            }
+            std::memcpy(cs + j, &s, sizeof s);
+            std::memcpy(cp + j, &p, sizeof p);
+            std::memcpy(ck + j, &k, sizeof k);
+        }
+        // Pass 3: the draws still undecided after those steps, then the large means.
+        for (int c = 0; c < listed; ++c) {
+            double k = ck[c];
+            if (cu[c] < cs[c]) k = poissonInversionFrom(cm[c], cu[c], cs[c], cp[c], k);
+            out[cand[c]] = static_cast<float>(k);
+        }
+        for (int c = 0; c < nBig; ++c) {
+            const int i = big[c];
             PixelStream more = rng.pixelStream(x0 + static_cast<std::uint32_t>(i), y);
-            out[i] = static_cast<float>(poissonFromWord(static_cast<double>(m), words[i], more));
+            out[i] =
+                static_cast<float>(poissonFromWord(static_cast<double>(mean[i]), words[i], more));
         }
     }
 }

@@ -139,14 +139,21 @@ void normalsFromWords(const std::uint32_t* words, float* z, int n) noexcept;
 float normalFromWord(std::uint32_t w) noexcept;
 
 // Poisson(mean) from one word, exact to the word's 2⁻³² resolution: for mean < 10, inversion
-// on the survival function (k = 0 iff u ≥ P(N ≥ 1), computed as −expm1(−mean)); for mean ≥ 10,
-// PTRS (as KeyedRng::poisson) with the first u from the word and the rest from `more`.
+// on the survival function S(k) = P(N > k): k is the first with u ≥ S(k), S(0) = P(N ≥ 1) =
+// −expm1(−mean) and P(N = 1) from poissonStart; for mean ≥ 10, PTRS (as KeyedRng::poisson)
+// with the first u from the word and the rest from `more`.
 double poissonFromWord(double mean, std::uint32_t word, PixelStream& more) noexcept;
 
-// Poisson draws for a row: out[i] ~ Poisson(mean[i]) with word[i], pixel x0 + i of row y.
-// Most pixels of a dark scene draw 0: since P(N ≥ 1) = 1 − e^(−m) < m, u ≥ m settles k = 0
-// in a vector pass; only the others (probability ≈ m) go through poissonFromWord. Negative,
-// NaN or zero means give 0.
+// The inversion's start for 0 < m ≤ 10: s0 = −expm1(−m) = P(N ≥ 1) and p1 = m·e^(−m) = P(N = 1),
+// within a few ulp of libm's, by plain double arithmetic that vectorises and gives the same bits
+// in every vector version (libm's expm1 and exp were most of the cost of a night scene's
+// photocathode). Exposed for tests.
+void poissonStart(double m, double& s0, double& p1) noexcept;
+
+// Poisson draws for a row: out[i] ~ Poisson(mean[i]) with word[i], pixel x0 + i of row y; each
+// equals poissonFromWord's. Most pixels of a dark scene draw 0: since P(N ≥ 1) = 1 − e^(−m) < m,
+// u ≥ m settles k = 0 in a vector pass; the others (probability ≈ m) run the inversion's start
+// and first steps in vector passes too. Negative, NaN or zero means give 0.
 void poissonRow(const float* mean, const std::uint32_t* words, float* out, int n,
                 const PixelRng& rng, std::uint32_t x0, std::uint32_t y) noexcept;
 

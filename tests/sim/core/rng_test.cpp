@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <thread>
 #include <vector>
 
@@ -427,19 +428,20 @@ TEST(PixelRng, PoissonRowMatchesPmfAndSingleDraws) {
     EXPECT_EQ(o0[2], 0.0f);
 }
 
-// Below a mean of 1 poissonRow settles most k = 0, 1 and 2 by series bounds, without exp:
-// every draw equals the inversion's, over means spread across (0, 1) and words near the
-// bounds included (1.6 million draws).
-TEST(PixelRng, PoissonRowSqueezeEqualsInversion) {
+// poissonRow's vector passes (e^(−m) by poissonStart, the first steps of the inversion for
+// eight pixels at once, the scalar continuation past them) give every draw exactly as
+// poissonFromWord does, over means spread across (1e-4, 10) on a log scale (1.6 million draws,
+// k up to the twenties, so the continuation runs too).
+TEST(PixelRng, PoissonRowVectorPassesEqualSingleDraws) {
     const int w = 800, rows = 2000;
     std::vector<std::uint32_t> words(static_cast<std::size_t>(w));
     std::vector<float> mean(static_cast<std::size_t>(w)), out(static_cast<std::size_t>(w));
     const PixelRng rng(11, RngStream::Photocathode, 3);
-    long ones = 0, twos = 0;
+    long ones = 0, pastVector = 0;
     for (int y = 0; y < rows; ++y) {
-        for (int x = 0; x < w; ++x)  // means from 1e-4 to 1, a different set on each row
+        for (int x = 0; x < w; ++x)  // means from 1e-4 to 10, a different set on each row
             mean[static_cast<std::size_t>(x)] =
-                static_cast<float>(std::pow(10.0, -4.0 * ((x * 7919 + y * 104729) % w) / w));
+                static_cast<float>(std::pow(10.0, 1.0 - 5.0 * ((x * 7919 + y * 104729) % w) / w));
         rng.rowWords(static_cast<std::uint32_t>(y), 0, 0, w / 4, words.data());
         poissonRow(mean.data(), words.data(), out.data(), w, rng, 0, static_cast<std::uint32_t>(y));
         for (int x = 0; x < w; ++x) {
@@ -450,11 +452,29 @@ TEST(PixelRng, PoissonRowSqueezeEqualsInversion) {
                       poissonFromWord(static_cast<double>(mean[i]), words[i], more))
                 << x << " " << y;
             ones += out[i] == 1.0f ? 1 : 0;
-            twos += out[i] == 2.0f ? 1 : 0;
+            pastVector += out[i] > 8.0f ? 1 : 0;
         }
     }
-    EXPECT_GT(ones, 10000);  // the k = 1 and k = 2 branches were taken
-    EXPECT_GT(twos, 1000);
+    EXPECT_GT(ones, 100000);
+    EXPECT_GT(pastVector, 1000);  // draws finished by the scalar continuation
+}
+
+// The inversion's start against libm: S(0) = −expm1(−m) and P(N = 1) = m·e^(−m) within 4 ulp
+// over (1e-12, 10], small means included (where 1 − e^(−m) would cancel).
+TEST(PixelRng, PoissonStartAgreesWithLibm) {
+    double worst = 0.0;
+    for (int i = 0; i <= 200000; ++i) {
+        const double m = std::pow(10.0, -12.0 + 13.0 * i / 200000.0);
+        double s0 = 0.0, p1 = 0.0;
+        poissonStart(m, s0, p1);
+        const double refS0 = -std::expm1(-m), refP1 = m * std::exp(-m);
+        const double eps = std::numeric_limits<double>::epsilon();
+        worst = std::max(
+            {worst, std::fabs(s0 - refS0) / (refS0 * eps), std::fabs(p1 - refP1) / (refP1 * eps)});
+        ASSERT_LE(std::fabs(s0 - refS0), 4.0 * eps * refS0) << m;
+        ASSERT_LE(std::fabs(p1 - refP1), 4.0 * eps * refP1) << m;
+    }
+    RecordProperty("worst_ulp", std::to_string(worst));
 }
 
 TEST(PixelRng, GammaFromWordsMomentsAndSummedShape) {
