@@ -71,6 +71,7 @@ struct DiagnoseOptions {
 
 struct BenchOptions {
     std::optional<std::string> json;
+    std::optional<std::string> filter;  // run only the benchmarks whose name contains this
 };
 
 // Parses argv and runs the chosen subcommand.

@@ -64,10 +64,13 @@ BenchResult timeIt(const std::string& name, const std::string& what, double targ
 
 int runBench(const BenchOptions& opts) {
     std::vector<BenchResult> results;
+    const auto wanted = [&](const std::string& name) {
+        return !opts.filter || name.find(*opts.filter) != std::string::npos;
+    };
     const auto rit = configDir().parent_path() / "scenarios" / "rit" / "stlamp.toml";
 
     // Ephemeris and sources, one frame.
-    {
+    if (wanted("ephemeris_sources")) {
         astro::Site site;
         site.lat_deg = 43.16856;
         site.lon_deg = -77.61583;
@@ -88,7 +91,7 @@ int runBench(const BenchOptions& opts) {
                    }));
     }
     // Sky terms for one Moon geometry.
-    {
+    if (wanted("sky_lookup")) {
         const sky::SkyModel model = sky::SkyModel::create(sky::SkyModelConfig{});
         astro::MoonState moon;
         moon.alt_rad = 0.6;
@@ -117,14 +120,19 @@ int runBench(const BenchOptions& opts) {
     std::string renderNote;
     if (std::filesystem::exists(rit)) {
         for (int coarse : {1, 4}) {
+            const std::string base = coarse == 1 ? "render_full" : "render_coarse4";
+            if (!wanted(base + "_1t") && !wanted(base + "_2t") && !wanted(base + "_1t_moving") &&
+                !wanted(base + "_2t_moving")) {
+                continue;
+            }
             auto sr = render::ScenarioRenderer::create(rit, coarse);
             ImageF pe(sr->scenario().width, sr->scenario().height), band(pe.width(), pe.height());
             for (int threads : {1, 2}) {
                 rt::RowPool pool(threads);
                 for (bool moving : {false, true}) {
                     const std::string name =
-                        std::string(coarse == 1 ? "render_full" : "render_coarse4") + "_" +
-                        std::to_string(threads) + "t" + (moving ? "_moving" : "");
+                        base + "_" + std::to_string(threads) + "t" + (moving ? "_moving" : "");
+                    if (!wanted(name)) continue;
                     const std::string what = "RIT stlamp " + std::to_string(pe.width()) + "x" +
                                              std::to_string(pe.height()) + ", " +
                                              std::to_string(threads) +
@@ -158,6 +166,7 @@ int runBench(const BenchOptions& opts) {
              {Input{"sensor_chain_rit_nolight", "nolight.toml", "RIT nolight render"},
               Input{"sensor_chain_rit_stlamp", "stlamp.toml", "RIT stlamp render"},
               Input{"sensor_chain_uniform", nullptr, "uniform 1e13 pe/s/m2/sr"}}) {
+            if (!wanted(in.name)) continue;
             if (in.scene != nullptr) {
                 const auto file = rit.parent_path() / in.scene;
                 if (!std::filesystem::exists(file)) continue;
@@ -181,6 +190,9 @@ int runBench(const BenchOptions& opts) {
         }
     }
 
+    if (results.empty() && opts.filter) {
+        throw SetupError("--filter: no benchmark name contains '" + *opts.filter + "'");
+    }
     std::string json = "{\"benchmarks\":[";
     for (std::size_t i = 0; i < results.size(); ++i) {
         const BenchResult& r = results[i];
