@@ -762,18 +762,18 @@ NVS_BULK_CLONES void poissonRow(const float* __restrict mean, const std::uint32_
     }
 }
 
-double gammaFromWords(double shape, double scale, std::uint32_t z0, std::uint32_t u0,
-                      PixelStream& more) noexcept {
+double gammaFromNormal(double shape, double scale, float z0, std::uint32_t u0,
+                       PixelStream& more) noexcept {
     if (!(shape > 0.0)) return 0.0;
     if (shape < 1.0) {
-        const double g = gammaFromWords(shape + 1.0, 1.0, z0, u0, more);
+        const double g = gammaFromNormal(shape + 1.0, 1.0, z0, u0, more);
         return scale * g * std::pow(more.uniform(), 1.0 / shape);
     }
     const double d = shape - 1.0 / 3.0;
     const double c = 1.0 / std::sqrt(9.0 * d);
     bool first = true;
     for (;;) {
-        const double x = static_cast<double>(normalFromWord(first ? z0 : more.next()));
+        const double x = static_cast<double>(first ? z0 : normalFromWord(more.next()));
         const double u = first ? uniformFromWord(u0) : more.uniform();
         first = false;
         double v = 1.0 + c * x;
@@ -783,6 +783,12 @@ double gammaFromWords(double shape, double scale, std::uint32_t z0, std::uint32_
         if (u < 1.0 - 0.0331 * x2 * x2) return scale * d * v;
         if (std::log(u) < 0.5 * x2 + d * (1.0 - v + std::log(v))) return scale * d * v;
     }
+}
+
+double gammaFromWords(double shape, double scale, std::uint32_t z0, std::uint32_t u0,
+                      PixelStream& more) noexcept {
+    if (!(shape > 0.0)) return 0.0;
+    return gammaFromNormal(shape, scale, normalFromWord(z0), u0, more);
 }
 
 }  // namespace nvs

@@ -161,6 +161,10 @@ void poissonRow(const float* mean, const std::uint32_t* words, float* out, int n
 // and u0 (uniform), further attempts from `more`; shape < 1 by Gamma(shape + 1)·U^(1/shape).
 double gammaFromWords(double shape, double scale, std::uint32_t z0, std::uint32_t u0,
                       PixelStream& more) noexcept;
+// The same draw with the first normal given (normalFromWord(z0), or normalsFromWords' value
+// for that word, which is the same): for callers that made the normals in a vector pass.
+double gammaFromNormal(double shape, double scale, float z0, std::uint32_t u0,
+                       PixelStream& more) noexcept;
 
 // ln(k!) for k ≥ 0: a table below 16, Stirling's series above (error < 1e-12). Exposed for
 // tests.

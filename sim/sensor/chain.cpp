@@ -112,7 +112,7 @@ NVS_ROW_CLONES double mcpMeanKernel(float* __restrict v, int w, float g) noexcep
 }
 
 // Marsaglia–Tsang's first attempt for m listed pixels: e = θ·d·(1 + c·z)³ when the squeeze
-// accepts, else 0 (the caller finishes those, and shapes below 1, with gammaFromWords).
+// accepts, else 0 (the caller finishes those, and shapes below 1, with gammaFromNormal).
 NVS_ROW_CLONES void gammaFirstAttemptKernel(const float* __restrict v, const int* __restrict idx,
                                             const float* __restrict z,
                                             const std::uint32_t* __restrict uw,
@@ -464,7 +464,7 @@ double McpStage::applyRow(float* __restrict v, int w, int y) noexcept {
         double ej = e[j];
         if (ej == 0.0) {
             PixelStream more = rng.pixelStream(static_cast<std::uint32_t>(x), yy);
-            ej = gammaFromWords(static_cast<double>(v[x]) * k_, theta, zw[j], uw[j], more);
+            ej = gammaFromNormal(static_cast<double>(v[x]) * k_, theta, z_[j], uw[j], more);
         }
         v[x] = static_cast<float>(ej);
         rowSum += ej;
