@@ -109,14 +109,15 @@ class RecordingSink final : public FrameSink {
     int n = 0;
 };
 
-// A render stage that is slow on chosen frames (a late frame).
+// A render stage that is slow on one chosen frame (a late frame) or on every frame.
 class SlowRender final : public RenderStage {
   public:
+    static constexpr std::int64_t kEveryFrame = -2;  // slowFrame: every frame is slow
     explicit SlowRender(std::int64_t slowFrame, double delay_s)
         : slow_(slowFrame), delay_(delay_s) {}
     void render(const FrameRequest& req, ImageView<float> r, FrameMeta&) noexcept override {
         r.fill(static_cast<float>(req.frame));
-        if (req.frame == slow_) {
+        if (req.frame == slow_ || slow_ == kEveryFrame) {
             std::this_thread::sleep_for(std::chrono::duration<double>(delay_));
         }
     }
@@ -126,13 +127,19 @@ class SlowRender final : public RenderStage {
     double delay_;
 };
 
-TEST(FrameLoop, SimClockEmitsEveryFrameInOrder) {
+// A 16 × 16 loop at `rate` on `clock` for `frames` ticks (the other settings as given later).
+LoopConfig smallLoop(FrameRate rate, ClockKind clock, std::int64_t frames) {
     LoopConfig cfg;
-    cfg.rate = FrameRate{60, 1};
-    cfg.clock = ClockKind::Sim;
-    cfg.frames = 500;
+    cfg.rate = rate;
+    cfg.clock = clock;
+    cfg.frames = frames;
     cfg.width = 16;
     cfg.height = 16;
+    return cfg;
+}
+
+TEST(FrameLoop, SimClockEmitsEveryFrameInOrder) {
+    LoopConfig cfg = smallLoop(FrameRate{60, 1}, ClockKind::Sim, 500);
     HeldPlatform platform(PlatformState{});
     SlowRender render(-1, 0.0);
     LinearCamera camera(1000.0, 16);
@@ -150,26 +157,27 @@ TEST(FrameLoop, SimClockEmitsEveryFrameInOrder) {
     EXPECT_EQ(loop.stats().counters.framesEmitted, 500);
 }
 
-// Wall clock, 100 Hz, frame 30 takes 35 ms (3.5 periods): the ticks it overlaps are misses,
+// Runs a loop with a held platform to its last tick; its statistics.
+RunStats runToEnd(const LoopConfig& cfg, RenderStage& render, CameraStage& camera,
+                  RecordingSink& sink) {
+    HeldPlatform platform(PlatformState{});
+    FrameLoop loop(cfg, platform, render, camera, {&sink});
+    std::vector<std::string> msgs;
+    loop.start(msgs);
+    loop.join();
+    return loop.stats();
+}
+
+// Wall clock, 100 Hz, frame 30 takes 70 ms (7 periods): the ticks it overlaps are misses,
 // the previous frame is repeated, and every emission stays on the absolute grid k·dt.
 TEST(FrameLoop, WallClockHoldsCadenceWhenAFrameIsLate) {
     for (LatePolicy policy : {LatePolicy::Repeat, LatePolicy::Drop}) {
-        LoopConfig cfg;
-        cfg.rate = FrameRate{100, 1};
-        cfg.clock = ClockKind::Wall;
-        cfg.frames = 80;
-        cfg.width = 16;
-        cfg.height = 16;
+        LoopConfig cfg = smallLoop(FrameRate{100, 1}, ClockKind::Wall, 80);
         cfg.latePolicy = policy;
-        HeldPlatform platform(PlatformState{});
         SlowRender render(30, 0.07);
         LinearCamera camera(1000.0, 16);
         RecordingSink sink;
-        FrameLoop loop(cfg, platform, render, camera, {&sink});
-        std::vector<std::string> msgs;
-        loop.start(msgs);
-        loop.join();
-        const RunCounters& c = loop.stats().counters;
+        const RunCounters c = runToEnd(cfg, render, camera, sink).counters;
         // Up to four frames are made ahead (five slots, one kept by the output), so 70 ms of
         // delay costs about 7 − 4 = 3 ticks.
         EXPECT_GE(c.deadlineMisses, 1) << "policy " << static_cast<int>(policy);
@@ -200,39 +208,16 @@ TEST(FrameLoop, WallClockHoldsCadenceWhenAFrameIsLate) {
     }
 }
 
-// A render stage slower than a period on every frame (a heavy scene at a high rate).
-class AlwaysSlowRender final : public RenderStage {
-  public:
-    explicit AlwaysSlowRender(double delay_s) : delay_(delay_s) {}
-    void render(const FrameRequest& req, ImageView<float> r, FrameMeta&) noexcept override {
-        r.fill(static_cast<float>(req.frame));
-        std::this_thread::sleep_for(std::chrono::duration<double>(delay_));
-    }
-
-  private:
-    double delay_;
-};
-
 // Every frame takes 1.4 periods: the loop must still emit fresh frames, each at its own tick
 // (rendered for the tick it is shown at), fill the other ticks by policy, and keep its cadence.
 TEST(FrameLoop, WallClockAimsEachFrameAtATickItCanMeetWhenEveryFrameIsSlow) {
     for (LatePolicy policy : {LatePolicy::Repeat, LatePolicy::Drop}) {
-        LoopConfig cfg;
-        cfg.rate = FrameRate{100, 1};
-        cfg.clock = ClockKind::Wall;
-        cfg.frames = 100;
-        cfg.width = 16;
-        cfg.height = 16;
+        LoopConfig cfg = smallLoop(FrameRate{100, 1}, ClockKind::Wall, 100);
         cfg.latePolicy = policy;
-        HeldPlatform platform(PlatformState{});
-        AlwaysSlowRender render(0.014);
+        SlowRender render(SlowRender::kEveryFrame, 0.014);
         LinearCamera camera(1000.0, 16);
         RecordingSink sink;
-        FrameLoop loop(cfg, platform, render, camera, {&sink});
-        std::vector<std::string> msgs;
-        loop.start(msgs);
-        loop.join();
-        const RunCounters& c = loop.stats().counters;
+        const RunCounters c = runToEnd(cfg, render, camera, sink).counters;
         // At most one frame per 14 ms can be made: about 100·10/14 ≈ 71 in 1 s; most of them
         // (timing noise on a loaded machine aside) must reach their tick.
         EXPECT_GE(c.framesEmitted, 40) << "policy " << static_cast<int>(policy);
@@ -277,21 +262,11 @@ class SlowCamera final : public CameraStage {
 // periods per frame; pipelined (the camera exposes frame k while frame k+1 renders) every
 // frame is on time, in order, and the frame times (render start → camera done) show the sum.
 TEST(FrameLoop, RenderAndCameraRunAtOnceOnConsecutiveFrames) {
-    LoopConfig cfg;
-    cfg.rate = FrameRate{100, 1};
-    cfg.clock = ClockKind::Wall;
-    cfg.frames = 100;
-    cfg.width = 16;
-    cfg.height = 16;
-    HeldPlatform platform(PlatformState{});
-    AlwaysSlowRender render(0.007);
+    LoopConfig cfg = smallLoop(FrameRate{100, 1}, ClockKind::Wall, 100);
+    SlowRender render(SlowRender::kEveryFrame, 0.007);
     SlowCamera camera(0.007, 16);
     RecordingSink sink;
-    FrameLoop loop(cfg, platform, render, camera, {&sink});
-    std::vector<std::string> msgs;
-    loop.start(msgs);
-    loop.join();
-    const RunStats& st = loop.stats();
+    const RunStats st = runToEnd(cfg, render, camera, sink);
     // The first frames are aimed before any latency is known; a loaded machine may cost a few.
     EXPECT_GE(st.counters.framesEmitted, 90);
     for (int i = 0; i < sink.n; ++i) {
