@@ -735,13 +735,15 @@ NVS_BULK_CLONES void poissonRow(const float* __restrict mean, const std::uint32_
             poissonStartT(m, s, p);
             V8d k = m * 0.0;
             for (int step = 0; step < kInversionVectorSteps; ++step) {
-                // As poissonInversionFrom: k += 1, s = S(k), p = P(N = k + 1) while u < s.
-                const V8l go = u < s;
-                const V8d s2 = s - p;
-                const V8d p2 = p * (m * kInvK[static_cast<std::size_t>(step)]);
-                k = go ? k + 1.0 : k;
-                s = go ? s2 : s;
-                p = go ? p2 : p;
+                // As poissonInversionFrom: k += 1, s = S(k), p = P(N = k + 1) while u < s. The
+                // recurrence runs on in every lane without a select: S falls with k, so once
+                // u ≥ S(k) no later step counts, and a lane that is still counting after the
+                // last step has s and p exactly as poissonInversionFrom would (and one that
+                // stopped has u ≥ s, so it is not continued). Three short independent chains
+                // instead of one through the comparison.
+                k = u < s ? k + 1.0 : k;
+                s = s - p;
+                p = p * (m * kInvK[static_cast<std::size_t>(step)]);
             }
             std::memcpy(cs + j, &s, sizeof s);
             std::memcpy(cp + j, &p, sizeof p);
