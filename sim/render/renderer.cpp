@@ -168,6 +168,14 @@ struct Renderer::Impl {
     std::vector<float> skyTab;
     std::atomic<std::uint64_t> primary{0}, shadow{0}, secondary{0};
     bool gValid = false;  // G-buffer matches the current camera and geometry
+    // Objects that moved since the last render while the camera stayed: each leaves a box (the
+    // union of its bounds before and after) through which every ray whose result may have
+    // changed passes. The next render redoes only the primary rays of the pixels the boxes
+    // cover on screen, and the static data of the pixels whose lamp or mirror rays cross a box;
+    // more boxes than kMaxDirty rebuild the whole G-buffer.
+    static constexpr int kMaxDirty = 8;
+    Vec3 dirtyLo[kMaxDirty], dirtyHi[kMaxDirty];
+    int nDirty = 0;
 
     ~Impl() {
         if (scene) rtcReleaseScene(scene);
@@ -405,30 +413,55 @@ void Renderer::setCoarseFactor(int f) noexcept {
 
 void Renderer::setTime(double t_s) noexcept {
     Impl& im = *impl_;
-    bool changed = false;
+    bool changed = false, firstPlacement = false;
     for (ObjectData& od : im.objects) {
         const scene::Object& o = *od.obj;
         if (!o.moving() && od.placed) continue;
+        const bool wasPlaced = od.placed;
         od.placed = true;
-        changed = true;
         Vec3 pos;
         double yaw;
         o.poseAt(t_s, &pos, &yaw);
         // Yaw turns the object's +y (its forward) toward +x (east): x' = x cos + y sin.
         const double cy = std::cos(yaw), sy = std::sin(yaw);
         const auto& v = o.mesh.vertices_m;
+        bool moved = false;
+        Vec3 lo{kInf, kInf, kInf}, hi{-kInf, -kInf, -kInf};
+        const auto grow = [&](const Vec3f& q) {
+            lo = {std::min(lo.x, double{q.x}), std::min(lo.y, double{q.y}),
+                  std::min(lo.z, double{q.z})};
+            hi = {std::max(hi.x, double{q.x}), std::max(hi.y, double{q.y}),
+                  std::max(hi.z, double{q.z})};
+        };
         for (std::size_t i = 0; i < o.mesh.vertexCount(); ++i) {
             const double x = v[3 * i], y = v[3 * i + 1], z = v[3 * i + 2];
-            od.vbuf[i] = {static_cast<float>(pos.x + x * cy + y * sy),
+            const Vec3f q{static_cast<float>(pos.x + x * cy + y * sy),
                           static_cast<float>(pos.y - x * sy + y * cy),
                           static_cast<float>(pos.z + z)};
+            if (wasPlaced) {
+                const Vec3f& old = od.vbuf[i];
+                moved = moved || old.x != q.x || old.y != q.y || old.z != q.z;
+                grow(old);
+            }
+            grow(q);
+            od.vbuf[i] = q;
+        }
+        if (wasPlaced && !moved) continue;  // parked: nothing to redo
+        changed = true;
+        if (!wasPlaced) {
+            firstPlacement = true;
+        } else if (im.nDirty < Impl::kMaxDirty) {
+            im.dirtyLo[im.nDirty] = lo;
+            im.dirtyHi[im.nDirty++] = hi;
+        } else {
+            firstPlacement = true;  // too many boxes: redo everything
         }
         rtcUpdateGeometryBuffer(od.geom, RTC_BUFFER_TYPE_VERTEX, 0);
         rtcCommitGeometry(od.geom);
     }
     if (changed) {
         rtcCommitScene(im.scene);
-        im.gValid = false;
+        if (firstPlacement) im.gValid = false;
     }
 }
 
@@ -502,6 +535,10 @@ struct Ctx {
     bool moonOn;                             // Moon up and its term asked for
     bool buildWeights;                       // the upsampling pass (re)builds its weights
     int rowStepImage = 1, rowStepNodes = 1;  // rowStep(H), rowStep(nodeH)
+    // The primary pass covers rows [rowLo, rowLo + rowCount) (rows spread by rowStepRect) and
+    // columns [colLo, colHi); weights are rebuilt on rows [weightsLo, weightsHi).
+    int rowLo = 0, rowCount = 0, rowStepRect = 1, colLo = 0, colHi = 0;
+    int weightsLo = 0, weightsHi = 0;
     // Sky in view: the Moon's azimuth, its disk (cos of its angular radius, radiance E☾/Ω☾).
     float moonAz_rad = 0.0f;
     float moonDir[3] = {0.0f, 0.0f, 1.0f};
@@ -897,9 +934,9 @@ void primaryRows(void* vctx, int y0, int y1) {
     const PinholeCamera& cam = c.cfg->camera;
     std::uint64_t prim = 0;
     for (int yr = y0; yr < y1; ++yr) {
-        const int y = rowAt(yr, c.rowStepImage, im.H);
-        for (int x0 = 0; x0 < im.W; x0 += kPacket) {
-            const int count = std::min(kPacket, im.W - x0);
+        const int y = c.rowLo + rowAt(yr, c.rowStepRect, c.rowCount);
+        for (int x0 = c.colLo; x0 < c.colHi; x0 += kPacket) {
+            const int count = std::min(kPacket, c.colHi - x0);
             int valid[kPacket];
             Vec3 d[kPacket];
             RTCRayHit16 rh;
@@ -938,6 +975,75 @@ void primaryRows(void* vctx, int y0, int y1) {
         }
     }
     im.primary += prim;
+}
+
+// Whether the segment o + t·d, 0 ≤ t ≤ tmax, meets the box [lo − pad, hi + pad] (slabs).
+bool segmentMeetsBox(const Vec3& o, const Vec3& d, double tmax, const Vec3& lo, const Vec3& hi,
+                     double pad) noexcept {
+    double t0 = 0.0, t1 = tmax;
+    const double oa[3] = {o.x, o.y, o.z}, da[3] = {d.x, d.y, d.z};
+    const double la[3] = {lo.x - pad, lo.y - pad, lo.z - pad};
+    const double ha[3] = {hi.x + pad, hi.y + pad, hi.z + pad};
+    for (int a = 0; a < 3; ++a) {
+        if (da[a] == 0.0) {
+            if (oa[a] < la[a] || oa[a] > ha[a]) return false;
+            continue;
+        }
+        double ta = (la[a] - oa[a]) / da[a], tb = (ha[a] - oa[a]) / da[a];
+        if (ta > tb) std::swap(ta, tb);
+        t0 = std::max(t0, ta);
+        t1 = std::min(t1, tb);
+        if (t0 > t1) return false;
+    }
+    return true;
+}
+
+// After objects moved (Impl::dirtyLo/Hi): the static data of a pixel is dropped (rebuilt when
+// next shaded) if a ray it was made from can cross a box — a shadow ray toward a lamp it
+// covers (box grown by the lamp's emitter radius: any point of the emitter), its mirror ray up
+// to the mirror hit (or without end to the sky), or the mirror hit's shadow rays. The pixels
+// whose primary rays were redone have already dropped theirs.
+void invalidateStaticRows(void* vctx, int y0, int y1) {
+    const Ctx& c = *static_cast<const Ctx*>(vctx);
+    Renderer::Impl& im = *c.im;
+    const std::size_t nl = im.lamps.size();
+    const std::uint64_t need = im.staticNeed;
+    const auto crosses = [&](const Vec3& o, const Vec3& d, double tmax, double pad) {
+        for (int b = 0; b < im.nDirty; ++b)
+            if (segmentMeetsBox(o, d, tmax, im.dirtyLo[b], im.dirtyHi[b], pad)) return true;
+        return false;
+    };
+    const auto lampsCross = [&](const Vec3& p) {
+        for (std::size_t l = 0; l < nl; ++l) {
+            if (!((need >> l) & 1u)) continue;
+            const LampData& ld = im.lamps[l];
+            if (crosses(p, ld.position - p, 1.0, ld.radius_m + 1e-3)) return true;
+        }
+        return false;
+    };
+    for (int yr = y0; yr < y1; ++yr) {
+        const int y = rowAt(yr, c.rowStepImage, im.H);
+        for (int x = 0; x < im.W; ++x) {
+            const std::size_t i = static_cast<std::size_t>(y) * im.W + x;
+            if (!im.sValid[i] || im.gMat[i] == kMiss) continue;
+            const Vec3 p = g3(im.gPos, i);
+            bool drop = lampsCross(p);
+            const std::uint16_t sm = im.sqMat[i];
+            if (!drop && sm != kNotSpecular) {
+                const Vec3 n = g3(im.gNrm, i);
+                const Vec3 dIn = im.pixelDir(x + 0.5, y + 0.5, c.cfg->camera);
+                const Vec3 r = dIn - n * (2.0 * dot(dIn, n));
+                const Vec3 o = p + n * kEps_m;
+                if (sm == kMiss) {
+                    drop = crosses(o, r, kInf, 1e-3);
+                } else {
+                    const Vec3 q = g3(im.sqPos, i);
+                    drop = crosses(o, q - o, 1.0, 1e-3) || lampsCross(q);
+                }
+            }
+            if (drop) im.sValid[i] = 0;
+        }
+    }
 }
 
 // Full-rate shading of the G-buffer, 16 pixels at a time.
@@ -1075,7 +1181,7 @@ void upsampleRows(void* vctx, int y0, int y1) {
     Counts n;
     for (int yr = y0; yr < y1; ++yr) {
         const int y = rowAt(yr, c.rowStepImage, im.H);
-        if (c.buildWeights) buildWeightsRow(c, y);
+        if (c.buildWeights && y >= c.weightsLo && y < c.weightsHi) buildWeightsRow(c, y);
         float* pe = c.pe.row(y);
         float* bw = c.bw.row(y);
         const std::size_t nodeRow = static_cast<std::size_t>(y / f) * nw;
@@ -1206,12 +1312,63 @@ void Renderer::render(const FrameSky& sky, ImageView<float> pe, ImageView<float>
     }
     // The primary rays depend only on the camera and the geometry: with neither changed since
     // the last frame (a fixed camera over a static scene), the G-buffer is reused.
+    c.weightsLo = 0;
+    c.weightsHi = im.H;
     if (!im.gValid) {
+        c.rowLo = 0;
+        c.rowCount = im.H;
+        c.rowStepRect = c.rowStepImage;
+        c.colLo = 0;
+        c.colHi = im.W;
         exec.run(im.H, &primaryRows, &c);
         im.gValid = true;
         im.uFactor = 0;
         c.buildWeights = coarse_ > 1;
+    } else if (im.nDirty > 0) {
+        // Objects moved under a fixed camera: the primary rays of the pixels their boxes cover
+        // on screen (a pixel's ray through its centre meets a box only inside the box's
+        // projected corners' bounds; a box partly behind the camera covers the image).
+        const PinholeCamera& pc = config_.camera;
+        double u0 = kInf, u1 = -kInf, v0 = kInf, v1 = -kInf;
+        bool all = false;
+        for (int b = 0; b < im.nDirty && !all; ++b) {
+            for (int k = 0; k < 8; ++k) {
+                const Vec3 q{(k & 1) ? im.dirtyHi[b].x : im.dirtyLo[b].x,
+                             (k & 2) ? im.dirtyHi[b].y : im.dirtyLo[b].y,
+                             (k & 4) ? im.dirtyHi[b].z : im.dirtyLo[b].z};
+                double u, v;
+                if (!im.project(q, pc, &u, &v)) {
+                    all = true;
+                    break;
+                }
+                u0 = std::min(u0, u);
+                u1 = std::max(u1, u);
+                v0 = std::min(v0, v);
+                v1 = std::max(v1, v);
+            }
+        }
+        const int x0 = all ? 0 : std::clamp(static_cast<int>(std::floor(u0)) - 1, 0, im.W);
+        const int x1 = all ? im.W : std::clamp(static_cast<int>(std::ceil(u1)) + 1, 0, im.W);
+        const int y0 = all ? 0 : std::clamp(static_cast<int>(std::floor(v0)) - 1, 0, im.H);
+        const int y1 = all ? im.H : std::clamp(static_cast<int>(std::ceil(v1)) + 1, 0, im.H);
+        if (x1 > x0 && y1 > y0) {
+            c.rowLo = y0;
+            c.rowCount = y1 - y0;
+            c.rowStepRect = rowStep(c.rowCount);
+            c.colLo = x0;
+            c.colHi = x1;
+            exec.run(c.rowCount, &primaryRows, &c);
+        }
+        // Static data made from rays that may cross a box.
+        if (im.staticNeed != 0) exec.run(im.H, &invalidateStaticRows, &c);
+        // Upsampling weights read the G-buffer up to one node spacing away.
+        if (coarse_ > 1 && !c.buildWeights && x1 > x0 && y1 > y0) {
+            c.buildWeights = true;
+            c.weightsLo = std::max(0, y0 - coarse_);
+            c.weightsHi = std::min(im.H, y1 + coarse_);
+        }
     }
+    im.nDirty = 0;
     if (coarse_ > 1) {
         exec.run(im.nodeH, &nodeRows, &c);
         exec.run(im.H, &upsampleRows, &c);
