@@ -301,8 +301,25 @@ std::size_t MetaJsonlSink::format(const rt::OutputFrame& frame, char* buf,
         if (n < 0 || len + static_cast<std::size_t>(n) >= size) return 0;
         len += static_cast<std::size_t>(n);
     }
-    if (len + 3 >= size) return 0;
+    if (len + 1 >= size) return 0;
     buf[len++] = ']';
+    // Interlaced: each field's own exposure (the frame-level keys describe field 1).
+    if (m.fieldCount == rt::kMaxFields) {
+        n = std::snprintf(buf + len, size - len, ",\"fields\":[");
+        if (n < 0 || len + static_cast<std::size_t>(n) >= size) return 0;
+        len += static_cast<std::size_t>(n);
+        for (int f = 0; f < rt::kMaxFields; ++f) {
+            const rt::FieldMeta& fm = m.field[f];
+            n = std::snprintf(buf + len, size - len,
+                              "%s{\"t_sample_s\":%.9f,\"gain_V\":%.6g,\"gate_s\":%.9g}",
+                              f > 0 ? "," : "", fm.t_sample_s, fm.gain_V, fm.gate_s);
+            if (n < 0 || len + static_cast<std::size_t>(n) >= size) return 0;
+            len += static_cast<std::size_t>(n);
+        }
+        if (len + 1 >= size) return 0;
+        buf[len++] = ']';
+    }
+    if (len + 2 >= size) return 0;
     buf[len++] = '}';
     buf[len++] = '\n';
     return len;

@@ -19,6 +19,34 @@ std::string slurp(const fs::path& p) {
     return ss.str();
 }
 
+// The metadata line: an interlaced frame also lists each field's own exposure (time, gain,
+// gate); a progressive one has no "fields" key. Both lines are whole JSON objects.
+TEST(Sinks, MetaLineListsTheFieldsOfAnInterlacedFrame) {
+    rt::FrameMeta meta;
+    meta.frame = 3;
+    meta.t_sample_s = 0.1;
+    meta.fieldCount = 2;
+    meta.field[0] = rt::FieldMeta{0.0833333333, 5.5, 0.0};
+    meta.field[1] = rt::FieldMeta{0.1, 5.75, 1e-4};
+    rt::OutputFrame f;
+    f.meta = &meta;
+    char buf[4096];
+    const std::size_t n = MetaJsonlSink::format(f, buf, sizeof buf);
+    ASSERT_GT(n, 0u);
+    const std::string line(buf, n);
+    EXPECT_NE(line.find(",\"fields\":[{\"t_sample_s\":0.083333333,\"gain_V\":5.5,\"gate_s\":0},"
+                        "{\"t_sample_s\":0.100000000,\"gain_V\":5.75,\"gate_s\":0.0001}]}\n"),
+              std::string::npos)
+        << line;
+    meta.fieldCount = 1;
+    const std::string one(buf, MetaJsonlSink::format(f, buf, sizeof buf));
+    EXPECT_EQ(one.find("fields"), std::string::npos) << one;
+    EXPECT_EQ(one.substr(one.size() - 3), "]}\n");
+    // Too small a buffer gives nothing rather than a cut line.
+    meta.fieldCount = 2;
+    EXPECT_EQ(MetaJsonlSink::format(f, buf, n - 1), 0u);
+}
+
 TEST(Sinks, PgmAndY4mBytesAreExact) {
     const fs::path dir = fs::temp_directory_path() / ("nvs_sinks_" + std::to_string(::getpid()));
     fs::remove_all(dir);
