@@ -259,6 +259,10 @@ void FrameLoop::noteFrameLatency(std::int64_t took_ns) noexcept {
             std::swap(t[j - 1], t[j]);
     const std::int64_t median_ns = t[recentCount_ / 2];
     expectedFrame_ns_.store(median_ns + median_ns / 10 + 500'000, std::memory_order_relaxed);
+    // When to start a frame: early enough for the slowest of them plus a quarter, 1 ms and one
+    // period (slack for a busy machine's scheduling and an occasional slower frame).
+    const std::int64_t max_ns = t[recentCount_ - 1];
+    leadFrame_ns_.store(max_ns + max_ns / 4 + 1'000'000 + period_ns_, std::memory_order_relaxed);
 }
 
 void FrameLoop::renderThread(bool realtime) {
@@ -295,6 +299,20 @@ void FrameLoop::renderThread(bool realtime) {
             if (free_.peek(slot)) continue;
             if (stop_.load(std::memory_order_acquire)) goto done;
             freeSeq_.wait(seq, std::memory_order_acquire);
+        }
+        if (wall) {
+            // Just in time: a frame started long before its deadline would show a pose
+            // extrapolated that much further ahead and older telemetry. Start it when the
+            // slowest recent frames would still make it with a period to spare (the slots
+            // bound how far ahead it can be anyway), in slices so that a stop is seen.
+            const std::int64_t lead_ns = leadFrame_ns_.load(std::memory_order_relaxed);
+            if (lead_ns > 0) {
+                const std::int64_t startAt = wall_.deadline_ns(r) - lead_ns;
+                for (std::int64_t now = monotonicNow_ns(); now < startAt; now = monotonicNow_ns()) {
+                    if (stop_.load(std::memory_order_acquire)) goto done;
+                    WallClock::sleepUntil(std::min(startAt, now + 20'000'000));
+                }
+            }
         }
         {
             // Trigger clock: the slot is in hand, so the frame starts as soon as its edge comes.

@@ -254,7 +254,8 @@ class FrameLoop {
     std::array<std::int64_t, kRecentFrames> recentFrame_ns_{};
     int recentNext_ = 0;
     int recentCount_ = 0;
-    std::atomic<std::int64_t> expectedFrame_ns_{0};
+    std::atomic<std::int64_t> expectedFrame_ns_{0};  // median + 10 % + 0.5 ms: the aim
+    std::atomic<std::int64_t> leadFrame_ns_{0};      // max + 25 % + 1 ms + a period: when to start
     void noteFrameLatency(std::int64_t took_ns) noexcept;
     std::int64_t staleFrames_ = 0;
     // Trigger clock (render thread, except trigger_.latency: output thread).
