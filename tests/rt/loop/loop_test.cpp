@@ -138,34 +138,34 @@ LoopConfig smallLoop(FrameRate rate, ClockKind clock, std::int64_t frames) {
     return cfg;
 }
 
-TEST(FrameLoop, SimClockEmitsEveryFrameInOrder) {
-    LoopConfig cfg = smallLoop(FrameRate{60, 1}, ClockKind::Sim, 500);
-    HeldPlatform platform(PlatformState{});
-    SlowRender render(-1, 0.0);
-    LinearCamera camera(1000.0, 16);
-    RecordingSink sink;
-    FrameLoop loop(cfg, platform, render, camera, {&sink});
-    std::vector<std::string> msgs;
-    loop.start(msgs);
-    loop.join();
-    ASSERT_EQ(sink.n, 500);
-    for (int i = 0; i < 500; ++i) {
-        EXPECT_EQ(sink.frame[i], i);
-        EXPECT_EQ(sink.tick[i], i);
-    }
-    EXPECT_EQ(loop.stats().counters.deadlineMisses, 0);
-    EXPECT_EQ(loop.stats().counters.framesEmitted, 500);
-}
-
-// Runs a loop with a held platform to its last tick; its statistics.
-RunStats runToEnd(const LoopConfig& cfg, RenderStage& render, CameraStage& camera,
-                  RecordingSink& sink) {
-    HeldPlatform platform(PlatformState{});
+// Runs a loop to its last tick; its statistics (with a held platform unless one is given).
+RunStats runToEnd(const LoopConfig& cfg, PlatformSource& platform, RenderStage& render,
+                  CameraStage& camera, RecordingSink& sink) {
     FrameLoop loop(cfg, platform, render, camera, {&sink});
     std::vector<std::string> msgs;
     loop.start(msgs);
     loop.join();
     return loop.stats();
+}
+RunStats runToEnd(const LoopConfig& cfg, RenderStage& render, CameraStage& camera,
+                  RecordingSink& sink) {
+    HeldPlatform platform(PlatformState{});
+    return runToEnd(cfg, platform, render, camera, sink);
+}
+
+TEST(FrameLoop, SimClockEmitsEveryFrameInOrder) {
+    LoopConfig cfg = smallLoop(FrameRate{60, 1}, ClockKind::Sim, 500);
+    SlowRender render(-1, 0.0);
+    LinearCamera camera(1000.0, 16);
+    RecordingSink sink;
+    const RunStats st = runToEnd(cfg, render, camera, sink);
+    ASSERT_EQ(sink.n, 500);
+    for (int i = 0; i < 500; ++i) {
+        EXPECT_EQ(sink.frame[i], i);
+        EXPECT_EQ(sink.tick[i], i);
+    }
+    EXPECT_EQ(st.counters.deadlineMisses, 0);
+    EXPECT_EQ(st.counters.framesEmitted, 500);
 }
 
 // Wall clock, 100 Hz, frame 30 takes 70 ms (7 periods): the ticks it overlaps are misses,
@@ -296,11 +296,7 @@ TEST(FrameLoop, WallClockStartsFramesJustInTime) {
     SlowRender render(SlowRender::kEveryFrame, 0.001);
     LinearCamera camera(1000.0, 16);
     RecordingSink sink;
-    FrameLoop loop(cfg, platform, render, camera, {&sink});
-    std::vector<std::string> msgs;
-    loop.start(msgs);
-    loop.join();
-    const RunStats& st = loop.stats();
+    const RunStats st = runToEnd(cfg, platform, render, camera, sink);
     EXPECT_GE(st.counters.framesEmitted, 90);
     ASSERT_GT(st.latency.count(), 50);
     EXPECT_LT(st.latency.quantile_s(0.5), 0.025);  // 2.5 periods; 4 periods if made ahead
