@@ -545,8 +545,9 @@ NVS_BULK_CLONES void normalsFromWords(const std::uint32_t* __restrict words, flo
 }
 
 namespace {
-// 1/(j + 2) for the inversion's recurrence p_{j+1} = p_j·(m·(1/(j + 1))) below; past the table
-// the scalar continuation divides (those k are so rare that the cost does not matter).
+// kInvK[j] = 1/(j + 2): step j of the inversion turns P(N = j + 1) into
+// P(N = j + 2) = P(N = j + 1)·m/(j + 2), computed as p·(m·kInvK[j]); past the table the scalar
+// continuation divides (those k are so rare that the cost does not matter).
 constexpr int kInvTable = 64;
 constexpr std::array<double, kInvTable> kInvK = [] {
     std::array<double, kInvTable> t{};
