@@ -182,7 +182,7 @@ class FrameLoop {
         ImageF radiance;
         ImageU16 counts;
         // Render → camera: each exposure's request; interlaced: field 1's radiance and meta.
-        FrameRequest request[2];
+        FrameRequest request[kMaxFields];
         ImageF fieldRadiance;
         FrameMeta fieldMeta;
         std::int64_t start_ns = 0;  // when the render of this frame began (CLOCK_MONOTONIC)
