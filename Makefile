@@ -7,7 +7,7 @@
 # installed, and the list of them is printed first.
 PACKAGES := build-essential cmake ninja-build pkg-config \
             libtomlplusplus-dev libcli11-dev libgtest-dev libgmock-dev libbenchmark-dev \
-            librandom123-dev liberfa-dev libembree-dev libopenexr-dev libfftw3-dev \
+            librandom123-dev libgsl-dev liberfa-dev libembree-dev libopenexr-dev libfftw3-dev \
             libgpiod-dev libtinyobjloader-dev libssl-dev libpng-dev python3 python3-ephem clang-format ffmpeg
 
 PRESET   ?= release

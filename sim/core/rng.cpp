@@ -377,26 +377,29 @@ NVS_BULK_CLONES void PixelRng::rowWords(std::uint32_t y, std::uint32_t plane, st
     }
 }
 
-NVS_BULK_CLONES void PixelRng::blocksAt(std::uint32_t y, std::uint32_t plane,
-                                        const std::uint32_t* __restrict blocks, int n,
-                                        std::uint32_t* __restrict out) const noexcept {
+// Blocks with counter word 0 = base + list[i] and words 1 … 3 = (c1, c2, c3), for listed
+// row blocks (blocksAt) and the heads of pixel streams (streamHeads).
+NVS_BULK_CLONES void philoxListed(const std::uint32_t key[2], std::uint32_t base,
+                                  const std::uint32_t* __restrict list, std::uint32_t cy,
+                                  std::uint32_t cf, std::uint32_t cs, int n,
+                                  std::uint32_t* __restrict out) noexcept {
 #ifdef NVS_PHILOX_AVX512
     if (cpuHasAvx512()) {
-        philoxAvx512(key_, plane << 24, blocks, y, c2_, c3_, n, out);
+        philoxAvx512(key, base, list, cy, cf, cs, n, out);
         return;
     }
 #endif
-    // rowWords' lane loops with the lanes' block numbers taken from a list.
+    // rowWords' lane loops with the lanes' counters taken from a list.
     for (int b = 0; b < n; b += kLanes) {
         const int m = std::min(kLanes, n - b);
         std::uint32_t c0[kLanes], c1[kLanes], c2[kLanes], c3[kLanes];
         for (int i = 0; i < kLanes; ++i) {
-            c0[i] = (plane << 24) + blocks[b + (i < m ? i : 0)];
-            c1[i] = y;
-            c2[i] = c2_;
-            c3[i] = c3_;
+            c0[i] = base + list[b + (i < m ? i : 0)];
+            c1[i] = cy;
+            c2[i] = cf;
+            c3[i] = cs;
         }
-        std::uint32_t k0 = key_[0], k1 = key_[1];
+        std::uint32_t k0 = key[0], k1 = key[1];
         for (int r = 0; r < kPhiloxRounds; ++r) {
             std::uint64_t p0[kLanes], p1[kLanes];
             for (int i = 0; i < kLanes; ++i) {
@@ -420,6 +423,32 @@ NVS_BULK_CLONES void PixelRng::blocksAt(std::uint32_t y, std::uint32_t plane,
             o[4 * i + 3] = c3[i];
         }
     }
+}
+
+void PixelRng::blocksAt(std::uint32_t y, std::uint32_t plane, const std::uint32_t* blocks, int n,
+                        std::uint32_t* out) const noexcept {
+    philoxListed(key_, plane << 24, blocks, y, c2_, c3_, n, out);
+}
+
+void PixelRng::streamHeads(std::uint32_t y, const std::uint32_t* xs, int n,
+                           std::uint32_t* out) const noexcept {
+    // pixelStream(x, y)'s counter word 0 is 0x80000000 | (x & 0x7FFFFF) << 8 for its block 0.
+    constexpr int kPart = 256;
+    std::uint32_t list[kPart];
+    for (int b = 0; b < n; b += kPart) {
+        const int m = std::min(kPart, n - b);
+        for (int i = 0; i < m; ++i)
+            list[i] = (xs[b + i] & 0x7FFFFFu) << 8;
+        philoxListed(key_, 0x80000000u, list, y, c2_, c3_, m, out + 4 * b);
+    }
+}
+
+PixelStream::PixelStream(const PixelStream& fresh, const std::uint32_t head[4], int used) noexcept
+    : PixelStream(fresh) {
+    for (int i = 0; i < 4; ++i)
+        out_[i] = head[i];
+    used_ = used;
+    ctr_[0] = (ctr_[0] & ~0xFFu) | ((ctr_[0] + 1u) & 0xFFu);  // as next() after block 0
 }
 
 namespace {
@@ -556,9 +585,6 @@ constexpr std::array<double, kInvTable> kInvK = [] {
     return t;
 }();
 
-// The inversion's steps in the vector pass before the scalar continuation takes over.
-constexpr int kInversionVectorSteps = 8;
-
 // The scalar continuation of the inversion from state (s, p, k): k counts the S(j) above u,
 // s = S(k), p = P(N = k + 1). Used for whole draws too, so that a draw is the same whether
 // its first steps ran in the vector pass or here.
@@ -573,30 +599,19 @@ double poissonInversionFrom(double mean, double u, double s, double p, double k)
     return k;
 }
 
-// Eight doubles as one value: GCC's vector extensions, lowered to whatever the clone's target
-// has (one AVX-512 register, two AVX2 or four SSE2 ones), lane by lane the same IEEE
-// operations as the scalar code.
-// (Only inside this file and always inlined, so the -Wpsabi note on passing 64-byte vectors
-// between functions compiled for different targets does not apply.)
+// (The vector types below are only used inside this file and always inlined, so the -Wpsabi
+// note on passing 64-byte vectors between functions compiled for different targets does not
+// apply.)
 #pragma GCC diagnostic ignored "-Wpsabi"
-using V8d = double __attribute__((vector_size(64)));
-using V8l = std::int64_t __attribute__((vector_size(64)));
-
 #define NVS_INLINE __attribute__((always_inline)) inline
 NVS_INLINE std::int64_t bitsOf(double x) {
     return std::bit_cast<std::int64_t>(x);
 }
-NVS_INLINE V8l bitsOf(V8d x) {
-    return std::bit_cast<V8l>(x);
-}
 NVS_INLINE double fromBits(std::int64_t b) {
     return std::bit_cast<double>(b);
 }
-NVS_INLINE V8d fromBits(V8l b) {
-    return std::bit_cast<V8d>(b);
-}
 
-// Body of poissonStart for one double or eight (below).
+// Body of poissonStart.
 template <class D>
 NVS_INLINE void poissonStartT(D m, D& s0, D& p1) noexcept {
     // e^(−m) = 2^n·(1 + E) with n = round(−m/ln 2), r = −m − n·ln 2 ∈ [−0.347, 0.347] (Cody and
@@ -628,7 +643,7 @@ NVS_INLINE void poissonStartT(D m, D& s0, D& p1) noexcept {
     e = 1.0 + r * (1.0 / 3.0) * e;
     e = 1.0 + r * 0.5 * e;
     const D em1 = r * e;  // e^r − 1
-    // 2^n from its bits: n ∈ [−15, 0] for m ∈ (0, 10].
+    // 2^n from its bits: n ∈ [−47, 0] for m ∈ (0, 32].
     const auto ni = bitsOf(t) - bitsOf(kShifter);
     const D scale = fromBits((ni + 1023) << 52);
     const D expNeg = scale + scale * em1;
@@ -641,127 +656,343 @@ void poissonStart(double m, double& s0, double& p1) noexcept {
     poissonStartT(m, s0, p1);
 }
 
-double poissonFromWord(double mean, std::uint32_t word, PixelStream& more) noexcept {
-    if (!(mean > 0.0)) return 0.0;
-    if (mean < 10.0) {
-        double s0 = 0.0, p1 = 0.0;
-        poissonStartT(mean, s0, p1);
-        return poissonInversionFrom(mean, uniformFromWord(word), s0, p1, 0.0);
-    }
+namespace {
+// Means below this are drawn by inversion, the others by PTRS. PTRS accepts at its first, cheap
+// test only 35–65 % of draws for means between 10 (where it becomes valid) and 100, and the rest
+// take five logarithms; the inversion runs ~m steps of four operations, in 16-lane vectors
+// (poissonRow). Up to 32 the inversion is the cheaper.
+constexpr double kInversionBelow = 32.0;
+constexpr float kInversionBelowF = 32.0f;
+
+// PTRS (Hörmann 1993) from its first pair (u − ½, v); further pairs from `more`. The logs
+// that only the slow acceptance test needs are taken when it is first reached (~10 % of
+// draws), so that the common case costs a square root and two divisions.
+double poissonPtrsFrom(double mean, double u, double v, PixelStream& more) noexcept {
     const double slam = std::sqrt(mean);
-    const double loglam = std::log(mean);
     const double b = 0.931 + 2.53 * slam;
     const double a = -0.059 + 0.02483 * b;
-    const double invalpha = 1.1239 + 1.1328 / (b - 3.4);
     const double vr = 0.9277 - 3.6224 / (b - 2.0);
-    bool first = true;
+    double invalpha = 0.0, loglam = 0.0;
+    bool logs = false;
     for (;;) {
-        const double u = (first ? uniformFromWord(word) : more.uniform()) - 0.5;
-        first = false;
-        const double v = more.uniform();
         const double us = 0.5 - std::fabs(u);
         const double k = std::floor((2.0 * a / us + b) * u + mean + 0.43);
         if (us >= 0.07 && v <= vr) return k;
-        if (k < 0.0 || (us < 0.013 && v > us)) continue;
-        if (std::log(v) + std::log(invalpha) - std::log(a / (us * us) + b) <=
-            -mean + k * loglam - logFactorial(k)) {
-            return k;
+        if (!(k < 0.0 || (us < 0.013 && v > us))) {
+            if (!logs) {
+                invalpha = 1.1239 + 1.1328 / (b - 3.4);
+                loglam = std::log(mean);
+                logs = true;
+            }
+            if (std::log(v) + std::log(invalpha) - std::log(a / (us * us) + b) <=
+                -mean + k * loglam - logFactorial(k)) {
+                return k;
+            }
         }
+        u = more.uniform() - 0.5;
+        v = more.uniform();
     }
 }
+
+double poissonInversion(double mean, std::uint32_t word) noexcept {
+    double s0 = 0.0, p1 = 0.0;
+    poissonStartT(mean, s0, p1);
+    return poissonInversionFrom(mean, uniformFromWord(word), s0, p1, 0.0);
+}
+}  // namespace
+
+double poissonFromWord(double mean, std::uint32_t word, PixelStream& more) noexcept {
+    if (!(mean > 0.0)) return 0.0;
+    if (mean < kInversionBelow) return poissonInversion(mean, word);
+    const double u = uniformFromWord(word) - 0.5;
+    return poissonPtrsFrom(mean, u, more.uniform(), more);
+}
+
+namespace {
+// Sixteen floats as one value: GCC's vector extensions, lowered to whatever the clone's target
+// has (one AVX-512 register, two AVX2 or four SSE2 ones), lane by lane the same IEEE operations.
+using V16f = float __attribute__((vector_size(64)));
+using V16i = std::int32_t __attribute__((vector_size(64)));
+
+// The inversion's vector pass in single precision with a certainty margin. Single precision
+// makes S(j) within 1.6e-5 of the double recurrence's value for j < kFloatSteps = 64 and m < 32:
+// e^(−m) to 2.4e-7 relative (below), then at most three roundings of 6e-8 relative per step in
+// P(N = j + 1) (so ≤ 1.2e-5 relative, and the P sum to ≤ 1), and one of 6e-8 absolute per
+// subtraction in S (≤ 3.8e-6 over 64 steps). A comparison u < S(j)
+// whose two sides are more than kCertainMargin apart is therefore decided as the double
+// recurrence decides it; a draw whose deciding comparisons are closer than that (~1e-4 of
+// them), or still counting after kFloatSteps, is made again in double. So the draws are
+// bit-identical to poissonFromWord's, at twice the vector width.
+constexpr int kFloatSteps = 64;
+constexpr float kCertainMargin = 0x1.0p-14f;  // 6.1e-5, nearly four times the bound above
+constexpr std::array<float, kFloatSteps> kInvKf = [] {
+    std::array<float, kFloatSteps> t{};
+    for (int j = 0; j < kFloatSteps; ++j)
+        t[static_cast<std::size_t>(j)] = 1.0f / static_cast<float>(j + 2);
+    return t;
+}();
+
+// Whether any lane of a comparison is true: OR-folded in halves.
+NVS_INLINE bool anyLane(V16i c) {
+    using V8i = std::int32_t __attribute__((vector_size(32)));
+    using V4i = std::int32_t __attribute__((vector_size(16)));
+    const V8i c8 = __builtin_shufflevector(c, c, 0, 1, 2, 3, 4, 5, 6, 7) |
+                   __builtin_shufflevector(c, c, 8, 9, 10, 11, 12, 13, 14, 15);
+    const V4i c4 =
+        __builtin_shufflevector(c8, c8, 0, 1, 2, 3) | __builtin_shufflevector(c8, c8, 4, 5, 6, 7);
+    return ((c4[0] | c4[1]) | (c4[2] | c4[3])) != 0;
+}
+
+// u of a word in single precision, within 1e-7 of uniformFromWord's (pass 1's and the
+// inversion's comparisons allow for it).
+NVS_INLINE float uniformFloat(std::uint32_t w) {
+    return static_cast<float>(static_cast<std::int32_t>(w >> 1)) * 0x1.0p-31f;
+}
+
+// The inversion for 16·G draws at once (G 16-lane vectors, whose steps overlap; one early-exit
+// test for all of them; kInvLanes = 64 where there are many): k[i] for means m[i] in (0, 32),
+// u[i] as float, or −1 where the double path must decide.
+constexpr int kInvGroup = 4;
+constexpr int kInvLanes = 16 * kInvGroup;
+template <int G = kInvGroup>
+NVS_INLINE void poissonInversionF(const float* __restrict mIn, const float* __restrict uIn,
+                                  float* __restrict kOut) noexcept {
+    V16f m[G], u[G], s[G], p[G], k[G], hi[G], lo[G];
+    for (int g = 0; g < G; ++g) {
+        std::memcpy(&m[g], mIn + 16 * g, sizeof(V16f));
+        std::memcpy(&u[g], uIn + 16 * g, sizeof(V16f));
+        // e^(−m) = 2^n(1 + E): n = round(−m/ln 2) ∈ [−47, 0], r = −m − n·ln 2 (Cody–Waite: the
+        // high part 355/512 has 9 bits, so n·ln2_hi is exact) and E = e^r − 1 to r⁸/8!
+        // (< 6e-9 at |r| ≤ 0.347).
+        const V16f x = -m[g];
+        const V16f t = x * 1.44269504f + 0x1.8p23f;
+        const V16f n = t - 0x1.8p23f;
+        const V16f r = (x - n * 0.693359375f) - n * -2.12194440e-4f;
+        V16f e = 1.0f + r * (1.0f / 7.0f);
+        e = 1.0f + r * (1.0f / 6.0f) * e;
+        e = 1.0f + r * (1.0f / 5.0f) * e;
+        e = 1.0f + r * (1.0f / 4.0f) * e;
+        e = 1.0f + r * (1.0f / 3.0f) * e;
+        e = 1.0f + r * 0.5f * e;
+        const V16f em1 = r * e;
+        const V16i ni = std::bit_cast<V16i>(t) - std::bit_cast<std::int32_t>(0x1.8p23f);
+        const V16f scale = std::bit_cast<V16f>((ni + 127) << 23);
+        const V16f expNeg = scale + scale * em1;
+        s[g] = n == 0.0f ? -em1 : 1.0f - expNeg;
+        p[g] = m[g] * expNeg;
+        k[g] = m[g] * 0.0f;
+        hi[g] = m[g] * 0.0f + 3.0e38f;  // S(k − 1), the last S above u (none yet)
+        lo[g] = s[g];                   // S(k), the candidate for the first S not above u
+    }
+    for (int step = 0; step < kFloatSteps;) {
+        for (int q = 0; q < 4; ++q, ++step) {
+            const float inv = kInvKf[static_cast<std::size_t>(step)];
+            for (int g = 0; g < G; ++g) {
+                const V16i above = u[g] < s[g];
+                const V16f next = s[g] - p[g];
+                k[g] = above ? k[g] + 1.0f : k[g];
+                hi[g] = above ? s[g] : hi[g];
+                lo[g] = above ? next : lo[g];
+                s[g] = next;
+                p[g] = p[g] * (m[g] * inv);
+            }
+        }
+        V16i counting = u[0] < s[0];
+        for (int g = 1; g < G; ++g)
+            counting |= u[g] < s[g];
+        if (!anyLane(counting)) break;
+    }
+    // Certain where u is at least the margin below S(k − 1) and above S(k) (every earlier S is
+    // above S(k − 1)), and the count has ended.
+    for (int g = 0; g < G; ++g) {
+        const V16i unsure =
+            (u[g] < s[g]) | (hi[g] - u[g] < kCertainMargin) | (u[g] - lo[g] < kCertainMargin);
+        const V16f out = unsure ? m[g] * 0.0f - 1.0f : k[g];
+        std::memcpy(kOut + 16 * g, &out, sizeof out);
+    }
+}
+}  // namespace
 
 NVS_BULK_CLONES void poissonRow(const float* __restrict mean, const std::uint32_t* __restrict words,
                                 float* __restrict out, int n, const PixelRng& rng, std::uint32_t x0,
                                 std::uint32_t y) noexcept {
-    // Blocks of kBlock pixels: pass 1 (vector) settles the certain zeros and lists the rest;
-    // pass 2 gathers the listed means below 10 and runs the inversion's start (e^(−m) by
-    // poissonStart) and its first kInversionVectorSteps steps over them as vector loops; pass 3
-    // continues the few draws that are still undecided, and draws the means of 10 and more by
-    // PTRS. Every draw equals poissonFromWord's (the same operations, in the same order).
+    // Blocks of kBlock pixels: pass 1 (vector) settles the certain zeros; pass 2 runs the
+    // inversion for the means below 32 in single-precision vectors (poissonInversionF), over
+    // the whole block where most pixels are open, else over the open ones gathered; pass 3
+    // makes in double the few inversions pass 2 left uncertain, and draws the means of 32 and
+    // more by PTRS, its first attempt in double vectors with v from the pixel's stream head
+    // (made in bulk). Every draw equals poissonFromWord's.
     constexpr int kBlock = 256;
     int cand[kBlock];
     int big[kBlock];
-    alignas(64) double cm[kBlock], cu[kBlock], cs[kBlock], cp[kBlock], ck[kBlock];
-    for (int b = 0; b < n; b += kBlock) {
-        const int nb = std::min(kBlock, n - b);
-        // Pass 1 (vector): 0 where u ≥ m certainly, −1 where the exact sampler must decide.
-        // u_f = ⌊w/2⌋·2⁻³¹ rounded to float is at most u·(1 + 2⁻²⁴); the margin 2⁻²⁰ covers
-        // it. m ≤ 0 gives 0 here (u_f ≥ 0); NaN fails the test and gets 0 below.
-        int j = 0;
-        for (; j + kChunk <= nb; j += kChunk) {
-            const float* mc = mean + b + j;
-            const std::uint32_t* wc = words + b + j;
-            float* oc = out + b + j;
+    alignas(64) float cm[kBlock], cu[kBlock], ck[kBlock];
+    alignas(64) double bm[kBlock], bu[kBlock], bv[kBlock], bk[kBlock];
+    alignas(64) std::uint32_t bx[kBlock], heads[4 * kBlock];
+    // PTRS for the listed means of 32 and more (and NaN) of the block at b: the first attempt
+    // (vector) as poissonPtrsFrom makes it, −1 where it does not accept; then the rest.
+    // (Inlined, so that it is compiled for each clone's target.)
+    const auto ptrsBlock = [&](int b, int nBig) __attribute__((always_inline)) {
+        if (nBig == 0) return;
+        const float* __restrict mb = mean + b;
+        const std::uint32_t* __restrict wb = words + b;
+        float* __restrict ob = out + b;
+        // PTRS's first attempt (vector), as poissonPtrsFrom makes it: −1 where it does not
+        // accept (or the mean is NaN).
+        for (int c = 0; c < nBig; ++c)
+            bx[c] = x0 + static_cast<std::uint32_t>(b + big[c]);
+        rng.streamHeads(y, bx, nBig, heads);
+        const int bigPadded = (nBig + kChunk - 1) / kChunk * kChunk;
+        for (int c = 0; c < bigPadded; ++c) {
+            const bool real = c < nBig;
+            bm[c] = real ? static_cast<double>(mb[big[c]]) : kInversionBelow;
+            bu[c] = real ? uniformFromWord(wb[big[c]]) - 0.5 : 0.0;
+            bv[c] = real ? uniformFromWord(heads[4 * c]) : 0.5;
+        }
+        for (int c = 0; c < bigPadded; c += kChunk) {
+            const double* mc = bm + c;
+            const double* uc = bu + c;
+            const double* vc = bv + c;
+            double* kc = bk + c;
             for (int l = 0; l < kChunk; ++l) {
-                const float u =
-                    static_cast<float>(static_cast<std::int32_t>(wc[l] >> 1)) * 0x1.0p-31f;
-                oc[l] = u >= mc[l] * (1.0f + 0x1.0p-20f) ? 0.0f : -1.0f;
+                const double m = mc[l];
+                const double u = uc[l];
+                const double slam = std::sqrt(m);
+                const double bb = 0.931 + 2.53 * slam;
+                const double a = -0.059 + 0.02483 * bb;
+                const double vr = 0.9277 - 3.6224 / (bb - 2.0);
+                const double us = 0.5 - std::fabs(u);
+                const double k = std::floor((2.0 * a / us + bb) * u + m + 0.43);
+                kc[l] = (us >= 0.07) & (vc[l] <= vr) ? k : -1.0;
             }
-        }
-        for (; j < nb; ++j) {
-            const float u =
-                static_cast<float>(static_cast<std::int32_t>(words[b + j] >> 1)) * 0x1.0p-31f;
-            out[b + j] = u >= mean[b + j] * (1.0f + 0x1.0p-20f) ? 0.0f : -1.0f;
-        }
-        // Listed pixels: means in (0, 10) gathered for pass 2; 10 and above (and NaN) apart.
-        int undecided = 0;
-        for (j = 0; j < nb; ++j) {
-            big[undecided] = b + j;
-            undecided += out[b + j] < 0.0f ? 1 : 0;
-        }
-        int listed = 0, nBig = 0;
-        for (int c = 0; c < undecided; ++c) {
-            const int i = big[c];  // nBig ≤ c: the large ones are moved down in place
-            const float m = mean[i];
-            const bool small = m > 0.0f && m < 10.0f;
-            cand[listed] = i;
-            cm[listed] = static_cast<double>(m);
-            cu[listed] = uniformFromWord(words[i]);
-            listed += small ? 1 : 0;
-            big[nBig] = i;
-            nBig += small ? 0 : 1;
-        }
-        // Pass 2 (vector): S(0) and P(N = 1), then the first steps of the inversion, counting
-        // the S(j) above u (S falls with j, so the count is the first k with u ≥ S(k)).
-        const int listedPadded = (listed + kChunk - 1) / kChunk * kChunk;
-        for (j = listed; j < listedPadded; ++j) {  // padding lanes: a harmless mean of 1
-            cm[j] = 1.0;
-            cu[j] = 0.5;
-        }
-        for (j = 0; j < listedPadded; j += 8) {
-            V8d m, u;
-            std::memcpy(&m, cm + j, sizeof m);
-            std::memcpy(&u, cu + j, sizeof u);
-            V8d s, p;
-            poissonStartT(m, s, p);
-            V8d k = m * 0.0;
-            for (int step = 0; step < kInversionVectorSteps; ++step) {
-                // As poissonInversionFrom: k += 1, s = S(k), p = P(N = k + 1) while u < s. The
-                // recurrence runs on in every lane without a select: S falls with k, so once
-                // u ≥ S(k) no later step counts, and a lane that is still counting after the
-                // last step has s and p exactly as poissonInversionFrom would (and one that
-                // stopped has u ≥ s, so it is not continued). Three short independent chains
-                // instead of one through the comparison.
-                k = u < s ? k + 1.0 : k;
-                s = s - p;
-                p = p * (m * kInvK[static_cast<std::size_t>(step)]);
-            }
-            std::memcpy(cs + j, &s, sizeof s);
-            std::memcpy(cp + j, &p, sizeof p);
-            std::memcpy(ck + j, &k, sizeof k);
-        }
-        // Pass 3: the draws still undecided after those steps, then the large means.
-        for (int c = 0; c < listed; ++c) {
-            double k = ck[c];
-            if (cu[c] < cs[c]) k = poissonInversionFrom(cm[c], cu[c], cs[c], cp[c], k);
-            out[cand[c]] = static_cast<float>(k);
         }
         for (int c = 0; c < nBig; ++c) {
             const int i = big[c];
-            PixelStream more = rng.pixelStream(x0 + static_cast<std::uint32_t>(i), y);
-            out[i] =
-                static_cast<float>(poissonFromWord(static_cast<double>(mean[i]), words[i], more));
+            if (bk[c] >= 0.0) {
+                ob[i] = static_cast<float>(bk[c]);
+                continue;
+            }
+            const double m = static_cast<double>(mb[i]);
+            if (!(m > 0.0)) {
+                ob[i] = 0.0f;
+                continue;
+            }
+            PixelStream more(rng.pixelStream(bx[c], y), heads + 4 * c, 1);
+            ob[i] = static_cast<float>(poissonPtrsFrom(m, bu[c], bv[c], more));
         }
+    };
+    for (int b = 0; b < n; b += kBlock) {
+        const int nb = std::min(kBlock, n - b);
+        const float* __restrict mb = mean + b;
+        const std::uint32_t* __restrict wb = words + b;
+        float* __restrict ob = out + b;
+        // Pass 1 (vector): 0 where u ≥ m certainly, −1 where the exact sampler must decide.
+        // u_f = ⌊w/2⌋·2⁻³¹ rounded to float is at most u·(1 + 2⁻²⁴); the margin 2⁻²⁰ covers
+        // it. m ≤ 0 gives 0 here (u_f ≥ 0); NaN fails the test and gets 0 below.
+        int open = 0;
+        int j = 0;
+        for (; j + kChunk <= nb; j += kChunk) {
+            for (int l = 0; l < kChunk; ++l) {
+                const bool zero = uniformFloat(wb[j + l]) >= mb[j + l] * (1.0f + 0x1.0p-20f);
+                ob[j + l] = zero ? 0.0f : -1.0f;
+                open += zero ? 0 : 1;
+            }
+        }
+        for (; j < nb; ++j) {
+            const bool zero = uniformFloat(wb[j]) >= mb[j] * (1.0f + 0x1.0p-20f);
+            ob[j] = zero ? 0.0f : -1.0f;
+            open += zero ? 0 : 1;
+        }
+        if (open == 0) continue;
+        // Pass 2 (vector): the inversion for open means in (0, 32). Its result k ≥ 0 is the
+        // draw; −1 (not certain) stays open for pass 3, as do the means of 32 and more.
+        if (2 * open > nb) {
+            // Most are open: the whole block (the others' lanes compute a harmless mean of 1
+            // and are not written).
+            for (j = 0; j < nb; j += kInvLanes) {
+                const int len = std::min(kInvLanes, nb - j);
+                alignas(64) float mt[kInvLanes], ut[kInvLanes], kt[kInvLanes];
+                if (len == kInvLanes) {
+                    for (int l = 0; l < kInvLanes; ++l) {
+                        const float mm = mb[j + l];
+                        mt[l] = mm > 0.0f && mm < kInversionBelowF ? mm : 1.0f;
+                        ut[l] = uniformFloat(wb[j + l]);
+                    }
+                } else {
+                    for (int l = 0; l < kInvLanes; ++l) {
+                        const float mm = l < len ? mb[j + l] : 1.0f;
+                        mt[l] = mm > 0.0f && mm < kInversionBelowF ? mm : 1.0f;
+                        ut[l] = l < len ? uniformFloat(wb[j + l]) : 0.5f;
+                    }
+                }
+                poissonInversionF(mt, ut, kt);
+                for (int l = 0; l < len; ++l) {
+                    const float mm = mb[j + l];
+                    const bool small = (mm > 0.0f) & (mm < kInversionBelowF);
+                    ob[j + l] = (ob[j + l] < 0.0f) & small ? kt[l] : ob[j + l];
+                }
+            }
+        } else {
+            // Few are open: their positions first (one cheap pass), then their means and u
+            // gathered for the inversion, and the large means listed apart.
+            int nOpen = 0;
+            for (j = 0; j < nb; ++j) {
+                cand[nOpen] = j;
+                nOpen += ob[j] < 0.0f ? 1 : 0;
+            }
+            int listed = 0, nBig = 0;
+            for (int c = 0; c < nOpen; ++c) {
+                const int i = cand[c];  // listed ≤ c: the small ones are moved down in place
+                const float m = mb[i];
+                const bool small = (m > 0.0f) & (m < kInversionBelowF);
+                cand[listed] = i;
+                cm[listed] = m;
+                cu[listed] = uniformFloat(wb[i]);
+                listed += small ? 1 : 0;
+                big[nBig] = i;
+                nBig += small ? 0 : 1;
+            }
+            const int listedPadded = (listed + 15) / 16 * 16;
+            for (j = listed; j < listedPadded; ++j) {  // padding lanes: a harmless mean of 1
+                cm[j] = 1.0f;
+                cu[j] = 0.5f;
+            }
+            for (j = 0; j + kInvLanes <= listedPadded; j += kInvLanes)
+                poissonInversionF(cm + j, cu + j, ck + j);
+            for (; j < listedPadded; j += 16)
+                poissonInversionF<1>(cm + j, cu + j, ck + j);
+            for (int c = 0; c < listed; ++c) {
+                const int i = cand[c];
+                const float k = ck[c];
+                ob[i] =
+                    k >= 0.0f
+                        ? k
+                        : static_cast<float>(poissonInversion(static_cast<double>(mb[i]), wb[i]));
+            }
+            ptrsBlock(b, nBig);
+            continue;
+        }
+        // Pass 3: the pixels still open (chunks with none are passed over after one vector
+        // test): uncertain inversions again in double; means of 32 and more (and NaN) listed.
+        int nBig = 0;
+        for (j = 0; j < nb; j += 16) {
+            const int m = std::min(16, nb - j);
+            if (m == 16) {
+                V16f o;
+                std::memcpy(&o, ob + j, sizeof o);
+                if (!anyLane(o < 0.0f)) continue;
+            }
+            for (int l = 0; l < m; ++l) {
+                const int i = j + l;
+                if (!(ob[i] < 0.0f)) continue;
+                const float mm = mb[i];
+                if (mm > 0.0f && mm < kInversionBelowF) {
+                    ob[i] = static_cast<float>(poissonInversion(static_cast<double>(mm), wb[i]));
+                } else {
+                    big[nBig++] = i;
+                }
+            }
+        }
+        ptrsBlock(b, nBig);
     }
 }
 

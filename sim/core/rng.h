@@ -9,8 +9,9 @@
 // words and `block` counts blocks drawn for this key.
 //
 // The distributions are exact samplers (no normal approximations):
-//   poisson   mean < 10: inversion by sequential search (exact, ~mean+1 uniforms);
-//             mean ≥ 10: PTRS, Hörmann (1993) "The transformed rejection method for
+//   poisson   KeyedRng: mean < 10 inversion by sequential search (exact, ~mean+1 uniforms),
+//             mean ≥ 10 PTRS; the per-pixel samplers below invert up to mean 32 (one word);
+//             PTRS, Hörmann (1993) "The transformed rejection method for
 //             generating Poisson random variables" — exact, O(1) (~2.3 uniforms) at any mean.
 //   gaussian  Box–Muller (both variates used).
 //   gamma     Marsaglia & Tsang (2000) "A simple method for generating gamma variables" for
@@ -86,6 +87,9 @@ class PixelStream {
     PixelStream(std::uint32_t k0, std::uint32_t k1, std::uint32_t c0, std::uint32_t c1,
                 std::uint32_t c2, std::uint32_t c3) noexcept
         : key_{k0, k1}, ctr_{c0, c1, c2, c3} {}
+    // The same sequence with its first block already made (PixelRng::streamHeads) and its
+    // first `used` words (0 … 4) taken.
+    PixelStream(const PixelStream& fresh, const std::uint32_t head[4], int used) noexcept;
     std::uint32_t next() noexcept;
     // Uniform on (0, 1) from one word: (w + 0.5)·2⁻³².
     double uniform() noexcept;
@@ -113,6 +117,10 @@ class PixelRng {
     void blocksAt(std::uint32_t y, std::uint32_t plane, const std::uint32_t* blocks, int n,
                   std::uint32_t* out) const noexcept;
     PixelStream pixelStream(std::uint32_t x, std::uint32_t y) const noexcept;
+    // The first block (four words) of pixelStream(xs[i], y) for each listed x, made in bulk:
+    // for samplers whose first attempt needs one word more than a pixel's row words.
+    void streamHeads(std::uint32_t y, const std::uint32_t* xs, int n,
+                     std::uint32_t* out) const noexcept;
 
   private:
     std::uint32_t key_[2];
@@ -138,22 +146,23 @@ inline double uniformFromWord(std::uint32_t w) {
 void normalsFromWords(const std::uint32_t* words, float* z, int n) noexcept;
 float normalFromWord(std::uint32_t w) noexcept;
 
-// Poisson(mean) from one word, exact to the word's 2⁻³² resolution: for mean < 10, inversion
+// Poisson(mean) from one word, exact to the word's 2⁻³² resolution: for mean < 32, inversion
 // on the survival function S(k) = P(N > k): k is the first with u ≥ S(k), S(0) = P(N ≥ 1) =
-// −expm1(−mean) and P(N = 1) from poissonStart; for mean ≥ 10, PTRS (as KeyedRng::poisson)
+// −expm1(−mean) and P(N = 1) from poissonStart; for mean ≥ 32, PTRS (as KeyedRng::poisson)
 // with the first u from the word and the rest from `more`.
 double poissonFromWord(double mean, std::uint32_t word, PixelStream& more) noexcept;
 
-// The inversion's start for 0 < m ≤ 10: s0 = −expm1(−m) = P(N ≥ 1) and p1 = m·e^(−m) = P(N = 1),
-// within a few ulp of libm's, by plain double arithmetic that vectorises and gives the same bits
-// in every vector version (libm's expm1 and exp were most of the cost of a night scene's
-// photocathode). Exposed for tests.
+// The inversion's start for 0 < m ≤ 32: s0 = −expm1(−m) = P(N ≥ 1) and p1 = m·e^(−m) = P(N = 1),
+// within a few ulp of libm's, by plain double arithmetic (libm's expm1 and exp were most of the
+// cost of a night scene's photocathode). Exposed for tests.
 void poissonStart(double m, double& s0, double& p1) noexcept;
 
 // Poisson draws for a row: out[i] ~ Poisson(mean[i]) with word[i], pixel x0 + i of row y; each
 // equals poissonFromWord's. Most pixels of a dark scene draw 0: since P(N ≥ 1) = 1 − e^(−m) < m,
-// u ≥ m settles k = 0 in a vector pass; the others (probability ≈ m) run the inversion's start
-// and first steps in vector passes too. Negative, NaN or zero means give 0.
+// u ≥ m settles k = 0 in a vector pass; the others (probability ≈ m) run the inversion in
+// single-precision vectors, decided there wherever single precision is certain to decide as
+// double does (all but ~1e-4 of draws; the rest again in double), and PTRS's first attempt in
+// double vectors. Negative, NaN or zero means give 0.
 void poissonRow(const float* mean, const std::uint32_t* words, float* out, int n,
                 const PixelRng& rng, std::uint32_t x0, std::uint32_t y) noexcept;
 

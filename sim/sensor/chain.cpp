@@ -111,15 +111,32 @@ NVS_ROW_CLONES double mcpMeanKernel(float* __restrict v, int w, float g) noexcep
     return sum;
 }
 
-// Marsaglia–Tsang's first attempt for m listed pixels: e = θ·d·(1 + c·z)³ when the squeeze
-// accepts, else 0 (the caller finishes those, and shapes below 1, with gammaFromNormal).
-NVS_ROW_CLONES void gammaFirstAttemptKernel(const float* __restrict v, const int* __restrict idx,
-                                            const float* __restrict z,
+// Σ v in 16 float lanes, added up in double (as the other row sums).
+NVS_ROW_CLONES double rowSumOf(const float* __restrict v, int w) noexcept {
+    constexpr int kL = 16;
+    float acc[kL] = {};
+    int x = 0;
+    for (; x + kL <= w; x += kL) {
+        for (int j = 0; j < kL; ++j)
+            acc[j] += v[x + j];
+    }
+    for (; x < w; ++x)
+        acc[x % kL] += v[x];
+    double sum = 0.0;
+    for (int j = 0; j < kL; ++j)
+        sum += static_cast<double>(acc[j]);
+    return sum;
+}
+
+// Marsaglia–Tsang's first attempt for m pixels with n photoelectrons: e = θ·d·(1 + c·z)³ when
+// the squeeze accepts, else 0 (the caller finishes those, and shapes below 1, with
+// gammaFromNormal).
+NVS_ROW_CLONES void gammaFirstAttemptKernel(const float* __restrict n, const float* __restrict z,
                                             const std::uint32_t* __restrict uw,
                                             double* __restrict e, int m, double k,
                                             double theta) noexcept {
     for (int j = 0; j < m; ++j) {
-        const double shape = static_cast<double>(v[idx[j]]) * k;
+        const double shape = static_cast<double>(n[j]) * k;
         const double d = shape - 1.0 / 3.0;
         const double c = 1.0 / std::sqrt(9.0 * (shape >= 1.0 ? d : 1.0));
         const double zz = static_cast<double>(z[j]);
@@ -393,13 +410,18 @@ McpStage::McpStage(const CameraParams& c, std::uint64_t seed)
       noise_(c.mcp_noise && c.mcp_noise_factor > 1.0 + 1e-9),
       k_(c.mcp_noise_factor > 1.0 + 1e-9 ? 1.0 / (c.mcp_noise_factor - 1.0) : 0.0),
       seed_(seed),
-      words_(new std::uint32_t[2 * paddedRow(c.width)]),
+      table_(enabled_ && noise_ ? GammaTable::forShapeStep(k_) : nullptr),
+      words_(new std::uint32_t[paddedRow(c.width)]),
       idx_(new int[paddedRow(c.width)]),
       blocks_(new std::uint32_t[paddedRow(c.width)]),
-      zWords_(new std::uint32_t[paddedRow(c.width)]),
       uWords_(new std::uint32_t[paddedRow(c.width)]),
+      n_(new float[paddedRow(c.width)]),
+      e_(new float[paddedRow(c.width)]),
+      rest_(new int[paddedRow(c.width)]),
+      restN_(new float[paddedRow(c.width)]),
+      heads_(new std::uint32_t[4 * paddedRow(c.width)]),
       z_(new float[paddedRow(c.width)]),
-      e_(new double[paddedRow(c.width)]) {}
+      g_(new double[paddedRow(c.width)]) {}
 
 void McpStage::apply(ImageView<float> pe, FieldContext& ctx) noexcept {
     begin(ctx);
@@ -419,57 +441,98 @@ double McpStage::applyRow(float* __restrict v, int w, int y) noexcept {
     if (!noise_) return mcpMeanKernel(v, w, static_cast<float>(g));
     // The gain of one electron has mean G and variance (F − 1)G²: a Gamma(k, G/k) with
     // k = 1/(F − 1). N independent ones sum to Gamma(N·k, G/k) exactly. Pixels with N = 0
-    // draw nothing; pixel x takes words 2x (normal) and 2x + 1 (uniform) of its row, i.e. of
-    // its row's block x/2, for the first Marsaglia–Tsang attempt, and its pixel stream for any
-    // further one. The blocks are made for the whole row when many pixels draw, for the
-    // drawing pixels alone when few do: the same words either way.
-    int* __restrict idx = idx_.get();
+    // draw nothing. Pixel x takes word x of its row: for N = 1 … GammaTable::kMaxN (whole
+    // numbers) the tabulated quantile at that word; beyond (or for a fractional N, which a
+    // noise-free photocathode passes on) Marsaglia–Tsang from the pixel's own stream, its first
+    // attempt in a vector pass. The row's words are made for the whole row when many pixels
+    // draw, for the drawing pixels' blocks alone when few do: the same words either way.
     int m = 0;
-    for (int x = 0; x < w; ++x) {
-        idx[m] = x;
+    for (int x = 0; x < w; ++x)
         m += v[x] > 0.0f ? 1 : 0;
-    }
     if (m == 0) return 0.0;
     const PixelRng rng(seed_, RngStream::McpGain, field_);
     const std::uint32_t yy = static_cast<std::uint32_t>(y);
+    const double theta = g / k_;
+    int* __restrict idx = idx_.get();
     std::uint32_t* __restrict wz = words_.get();
-    std::uint32_t* __restrict zw = zWords_.get();
-    std::uint32_t* __restrict uw = uWords_.get();
-    if (2 * m > w) {
-        rng.rowWords(yy, 0, 0, blocksFor(2 * w), wz);
-        for (int j = 0; j < m; ++j) {
-            zw[j] = wz[2 * idx[j]];
-            uw[j] = wz[2 * idx[j] + 1];
-        }
+    float* __restrict e = e_.get();
+    const bool dense = 4 * m > w;
+    if (dense) {
+        // Most pixels draw: the whole row at once (those with N = 0 get 0).
+        rng.rowWords(yy, 0, 0, blocksFor(w), wz);
+        gammaTableDraws(*table_, v, wz, e, w, static_cast<float>(theta));
+        m = w;
     } else {
+        // Few draw: those alone, gathered, their words from their own blocks.
+        m = 0;
+        for (int x = 0; x < w; ++x) {
+            idx[m] = x;
+            m += v[x] > 0.0f ? 1 : 0;
+        }
+        std::uint32_t* __restrict uw = uWords_.get();
+        float* __restrict n = n_.get();
         std::uint32_t* __restrict b = blocks_.get();
         for (int j = 0; j < m; ++j)
-            b[j] = static_cast<std::uint32_t>(idx[j] / 2);
-        rng.blocksAt(yy, 0, b, m, wz);
+            b[j] = static_cast<std::uint32_t>(idx[j] / 4);
+        rng.blocksAt(yy, 0, b, m, heads_.get());
         for (int j = 0; j < m; ++j) {
-            const int o = 4 * j + 2 * (idx[j] % 2);
-            zw[j] = wz[o];
-            uw[j] = wz[o + 1];
+            uw[j] = heads_[static_cast<std::size_t>(4 * j + idx[j] % 4)];
+            n[j] = v[idx[j]];
+        }
+        gammaTableDraws(*table_, n, uw, e, m, static_cast<float>(theta));
+    }
+    // The pixels past the table (e = −1): rare, so the chunks without one are passed over.
+    int* __restrict rest = rest_.get();
+    int nRest = 0;
+    for (int j0 = 0; j0 < m; j0 += 16) {
+        const int len = std::min(16, m - j0);
+        int any = 0;
+        for (int l = 0; l < len; ++l)
+            any |= static_cast<int>(e[j0 + l] < 0.0f);
+        if (!any) continue;
+        for (int l = 0; l < len; ++l) {
+            rest[nRest] = j0 + l;
+            nRest += e[j0 + l] < 0.0f ? 1 : 0;
         }
     }
-    normalsFromWords(zw, z_.get(), m);
-    // First attempt in a vector pass (accepted by the squeeze ~95 % of the time), the rest
-    // exactly, one pixel at a time.
-    const double theta = k_ > 0.0 ? g / k_ : 0.0;
-    double* __restrict e = e_.get();
-    gammaFirstAttemptKernel(v, idx, z_.get(), uw, e, m, k_, theta);
-    double rowSum = 0.0;
-    for (int j = 0; j < m; ++j) {
-        const int x = idx[j];
-        double ej = e[j];
-        if (ej == 0.0) {
-            PixelStream more = rng.pixelStream(static_cast<std::uint32_t>(x), yy);
-            ej = gammaFromNormal(static_cast<double>(v[x]) * k_, theta, z_[j], uw[j], more);
+    if (nRest > 0) {
+        // Each one's stream head (made in bulk): word 0 gives the normal, word 1 the squeeze's
+        // uniform; the first attempt in a vector pass, the rest one pixel at a time.
+        std::uint32_t* __restrict xs = blocks_.get();
+        for (int r = 0; r < nRest; ++r)
+            xs[r] = static_cast<std::uint32_t>(dense ? rest[r] : idx[rest[r]]);
+        std::uint32_t* __restrict heads = heads_.get();
+        rng.streamHeads(yy, xs, nRest, heads);
+        std::uint32_t* __restrict zw = wz;  // the row's words are no longer needed
+        std::uint32_t* __restrict u1 = xs;  // nor the x list (idx has them)
+        float* __restrict rn = restN_.get();
+        for (int r = 0; r < nRest; ++r) {
+            zw[r] = heads[4 * r];
+            u1[r] = heads[4 * r + 1];
+            rn[r] = v[dense ? rest[r] : idx[rest[r]]];
         }
-        v[x] = static_cast<float>(ej);
-        rowSum += ej;
+        float* __restrict z = z_.get();
+        normalsFromWords(zw, z, nRest);
+        double* __restrict first = g_.get();
+        gammaFirstAttemptKernel(rn, z, u1, first, nRest, k_, theta);
+        for (int r = 0; r < nRest; ++r) {
+            double ej = first[r];
+            if (ej == 0.0) {
+                const int x = dense ? rest[r] : idx[rest[r]];
+                PixelStream more(rng.pixelStream(static_cast<std::uint32_t>(x), yy), heads + 4 * r,
+                                 2);
+                ej = gammaFromNormal(static_cast<double>(rn[r]) * k_, theta, z[r], u1[r], more);
+            }
+            e[rest[r]] = static_cast<float>(ej);
+        }
     }
-    return rowSum;
+    if (dense) {
+        std::copy(e, e + w, v);
+        return rowSumOf(v, w);
+    }
+    for (int j = 0; j < m; ++j)
+        v[idx[j]] = e[j];
+    return rowSumOf(e, m);
 }
 
 // ---- 6. Phosphor ----------------------------------------------------------------------------

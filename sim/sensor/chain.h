@@ -25,6 +25,7 @@
 #include <memory>
 #include <vector>
 
+#include "sim/core/gamma_table.h"
 #include "sim/core/image.h"
 #include "sim/sensor/camera.h"
 
@@ -149,13 +150,18 @@ class McpStage {
     std::uint64_t seed_;
     std::uint64_t field_ = 0;
     double gain_ = 1.0;
-    std::unique_ptr<std::uint32_t[]> words_;   // one row of words, two per pixel
+    std::shared_ptr<const GammaTable> table_;  // quantiles of Gamma(N·k), N ≤ kMaxN
+    std::unique_ptr<std::uint32_t[]> words_;   // one row of words, one per pixel
     std::unique_ptr<int[]> idx_;               // pixels of the row that draw
-    std::unique_ptr<std::uint32_t[]> blocks_;  // their Philox blocks
-    std::unique_ptr<std::uint32_t[]> zWords_;  // their normal words
-    std::unique_ptr<std::uint32_t[]> uWords_;  // their uniform words
-    std::unique_ptr<float[]> z_;               // normals of the normal words
-    std::unique_ptr<double[]> e_;              // their electrons
+    std::unique_ptr<std::uint32_t[]> blocks_;  // their Philox blocks / stream x
+    std::unique_ptr<std::uint32_t[]> uWords_;  // their words
+    std::unique_ptr<float[]> n_;               // their photoelectrons
+    std::unique_ptr<float[]> e_;               // their electrons (−1: not drawn yet)
+    std::unique_ptr<int[]> rest_;              // drawers past the table
+    std::unique_ptr<float[]> restN_;           // their photoelectrons
+    std::unique_ptr<std::uint32_t[]> heads_;   // their stream heads (or listed row blocks)
+    std::unique_ptr<float[]> z_;               // normals of their first head words
+    std::unique_ptr<double[]> g_;              // their first Marsaglia–Tsang attempts
 };
 
 // ---- 6. Phosphor ----------------------------------------------------------------------------

@@ -369,7 +369,7 @@ TEST(PixelRng, PoissonRowMatchesPmfAndSingleDraws) {
     const int w = 800, rows = 500;
     std::vector<std::uint32_t> words(static_cast<std::size_t>(w));
     std::vector<float> mean(static_cast<std::size_t>(w)), out(static_cast<std::size_t>(w));
-    for (double mu : {1e-3, 0.01, 0.7, 4.0, 9.5, 10.0, 17.0, 60.0, 1e4}) {
+    for (double mu : {1e-3, 0.01, 0.7, 4.0, 9.5, 10.0, 17.0, 31.9, 32.0, 60.0, 1e4}) {
         std::fill(mean.begin(), mean.end(), static_cast<float>(mu));
         const PixelRng rng(8, RngStream::Photocathode, static_cast<std::uint64_t>(mu * 10));
         const int kMax = static_cast<int>(mu + 8.0 * std::sqrt(mu) + 10.0);
@@ -428,20 +428,24 @@ TEST(PixelRng, PoissonRowMatchesPmfAndSingleDraws) {
     EXPECT_EQ(o0[2], 0.0f);
 }
 
-// poissonRow's vector passes (e^(−m) by poissonStart, the first steps of the inversion for
-// eight pixels at once, the scalar continuation past them) give every draw exactly as
-// poissonFromWord does, over means spread across (1e-4, 10) on a log scale (1.6 million draws,
-// k up to the twenties, so the continuation runs too).
+// poissonRow's vector passes (the inversion for sixteen pixels at once in single precision with
+// its certainty margin, the double draws where it is not certain or runs past its steps, and
+// PTRS's first attempt for eight at once with the stream heads made in bulk) give every draw
+// exactly as poissonFromWord does, over means spread across (1e-4, 10) and, on every fourth
+// row, (1e-4, 1e3) on a log scale (1.6 million draws).
 TEST(PixelRng, PoissonRowVectorPassesEqualSingleDraws) {
     const int w = 800, rows = 2000;
     std::vector<std::uint32_t> words(static_cast<std::size_t>(w));
     std::vector<float> mean(static_cast<std::size_t>(w)), out(static_cast<std::size_t>(w));
     const PixelRng rng(11, RngStream::Photocathode, 3);
-    long ones = 0, pastVector = 0;
+    long ones = 0, midInversion = 0, pastVector = 0, ptrs = 0;
     for (int y = 0; y < rows; ++y) {
-        for (int x = 0; x < w; ++x)  // means from 1e-4 to 10, a different set on each row
-            mean[static_cast<std::size_t>(x)] =
-                static_cast<float>(std::pow(10.0, 1.0 - 5.0 * ((x * 7919 + y * 104729) % w) / w));
+        // Means from 1e-4 to 10 (the inversion), a different set on each row; every fourth
+        // row from 1e-4 to 1e3 (PTRS too).
+        const double top = y % 4 == 3 ? 3.0 : 1.0;
+        for (int x = 0; x < w; ++x)
+            mean[static_cast<std::size_t>(x)] = static_cast<float>(
+                std::pow(10.0, top - (top + 4.0) * ((x * 7919 + y * 104729) % w) / w));
         rng.rowWords(static_cast<std::uint32_t>(y), 0, 0, w / 4, words.data());
         poissonRow(mean.data(), words.data(), out.data(), w, rng, 0, static_cast<std::uint32_t>(y));
         for (int x = 0; x < w; ++x) {
@@ -452,19 +456,23 @@ TEST(PixelRng, PoissonRowVectorPassesEqualSingleDraws) {
                       poissonFromWord(static_cast<double>(mean[i]), words[i], more))
                 << x << " " << y;
             ones += out[i] == 1.0f ? 1 : 0;
-            pastVector += out[i] > 8.0f ? 1 : 0;
+            midInversion += mean[i] >= 10.0f && mean[i] < 32.0f ? 1 : 0;
+            pastVector += mean[i] < 32.0f && out[i] > 40.0f ? 1 : 0;
+            ptrs += mean[i] >= 32.0f ? 1 : 0;
         }
     }
     EXPECT_GT(ones, 100000);
-    EXPECT_GT(pastVector, 1000);  // draws finished by the scalar continuation
+    EXPECT_GT(midInversion, 20000);
+    EXPECT_GT(pastVector, 10);  // draws that ran far into the vector steps
+    EXPECT_GT(ptrs, 40000);
 }
 
 // The inversion's start against libm: S(0) = −expm1(−m) and P(N = 1) = m·e^(−m) within 4 ulp
-// over (1e-12, 10], small means included (where 1 − e^(−m) would cancel).
+// over (1e-12, 32], small means included (where 1 − e^(−m) would cancel).
 TEST(PixelRng, PoissonStartAgreesWithLibm) {
     double worst = 0.0;
     for (int i = 0; i <= 200000; ++i) {
-        const double m = std::pow(10.0, -12.0 + 13.0 * i / 200000.0);
+        const double m = std::pow(10.0, -12.0 + (12.0 + std::log10(32.0)) * i / 200000.0);
         double s0 = 0.0, p1 = 0.0;
         poissonStart(m, s0, p1);
         const double refS0 = -std::expm1(-m), refP1 = m * std::exp(-m);

@@ -1,0 +1,164 @@
+#include "sim/core/gamma_table.h"
+
+#include <gsl/gsl_cdf.h>
+#include <gsl/gsl_errno.h>
+
+#include <bit>
+#include <cmath>
+#include <cstring>
+#include <map>
+#include <mutex>
+
+#include "sim/core/error.h"
+
+// Single precision throughout the draws, no FMA contraction (see rng.cpp): the same bits in
+// every vector version and on every CPU.
+#if defined(__GNUC__) && !defined(__clang__)
+#pragma GCC optimize("fp-contract=off")
+#endif
+
+namespace nvs {
+
+namespace {
+
+// t of table point g = o·64 + c (g = 2048: t = 1), as a double.
+double tOfPoint(int g) {
+    const int o = g / GammaTable::kCellsPerOctave;
+    const int c = g % GammaTable::kCellsPerOctave;
+    return std::ldexp(1.0 + c / static_cast<double>(GammaTable::kCellsPerOctave), o - 1 - 31);
+}
+
+}  // namespace
+
+GammaTable::GammaTable(double k)
+    : k_(k), table_(new float[static_cast<std::size_t>(kMaxN) * kPerShape + 1]) {
+    if (!(k > 0.0) || !std::isfinite(k)) throw SetupError("GammaTable: shape step must be > 0");
+    // GSL reports failures through its error handler (abort by default); the inverses below
+    // are checked by value instead.
+    const gsl_error_handler_t* old = gsl_set_error_handler_off();
+    float* t = table_.get();
+    for (int n = 1; n <= kMaxN; ++n) {
+        const double a = n * k;
+        float* lo = t + static_cast<std::ptrdiff_t>(n - 1) * kPerShape;
+        float* hi = lo + kHalf;
+        for (int g = 0; g < kHalf; ++g) {
+            const double p = 0.5 * tOfPoint(g);  // u = p (lower half) or 1 − p (upper half)
+            double ql = gsl_cdf_gamma_Pinv(p, a, 1.0);
+            double qh = gsl_cdf_gamma_Qinv(p, a, 1.0);
+            if (g == kHalf - 1) ql = qh = 0.5 * (ql + qh);  // the median, where the halves meet
+            if (!(ql >= 0.0) || !std::isfinite(ql) || !(qh >= ql) || !std::isfinite(qh)) {
+                gsl_set_error_handler(old);
+                throw SetupError("GammaTable: GSL could not invert Gamma(" + std::to_string(a) +
+                                 ") at " + std::to_string(p));
+            }
+            lo[g] = static_cast<float>(ql);
+            hi[g] = static_cast<float>(qh);
+        }
+    }
+    t[static_cast<std::size_t>(kMaxN) * kPerShape] =
+        t[static_cast<std::size_t>(kMaxN) * kPerShape - 1];
+    gsl_set_error_handler(old);
+}
+
+std::shared_ptr<const GammaTable> GammaTable::forShapeStep(double k) {
+    static std::mutex mutex;
+    static std::map<double, std::weak_ptr<const GammaTable>> cache;
+    const std::lock_guard<std::mutex> lock(mutex);
+    auto& slot = cache[k];
+    if (auto shared = slot.lock()) return shared;
+    auto made = std::make_shared<const GammaTable>(k);
+    slot = made;
+    return made;
+}
+
+double GammaTable::uniformOf(std::uint32_t word) noexcept {
+    const double t = (static_cast<double>(word & 0x7FFFFFFFu) + 0.5) * 0x1.0p-31;
+    return (word >> 31) ? 1.0 - 0.5 * t : 0.5 * t;
+}
+
+namespace {
+// Table index and interpolation fraction of a word within one shape's points (gammaTableDraws
+// does the same, sixteen at a time).
+inline __attribute__((always_inline)) void locate(std::uint32_t word, std::int32_t& index,
+                                                  float& frac) {
+    const float tf =
+        static_cast<float>(static_cast<std::int32_t>(word & 0x7FFFFFFFu)) + 0.5f;  // ∈ [½, 2³¹]
+    const std::uint32_t bits = std::bit_cast<std::uint32_t>(tf);
+    const std::int32_t octave = static_cast<std::int32_t>(bits >> 23) - 126;
+    const std::int32_t cell = static_cast<std::int32_t>((bits & 0x7FFFFFu) >> 17);
+    frac = static_cast<float>(static_cast<std::int32_t>(bits & 0x1FFFFu)) * 0x1.0p-17f;
+    index = static_cast<std::int32_t>(word >> 31) * GammaTable::kHalf +
+            octave * GammaTable::kCellsPerOctave + cell;
+}
+}  // namespace
+
+float GammaTable::quantile(int n, std::uint32_t word) const noexcept {
+    std::int32_t i = 0;
+    float f = 0.0f;
+    locate(word, i, f);
+    const float* s = table_.get() + static_cast<std::ptrdiff_t>(n - 1) * kPerShape;
+    return s[i] + f * (s[i + 1] - s[i]);
+}
+
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+#define NVS_TABLE_CLONES __attribute__((target_clones("arch=x86-64-v4", "avx2", "default")))
+#else
+#define NVS_TABLE_CLONES
+#endif
+
+static_assert(GammaTable::kMaxN == 32, "gammaTableDraws clamps N to 32");
+#pragma GCC diagnostic ignored "-Wpsabi"  // vector types only inside one function
+
+NVS_TABLE_CLONES void gammaTableDraws(const GammaTable& table, const float* __restrict n,
+                                      const std::uint32_t* __restrict words, float* __restrict out,
+                                      int m, float theta) noexcept {
+    // Sixteen pixels at a time in GCC vector types (lowered to the clone's registers): the
+    // table positions and fractions, then the sixteen pairs of table reads, then the draws.
+    using V16f = float __attribute__((vector_size(64)));
+    using V16i = std::int32_t __attribute__((vector_size(64)));
+    const float* __restrict t = table.data();
+    for (int j = 0; j < m; j += 16) {
+        const int len = m - j < 16 ? m - j : 16;
+        alignas(64) float nt[16] = {};
+        alignas(64) std::uint32_t wt[16] = {};
+        for (int l = 0; l < len; ++l) {
+            nt[l] = n[j + l];
+            wt[l] = words[j + l];
+        }
+        V16f nj;
+        V16i w;
+        std::memcpy(&nj, nt, sizeof nj);
+        std::memcpy(&w, wt, sizeof w);
+        // Whole N from 1 to kMaxN only (a noise-free photocathode passes fractional means).
+        const V16f clamped = nj < 1.0f ? nj * 0.0f + 1.0f : (nj > 32.0f ? nj * 0.0f + 32.0f : nj);
+        const V16i whole = __builtin_convertvector(clamped, V16i);
+        const V16i ok = __builtin_convertvector(whole, V16f) == nj;
+        const V16i none = nj == 0.0f;
+        // locate(), lane by lane.
+        const V16f tf = __builtin_convertvector(w & 0x7FFFFFFF, V16f) + 0.5f;
+        const V16i bits = std::bit_cast<V16i>(tf);
+        const V16i octave = ((bits >> 23) & 0xFF) - 126;
+        const V16i cell = (bits & 0x7FFFFF) >> 17;
+        const V16f frac = __builtin_convertvector(bits & 0x1FFFF, V16f) * 0x1.0p-17f;
+        const V16i half = (w >> 31) & 1;  // arithmetic shift: −1 or 0, masked to 1 or 0
+        const V16i index = half * GammaTable::kHalf + octave * GammaTable::kCellsPerOctave + cell +
+                           (whole - 1) * GammaTable::kPerShape;
+        alignas(64) float q0t[16], q1t[16];
+        for (int l = 0; l < 16; ++l) {
+            q0t[l] = t[index[l]];
+            q1t[l] = t[index[l] + 1];
+        }
+        V16f q0, q1;
+        std::memcpy(&q0, q0t, sizeof q0);
+        std::memcpy(&q1, q1t, sizeof q1);
+        const V16f q = q0 + frac * (q1 - q0);
+        const V16f zero = nj * 0.0f;
+        const V16f r = ok ? theta * q : (none ? zero : zero - 1.0f);
+        alignas(64) float rt[16];
+        std::memcpy(rt, &r, sizeof r);
+        for (int l = 0; l < len; ++l)
+            out[j + l] = rt[l];
+    }
+}
+
+}  // namespace nvs
