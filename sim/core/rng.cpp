@@ -743,6 +743,19 @@ NVS_INLINE bool anyLane(V16i c) {
     return ((c4[0] | c4[1]) | (c4[2] | c4[3])) != 0;
 }
 
+// Whether any lane is > 0: max-folded in halves.
+NVS_INLINE bool anyPositive(V16f x) {
+    using V8f = float __attribute__((vector_size(32)));
+    using V4f = float __attribute__((vector_size(16)));
+    const V8f a = __builtin_shufflevector(x, x, 0, 1, 2, 3, 4, 5, 6, 7);
+    const V8f b = __builtin_shufflevector(x, x, 8, 9, 10, 11, 12, 13, 14, 15);
+    const V8f x8 = a > b ? a : b;
+    const V4f c = __builtin_shufflevector(x8, x8, 0, 1, 2, 3);
+    const V4f d = __builtin_shufflevector(x8, x8, 4, 5, 6, 7);
+    const V4f x4 = c > d ? c : d;
+    return std::max(std::max(x4[0], x4[1]), std::max(x4[2], x4[3])) > 0.0f;
+}
+
 // u of a word in single precision, within 1e-7 of uniformFromWord's (pass 1's and the
 // inversion's comparisons allow for it).
 NVS_INLINE float uniformFloat(std::uint32_t w) {
@@ -758,6 +771,7 @@ template <int G = kInvGroup>
 NVS_INLINE void poissonInversionF(const float* __restrict mIn, const float* __restrict uIn,
                                   float* __restrict kOut) noexcept {
     V16f m[G], u[G], s[G], p[G], k[G], hi[G], lo[G];
+#pragma GCC unroll 8
     for (int g = 0; g < G; ++g) {
         std::memcpy(&m[g], mIn + 16 * g, sizeof(V16f));
         std::memcpy(&u[g], uIn + 16 * g, sizeof(V16f));
@@ -787,6 +801,7 @@ NVS_INLINE void poissonInversionF(const float* __restrict mIn, const float* __re
     for (int step = 0; step < kFloatSteps;) {
         for (int q = 0; q < 4; ++q, ++step) {
             const float inv = kInvKf[static_cast<std::size_t>(step)];
+#pragma GCC unroll 8
             for (int g = 0; g < G; ++g) {
                 const V16i above = u[g] < s[g];
                 const V16f next = s[g] - p[g];
@@ -797,17 +812,28 @@ NVS_INLINE void poissonInversionF(const float* __restrict mIn, const float* __re
                 p[g] = p[g] * (m[g] * inv);
             }
         }
-        V16i counting = u[0] < s[0];
-        for (int g = 1; g < G; ++g)
-            counting |= u[g] < s[g];
-        if (!anyLane(counting)) break;
+        // Still counting anywhere: max(s − u) > 0.
+        V16f gap = s[0] - u[0];
+#pragma GCC unroll 8
+        for (int g = 1; g < G; ++g) {
+            const V16f d = s[g] - u[g];
+            gap = d > gap ? d : gap;
+        }
+        if (!anyPositive(gap)) break;
     }
     // Certain where u is at least the margin below S(k − 1) and above S(k) (every earlier S is
     // above S(k − 1)), and the count has ended.
+#pragma GCC unroll 8
     for (int g = 0; g < G; ++g) {
-        const V16i unsure =
-            (u[g] < s[g]) | (hi[g] - u[g] < kCertainMargin) | (u[g] - lo[g] < kCertainMargin);
-        const V16f out = unsure ? m[g] * 0.0f - 1.0f : k[g];
+        // Unsure where u < s (still counting), hi − u < margin or u − lo < margin: the largest
+        // of s − u, margin − (hi − u) and margin − (u − lo) is > 0. (One comparison per select:
+        // GCC 12 lowers a select on several AVX-512 comparisons combined lane by lane.)
+        const V16f a = s[g] - u[g];
+        const V16f b = kCertainMargin - (hi[g] - u[g]);
+        const V16f c = kCertainMargin - (u[g] - lo[g]);
+        V16f worst = a > b ? a : b;
+        worst = c > worst ? c : worst;
+        const V16f out = worst > 0.0f ? m[g] * 0.0f - 1.0f : k[g];
         std::memcpy(kOut + 16 * g, &out, sizeof out);
     }
 }
@@ -925,10 +951,26 @@ NVS_BULK_CLONES void poissonRow(const float* __restrict mean, const std::uint32_
                     }
                 }
                 poissonInversionF(mt, ut, kt);
-                for (int l = 0; l < len; ++l) {
-                    const float mm = mb[j + l];
-                    const bool small = (mm > 0.0f) & (mm < kInversionBelowF);
-                    ob[j + l] = (ob[j + l] < 0.0f) & small ? kt[l] : ob[j + l];
+                if (len == kInvLanes) {
+#pragma GCC unroll 8
+                    for (int g = 0; g < kInvGroup; ++g) {
+                        V16f mm, o, k;
+                        std::memcpy(&mm, mb + j + 16 * g, sizeof mm);
+                        std::memcpy(&o, ob + j + 16 * g, sizeof o);
+                        std::memcpy(&k, kt + 16 * g, sizeof k);
+                        // Nested single-comparison selects (see poissonInversionF); a NaN
+                        // mean keeps o.
+                        const V16f kk = mm < kInversionBelowF ? k : o;
+                        const V16f km = mm > 0.0f ? kk : o;
+                        o = o < 0.0f ? km : o;
+                        std::memcpy(ob + j + 16 * g, &o, sizeof o);
+                    }
+                } else {
+                    for (int l = 0; l < len; ++l) {
+                        const float mm = mb[j + l];
+                        const bool small = (mm > 0.0f) & (mm < kInversionBelowF);
+                        ob[j + l] = (ob[j + l] < 0.0f) & small ? kt[l] : ob[j + l];
+                    }
                 }
             }
         } else {
