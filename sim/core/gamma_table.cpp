@@ -103,7 +103,7 @@ float GammaTable::quantile(int n, std::uint32_t word) const noexcept {
     return s[i] + f * (s[i + 1] - s[i]);
 }
 
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && !defined(NVS_SINGLE_TARGET)
 #define NVS_TABLE_CLONES __attribute__((target_clones("arch=x86-64-v4", "avx2", "default")))
 #else
 #define NVS_TABLE_CLONES
@@ -112,7 +112,7 @@ float GammaTable::quantile(int n, std::uint32_t word) const noexcept {
 static_assert(GammaTable::kMaxN == 32, "gammaTableDraws clamps N to 32");
 #pragma GCC diagnostic ignored "-Wpsabi"  // vector types only inside one function
 
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && !defined(NVS_SINGLE_TARGET)
 #define NVS_GAMMA_AVX512 1
 // GCC 12's AVX-512 intrinsic headers trip -Wmaybe-uninitialized on their own "undefined"
 // pass-through operands (a known false positive; as in rng.cpp).

@@ -10,7 +10,7 @@
 
 #include "sim/core/units.h"
 
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && !defined(NVS_SINGLE_TARGET)
 #include <immintrin.h>
 #define NVS_PHILOX_AVX512 1
 #endif
@@ -174,7 +174,7 @@ constexpr int kLanes = 8;
 // CPU (GCC function multi-versioning). All give bit-identical results: the same integer and IEEE
 // single-precision operations, and no FMA contraction in any version (see the pragma at the top of
 // the file). Nothing is required of the build flags.
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && !defined(NVS_SINGLE_TARGET)
 #define NVS_BULK_CLONES __attribute__((target_clones("arch=x86-64-v4", "avx2", "default")))
 #else
 #define NVS_BULK_CLONES
