@@ -331,6 +331,45 @@ bool cpuHasAvx512() noexcept {
 #pragma GCC diagnostic pop
 #endif
 
+// kLanes blocks with counter words 0 = c0[i] and 1 … 3 = (cy, cf, cs), the first m written
+// to out: plain loops over lane arrays, which vectorise in each clone of the callers. Each
+// round's two 32×32→64 products are formed from 32-bit lanes widened to 64 bits (one pmuludq
+// per vector), then split back into 32-bit lanes.
+__attribute__((always_inline)) inline void philoxLanes(const std::uint32_t key[2],
+                                                       const std::uint32_t* c0In, std::uint32_t cy,
+                                                       std::uint32_t cf, std::uint32_t cs, int m,
+                                                       std::uint32_t* __restrict out) noexcept {
+    std::uint32_t c0[kLanes], c1[kLanes], c2[kLanes], c3[kLanes];
+    for (int i = 0; i < kLanes; ++i) {
+        c0[i] = c0In[i];
+        c1[i] = cy;
+        c2[i] = cf;
+        c3[i] = cs;
+    }
+    std::uint32_t k0 = key[0], k1 = key[1];
+    for (int r = 0; r < kPhiloxRounds; ++r) {
+        std::uint64_t p0[kLanes], p1[kLanes];
+        for (int i = 0; i < kLanes; ++i) {
+            p0[i] = static_cast<std::uint64_t>(c0[i]) * kPhiloxM0;
+            p1[i] = static_cast<std::uint64_t>(c2[i]) * kPhiloxM1;
+        }
+        for (int i = 0; i < kLanes; ++i) {
+            c0[i] = static_cast<std::uint32_t>(p1[i] >> 32) ^ c1[i] ^ k0;
+            c2[i] = static_cast<std::uint32_t>(p0[i] >> 32) ^ c3[i] ^ k1;
+            c1[i] = static_cast<std::uint32_t>(p1[i]);
+            c3[i] = static_cast<std::uint32_t>(p0[i]);
+        }
+        k0 += kPhiloxW0;
+        k1 += kPhiloxW1;
+    }
+    for (int i = 0; i < m; ++i) {
+        out[4 * i + 0] = c0[i];
+        out[4 * i + 1] = c1[i];
+        out[4 * i + 2] = c2[i];
+        out[4 * i + 3] = c3[i];
+    }
+}
+
 NVS_BULK_CLONES void PixelRng::rowWords(std::uint32_t y, std::uint32_t plane, std::uint32_t b0,
                                         int nBlocks, std::uint32_t* __restrict out) const noexcept {
 #ifdef NVS_PHILOX_AVX512
@@ -339,41 +378,12 @@ NVS_BULK_CLONES void PixelRng::rowWords(std::uint32_t y, std::uint32_t plane, st
         return;
     }
 #endif
-    // Each round's two 32×32→64 products are formed from 32-bit lanes widened to 64 bits
-    // (one pmuludq per vector), then split back into 32-bit lanes.
     const std::uint32_t base = (plane << 24) + b0;
     for (int b = 0; b < nBlocks; b += kLanes) {
-        std::uint32_t c0[kLanes], c1[kLanes], c2[kLanes], c3[kLanes];
-        for (int i = 0; i < kLanes; ++i) {
+        std::uint32_t c0[kLanes];
+        for (int i = 0; i < kLanes; ++i)
             c0[i] = base + static_cast<std::uint32_t>(b + i);
-            c1[i] = y;
-            c2[i] = c2_;
-            c3[i] = c3_;
-        }
-        std::uint32_t k0 = key_[0], k1 = key_[1];
-        for (int r = 0; r < kPhiloxRounds; ++r) {
-            std::uint64_t p0[kLanes], p1[kLanes];
-            for (int i = 0; i < kLanes; ++i) {
-                p0[i] = static_cast<std::uint64_t>(c0[i]) * kPhiloxM0;
-                p1[i] = static_cast<std::uint64_t>(c2[i]) * kPhiloxM1;
-            }
-            for (int i = 0; i < kLanes; ++i) {
-                c0[i] = static_cast<std::uint32_t>(p1[i] >> 32) ^ c1[i] ^ k0;
-                c2[i] = static_cast<std::uint32_t>(p0[i] >> 32) ^ c3[i] ^ k1;
-                c1[i] = static_cast<std::uint32_t>(p1[i]);
-                c3[i] = static_cast<std::uint32_t>(p0[i]);
-            }
-            k0 += kPhiloxW0;
-            k1 += kPhiloxW1;
-        }
-        const int m = std::min(kLanes, nBlocks - b);
-        std::uint32_t* o = out + 4 * b;
-        for (int i = 0; i < m; ++i) {
-            o[4 * i + 0] = c0[i];
-            o[4 * i + 1] = c1[i];
-            o[4 * i + 2] = c2[i];
-            o[4 * i + 3] = c3[i];
-        }
+        philoxLanes(key_, c0, y, c2_, c3_, std::min(kLanes, nBlocks - b), out + 4 * b);
     }
 }
 
@@ -389,39 +399,12 @@ NVS_BULK_CLONES void philoxListed(const std::uint32_t key[2], std::uint32_t base
         return;
     }
 #endif
-    // rowWords' lane loops with the lanes' counters taken from a list.
     for (int b = 0; b < n; b += kLanes) {
         const int m = std::min(kLanes, n - b);
-        std::uint32_t c0[kLanes], c1[kLanes], c2[kLanes], c3[kLanes];
-        for (int i = 0; i < kLanes; ++i) {
+        std::uint32_t c0[kLanes];
+        for (int i = 0; i < kLanes; ++i)
             c0[i] = base + list[b + (i < m ? i : 0)];
-            c1[i] = cy;
-            c2[i] = cf;
-            c3[i] = cs;
-        }
-        std::uint32_t k0 = key[0], k1 = key[1];
-        for (int r = 0; r < kPhiloxRounds; ++r) {
-            std::uint64_t p0[kLanes], p1[kLanes];
-            for (int i = 0; i < kLanes; ++i) {
-                p0[i] = static_cast<std::uint64_t>(c0[i]) * kPhiloxM0;
-                p1[i] = static_cast<std::uint64_t>(c2[i]) * kPhiloxM1;
-            }
-            for (int i = 0; i < kLanes; ++i) {
-                c0[i] = static_cast<std::uint32_t>(p1[i] >> 32) ^ c1[i] ^ k0;
-                c2[i] = static_cast<std::uint32_t>(p0[i] >> 32) ^ c3[i] ^ k1;
-                c1[i] = static_cast<std::uint32_t>(p1[i]);
-                c3[i] = static_cast<std::uint32_t>(p0[i]);
-            }
-            k0 += kPhiloxW0;
-            k1 += kPhiloxW1;
-        }
-        std::uint32_t* o = out + 4 * b;
-        for (int i = 0; i < m; ++i) {
-            o[4 * i + 0] = c0[i];
-            o[4 * i + 1] = c1[i];
-            o[4 * i + 2] = c2[i];
-            o[4 * i + 3] = c3[i];
-        }
+        philoxLanes(key, c0, cy, cf, cs, m, out + 4 * b);
     }
 }
 

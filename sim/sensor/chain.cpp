@@ -93,27 +93,6 @@ NVS_ROW_CLONES void cathodeMeanKernel(const float* __restrict r, float* __restri
         mean[x] = (r[x] + ebi) * t;
 }
 
-// Noise-free MCP: v·G in place, the row sum in 16 lanes.
-NVS_ROW_CLONES double mcpMeanKernel(float* __restrict v, int w, float g) noexcept {
-    constexpr int kL = 16;
-    float acc[kL] = {};
-    int x = 0;
-    for (; x + kL <= w; x += kL) {
-        for (int j = 0; j < kL; ++j) {
-            v[x + j] *= g;
-            acc[j] += v[x + j];
-        }
-    }
-    for (; x < w; ++x) {
-        v[x] *= g;
-        acc[x % kL] += v[x];
-    }
-    double sum = 0.0;
-    for (int j = 0; j < kL; ++j)
-        sum += static_cast<double>(acc[j]);
-    return sum;
-}
-
 // Σ v in 16 float lanes, added up in double (as the other row sums).
 NVS_ROW_CLONES double rowSumOf(const float* __restrict v, int w) noexcept {
     constexpr int kL = 16;
@@ -129,6 +108,13 @@ NVS_ROW_CLONES double rowSumOf(const float* __restrict v, int w) noexcept {
     for (int j = 0; j < kL; ++j)
         sum += static_cast<double>(acc[j]);
     return sum;
+}
+
+// Noise-free MCP: v·G in place; returns the row sum.
+NVS_ROW_CLONES double mcpMeanKernel(float* __restrict v, int w, float g) noexcept {
+    for (int x = 0; x < w; ++x)
+        v[x] *= g;
+    return rowSumOf(v, w);
 }
 
 // Marsaglia–Tsang's first attempt for m pixels with n photoelectrons: e = θ·d·(1 + c·z)³ when
