@@ -179,5 +179,46 @@ TEST(Section4_5, FixedPatternNoiseExplainsTheTwoFrameAverage) {
     EXPECT_NEAR(s2, averaged, 0.15 * averaged);
 }
 
+// A pixel's MCP draw depends on its key and its own photoelectrons only (DESIGN §3), not on
+// how many of its row's pixels draw: a row where few draw takes the sparse path (their own
+// Philox blocks), one where most draw the dense path (the whole row's words). Whole N inside
+// the quantile table, N past it (Marsaglia–Tsang from the pixel's stream) and a fractional N.
+TEST(McpStage, PixelDrawIsTheSameWhateverItsRowDraws) {
+    const CameraParams cam = preset("pulnix-ag5745ef3", {});
+    McpStage mcp(cam, 42);
+    FieldContext ctx;
+    ctx.field = 7;
+    ctx.mcpGain = 3000.0;
+    mcp.begin(ctx);
+    const int w = cam.width;
+    const int y = 123;
+    const int probes[] = {0, 5, 100, 101, 383, w - 1};
+    for (float n : {1.0f, 3.0f, 32.0f, 33.0f, 250.0f, 2.5f}) {
+        std::vector<float> sparse(static_cast<std::size_t>(w), 0.0f);
+        for (int x : probes)
+            sparse[static_cast<std::size_t>(x)] = n;
+        std::vector<float> dense(static_cast<std::size_t>(w), n);
+        const double sparseSum = mcp.applyRow(sparse.data(), w, y);
+        mcp.applyRow(dense.data(), w, y);
+        double probeSum = 0.0;
+        for (int x : probes) {
+            const std::size_t i = static_cast<std::size_t>(x);
+            EXPECT_GT(sparse[i], 0.0f) << n << " " << x;
+            EXPECT_EQ(sparse[i], dense[i]) << "N = " << n << ", x = " << x;
+            probeSum += static_cast<double>(sparse[i]);
+        }
+        EXPECT_NEAR(sparseSum, probeSum, 1e-6 * probeSum);
+        // The other pixels of the sparse row drew nothing.
+        for (int x = 0; x < w; ++x) {
+            bool probe = false;
+            for (int p : probes)
+                probe = probe || p == x;
+            if (!probe) {
+                ASSERT_EQ(sparse[static_cast<std::size_t>(x)], 0.0f) << x;
+            }
+        }
+    }
+}
+
 }  // namespace
 }  // namespace nvs::sensor
