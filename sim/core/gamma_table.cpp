@@ -216,7 +216,8 @@ NVS_TABLE_CLONES void gammaTableDraws(const GammaTable& table, const float* __re
         const V16i none = nj == 0.0f;
         // locate(), lane by lane.
         const V16f tf = __builtin_convertvector(w & 0x7FFFFFFF, V16f) + 0.5f;
-        const V16i bits = std::bit_cast<V16i>(tf);
+        V16i bits;  // tf's bits (memcpy, as rng.cpp's vectorBits)
+        std::memcpy(&bits, &tf, sizeof bits);
         const V16i octave = ((bits >> 23) & 0xFF) - 126;
         const V16i cell = (bits & 0x7FFFFF) >> 17;
         const V16f frac = __builtin_convertvector(bits & 0x1FFFF, V16f) * 0x1.0p-17f;
