@@ -38,7 +38,7 @@ GammaTable::GammaTable(double k)
     if (!(k > 0.0) || !std::isfinite(k)) throw SetupError("GammaTable: shape step must be > 0");
     // GSL reports failures through its error handler (abort by default); the inverses below
     // are checked by value instead.
-    const gsl_error_handler_t* old = gsl_set_error_handler_off();
+    gsl_error_handler_t* old = gsl_set_error_handler_off();
     float* t = table_.get();
     for (int n = 1; n <= kMaxN; ++n) {
         const double a = n * k;

@@ -882,7 +882,7 @@ NVS_BULK_CLONES void poissonRow(const float* __restrict mean, const std::uint32_
                 const double vr = 0.9277 - 3.6224 / (bb - 2.0);
                 const double us = 0.5 - std::fabs(u);
                 const double k = std::floor((2.0 * a / us + bb) * u + m + 0.43);
-                kc[l] = (us >= 0.07) & (vc[l] <= vr) ? k : -1.0;
+                kc[l] = ((us >= 0.07) & (vc[l] <= vr)) ? k : -1.0;
             }
         }
         for (int c = 0; c < nBig; ++c) {
@@ -963,7 +963,7 @@ NVS_BULK_CLONES void poissonRow(const float* __restrict mean, const std::uint32_
                     for (int l = 0; l < len; ++l) {
                         const float mm = mb[j + l];
                         const bool small = (mm > 0.0f) & (mm < kInversionBelowF);
-                        ob[j + l] = (ob[j + l] < 0.0f) & small ? kt[l] : ob[j + l];
+                        ob[j + l] = ((ob[j + l] < 0.0f) & small) ? kt[l] : ob[j + l];
                     }
                 }
             }
