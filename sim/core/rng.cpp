@@ -88,6 +88,50 @@ double logFactorial(double k) {
            ix * (1.0 / 12.0 - ix2 * (1.0 / 360.0 - ix2 * (1.0 / 1260.0 - ix2 / 1680.0)));
 }
 
+namespace {
+// PTRS (Hörmann 1993, algorithm PTRS with the constants of his Table 1), shared by
+// KeyedRng::poisson and the per-pixel samplers. PtrsShape and ptrsK are also what poissonRow's
+// vector first attempt computes: the same operations, so the same bits.
+struct PtrsShape {
+    double b, a, vr;
+};
+inline __attribute__((always_inline)) PtrsShape ptrsShape(double mean) {
+    const double b = 0.931 + 2.53 * std::sqrt(mean);
+    return {b, -0.059 + 0.02483 * b, 0.9277 - 3.6224 / (b - 2.0)};
+}
+// k of a pair (u − ½ and us = ½ − |u|).
+inline __attribute__((always_inline)) double ptrsK(const PtrsShape& c, double mean, double u,
+                                                   double us) {
+    return std::floor((2.0 * c.a / us + c.b) * u + mean + 0.43);
+}
+// The draw from its first pair (u − ½, v); nextPair(u, v) gives the next. The logs that only
+// the slow acceptance test needs are taken when it is first reached (in ~10 % of draws), so
+// the common case costs a square root and two divisions.
+template <class NextPair>
+double ptrsDraw(double mean, double u, double v, NextPair&& nextPair) {
+    const PtrsShape c = ptrsShape(mean);
+    double invalpha = 0.0, loglam = 0.0;
+    bool logs = false;
+    for (;;) {
+        const double us = 0.5 - std::fabs(u);
+        const double k = ptrsK(c, mean, u, us);
+        if (us >= 0.07 && v <= c.vr) return k;
+        if (!(k < 0.0 || (us < 0.013 && v > us))) {
+            if (!logs) {
+                invalpha = 1.1239 + 1.1328 / (c.b - 3.4);
+                loglam = std::log(mean);
+                logs = true;
+            }
+            if (std::log(v) + std::log(invalpha) - std::log(c.a / (us * us) + c.b) <=
+                -mean + k * loglam - logFactorial(k)) {
+                return k;
+            }
+        }
+        nextPair(u, v);
+    }
+}
+}  // namespace
+
 double KeyedRng::poisson(double mean) {
     if (!(mean > 0.0)) return 0.0;
     if (mean < 10.0) {
@@ -104,25 +148,13 @@ double KeyedRng::poisson(double mean) {
         }
         return k;
     }
-    // PTRS (Hörmann 1993, algorithm PTRS with the constants of his Table 1).
-    const double slam = std::sqrt(mean);
-    const double loglam = std::log(mean);
-    const double b = 0.931 + 2.53 * slam;
-    const double a = -0.059 + 0.02483 * b;
-    const double invalpha = 1.1239 + 1.1328 / (b - 3.4);
-    const double vr = 0.9277 - 3.6224 / (b - 2.0);
-    for (;;) {
-        const double u = uniform() - 0.5;
-        const double v = uniform();
-        const double us = 0.5 - std::fabs(u);
-        const double k = std::floor((2.0 * a / us + b) * u + mean + 0.43);
-        if (us >= 0.07 && v <= vr) return k;
-        if (k < 0.0 || (us < 0.013 && v > us)) continue;
-        if (std::log(v) + std::log(invalpha) - std::log(a / (us * us) + b) <=
-            -mean + k * loglam - logFactorial(k)) {
-            return k;
-        }
-    }
+    const auto pair = [this](double& u, double& v) {
+        u = uniform() - 0.5;
+        v = uniform();
+    };
+    double u = 0.0, v = 0.0;
+    pair(u, v);
+    return ptrsDraw(mean, u, v, pair);
 }
 
 double KeyedRng::gamma(double shape, double scale) {
@@ -581,37 +613,30 @@ double poissonInversionFrom(double mean, double u, double s, double p, double k)
     }
     return k;
 }
+}  // namespace
 
 // (The vector types below are only used inside this file and always inlined, so the -Wpsabi
 // note on passing 64-byte vectors between functions compiled for different targets does not
 // apply.)
 #pragma GCC diagnostic ignored "-Wpsabi"
 #define NVS_INLINE __attribute__((always_inline)) inline
-NVS_INLINE std::int64_t bitsOf(double x) {
-    return std::bit_cast<std::int64_t>(x);
-}
-NVS_INLINE double fromBits(std::int64_t b) {
-    return std::bit_cast<double>(b);
-}
 
-// Body of poissonStart.
-template <class D>
-NVS_INLINE void poissonStartT(D m, D& s0, D& p1) noexcept {
+void poissonStart(double m, double& s0, double& p1) noexcept {
     // e^(−m) = 2^n·(1 + E) with n = round(−m/ln 2), r = −m − n·ln 2 ∈ [−0.347, 0.347] (Cody and
     // Waite's two-part ln 2, whose high part has 11 trailing zero bits so n·ln2_hi is exact for
     // |n| < 2048), and E = e^r − 1 = r(1 + r/2(1 + r/3(1 + …))) to r^15/15! (< 2e-18 relative
     // at |r| = 0.347). Then S(0) = 1 − e^(−m) is −E when n = 0 (no cancellation for small m)
-    // and 1 − e^(−m) otherwise (e^(−m) < 0.71 there). Plain IEEE double operations only, no
-    // branches: the same bits in scalar code and in every vector version of the loops.
+    // and 1 − e^(−m) otherwise (e^(−m) < 0.71 there). Plain IEEE double operations only: the
+    // same bits on every CPU.
     constexpr double kInvLn2 = 1.4426950408889634;
     constexpr double kLn2Hi = 0.693147180369123816490;     // 0x3FE62E42FEE00000
     constexpr double kLn2Lo = 1.90821492927058770002e-10;  // ln 2 − kLn2Hi
     constexpr double kShifter = 0x1.8p52;                  // adding it rounds to an integer
-    const D x = -m;
-    const D t = x * kInvLn2 + kShifter;
-    const D n = t - kShifter;
-    const D r = (x - n * kLn2Hi) - n * kLn2Lo;
-    D e = 1.0 + r * (1.0 / 15.0);
+    const double x = -m;
+    const double t = x * kInvLn2 + kShifter;
+    const double n = t - kShifter;
+    const double r = (x - n * kLn2Hi) - n * kLn2Lo;
+    double e = 1.0 + r * (1.0 / 15.0);
     e = 1.0 + r * (1.0 / 14.0) * e;
     e = 1.0 + r * (1.0 / 13.0) * e;
     e = 1.0 + r * (1.0 / 12.0) * e;
@@ -625,18 +650,13 @@ NVS_INLINE void poissonStartT(D m, D& s0, D& p1) noexcept {
     e = 1.0 + r * (1.0 / 4.0) * e;
     e = 1.0 + r * (1.0 / 3.0) * e;
     e = 1.0 + r * 0.5 * e;
-    const D em1 = r * e;  // e^r − 1
+    const double em1 = r * e;  // e^r − 1
     // 2^n from its bits: n ∈ [−47, 0] for m ∈ (0, 32].
-    const auto ni = bitsOf(t) - bitsOf(kShifter);
-    const D scale = fromBits((ni + 1023) << 52);
-    const D expNeg = scale + scale * em1;
+    const auto ni = std::bit_cast<std::int64_t>(t) - std::bit_cast<std::int64_t>(kShifter);
+    const double scale = std::bit_cast<double>((ni + 1023) << 52);
+    const double expNeg = scale + scale * em1;
     s0 = n == 0.0 ? -em1 : 1.0 - expNeg;
     p1 = m * expNeg;
-}
-}  // namespace
-
-void poissonStart(double m, double& s0, double& p1) noexcept {
-    poissonStartT(m, s0, p1);
 }
 
 namespace {
@@ -647,39 +667,17 @@ namespace {
 constexpr double kInversionBelow = 32.0;
 constexpr float kInversionBelowF = 32.0f;
 
-// PTRS (Hörmann 1993) from its first pair (u − ½, v); further pairs from `more`. The logs
-// that only the slow acceptance test needs are taken when it is first reached (~10 % of
-// draws), so that the common case costs a square root and two divisions.
+// PTRS from its first pair (u − ½, v), further pairs from the pixel's stream.
 double poissonPtrsFrom(double mean, double u, double v, PixelStream& more) noexcept {
-    const double slam = std::sqrt(mean);
-    const double b = 0.931 + 2.53 * slam;
-    const double a = -0.059 + 0.02483 * b;
-    const double vr = 0.9277 - 3.6224 / (b - 2.0);
-    double invalpha = 0.0, loglam = 0.0;
-    bool logs = false;
-    for (;;) {
-        const double us = 0.5 - std::fabs(u);
-        const double k = std::floor((2.0 * a / us + b) * u + mean + 0.43);
-        if (us >= 0.07 && v <= vr) return k;
-        if (!(k < 0.0 || (us < 0.013 && v > us))) {
-            if (!logs) {
-                invalpha = 1.1239 + 1.1328 / (b - 3.4);
-                loglam = std::log(mean);
-                logs = true;
-            }
-            if (std::log(v) + std::log(invalpha) - std::log(a / (us * us) + b) <=
-                -mean + k * loglam - logFactorial(k)) {
-                return k;
-            }
-        }
-        u = more.uniform() - 0.5;
-        v = more.uniform();
-    }
+    return ptrsDraw(mean, u, v, [&more](double& u2, double& v2) {
+        u2 = more.uniform() - 0.5;
+        v2 = more.uniform();
+    });
 }
 
 double poissonInversion(double mean, std::uint32_t word) noexcept {
     double s0 = 0.0, p1 = 0.0;
-    poissonStartT(mean, s0, p1);
+    poissonStart(mean, s0, p1);
     return poissonInversionFrom(mean, uniformFromWord(word), s0, p1, 0.0);
 }
 }  // namespace
@@ -714,17 +712,6 @@ constexpr std::array<float, kFloatSteps> kInvKf = [] {
         t[static_cast<std::size_t>(j)] = 1.0f / static_cast<float>(j + 2);
     return t;
 }();
-
-// Whether any lane of a comparison is true: OR-folded in halves.
-NVS_INLINE bool anyLane(V16i c) {
-    using V8i = std::int32_t __attribute__((vector_size(32)));
-    using V4i = std::int32_t __attribute__((vector_size(16)));
-    const V8i c8 = __builtin_shufflevector(c, c, 0, 1, 2, 3, 4, 5, 6, 7) |
-                   __builtin_shufflevector(c, c, 8, 9, 10, 11, 12, 13, 14, 15);
-    const V4i c4 =
-        __builtin_shufflevector(c8, c8, 0, 1, 2, 3) | __builtin_shufflevector(c8, c8, 4, 5, 6, 7);
-    return ((c4[0] | c4[1]) | (c4[2] | c4[3])) != 0;
-}
 
 // The bits of one vector as another of the same size. (Not std::bit_cast: GCC 12 with
 // -fsanitize=undefined at -O0 reports a null load inside std::bit_cast of a vector type in a
@@ -874,15 +861,10 @@ NVS_BULK_CLONES void poissonRow(const float* __restrict mean, const std::uint32_
             const double* vc = bv + c;
             double* kc = bk + c;
             for (int l = 0; l < kChunk; ++l) {
-                const double m = mc[l];
-                const double u = uc[l];
-                const double slam = std::sqrt(m);
-                const double bb = 0.931 + 2.53 * slam;
-                const double a = -0.059 + 0.02483 * bb;
-                const double vr = 0.9277 - 3.6224 / (bb - 2.0);
-                const double us = 0.5 - std::fabs(u);
-                const double k = std::floor((2.0 * a / us + bb) * u + m + 0.43);
-                kc[l] = ((us >= 0.07) & (vc[l] <= vr)) ? k : -1.0;
+                const PtrsShape shape = ptrsShape(mc[l]);
+                const double us = 0.5 - std::fabs(uc[l]);
+                const double k = ptrsK(shape, mc[l], uc[l], us);
+                kc[l] = ((us >= 0.07) & (vc[l] <= shape.vr)) ? k : -1.0;
             }
         }
         for (int c = 0; c < nBig; ++c) {
@@ -1015,7 +997,7 @@ NVS_BULK_CLONES void poissonRow(const float* __restrict mean, const std::uint32_
             if (m == 16) {
                 V16f o;
                 std::memcpy(&o, ob + j, sizeof o);
-                if (!anyLane(o < 0.0f)) continue;
+                if (!anyPositive(-o)) continue;  // no lane below 0
             }
             for (int l = 0; l < m; ++l) {
                 const int i = j + l;

@@ -487,18 +487,19 @@ double McpStage::applyRow(float* __restrict v, int w, int y) noexcept {
     if (nRest > 0) {
         // Each one's stream head (made in bulk): word 0 gives the normal, word 1 the squeeze's
         // uniform; the first attempt in a vector pass, the rest one pixel at a time.
-        std::uint32_t* __restrict xs = blocks_.get();
+        std::uint32_t* __restrict xs = blocks_.get();  // their pixels
         for (int r = 0; r < nRest; ++r)
             xs[r] = static_cast<std::uint32_t>(dense ? rest[r] : idx[rest[r]]);
         std::uint32_t* __restrict heads = heads_.get();
         rng.streamHeads(yy, xs, nRest, heads);
-        std::uint32_t* __restrict zw = wz;  // the row's words are no longer needed
-        std::uint32_t* __restrict u1 = xs;  // nor the x list (idx has them)
+        // Their normal and uniform words, in the buffers of the words the table draws used.
+        std::uint32_t* __restrict zw = wz;
+        std::uint32_t* __restrict u1 = uWords_.get();
         float* __restrict rn = restN_.get();
         for (int r = 0; r < nRest; ++r) {
             zw[r] = heads[4 * r];
             u1[r] = heads[4 * r + 1];
-            rn[r] = v[dense ? rest[r] : idx[rest[r]]];
+            rn[r] = v[xs[r]];
         }
         float* __restrict z = z_.get();
         normalsFromWords(zw, z, nRest);
@@ -507,9 +508,7 @@ double McpStage::applyRow(float* __restrict v, int w, int y) noexcept {
         for (int r = 0; r < nRest; ++r) {
             double ej = first[r];
             if (ej == 0.0) {
-                const int x = dense ? rest[r] : idx[rest[r]];
-                PixelStream more(rng.pixelStream(static_cast<std::uint32_t>(x), yy), heads + 4 * r,
-                                 2);
+                PixelStream more(rng.pixelStream(xs[r], yy), heads + 4 * r, 2);
                 ej = gammaFromNormal(static_cast<double>(rn[r]) * k_, theta, z[r], u1[r], more);
             }
             e[rest[r]] = static_cast<float>(ej);
