@@ -9,6 +9,7 @@
 #include <cstring>
 #include <fstream>
 
+#include "sim/core/fnv.h"
 #include "sim/core/units.h"
 
 namespace nvs::sky {
@@ -23,17 +24,9 @@ constexpr double kAirglowHeight_km = 97.0;  // OI 557.7 nm / OH layer, van Rhijn
 constexpr double kEarthRadius_km = 6371.0;
 constexpr char kMagic[8] = {'N', 'V', 'S', 'A', 'T', 'M', 'T', 'B'};
 
-// FNV-1a, 64 bit: a stable hash for cache keys and payload checksums (std::hash is not
-// stable across builds).
-struct Fnv {
-    std::uint64_t h = 1469598103934665603ull;
-    void bytes(const void* p, std::size_t n) {
-        const auto* c = static_cast<const unsigned char*>(p);
-        for (std::size_t i = 0; i < n; ++i) {
-            h ^= c[i];
-            h *= 1099511628211ull;
-        }
-    }
+// The cache key and payload checksum hash (sim/core/fnv.h) with this table's offset basis.
+struct Fnv : Fnv1a {
+    Fnv() : Fnv1a(1469598103934665603ull) {}
     void f64(double v) { bytes(&v, sizeof v); }
     void str(const std::string& s) {
         bytes(s.data(), s.size());

@@ -13,22 +13,12 @@
 #include <string>
 #include <vector>
 
+#include "sim/core/fnv.h"
 #include "sim/core/gamma_table.h"
 #include "sim/core/rng.h"
 
 namespace nvs {
 namespace {
-
-struct Fnv1a {
-    std::uint64_t h = 0xcbf29ce484222325ull;
-    void add(const void* p, std::size_t n) {
-        const auto* b = static_cast<const unsigned char*>(p);
-        for (std::size_t i = 0; i < n; ++i) {
-            h ^= b[i];
-            h *= 0x100000001b3ull;
-        }
-    }
-};
 
 TEST(Draws, SameBitsOnEveryTarget) {
     const int w = 777;  // not a whole number of vectors
@@ -39,7 +29,7 @@ TEST(Draws, SameBitsOnEveryTarget) {
     for (int y = 0; y < 64; ++y) {
         const auto yy = static_cast<std::uint32_t>(y);
         rng.rowWords(yy, 0, 0, (w + 3) / 4, words.data());
-        d.add(words.data(), words.size() * sizeof(std::uint32_t));
+        d.bytes(words.data(), words.size() * sizeof(std::uint32_t));
         // Means from 1e-4 to 1e3 on a log scale, shuffled differently on each row; some rows
         // dense (most pixels open), some sparse.
         const double top = y % 3 == 0 ? -1.0 : (y % 3 == 1 ? 1.0 : 3.0);
@@ -47,9 +37,9 @@ TEST(Draws, SameBitsOnEveryTarget) {
             mean[static_cast<std::size_t>(x)] = static_cast<float>(
                 std::pow(10.0, top - (top + 4.0) * ((x * 7919 + y * 104729) % w) / w));
         poissonRow(mean.data(), words.data(), out.data(), w, rng, 0, yy);
-        d.add(out.data(), out.size() * sizeof(float));
+        d.bytes(out.data(), out.size() * sizeof(float));
         normalsFromWords(words.data(), out.data(), w);
-        d.add(out.data(), out.size() * sizeof(float));
+        d.bytes(out.data(), out.size() * sizeof(float));
     }
     const auto table = GammaTable::forShapeStep(1.0 / 0.6);
     for (int y = 0; y < 16; ++y) {
@@ -58,7 +48,7 @@ TEST(Draws, SameBitsOnEveryTarget) {
         for (int x = 0; x < w; ++x)
             mean[static_cast<std::size_t>(x)] = static_cast<float>((x * 31 + y) % 40);
         gammaTableDraws(*table, mean.data(), words.data(), out.data(), w, 4321.0f);
-        d.add(out.data(), out.size() * sizeof(float));
+        d.bytes(out.data(), out.size() * sizeof(float));
     }
     char hex[17];
     std::snprintf(hex, sizeof hex, "%016llx", static_cast<unsigned long long>(d.h));
