@@ -1193,8 +1193,22 @@ void AgcLoop::update(const FieldContext& ctx, double level_dc) noexcept {
 
 // ---- The chain ------------------------------------------------------------------------------
 
-IiccdChain::IiccdChain(const CameraParams& cam, std::uint64_t seed, ChainOptions opt)
+namespace {
+
+// The preset with its automatic loop switched on: what the camera's AGC switch selects.
+CameraParams withAutomaticLoop(const CameraParams& cam) {
+    CameraParams c = cam;
+    if (c.agc == AgcMode::Off) c.agc = AgcMode::Agc;
+    return c;
+}
+
+}  // namespace
+
+IiccdChain::IiccdChain(const CameraParams& cam, std::uint64_t seed, ChainOptions opt,
+                       ControlSource controls)
     : cam_(cam),
+      camAuto_(withAutomaticLoop(cam)),
+      source_(controls),
       optics_(cam_),
       gate_(cam_),
       cathode_(cam_, seed),
@@ -1205,6 +1219,7 @@ IiccdChain::IiccdChain(const CameraParams& cam, std::uint64_t seed, ChainOptions
       ccd_(cam_, seed),
       videoStage_(cam_),
       agc_(cam_),
+      agcAuto_(camAuto_),
       rate_(cam_.width, cam_.height),
       sig_(cam_.width, cam_.height),
       counts_(cam_.width, cam_.height),
@@ -1226,25 +1241,73 @@ std::int64_t IiccdChain::countBadPixels(ImageView<const float> img) {
     return bad;
 }
 
+IiccdChain::Controls IiccdChain::controlsFor(const CameraCommand& cmd, double period_s) noexcept {
+    Controls c;
+    bool autogate = false;
+    if (source_ == ControlSource::Preset) {
+        // The preset alone: manual gain for off / bsp / autogate, else its loop's command.
+        const AgcMode m = cam_.agc;
+        c.gain_V = m == AgcMode::Off || m == AgcMode::Bsp || m == AgcMode::Autogate
+                       ? cam_.gain_V
+                       : agc_.gain_V(field_);
+        autogate = m == AgcMode::Autogate;
+        c.loop = &agc_;
+    } else {
+        const AgcMode m = camAuto_.agc;
+        const bool gainLoop = cmd.agc && (m == AgcMode::Agc || m == AgcMode::Abc);
+        autogate = m == AgcMode::Autogate && (cmd.agc || cmd.gateMode == 2);
+        if (gainLoop) {
+            c.gain_V = agcAuto_.gain_V(field_);
+        } else if (cmd.agc) {
+            c.gain_V = cam_.gain_V;  // bsp / autogate: the tube gain stays at the preset's
+        } else {
+            c.gain_V = std::clamp(cmd.gain_V, 0.0, cam_.agc_max_gain_V);
+        }
+        if (gainLoop || autogate) c.loop = &agcAuto_;
+    }
+    // 2. gate
+    if (autogate) {
+        c.gate_s = gate_.gate_s(period_s, c.loop->gateScale(field_));
+    } else if (source_ == ControlSource::Preset || cmd.gateMode == 1 || cmd.gateMode == 2) {
+        c.gate_s = source_ == ControlSource::Command && cmd.gate_s > 0.0
+                       ? std::clamp(cmd.gate_s, cam_.gate_min_s, period_s)
+                       : gate_.gate_s(period_s, 1.0);
+    } else {
+        c.gate_s = period_s;  // continuous
+    }
+    return c;
+}
+
 const FieldInfo& IiccdChain::process(ImageView<const float> lpe) noexcept {
+    const double t_s = (static_cast<double>(field_) + 0.5) * cam_.integrationPeriod_s();
+    return process(lpe, CameraCommand{}, t_s);
+}
+
+const FieldInfo& IiccdChain::process(ImageView<const float> lpe, const CameraCommand& cmd,
+                                     double t_sample_s) noexcept {
     info_ = FieldInfo{};
     info_.field = field_;
     if (lpe.width() != cam_.width || lpe.height() != cam_.height) {
         info_.size_mismatch = true;
         return info_;
     }
-    const int w = cam_.width;
-    const int h = cam_.height;
     FieldContext ctx;
     ctx.field = field_;
     ctx.period_s = cam_.integrationPeriod_s();
-    ctx.gain_V =
-        cam_.agc == AgcMode::Off || cam_.agc == AgcMode::Bsp || cam_.agc == AgcMode::Autogate
-            ? cam_.gain_V
-            : agc_.gain_V(field_);
-    // 2. gate
-    const double scale = cam_.agc == AgcMode::Autogate ? agc_.gateScale(field_) : 1.0;
-    ctx.gate_s = gate_.gate_s(ctx.period_s, scale);
+    const Controls controls = controlsFor(cmd, ctx.period_s);
+    ctx.gain_V = controls.gain_V;
+    ctx.gate_s = controls.gate_s;
+    run(lpe, ctx);
+    // 10. AGC loop: measures this field, commands field + lag.
+    if (controls.loop != nullptr) controls.loop->update(ctx, info_.level_dc);
+    info_.t_sample_s = t_sample_s;
+    ++field_;
+    return info_;
+}
+
+void IiccdChain::run(ImageView<const float> lpe, FieldContext& ctx) noexcept {
+    const int w = cam_.width;
+    const int h = cam_.height;
     // 1. optics: the whole image first only where the gain depends on it (BSP: the cathode
     // current); otherwise row by row below. Both give the same sums in the same order.
     const bool opticsFirst = bsp_.enabled();
@@ -1255,7 +1318,7 @@ const FieldInfo& IiccdChain::process(ImageView<const float> lpe) noexcept {
     }
     // 4. bright-source protection (the gain for this field), 5. MCP gain
     const auto cathodeCurrent_A = [&] {
-        return ctx.cathodeRate_pe_s * ctx.gate_s / ctx.period_s * 1.602176634e-19;
+        return ctx.cathodeRate_pe_s * ctx.gate_s / ctx.period_s * kElectronCharge_C;
     };
     const double bspFactor = opticsFirst ? bsp_.factor(cathodeCurrent_A()) : 1.0;
     ctx.mcpGain = cam_.mcpGain(ctx.gain_V) * bspFactor;
@@ -1290,8 +1353,20 @@ const FieldInfo& IiccdChain::process(ImageView<const float> lpe) noexcept {
         ctx.cathodeRate_pe_s += opticsTotal;
         cathode_.begin(ctx, w, h);  // the EBI, added after the optics as apply() does
     }
-    const double cathode_A = cathodeCurrent_A();
     ctx.mcpOut_e = mcp_.enabled() ? mcpTotal : ctx.cathodeRate_pe_s * ctx.gate_s;
+    info_.gain_V = ctx.gain_V;
+    info_.mcp_gain = ctx.mcpGain;
+    info_.gate_s = ctx.gate_s;
+    info_.bsp_factor = bspFactor;
+    info_.cathode_current_A = cathodeCurrent_A();
+    info_.screen_current_A = ctx.mcpOut_e * kElectronCharge_C / ctx.period_s;
+    info_.mean_pe = ctx.cathodeRate_pe_s * ctx.gate_s / (w * h);
+    readOut(ctx);
+}
+
+void IiccdChain::readOut(const FieldContext& ctx) noexcept {
+    const int w = cam_.width;
+    const int h = cam_.height;
     // 7. blur
     blur_.filter();
     // 8. CCD, 9. video: load (PRNU, dark) row by row from the blurred image, bloom, then
@@ -1310,19 +1385,6 @@ const FieldInfo& IiccdChain::process(ImageView<const float> lpe) noexcept {
         n += w;
     }
     info_.level_dc = n > 0 ? sum / static_cast<double>(n) : 0.0;
-    // 10. AGC loop
-    agc_.update(ctx, info_.level_dc);
-
-    info_.t_sample_s = (static_cast<double>(field_) + 0.5) * ctx.period_s;
-    info_.gain_V = ctx.gain_V;
-    info_.mcp_gain = ctx.mcpGain;
-    info_.gate_s = ctx.gate_s;
-    info_.bsp_factor = bspFactor;
-    info_.cathode_current_A = cathode_A;
-    info_.screen_current_A = ctx.mcpOut_e * 1.602176634e-19 / ctx.period_s;
-    info_.mean_pe = ctx.cathodeRate_pe_s * ctx.gate_s / (cam_.width * cam_.height);
-    ++field_;
-    return info_;
 }
 
 }  // namespace nvs::sensor

@@ -316,10 +316,37 @@ class AgcLoop {
     double gateCmd_;
 };
 
+// ---- Controls -------------------------------------------------------------------------------
+// The camera's controls as commanded for one field by its operator (telemetry, a scenario's
+// platform and timeline): the thesis camera's front-panel switches.
+struct CameraCommand {
+    double gain_V = 0.0;  // manual tube gain control voltage [V]
+    double gate_s = 0.0;  // gate width [s] when gated (0: the preset's gate)
+    int gateMode = 0;     // 0 continuous, 1 gated, 2 auto-gated
+    bool agc = false;     // the camera's automatic loop switched on
+};
+
+// Who sets the controls.
+//   Preset   the preset alone: manual gain_V and gate, or its own agc loop (agc, abc, bsp,
+//            autogate); commands are ignored.
+//   Command  each field's CameraCommand:
+//              agc = false   manual: gain_V, clamped to [0, agc_max_gain_V]
+//              agc = true    the preset's automatic loop (agc, abc, bsp or autogate); a preset
+//                            whose agc is "off" runs the plain AGC loop (the camera's AGC
+//                            switch turned on); bsp / autogate keep the tube gain at the
+//                            preset's gain_V
+//              gate          automatic (the autogate loop's scale on the preset gate) when the
+//                            preset's loop is autogate and either agc or gateMode = 2;
+//                            otherwise by gateMode: 0 continuous (the photocathode is on for
+//                            the whole field), 1 or 2 gated at gate_s, clamped to
+//                            [gate_min_s, field] (gate_s = 0 keeps the preset's gate)
+enum class ControlSource { Preset, Command };
+
 // ---- The chain ------------------------------------------------------------------------------
 class IiccdChain {
   public:
-    IiccdChain(const CameraParams& cam, std::uint64_t seed, ChainOptions opt = {});
+    IiccdChain(const CameraParams& cam, std::uint64_t seed, ChainOptions opt = {},
+               ControlSource controls = ControlSource::Preset);
     ~IiccdChain();
     IiccdChain(const IiccdChain&) = delete;
     IiccdChain& operator=(const IiccdChain&) = delete;
@@ -328,6 +355,10 @@ class IiccdChain {
     // height. Never throws, never allocates; a size mismatch or bad pixels are reported in
     // the returned info.
     const FieldInfo& process(ImageView<const float> lpe) noexcept;
+    // The same with this field's commanded controls (used with ControlSource::Command; the
+    // preset's own settings otherwise) and the field's mid-exposure time on the caller's clock.
+    const FieldInfo& process(ImageView<const float> lpe, const CameraCommand& cmd,
+                             double t_sample_s) noexcept;
 
     // The output frame: integer counts as float, and as uint16 (≤ 2^adc_bits − 1).
     const ImageF& counts() const { return counts_; }
@@ -336,12 +367,27 @@ class IiccdChain {
     const ImageF& electrons() const { return sig_; }
     const CameraParams& camera() const { return cam_; }
     std::uint64_t fieldIndex() const { return field_; }
+    // What the last call did.
+    const FieldInfo& lastInfo() const { return info_; }
 
     // Counts how many non-finite or negative pixels an input has (setup-time validation).
     static std::int64_t countBadPixels(ImageView<const float> img);
 
   private:
+    // This field's gain, gate and the loop that measures it (step 10's policy, above).
+    struct Controls {
+        double gain_V = 0.0;
+        double gate_s = 0.0;
+        AgcLoop* loop = nullptr;
+    };
+    Controls controlsFor(const CameraCommand& cmd, double period_s) noexcept;
+    // Steps 1–6 row by row into the blur's input, then readOut(): 7–9.
+    void run(ImageView<const float> lpe, FieldContext& ctx) noexcept;
+    void readOut(const FieldContext& ctx) noexcept;
+
     CameraParams cam_;
+    CameraParams camAuto_;  // cam_ with its automatic loop switched on (ControlSource::Command)
+    ControlSource source_;
     std::uint64_t field_ = 0;
     OpticsStage optics_;
     GateStage gate_;
@@ -352,7 +398,8 @@ class IiccdChain {
     BlurStage blur_;
     CcdStage ccd_;
     VideoStage videoStage_;
-    AgcLoop agc_;
+    AgcLoop agc_;      // the preset's own loop
+    AgcLoop agcAuto_;  // the loop a command's agc switch turns on
     ImageF rate_;
     ImageF sig_;
     ImageF counts_;
