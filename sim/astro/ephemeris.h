@@ -17,6 +17,7 @@
 // Phase angle i is the Sun–Moon–Earth angle (geocentric), illuminated fraction k = (1+cos i)/2.
 
 #include "sim/astro/time.h"
+#include "sim/msg/sky.h"
 
 namespace nvs::astro {
 
@@ -29,29 +30,11 @@ struct Site {
     double relativeHumidity = 0.0;  // 0..1
 };
 
-struct SunState {
-    double az_rad = 0.0;            // from north through east, [0, 2π)
-    double alt_rad = 0.0;           // topocentric, refracted
-    double altGeometric_rad = 0.0;  // topocentric, airless
-    double distance_m = 0.0;        // Earth centre to Sun centre
-};
-
-struct MoonState {
-    double az_rad = 0.0;
-    double alt_rad = 0.0;
-    double altGeometric_rad = 0.0;
-    double distanceGeocentric_m = 0.0;   // Earth centre to Moon centre (DESIGN §7 distance_km)
-    double distanceTopocentric_m = 0.0;  // observer to Moon centre (sets the lunar solid angle)
-    double sunDistance_m = 0.0;          // Sun centre to Moon centre
-    double phaseAngle_rad = 0.0;         // Sun–Moon–Earth angle
-    double elongation_rad = 0.0;         // Sun–Earth–Moon angle (geocentric)
-    double illuminatedFraction = 0.0;    // (1 + cos i) / 2
-};
-
-struct SunMoonState {
-    SunState sun;
-    MoonState moon;
-};
+// The Sun/Moon state is a message (sim/msg/sky.h): the renderer and the sky read it without
+// depending on this module.
+using msg::MoonState;
+using msg::SunMoonState;
+using msg::SunState;
 
 // Refraction R(h) for a geometric (airless) altitude h, so that the apparent altitude is h + R.
 //

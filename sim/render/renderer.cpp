@@ -9,8 +9,6 @@
 #include <numeric>
 #include <string>
 
-#include "sim/sky/sky_model.h"
-
 namespace nvs::render {
 
 namespace {
@@ -21,8 +19,8 @@ constexpr std::uint16_t kMiss = 0xFFFF;
 constexpr std::uint16_t kNotSpecular = 0xFFFE;
 constexpr int kMaxLampsStatic = 32;
 // The sky radiance grid (sim/sky/atmosphere_table.h: view zenith 0–90° and Δφ 0–180°).
-constexpr int kSkyZ = sky::AtmosphereTable::kViewZeniths;
-constexpr int kSkyA = sky::AtmosphereTable::kAzimuths;
+constexpr int kSkyZ = msg::kSkyViewZeniths;
+constexpr int kSkyA = msg::kSkyAzimuths;
 constexpr double kSkyStepZ_deg = 90.0 / (kSkyZ - 1);
 constexpr double kSkyStepA_deg = 180.0 / (kSkyA - 1);
 
@@ -77,28 +75,6 @@ inline void setRay(RTCRay& r, const Vec3& o, const Vec3& d, float tnear, float t
 }
 
 }  // namespace
-
-FrameSky frameSky(const sky::SkyModel& model, const std::array<int, kBands>& tableBand,
-                  const astro::MoonState& moon) noexcept {
-    FrameSky s;
-    s.model = &model;
-    s.tableBand = tableBand;
-    s.moonAz_rad = moon.az_rad;
-    s.moonZenith_rad = kPi / 2 - moon.alt_rad;
-    s.moonDir_enu = enuFromAzAlt(moon.az_rad, moon.alt_rad);
-    s.moonUp = moon.alt_rad > 0.0;
-    s.moonAngularRadius_rad = std::asin(sky::kMoonRadius_m / moon.distanceTopocentric_m);
-    const auto& t = model.table();
-    for (int b = 0; b < kBands; ++b) {
-        const int tb = tableBand[static_cast<std::size_t>(b)];
-        const double toa = model.moonToa(tb, moon);
-        s.moonToa[b] = toa;
-        s.moonNormal[b] = s.moonUp ? toa * t.directTransmittance(tb, s.moonZenith_rad) : 0.0;
-        s.moonSkyHorizontal[b] = toa * t.diffuseHorizontal(tb, s.moonZenith_rad);
-        s.nightSkyHorizontal[b] = t.nightSkyHorizontal(tb);
-    }
-    return s;
-}
 
 // ------------------------------------------------------------------------------------------
 struct LampData {
@@ -1277,27 +1253,16 @@ void Renderer::render(const FrameSky& sky, ImageView<float> pe, ImageView<float>
           im.uFactor != coarse_,
           rowStep(im.H),
           rowStep(im.nodeH)};
-    // Sky in view: the frame's table on the atmosphere table's (view zenith, Δφ) nodes.
+    // Sky in view: the frame's table on the atmosphere table's (view zenith, Δφ) nodes (sim/sky
+    // computes it), or isotropic.
     for (int b = 0; b < kBands; ++b) {
         float* t = &im.skyTab[static_cast<std::size_t>(b) * kSkyZ * kSkyA];
-        for (int iz = 0; iz < kSkyZ; ++iz) {
-            const double vz = iz * kSkyStepZ_deg * (kPi / 180.0);
-            for (int ia = 0; ia < kSkyA; ++ia) {
-                double l;
-                if (sky.model != nullptr) {
-                    const auto& tab = sky.model->table();
-                    const int tb = sky.tableBand[static_cast<std::size_t>(b)];
-                    l = tab.nightSkyRadiance(tb, vz);
-                    if (sky.moonZenith_rad < 1.6755) {
-                        l += sky.moonToa[b] * tab.skyRadiance(tb, vz,
-                                                              ia * kSkyStepA_deg * (kPi / 180.0),
-                                                              sky.moonZenith_rad);
-                    }
-                } else {
-                    l = (sky.moonSkyHorizontal[b] + sky.nightSkyHorizontal[b]) / kPi;
-                }
-                t[iz * kSkyA + ia] = static_cast<float>(l);
-            }
+        if (sky.hasSkyRadiance) {
+            const float* src = &sky.skyRadiance[static_cast<std::size_t>(b) * msg::kSkyNodes];
+            std::copy(src, src + msg::kSkyNodes, t);
+        } else {
+            const double l = (sky.moonSkyHorizontal[b] + sky.nightSkyHorizontal[b]) / kPi;
+            std::fill(t, t + kSkyZ * kSkyA, static_cast<float>(l));
         }
     }
     c.moonAz_rad = static_cast<float>(sky.moonAz_rad);

@@ -29,20 +29,22 @@
 #include <memory>
 #include <vector>
 
-#include "sim/astro/ephemeris.h"
 #include "sim/core/image.h"
 #include "sim/core/spectrum.h"
+#include "sim/msg/sky.h"
 #include "sim/scene/scene.h"
-
-namespace nvs::sky {
-class SkyModel;
-}
 
 namespace nvs::render {
 
-inline constexpr int kBandPe = 0;  // photoelectron radiance, weight QE(λ) λ/(hc)
-inline constexpr int kBandW = 1;   // band radiance, weight β(λ)
-inline constexpr int kBands = 2;
+// The bands and the frame's sky come as messages (sim/msg/sky.h, filled by sim/sky): the
+// renderer knows nothing of the ephemeris or the atmosphere model.
+using msg::BandValues;
+using msg::FrameSky;
+using msg::FrameStar;
+using msg::kBandPe;  // photoelectron radiance, weight QE(λ) λ/(hc)
+using msg::kBands;
+using msg::kBandW;  // band radiance, weight β(λ)
+using msg::kMaxStars;
 
 // Terms of the radiance (Renderer::setTerms), for diagnostics and tests: a render with only
 // kTermMoon shows where the Moon's direct light reaches (its shadows are exact zeros).
@@ -52,7 +54,6 @@ inline constexpr unsigned kTermSky = 4u;       // sky-view factor × sky irradia
 inline constexpr unsigned kTermSpecular = 8u;  // one specular bounce
 inline constexpr unsigned kTermInView = 16u;   // sky, Moon disk, lamps and stars seen directly
 inline constexpr unsigned kTermAll = 31u;
-using BandValues = std::array<double, kBands>;
 
 struct PinholeCamera {
     int width = 768;
@@ -72,36 +73,6 @@ struct RenderConfig {
     int lampShadowRays = 1;                   // per lamp with an aperture, per point
     bool specular = true;
 };
-
-// A bright star for one frame (sim/render/stars.h): apparent direction and band irradiance at
-// the ground normal to the beam, after the atmosphere's direct transmittance [band m⁻²].
-inline constexpr int kMaxStars = 128;
-struct FrameStar {
-    Vec3 dir_enu{0.0, 0.0, 1.0};
-    BandValues irradiance{};
-};
-
-// The sky and Moon for one frame, band-integrated (from sky::SkyModel; see frameSky()).
-struct FrameSky {
-    bool moonUp = false;
-    Vec3 moonDir_enu{0.0, 0.0, 1.0};
-    double moonAz_rad = 0.0;
-    double moonZenith_rad = 1.5707963267948966;
-    double moonAngularRadius_rad = 0.0045;
-    BandValues moonNormal{};  // E☾ = E_toa · T(z) normal to the beam at the ground [band m⁻²]
-    BandValues moonToa{};     // E_toa [band m⁻²] (scales the sky radiance table)
-    BandValues moonSkyHorizontal{};        // diffuse lunar sky irradiance, horizontal
-    BandValues nightSkyHorizontal{};       // night-sky irradiance, horizontal
-    const sky::SkyModel* model = nullptr;  // for sky radiance in view; null: isotropic E/π
-    std::array<int, kBands> tableBand{-1, -1};
-    int starCount = 0;  // stars above the horizon, drawn where they are in view
-    std::array<FrameStar, kMaxStars> stars{};
-};
-
-// Fills a FrameSky from the sky model and the Sun/Moon state. tableBand[b] is the atmosphere
-// table's band for renderer band b. No allocation, no throw.
-FrameSky frameSky(const sky::SkyModel& model, const std::array<int, kBands>& tableBand,
-                  const astro::MoonState& moon) noexcept;
 
 class RowExecutor {
   public:

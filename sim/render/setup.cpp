@@ -1,6 +1,7 @@
 #include "sim/render/setup.h"
 
 #include "sim/sensor/mtf.h"
+#include "sim/sky/frame_sky.h"
 #include "sim/sky/night_sky.h"
 
 namespace nvs::render {
@@ -76,7 +77,7 @@ FrameSky ScenarioRenderer::prepare(double t_s) noexcept {
     const astro::AstroTime t = epoch_.plusSeconds(t_s);
     sunMoon_ = ephemeris_->compute(t);
     renderer_->setTime(t_s);
-    FrameSky s = frameSky(*sky_, tableBand_, sunMoon_.moon);
+    FrameSky s = sky::frameSky(*sky_, tableBand_, sunMoon_.moon, t_s);
     // Stars above the horizon: E_b = E_v(V) · (band per lux) · T_direct(z).
     const int n = static_cast<int>(stars_.size());
     ephemeris_->stars(t, stars_.ra_rad.data(), stars_.dec_rad.data(), n, starAz_.data(),

@@ -38,6 +38,9 @@ class ScenarioRenderer {
     const scene::Scene& scene() const { return scene_; }
     const sensor::CameraParams& camera() const { return camera_; }
     const astro::SunMoonState& sunMoon() const { return sunMoon_; }
+    const sky::SkyModel& sky() const { return *sky_; }
+    // The atmosphere table's band of each renderer band.
+    const std::array<int, kBands>& tableBands() const { return tableBand_; }
 
   private:
     scene::RenderScenario scenario_;

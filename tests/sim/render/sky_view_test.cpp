@@ -46,7 +46,7 @@ TEST(SkyInView, MatchesTheAtmosphereTableAndTheMoonDisk) {
     SerialExecutor ex;
     r.render(sky, pe.view(), w.view(), ex);
 
-    const auto& t = sky.model->table();
+    const auto& t = sr->sky().table();
     const double omega = kPi * sky.moonAngularRadius_rad * sky.moonAngularRadius_rad;
     int sky_px = 0, disk_px = 0;
     double worst = 0.0;
@@ -60,7 +60,7 @@ TEST(SkyInView, MatchesTheAtmosphereTableAndTheMoonDisk) {
             const double rel = std::atan2(d.x, d.y) - sky.moonAz_rad;
             const bool disk = dot(d, sky.moonDir_enu) > std::cos(sky.moonAngularRadius_rad);
             for (int b = 0; b < kBands; ++b) {
-                const int tb = sky.tableBand[static_cast<std::size_t>(b)];
+                const int tb = sr->tableBands()[static_cast<std::size_t>(b)];
                 double want = t.nightSkyRadiance(tb, vz) +
                               sky.moonToa[b] * t.skyRadiance(tb, vz, rel, sky.moonZenith_rad);
                 if (disk) want += sky.moonNormal[b] / omega;

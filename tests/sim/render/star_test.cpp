@@ -103,7 +103,7 @@ TEST(StarsInView, BrightStarGivesItsPhotoelectronFluxInItsPixel) {
     const double got = (static_cast<double>(pe(bx, by)) - background) * omegaPixel;
     const RenderConfig cfg = renderConfigFor(sr->camera(), cam.width, cam.height);
     const double transmittance =
-        sky.model->table().directTransmittance(sky.tableBand[kBandPe], kPi / 2 - bestAlt);
+        sr->sky().table().directTransmittance(sr->tableBands()[kBandPe], kPi / 2 - bestAlt);
     const double want = std::pow(10.0, -0.4 * (cat.vMag[static_cast<std::size_t>(best)] + 13.99)) *
                         perLux(cfg.bandWeight[kBandPe], 5800.0) * transmittance;
     std::printf(
