@@ -12,12 +12,12 @@
 #include <vector>
 
 #include "rt/cli/commands.h"
+#include "rt/compose/scene_setup.h"
 #include "rt/render_stage/row_pool.h"
 #include "sim/astro/ephemeris.h"
 #include "sim/core/error.h"
 #include "sim/core/paths.h"
 #include "sim/core/units.h"
-#include "sim/render/setup.h"
 #include "sim/sensor/camera.h"
 #include "sim/sensor/chain.h"
 #include "sim/sky/night_sky.h"
@@ -125,7 +125,7 @@ int runBench(const BenchOptions& opts) {
                 !wanted(base + "_2t_moving")) {
                 continue;
             }
-            auto sr = render::ScenarioRenderer::create(rit, coarse);
+            auto sr = rt::ScenarioRenderer::create(rit, coarse);
             ImageF pe(sr->scenario().width, sr->scenario().height), band(pe.width(), pe.height());
             for (int threads : {1, 2}) {
                 rt::RowPool pool(threads);
@@ -159,7 +159,7 @@ int runBench(const BenchOptions& opts) {
             const std::string name =
                 std::string(coarse == 1 ? "render_full" : "render_coarse4") + "_2t_truck";
             if (!wanted(name)) continue;
-            auto sr = render::ScenarioRenderer::create(drive, coarse);
+            auto sr = rt::ScenarioRenderer::create(drive, coarse);
             ImageF pe(sr->scenario().width, sr->scenario().height), band(pe.width(), pe.height());
             rt::RowPool pool(2);
             int k = 0;
@@ -191,7 +191,7 @@ int runBench(const BenchOptions& opts) {
             if (in.scene != nullptr) {
                 const auto file = rit.parent_path() / in.scene;
                 if (!std::filesystem::exists(file)) continue;
-                auto sr = render::ScenarioRenderer::create(file, 1);
+                auto sr = rt::ScenarioRenderer::create(file, 1);
                 if (sr->scenario().width != cam.width || sr->scenario().height != cam.height) {
                     continue;
                 }

@@ -11,9 +11,9 @@
 #include <vector>
 
 #include "rt/cli/commands.h"
+#include "rt/compose/scene_setup.h"
 #include "sim/core/error.h"
 #include "sim/render/exr_out.h"
-#include "sim/render/setup.h"
 
 namespace nvs::cli {
 namespace {
@@ -45,8 +45,8 @@ int runRender(const RenderOptions& opts) {
     if (opts.frame < 0) throw SetupError("--frame: must be ≥ 0");
     const std::filesystem::path out = opts.out;
     if (out.extension() != ".exr") throw SetupError("--out " + opts.out + ": must end in .exr");
-    auto sr = render::ScenarioRenderer::create(opts.scenario);
-    const double t_s = sr->scenario().frameTime_s(opts.frame);
+    auto sr = rt::ScenarioRenderer::create(opts.scenario);
+    const double t_s = sr->frameTime_s(opts.frame);
     const render::FrameSky sky = sr->prepare(t_s);
     const auto& cam = sr->renderer().camera();
     ImageF pe(cam.width, cam.height), band(cam.width, cam.height);
@@ -56,11 +56,11 @@ int runRender(const RenderOptions& opts) {
     const auto& moon = sr->sunMoon().moon;
     constexpr double kDeg = 180.0 / 3.14159265358979323846;
     std::vector<std::pair<std::string, std::string>> attrs = {
-        {"nvstim.scenario", sr->scenario().file.string()},
+        {"nvstim.scenario", sr->scenario().file},
         {"nvstim.frame", std::to_string(opts.frame)},
         {"nvstim.utc_start", sr->scenario().utcStart},
         {"nvstim.t_s", fmt(t_s)},
-        {"nvstim.camera", sr->scenario().cameraPreset},
+        {"nvstim.camera", sr->scenario().camera.preset},
         {"nvstim.moon_alt_deg", fmt(moon.alt_rad * kDeg)},
         {"nvstim.moon_az_deg", fmt(moon.az_rad * kDeg)},
     };

@@ -1,9 +1,7 @@
 #include "rt/render_stage/render_stage.h"
 
 #include <cmath>
-#include <ctime>
 
-#include "sim/astro/time.h"
 #include "sim/core/error.h"
 #include "sim/core/geometry.h"
 #include "sim/core/units.h"
@@ -15,33 +13,15 @@ namespace {
 constexpr double kWgs84A_m = 6378137.0;
 constexpr double kWgs84E2 = 6.69437999014e-3;
 
-double unixFromCalendar(const astro::CalendarInstant& c) {
-    std::tm tm{};
-    tm.tm_year = c.year - 1900;
-    tm.tm_mon = c.month - 1;
-    tm.tm_mday = c.day;
-    tm.tm_hour = c.hour;
-    tm.tm_min = c.minute;
-    return static_cast<double>(timegm(&tm)) + c.second;
-}
-
 }  // namespace
 
-std::unique_ptr<SceneRenderStage> SceneRenderStage::create(const std::filesystem::path& scenario,
-                                                           int width, int height, int coarseFactor,
-                                                           int threads) {
+std::unique_ptr<SceneRenderStage> SceneRenderStage::create(const Scenario& sc) {
     auto s = std::unique_ptr<SceneRenderStage>(new SceneRenderStage());
-    s->sr_ = render::ScenarioRenderer::create(scenario, coarseFactor);
-    const scene::RenderScenario& rs = s->sr_->scenario();
-    if (rs.width != width || rs.height != height) {
-        throw SetupError(rs.file.string() + ": the render size " + std::to_string(rs.width) + "x" +
-                         std::to_string(rs.height) + " differs from the run's " +
-                         std::to_string(width) + "x" + std::to_string(height));
-    }
-    s->pool_ = std::make_unique<RowPool>(threads);
-    s->band_ = ImageF(width, height);
-    s->epochUnix_s_ =
-        unixFromCalendar(astro::parseIsoUtc(rs.utcStart, rs.file.string() + ": utc_start"));
+    s->sr_ = ScenarioRenderer::create(sc, sc.renderCoarse);
+    const SceneSpec& rs = sc.scene;
+    s->pool_ = std::make_unique<RowPool>(sc.renderThreads);
+    s->band_ = ImageF(sc.width, sc.height);
+    s->epochUnix_s_ = sc.utcStart_unix_s;
     s->lat0_rad_ = rs.site.lat_deg * kRadPerDeg;
     s->lon0_rad_ = rs.site.lon_deg * kRadPerDeg;
     s->h0_m_ = rs.site.height_m;

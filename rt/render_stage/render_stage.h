@@ -21,19 +21,17 @@
 #include <filesystem>
 #include <memory>
 
+#include "rt/compose/scene_setup.h"
 #include "rt/msg/stages.h"
 #include "rt/render_stage/row_pool.h"
-#include "sim/render/setup.h"
 
 namespace nvs::rt {
 
 class SceneRenderStage final : public RenderStage {
   public:
-    // Setup: loads the scenario's scene, camera preset and sky (throws SetupError). The
-    // runtime's image must be width × height of the scenario.
-    static std::unique_ptr<SceneRenderStage> create(const std::filesystem::path& scenario,
-                                                    int width, int height, int coarseFactor,
-                                                    int threads);
+    // Setup: the scenario's scene, camera bands, sky and renderer (rt/compose), rendered at the
+    // scenario's size with its coarse tiles on its render threads (throws SetupError).
+    static std::unique_ptr<SceneRenderStage> create(const Scenario& scenario);
 
     void render(const FrameRequest& req, ImageView<float> lpe, FrameMeta& meta) noexcept override;
 
@@ -41,7 +39,7 @@ class SceneRenderStage final : public RenderStage {
     ImageView<const float> bandRadiance() const { return band_.cview(); }
     // Lamps of the scene switched on by the scenario at the start, as a lamp mask.
     std::uint32_t initialLampMask() const { return initialLamps_; }
-    const render::ScenarioRenderer& scenario() const { return *sr_; }
+    const ScenarioRenderer& scenario() const { return *sr_; }
     double epochUnix_s() const { return epochUnix_s_; }
 
     // The scene-frame camera pose for a platform state (exposed for tests).
@@ -49,7 +47,7 @@ class SceneRenderStage final : public RenderStage {
 
   private:
     SceneRenderStage() = default;
-    std::unique_ptr<render::ScenarioRenderer> sr_;
+    std::unique_ptr<ScenarioRenderer> sr_;
     std::unique_ptr<RowPool> pool_;
     ImageF band_;
     double epochUnix_s_ = 0.0;

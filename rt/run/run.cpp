@@ -246,14 +246,10 @@ int runScenario(const RunRequest& req, std::FILE* status) {
                                   sc.testPattern.targetSpeed_px_s);
     RenderStage* render = &testPattern;
     if (sc.rendered) {
-        sceneStage = SceneRenderStage::create(sc.file, sc.width, sc.height, sc.renderCoarse,
-                                              sc.renderThreads);
+        sceneStage = SceneRenderStage::create(sc);
         render = sceneStage.get();
         sc.platform.lampMask = sceneStage->initialLampMask();
         sc.camera.spectrum = "pe";
-        if (!sc.camera.enabled) {
-            throw SetupError(sc.file + ": a rendered scenario needs a [camera] preset");
-        }
     }
     std::unique_ptr<PlatformSource> platform =
         makePlatformSource(req.telemetry ? req.telemetry : sc.telemetry, sc, req.clock);

@@ -10,9 +10,9 @@
 #include <string>
 #include <vector>
 
+#include "rt/compose/scenario.h"
 #include "rt/loop/frame_loop.h"
 #include "rt/msg/stages.h"
-#include "rt/run/scenario.h"
 
 namespace nvs::rt {
 

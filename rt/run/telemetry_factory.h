@@ -4,10 +4,10 @@
 #include <memory>
 #include <string>
 
+#include "rt/compose/scenario.h"
 #include "rt/loop/frame_loop.h"
 #include "rt/msg/stages.h"
 #include "rt/run/run.h"
-#include "rt/run/scenario.h"
 
 namespace nvs::rt {
 

@@ -11,8 +11,8 @@
 #include <string>
 #include <vector>
 
+#include "rt/compose/scenario.h"
 #include "rt/msg/stages.h"
-#include "rt/run/scenario.h"
 
 namespace nvs::rt {
 

@@ -18,7 +18,7 @@
 #include <new>
 #include <string>
 
-#include "rt/run/scenario.h"
+#include "rt/compose/scenario.h"
 #include "sim/core/error.h"
 #include "sim/sensor/chain.h"
 

@@ -16,9 +16,17 @@ std::filesystem::path rit(const char* name) {
     return std::filesystem::path(NVS_SOURCE_DIR) / "scenarios" / "rit" / name;
 }
 
+// The RIT scenario `name`, rendered with coarse tiles of `coarse` on `threads` threads.
+Scenario ritScenario(const char* name, int coarse, int threads) {
+    Scenario sc = loadScenario(rit(name));
+    sc.renderCoarse = coarse;
+    sc.renderThreads = threads;
+    return sc;
+}
+
 TEST(SceneRenderStage, SamePixelsAsTheRendererWithOneAndTwoThreads) {
-    auto one = SceneRenderStage::create(rit("nolight.toml"), 768, 494, 1, 1);
-    auto two = SceneRenderStage::create(rit("nolight.toml"), 768, 494, 1, 2);
+    auto one = SceneRenderStage::create(ritScenario("nolight.toml", 1, 1));
+    auto two = SceneRenderStage::create(ritScenario("nolight.toml", 1, 2));
     ImageF a(768, 494), b(768, 494), direct(768, 494), band(768, 494);
     FrameRequest req;
     req.t_sample_s = 0.0;
@@ -26,7 +34,7 @@ TEST(SceneRenderStage, SamePixelsAsTheRendererWithOneAndTwoThreads) {
     FrameMeta ma, mb;
     one->render(req, a.view(), ma);
     two->render(req, b.view(), mb);
-    auto sr = render::ScenarioRenderer::create(rit("nolight.toml"), 1);
+    auto sr = ScenarioRenderer::create(rit("nolight.toml"), 1);
     render::SerialExecutor exec;
     sr->renderer().render(sr->prepare(0.0), direct.view(), band.view(), exec);
     double sum = 0.0;
@@ -42,8 +50,8 @@ TEST(SceneRenderStage, SamePixelsAsTheRendererWithOneAndTwoThreads) {
 }
 
 TEST(SceneRenderStage, TelemetryPoseIsPlacedInTheSceneFrame) {
-    auto s = SceneRenderStage::create(rit("nolight.toml"), 768, 494, 4, 1);
-    const auto& site = s->scenario().scenario().site;
+    auto s = SceneRenderStage::create(ritScenario("nolight.toml", 4, 1));
+    const auto& site = s->scenario().scenario().scene.site;
     PlatformState p;
     p.lat_deg = site.lat_deg;
     p.lon_deg = site.lon_deg;
@@ -73,7 +81,7 @@ TEST(SceneRenderStage, TelemetryPoseIsPlacedInTheSceneFrame) {
 }
 
 TEST(SceneRenderStage, LampMaskSwitchesLamps) {
-    auto s = SceneRenderStage::create(rit("stlamp.toml"), 768, 494, 4, 1);
+    auto s = SceneRenderStage::create(ritScenario("stlamp.toml", 4, 1));
     ASSERT_NE(s->initialLampMask(), 0u);
     ImageF on(768, 494), off(768, 494);
     FrameRequest req;
@@ -92,8 +100,10 @@ TEST(SceneRenderStage, LampMaskSwitchesLamps) {
     EXPECT_GT(sOn, sOff * 1.01);
 }
 
-TEST(SceneRenderStage, SizeMismatchIsASetupError) {
-    EXPECT_THROW(SceneRenderStage::create(rit("nolight.toml"), 320, 240, 1, 1), SetupError);
+TEST(SceneRenderStage, AScenarioWithoutASceneIsASetupError) {
+    Scenario sc = loadScenario(rit("nolight.toml"));
+    sc.rendered = false;
+    EXPECT_THROW(SceneRenderStage::create(sc), SetupError);
 }
 
 }  // namespace

@@ -1,13 +1,13 @@
-// The scenario format's bad input: unknown keys, a missing telemetry log, a timeline event after
-// the end, an unknown lamp — each a clear error naming file:line.
+// The scenario format (the one loader, rt/compose/scenario.h): every shipped scenario and the
+// RIT render scenarios load; bad input — unknown keys in any table, a missing telemetry log, a
+// timeline event after the end, an unknown lamp — is a clear error naming file:line.
 #include <gtest/gtest.h>
 
 #include <fstream>
 
+#include "rt/compose/scenario.h"
 #include "rt/run/run.h"
-#include "rt/run/scenario.h"
 #include "sim/core/error.h"
-#include "sim/scene/scenario.h"
 
 namespace nvs::rt {
 namespace {
@@ -48,11 +48,53 @@ TEST(ScenarioFormat, ShippedScenariosLoad) {
         EXPECT_TRUE(sc.rendered) << e.path();
         EXPECT_FALSE(sc.group.empty()) << e.path();
         EXPECT_TRUE(sc.duration_s.has_value()) << e.path();
-        // The render tables of the same file are strict too.
-        EXPECT_NO_THROW(scene::loadRenderScenario(e.path())) << e.path();
+        EXPECT_TRUE(fs::exists(sc.scene.sceneFile)) << e.path();
         ++n;
     }
     EXPECT_GE(n, 9);
+}
+
+TEST(ScenarioFormat, RitRenderScenariosLoadWithTheirSiteAndPreset) {
+    for (const char* name : {"nolight", "tghg", "stlamp", "full_moon"}) {
+        const Scenario sc = loadScenario(kRit.parent_path() / (std::string(name) + ".toml"));
+        EXPECT_TRUE(sc.rendered);
+        EXPECT_NEAR(sc.scene.site.lat_deg, 43.16856, 1e-9);
+        EXPECT_NEAR(sc.scene.site.lon_deg, -77.61583, 1e-9);
+        EXPECT_EQ(sc.camera.preset, "pulnix-ag5745ef3");
+        EXPECT_EQ(sc.width, 768);
+        EXPECT_EQ(sc.height, 494);
+        EXPECT_TRUE(fs::exists(sc.scene.sceneFile));
+    }
+}
+
+// One strict check for every table: a misspelt key names its place and the key meant.
+TEST(ScenarioFormat, EveryTableSuggestsTheKeyMeant) {
+    const struct {
+        const char* right;  // a line of the valid scenario, and its misspelling
+        const char* wrong;
+        const char* key;
+        const char* meant;
+    } cases[] = {
+        {"frame_rate_hz = 10", "frame_rate_hx = 10", "scenario.frame_rate_hx", "frame_rate_hz"},
+        {"lat_deg = 43.16856", "lat_degs = 43.16856", "site.lat_degs", "lat_deg"},
+        {"[camera]\n", "[camera]\nspectra = \"flat\"\n", "camera.spectra", "spectrum"},
+        {"[scene]\n", "[scene]\nlamp_on = []\n", "scene.lamp_on", "lamps_on"},
+        {"[atmosphere]\n", "[atmosphere]\nvisibility = 10\n", "atmosphere.visibility",
+         "visibility_km"},
+        {"[runtime]\n", "[runtime]\nrender_thread = 2\n", "runtime.render_thread",
+         "render_threads"},
+        {"[platform]\n", "[platform]\ngain_v = 4.0\n", "platform.gain_v", "gain_V"},
+    };
+    for (const auto& c : cases) {
+        std::string body = rendered("[atmosphere]\n[runtime]\n[platform]\n");
+        const auto at = body.find(c.right);
+        ASSERT_NE(at, std::string::npos) << c.right;
+        body.replace(at, std::string(c.right).size(), c.wrong);
+        const std::string msg = errorOf(writeScenario("nvs_sf_hint", body));
+        EXPECT_NE(msg.find("unknown key '" + std::string(c.key) + "'"), std::string::npos) << msg;
+        EXPECT_NE(msg.find("did you mean '" + std::string(c.meant) + "'"), std::string::npos)
+            << msg;
+    }
 }
 
 TEST(ScenarioFormat, UnknownKeyNamesFileAndLine) {

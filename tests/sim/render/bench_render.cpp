@@ -15,7 +15,7 @@
 #include <thread>
 #include <vector>
 
-#include "sim/render/setup.h"
+#include "rt/compose/scene_setup.h"
 
 namespace {
 
@@ -79,7 +79,7 @@ class PoolExecutor final : public RowExecutor {
 };
 
 struct Setup {
-    std::unique_ptr<nvs::render::ScenarioRenderer> sr;
+    std::unique_ptr<nvs::rt::ScenarioRenderer> sr;
     nvs::render::FrameSky sky;
     double embreeSingle = 0.0, embreePacket = 0.0;
 };
@@ -87,7 +87,7 @@ struct Setup {
 Setup& setup() {
     static Setup s = [] {
         Setup r;
-        r.sr = nvs::render::ScenarioRenderer::create(
+        r.sr = nvs::rt::ScenarioRenderer::create(
             std::filesystem::path(NVS_SOURCE_DIR) / "scenarios/rit/stlamp.toml", 4);
         r.sky = r.sr->prepare(0.0);
         r.embreeSingle = r.sr->renderer().measureEmbreePrimaryRate(5);

@@ -13,12 +13,14 @@
 #include <cmath>
 #include <vector>
 
+#include "rt/compose/scene_setup.h"
 #include "sim/render/renderer.h"
-#include "sim/render/setup.h"
 #include "sim/sensor/mtf.h"
 #include "tests/sim/core/test_paths.h"
 
 namespace nvs::render {
+using rt::renderConfigFor;
+using rt::ScenarioRenderer;
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;

@@ -16,10 +16,12 @@
 #include <string>
 #include <vector>
 
-#include "sim/render/setup.h"
+#include "rt/compose/scene_setup.h"
 #include "tests/sim/core/test_paths.h"
 
 namespace nvs::render {
+using rt::renderConfigFor;
+using rt::ScenarioRenderer;
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;

@@ -7,12 +7,14 @@
 
 #include <cmath>
 
+#include "rt/compose/scene_setup.h"
 #include "sim/render/renderer.h"
-#include "sim/render/setup.h"
 #include "sim/sky/sky_model.h"
 #include "tests/sim/core/test_paths.h"
 
 namespace nvs::render {
+using rt::renderConfigFor;
+using rt::ScenarioRenderer;
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;

@@ -11,15 +11,17 @@
 
 #include <cmath>
 
+#include "rt/compose/scene_setup.h"
 #include "sim/astro/time.h"
 #include "sim/core/photometry.h"
 #include "sim/core/planck.h"
 #include "sim/render/renderer.h"
-#include "sim/render/setup.h"
 #include "sim/render/stars.h"
 #include "tests/sim/core/test_paths.h"
 
 namespace nvs::render {
+using rt::renderConfigFor;
+using rt::ScenarioRenderer;
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
@@ -65,7 +67,7 @@ TEST(StarsInView, BrightStarGivesItsPhotoelectronFluxInItsPixel) {
     Renderer& r = sr->renderer();
     const FrameSky sky = sr->prepare(0.0);
     const StarCatalog cat = loadStarCatalog(defaultStarCatalogPath());
-    const auto& site = sr->scenario().site;
+    const auto& site = sr->scenario().scene.site;
     const astro::AstroTime t0 =
         astro::astroTimeFromUtc(astro::parseIsoUtc(sr->scenario().utcStart));
     const double jd = t0.ut1Jd1 + t0.ut1Jd2;

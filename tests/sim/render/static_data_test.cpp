@@ -10,11 +10,13 @@
 #include <filesystem>
 #include <fstream>
 
+#include "rt/compose/scene_setup.h"
 #include "sim/render/renderer.h"
-#include "sim/render/setup.h"
 #include "tests/sim/core/test_paths.h"
 
 namespace nvs::render {
+using rt::renderConfigFor;
+using rt::ScenarioRenderer;
 namespace {
 
 struct Frame {

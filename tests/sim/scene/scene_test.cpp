@@ -8,7 +8,6 @@
 #include <fstream>
 
 #include "sim/core/config.h"
-#include "sim/scene/scenario.h"
 #include "tests/sim/core/test_paths.h"
 
 namespace nvs::scene {
@@ -146,31 +145,6 @@ TEST(ConfigSkip, SkippedTablesAreNotUnknownButOthersStillAre) {
         FAIL() << "stray key not reported";
     } catch (const SetupError& e) {
         EXPECT_NE(std::string(e.what()).find("t.toml:7"), std::string::npos) << e.what();
-    }
-}
-
-TEST(Scenario, RitScenariosLoadWithRuntimeTables) {
-    for (const char* name : {"nolight", "tghg", "stlamp"}) {
-        const auto s =
-            loadRenderScenario(test::sourceDir() / "scenarios/rit" / (std::string(name) + ".toml"));
-        EXPECT_NEAR(s.site.lat_deg, 43.16856, 1e-9);
-        EXPECT_NEAR(s.site.lon_deg, -77.61583, 1e-9);
-        EXPECT_TRUE(fs::exists(s.sceneFile));
-    }
-}
-
-TEST(Scenario, UnknownRenderKeyNamesTheLine) {
-    TempDir t;
-    t.write("scene.toml", kScene);
-    const auto p =
-        t.write("s.toml",
-                "[scenario]\nname = \"x\"\n[platform]\nyaw_deg = 3\n[site]\nlat_deg = 1\n"
-                "lat = 2\n[scene]\nfile = \"scene.toml\"\n");
-    try {
-        (void)loadRenderScenario(p);
-        FAIL();
-    } catch (const SetupError& e) {
-        EXPECT_NE(std::string(e.what()).find("s.toml:7"), std::string::npos) << e.what();
     }
 }
 

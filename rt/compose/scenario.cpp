@@ -1,4 +1,4 @@
-#include "rt/run/scenario.h"
+#include "rt/compose/scenario.h"
 
 #include <algorithm>
 #include <cmath>
@@ -56,13 +56,14 @@ T getOr(const std::optional<ConfigTable>& t, std::string_view key, const T& def)
 // applied as overrides so that the preset's own validation sees them.
 void readCamera(const ConfigTable& t, std::optional<int> width, std::optional<int> height,
                 std::optional<int> bits, std::uint64_t defaultSeed, CameraSpec& out) {
-    const std::string preset = t.require<std::string>("preset");
+    out.preset = t.require<std::string>("preset");
     sensor::Overrides ov;
     try {
         ov = sensor::parseOverrides(t.get<std::vector<std::string>>("set", {}));
     } catch (const SetupError& e) {
         t.fail("set", e.what());
     }
+    out.presetOverrides = ov;
     const auto put = [&](const char* key, std::optional<int> v) {
         if (!v) return;
         if (ov.count(key) != 0) t.fail("set", std::string(key) + " is also given in [scenario]");
@@ -72,7 +73,7 @@ void readCamera(const ConfigTable& t, std::optional<int> width, std::optional<in
     put("height", height);
     put("video.adc_bits", bits);
     try {
-        out.params = sensor::loadCamera(preset, ov);
+        out.params = sensor::loadCamera(out.preset, ov);
     } catch (const SetupError& e) {
         t.fail("preset", e.what());
     }
@@ -93,10 +94,53 @@ void readCamera(const ConfigTable& t, std::optional<int> width, std::optional<in
     out.enabled = true;
 }
 
-Scenario fromDocument(const ConfigDocument& doc, const std::string& file) {
-    Scenario sc;
-    sc.file = file;
-    const ConfigTable root = doc.root();
+double finiteIn(const ConfigTable& t, std::string_view key, double fallback, double lo, double hi) {
+    const double v = t.get<double>(key, fallback);
+    if (!std::isfinite(v) || v < lo || v > hi) {
+        t.fail(key, "must lie in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]");
+    }
+    return v;
+}
+
+// [site], [atmosphere], [scene] of a rendered scenario (docs/scene.md).
+void readSceneTables(const ConfigTable& root, const std::filesystem::path& file, SceneSpec& out) {
+    const ConfigTable site = root.table("site");
+    out.site.lat_deg = finiteIn(site, "lat_deg", 0.0, -90.0, 90.0);
+    out.site.lon_deg = finiteIn(site, "lon_deg", 0.0, -180.0, 360.0);
+    out.site.height_m = finiteIn(site, "height_m", 0.0, -500.0, 9000.0);
+    out.site.pressure_hPa = finiteIn(site, "pressure_hPa", 1013.25, 0.0, 1100.0);
+    out.site.temperature_C = finiteIn(site, "temperature_C", 15.0, -80.0, 60.0);
+    out.atmosphere.siteAltitude_m = out.site.height_m;
+    if (const auto atOpt = root.optionalTable("atmosphere")) {
+        const ConfigTable& at = *atOpt;
+        out.atmosphere.visibility_km = finiteIn(at, "visibility_km", 23.0, 0.05, 500.0);
+        if (at.contains("aerosol")) {
+            out.atmosphere.aerosol =
+                sky::parseAerosolModel(at.require<std::string>("aerosol"), at.location("aerosol"));
+        }
+        out.atmosphere.ozone_DU = finiteIn(at, "ozone_DU", 300.0, 0.0, 1000.0);
+        out.atmosphere.precipitableWater_cm = finiteIn(at, "precipitable_water_cm", 1.5, 0.0, 10.0);
+        out.atmosphere.cloudOpticalDepth = finiteIn(at, "cloud_optical_depth", 0.0, 0.0, 200.0);
+        out.atmosphere.groundAlbedo = finiteIn(at, "ground_albedo", 0.15, 0.0, 1.0);
+    }
+    const ConfigTable scn = root.table("scene");
+    const auto rel = scn.require<std::string>("file");
+    out.sceneFile = std::filesystem::absolute(file.parent_path() / rel);
+    if (!std::filesystem::exists(out.sceneFile)) {
+        scn.fail("file", "scene file not found: " + out.sceneFile.string());
+    }
+    out.lampsOn = scn.optional<std::vector<std::string>>("lamps_on");
+    try {
+        out.atmosphere.validate();
+    } catch (const SetupError& e) {
+        throw SetupError(root.location("atmosphere"), e.what());
+    }
+}
+
+// [scenario] and [camera]: names, seed, scan, rate, size, depth, exposure, start and duration.
+// One set of defaults: the camera preset's where there is one, else 320×240, 8 bits, 60 Hz
+// progressive (30 Hz interlaced).
+void readScenarioTable(const ConfigTable& root, Scenario& sc) {
     const ConfigTable s = root.table("scenario");
     sc.name = s.require<std::string>("name");
     sc.description = s.get<std::string>("description", "");
@@ -104,7 +148,6 @@ Scenario fromDocument(const ConfigDocument& doc, const std::string& file) {
     const std::int64_t scenarioSeed = s.get<std::int64_t>("seed", 1);
     if (scenarioSeed < 0) s.fail("seed", "must not be negative");
     sc.seed = static_cast<std::uint64_t>(scenarioSeed);
-    sc.rendered = root.contains("scene");
     const std::optional<double> hzGiven = s.optional<double>("frame_rate_hz");
     const std::optional<int> widthGiven = s.optional<int>("width");
     const std::optional<int> heightGiven = s.optional<int>("height");
@@ -113,13 +156,10 @@ Scenario fromDocument(const ConfigDocument& doc, const std::string& file) {
     if (cam) readCamera(*cam, widthGiven, heightGiven, bitsGiven, sc.seed, sc.camera);
     const sensor::CameraParams& cp = sc.camera.params;
     const std::string scan = s.get<std::string>("scan", "progressive");
-    if (scan == "progressive") {
-        sc.scan = ScanKind::Progressive;
-    } else if (scan == "interlaced") {
-        sc.scan = ScanKind::Interlaced;
-    } else {
+    if (scan != "progressive" && scan != "interlaced") {
         s.fail("scan", "must be \"progressive\" or \"interlaced\"");
     }
+    sc.scan = scan == "interlaced" ? ScanKind::Interlaced : ScanKind::Progressive;
     const bool interlaced = sc.scan == ScanKind::Interlaced;
     if (interlaced && cam && cp.scan != sensor::ScanMode::Field) {
         s.fail("scan",
@@ -127,11 +167,9 @@ Scenario fromDocument(const ConfigDocument& doc, const std::string& file) {
                "scan = \"frame\")");
     }
     // Default rate: the preset's field rate (progressive: one field per frame, woven by the
-    // camera) or frame rate (interlaced, and frame-scan presets); without a camera 60 Hz
-    // progressive, 30 Hz interlaced.
-    const double camRate_hz = cp.scan == sensor::ScanMode::Field && !interlaced
-                                  ? cp.field_rate_Hz
-                                  : cp.field_rate_Hz / 2.0;
+    // camera) or frame rate (interlaced, and frame-scan presets).
+    const bool fieldPerFrame = cp.scan == sensor::ScanMode::Field && !interlaced;
+    const double camRate_hz = fieldPerFrame ? cp.field_rate_Hz : cp.field_rate_Hz / 2.0;
     const double hz = hzGiven ? *hzGiven : (cam ? camRate_hz : (interlaced ? 30.0 : 60.0));
     try {
         sc.rate = FrameRate::fromHz(hz);
@@ -144,23 +182,23 @@ Scenario fromDocument(const ConfigDocument& doc, const std::string& file) {
     if (sc.height < 8 || sc.height > 8192) s.fail("height", "must be in [8, 8192]");
     sc.bits = bitsGiven ? *bitsGiven : (cam ? cp.adc_bits : 8);
     if (sc.bits < 1 || sc.bits > 16) s.fail("bits", "must be in [1, 16]");
-    if (cam) {
-        // The camera runs at the loop's rate: one call per emitted frame (progressive), or one
-        // per field, two per emitted frame (interlaced).
-        sc.camera.params.field_rate_Hz =
-            cp.scan == sensor::ScanMode::Field && !interlaced ? sc.rate.hz() : 2.0 * sc.rate.hz();
-    }
+    // The camera runs at the loop's rate: one call per emitted frame (progressive), or one per
+    // field, two per emitted frame (interlaced).
+    if (cam) sc.camera.params.field_rate_Hz = fieldPerFrame ? sc.rate.hz() : 2.0 * sc.rate.hz();
     sc.exposure_s = s.get<double>("exposure_s", 0.0);
     if (sc.exposure_s < 0.0) s.fail("exposure_s", "must not be negative");
-    const std::string utc = s.get<std::string>("utc_start", "2000-01-01T00:00:00Z");
-    if (!parseIso8601Utc(utc, &sc.utcStart_unix_s)) {
+    sc.utcStart = s.get<std::string>("utc_start", sc.utcStart);
+    if (!parseIso8601Utc(sc.utcStart, &sc.utcStart_unix_s)) {
         s.fail("utc_start", "not an ISO 8601 UTC instant such as 2024-01-25T17:54:00Z");
     }
     if (const auto d = s.optional<double>("duration_s")) {
         if (!(*d > 0.0)) s.fail("duration_s", "must be positive");
         sc.duration_s = *d;
     }
+}
 
+// [platform]: the held pose and camera settings without telemetry.
+void readPlatform(const ConfigTable& root, Scenario& sc) {
     const std::optional<ConfigTable> p = root.optionalTable("platform");
     sc.platform.lat_deg = getOr<double>(p, "lat_deg", 0.0);
     sc.platform.lon_deg = getOr<double>(p, "lon_deg", 0.0);
@@ -178,16 +216,15 @@ Scenario fromDocument(const ConfigDocument& doc, const std::string& file) {
     if (sc.platform.gain_V < 0.0) p->fail("gain_V", "must not be negative");
     if (sc.platform.gate_s < 0.0) p->fail("gate_s", "must not be negative");
     sc.platform.utc_unix_s = sc.utcStart_unix_s;
+}
 
+// [runtime]: policies, threads, real-time scheduling, the external trigger.
+void readRuntime(const ConfigTable& root, Scenario& sc) {
     const std::optional<ConfigTable> r = root.optionalTable("runtime");
     const std::string late = getOr<std::string>(r, "late_policy", "repeat");
-    if (late == "repeat") {
-        sc.latePolicy = LatePolicy::Repeat;
-    } else if (late == "drop") {
-        sc.latePolicy = LatePolicy::Drop;
-    } else {
+    if (late != "repeat" && late != "drop")
         r->fail("late_policy", "must be \"repeat\" or \"drop\"");
-    }
+    sc.latePolicy = late == "drop" ? LatePolicy::Drop : LatePolicy::Repeat;
     const std::string sinkErr = getOr<std::string>(r, "sink_errors", "count");
     if (sinkErr != "count" && sinkErr != "stop") {
         r->fail("sink_errors", "must be \"count\" or \"stop\"");
@@ -208,10 +245,7 @@ Scenario fromDocument(const ConfigDocument& doc, const std::string& file) {
     if (sc.maxExtrapolation_s < 0.0) r->fail("max_extrapolation_s", "must not be negative");
     // External trigger: gpio:CHIP:LINE, used with --clock wall (rt/loop: trigger clock).
     if (const auto trig = r ? r->optional<std::string>("trigger") : std::nullopt) {
-        if (trig->rfind("gpio:", 0) != 0) {
-            r->fail("trigger", "expected gpio:CHIP:LINE (e.g. gpio:gpiochip0:18)");
-        }
-        const std::string target = trig->substr(5);
+        const std::string target = trig->rfind("gpio:", 0) == 0 ? trig->substr(5) : "";
         const auto colon = target.rfind(':');
         const bool lineOk = colon != std::string::npos && colon > 0 && colon + 1 < target.size() &&
                             target.find_first_not_of("0123456789", colon + 1) == std::string::npos;
@@ -220,54 +254,62 @@ Scenario fromDocument(const ConfigDocument& doc, const std::string& file) {
     }
     sc.triggerTimeout_s = getOr<double>(r, "trigger_timeout_s", 0.0);
     if (sc.triggerTimeout_s < 0.0) r->fail("trigger_timeout_s", "must not be negative");
+}
 
-    // Frames: rendered from a scene (its tables are sim/scene's), or the test pattern.
+// The frames: rendered from a scene, or the test pattern of one [[source]].
+void readFrames(const ConfigTable& root, const std::string& file, Scenario& sc) {
     if (sc.rendered) {
-        for (const char* t : {"site", "atmosphere", "scene"})
-            root.skip(t);
         if (root.contains("source")) {
             throw SetupError(root.location("source"), "[[source]] and [scene] exclude each other");
         }
-    } else {
-        const auto sources = root.tableArray("source");
-        if (sources.size() != 1) {
-            throw SetupError(FileLoc{file, 0, 0},
-                             "exactly one [[source]] is needed (kind = \"test_pattern\"), or a "
-                             "[scene]");
+        if (!sc.camera.enabled) {
+            throw SetupError(root.location("scene"), "a rendered scenario needs a [camera] preset");
         }
-        const ConfigTable src = sources[0];
-        const std::string kind = src.require<std::string>("kind");
-        if (kind != "test_pattern") src.fail("kind", "unknown source kind (known: test_pattern)");
-        TestPatternSpec& tp = sc.testPattern;
-        tp.radianceMax_W_m2_sr = src.get<double>("radiance_max_W_m2_sr", 1e-4);
-        tp.fullScale_W_m2_sr = src.get<double>("full_scale_W_m2_sr", tp.radianceMax_W_m2_sr);
-        tp.targetSpeed_px_s = src.get<double>("target_speed_px_s", 40.0);
-        if (!(tp.radianceMax_W_m2_sr > 0.0)) src.fail("radiance_max_W_m2_sr", "must be positive");
-        if (!(tp.fullScale_W_m2_sr > 0.0)) src.fail("full_scale_W_m2_sr", "must be positive");
+        readSceneTables(root, file, sc.scene);
+        return;
     }
-
-    // Telemetry recorded with the scenario: paths are relative to the scenario's folder.
-    if (const auto tel = root.optionalTable("telemetry")) {
-        std::string spec = tel->require<std::string>("source");
-        const auto colon = spec.find(':');
-        const std::string scheme = colon == std::string::npos ? "" : spec.substr(0, colon);
-        if (scheme != "replay" && scheme != "can" && scheme != "serial") {
-            tel->fail("source", "expected replay:LOG, can:IFACE or serial:DEV");
-        }
-        if (scheme == "replay") {
-            const auto q = spec.find('?');
-            std::filesystem::path log =
-                spec.substr(colon + 1, q == std::string::npos ? q : q - colon - 1);
-            if (log.is_relative()) log = std::filesystem::path(file).parent_path() / log;
-            if (!std::filesystem::exists(log)) {
-                tel->fail("source", "telemetry log not found: " + log.string());
-            }
-            spec = "replay:" + log.string() + (q == std::string::npos ? "" : spec.substr(q));
-        }
-        sc.telemetry = spec;
+    const auto sources = root.tableArray("source");
+    if (sources.size() != 1) {
+        throw SetupError(FileLoc{file, 0, 0},
+                         "exactly one [[source]] is needed (kind = \"test_pattern\"), or a "
+                         "[scene]");
     }
+    const ConfigTable src = sources[0];
+    const std::string kind = src.require<std::string>("kind");
+    if (kind != "test_pattern") src.fail("kind", "unknown source kind (known: test_pattern)");
+    TestPatternSpec& tp = sc.testPattern;
+    tp.radianceMax_W_m2_sr = src.get<double>("radiance_max_W_m2_sr", 1e-4);
+    tp.fullScale_W_m2_sr = src.get<double>("full_scale_W_m2_sr", tp.radianceMax_W_m2_sr);
+    tp.targetSpeed_px_s = src.get<double>("target_speed_px_s", 40.0);
+    if (!(tp.radianceMax_W_m2_sr > 0.0)) src.fail("radiance_max_W_m2_sr", "must be positive");
+    if (!(tp.fullScale_W_m2_sr > 0.0)) src.fail("full_scale_W_m2_sr", "must be positive");
+}
 
-    // The timeline.
+// [telemetry]: recorded with the scenario; paths are relative to the scenario's folder.
+void readTelemetry(const ConfigTable& root, const std::string& file, Scenario& sc) {
+    const auto tel = root.optionalTable("telemetry");
+    if (!tel) return;
+    std::string spec = tel->require<std::string>("source");
+    const auto colon = spec.find(':');
+    const std::string scheme = colon == std::string::npos ? "" : spec.substr(0, colon);
+    if (scheme != "replay" && scheme != "can" && scheme != "serial") {
+        tel->fail("source", "expected replay:LOG, can:IFACE or serial:DEV");
+    }
+    if (scheme == "replay") {
+        const auto q = spec.find('?');
+        std::filesystem::path log =
+            spec.substr(colon + 1, q == std::string::npos ? q : q - colon - 1);
+        if (log.is_relative()) log = std::filesystem::path(file).parent_path() / log;
+        if (!std::filesystem::exists(log)) {
+            tel->fail("source", "telemetry log not found: " + log.string());
+        }
+        spec = "replay:" + log.string() + (q == std::string::npos ? "" : spec.substr(q));
+    }
+    sc.telemetry = spec;
+}
+
+// [[event]]: the timeline, sorted by time.
+void readEvents(const ConfigTable& root, Scenario& sc) {
     for (const ConfigTable& e : root.tableArray("event")) {
         TimelineEvent ev;
         ev.loc = e.location("t_s");
@@ -301,6 +343,19 @@ Scenario fromDocument(const ConfigDocument& doc, const std::string& file) {
     }
     std::stable_sort(sc.events.begin(), sc.events.end(),
                      [](const TimelineEvent& a, const TimelineEvent& b) { return a.t_s < b.t_s; });
+}
+
+Scenario fromDocument(const ConfigDocument& doc, const std::string& file) {
+    Scenario sc;
+    sc.file = file;
+    const ConfigTable root = doc.root();
+    sc.rendered = root.contains("scene");
+    readScenarioTable(root, sc);
+    readPlatform(root, sc);
+    readRuntime(root, sc);
+    readFrames(root, file, sc);
+    readTelemetry(root, file, sc);
+    readEvents(root, sc);
     doc.finish();
     return sc;
 }

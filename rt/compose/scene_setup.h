@@ -1,7 +1,10 @@
 #pragma once
-// Everything a scenario needs to render a frame, set up from its file: the scene, the camera
-// preset (band weights, focal length, pixel pitch), the ephemeris and the sky model with the
-// camera's two bands, and the renderer. Setup throws SetupError; per frame nothing allocates.
+// The render side of the composition root: everything a scenario needs to render a frame, set up
+// from the loaded scenario — the scene, the camera preset's band weights, focal length and pixel
+// pitch, the ephemeris, the sky model with the camera's two bands, the star catalog and the
+// renderer — and, per frame, the stages run in order: astro (Sun, Moon, stars at the instant)
+// → sky (the frame's sky message) → render. Setup throws SetupError; per frame nothing
+// allocates.
 
 #include <array>
 #include <filesystem>
@@ -9,16 +12,21 @@
 #include <string>
 #include <vector>
 
+#include "rt/compose/scenario.h"
 #include "sim/astro/ephemeris.h"
 #include "sim/astro/time.h"
 #include "sim/render/renderer.h"
 #include "sim/render/stars.h"
-#include "sim/scene/scenario.h"
 #include "sim/scene/scene.h"
 #include "sim/sensor/camera.h"
 #include "sim/sky/sky_model.h"
 
-namespace nvs::render {
+namespace nvs::rt {
+
+using render::FrameSky;
+using render::kBands;
+using render::RenderConfig;
+using render::Renderer;
 
 // The renderer's camera and band weights from a camera preset: w_pe = QE(λ) λ/(hc) with
 // QE = qe_peak β, w_W = β; the pinhole's focal length and the pixel pitch at the photocathode.
@@ -26,6 +34,9 @@ RenderConfig renderConfigFor(const sensor::CameraParams& cam, int width, int hei
 
 class ScenarioRenderer {
   public:
+    // A rendered scenario (one with a [scene]); throws SetupError otherwise.
+    static std::unique_ptr<ScenarioRenderer> create(const Scenario& scenario, int coarseFactor = 1);
+    // The same from the scenario's file (rt/compose/scenario.h loads it).
     static std::unique_ptr<ScenarioRenderer> create(const std::filesystem::path& scenarioPath,
                                                     int coarseFactor = 1);
 
@@ -34,7 +45,11 @@ class ScenarioRenderer {
     FrameSky prepare(double t_s) noexcept;
 
     Renderer& renderer() { return *renderer_; }
-    const scene::RenderScenario& scenario() const { return scenario_; }
+    const Scenario& scenario() const { return scenario_; }
+    // Seconds since the scenario epoch of frame k (its start, at the scenario's frame rate).
+    double frameTime_s(long long frame) const {
+        return static_cast<double>(frame) / scenario_.rate.hz();
+    }
     const scene::Scene& scene() const { return scene_; }
     const sensor::CameraParams& camera() const { return camera_; }
     const astro::SunMoonState& sunMoon() const { return sunMoon_; }
@@ -43,7 +58,7 @@ class ScenarioRenderer {
     const std::array<int, kBands>& tableBands() const { return tableBand_; }
 
   private:
-    scene::RenderScenario scenario_;
+    Scenario scenario_;
     scene::Scene scene_;
     sensor::CameraParams camera_;
     std::unique_ptr<astro::Ephemeris> ephemeris_;
@@ -52,9 +67,9 @@ class ScenarioRenderer {
     std::array<int, kBands> tableBand_{-1, -1};
     std::unique_ptr<Renderer> renderer_;
     astro::SunMoonState sunMoon_;
-    StarCatalog stars_;
+    render::StarCatalog stars_;
     std::array<double, kBands> starBandPerLux_{};
     std::vector<double> starAz_, starAlt_;  // per frame
 };
 
-}  // namespace nvs::render
+}  // namespace nvs::rt

@@ -1,7 +1,7 @@
 #pragma once
-// The minimal scenario the runtime reads until the full scenario format exists. Strict TOML
-// (sim/core/config.h): every key below is optional unless marked, and any other key is an
-// error with its file:line.
+// The scenario file: the one loader every command uses (run, render, replay, bench), with one
+// set of defaults. Strict TOML (sim/core/config.h): every key below is optional unless marked,
+// and any other key is an error with its file:line and the nearest known key.
 //
 //   [scenario]                         name            string   required
 //                                      description     string   ""
@@ -29,8 +29,16 @@
 //                                                      frames follow its rising edges
 //                                      trigger_timeout_s s: no edge → stalled (3 periods)
 //   [scenario] also: group (string), seed (integer ≥ 0, default 1: the noise seed)
-//   [scene]     the frames are rendered (sim/render): file, lamps_on; with it [site] and
-//               [atmosphere] (docs/scene.md), and no [[source]]
+//   [scene]     the frames are rendered (sim/render), and no [[source]]:
+//                                      file            path     required (relative to the file)
+//                                      lamps_on        array of lamp names (absent: each
+//                                                      lamp's own `on`)
+//               with it (docs/scene.md):
+//   [site]                             lat_deg lon_deg height_m (0) pressure_hPa (1013.25)
+//                                      temperature_C (15)
+//   [atmosphere]                       visibility_km (23) aerosol ozone_DU (300)
+//                                      precipitable_water_cm (1.5) cloud_optical_depth (0)
+//                                      ground_albedo (0.15)
 //   [telemetry] source = "replay:LOG" | "can:…" | "serial:…" (LOG relative to the scenario)
 //   [[event]]   t_s (s, ≥ 0, ≤ duration_s) and any of: lamp = NAME with on = bool; gain_V;
 //               agc (bool); gate_s; gate_mode (0..2)
@@ -61,7 +69,9 @@
 #include "rt/clock/clock.h"
 #include "rt/loop/frame_loop.h"
 #include "rt/msg/messages.h"
+#include "sim/astro/ephemeris.h"
 #include "sim/sensor/camera.h"
+#include "sim/sky/atmosphere.h"
 
 namespace nvs::rt {
 
@@ -75,6 +85,10 @@ struct TestPatternSpec {
 struct CameraSpec {
     bool enabled = false;
     sensor::CameraParams params;
+    // The preset and its [camera] set overrides as given, without the scenario's size, depth
+    // and rate: the sensor as designed, whose field of view the renderer keeps.
+    std::string preset;
+    sensor::Overrides presetOverrides;
     std::string spectrum = "flat";
     std::uint64_t seed = 1;
     bool controlsFromPlatform = true;
@@ -91,6 +105,14 @@ struct TimelineEvent {
     std::optional<bool> agc;
     std::optional<double> gate_s;
     std::optional<int> gateMode;
+};
+
+// [site], [atmosphere] and [scene]: what the renderer's composition needs (rt/compose).
+struct SceneSpec {
+    astro::Site site;
+    sky::AtmosphereParams atmosphere;
+    std::filesystem::path sceneFile;                  // absolute
+    std::optional<std::vector<std::string>> lampsOn;  // absent: each lamp's own `on`
 };
 
 struct Scenario {
@@ -116,7 +138,8 @@ struct Scenario {
     int height = 240;
     int bits = 8;
     double exposure_s = 0.0;
-    double utcStart_unix_s = 946684800.0;  // 2000-01-01T00:00:00Z
+    std::string utcStart = "2000-01-01T00:00:00Z";
+    double utcStart_unix_s = 946684800.0;  // the same instant
     std::optional<double> duration_s;
     PlatformState platform;
     LatePolicy latePolicy = LatePolicy::Repeat;
@@ -127,6 +150,7 @@ struct Scenario {
     double maxExtrapolation_s = 0.1;
     TestPatternSpec testPattern;
     CameraSpec camera;
+    SceneSpec scene;  // rendered scenarios
 };
 
 // Reads a scenario TOML file (or SCENARIO/scenario.toml for a folder). Throws SetupError.

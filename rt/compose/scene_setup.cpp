@@ -1,10 +1,12 @@
-#include "sim/render/setup.h"
+#include "rt/compose/scene_setup.h"
 
 #include "sim/sensor/mtf.h"
 #include "sim/sky/frame_sky.h"
 #include "sim/sky/night_sky.h"
 
-namespace nvs::render {
+namespace nvs::rt {
+
+using namespace render;
 
 RenderConfig renderConfigFor(const sensor::CameraParams& cam, int width, int height) {
     RenderConfig c;
@@ -25,35 +27,39 @@ RenderConfig renderConfigFor(const sensor::CameraParams& cam, int width, int hei
 
 std::unique_ptr<ScenarioRenderer> ScenarioRenderer::create(const std::filesystem::path& path,
                                                            int coarseFactor) {
+    return create(loadScenario(path), coarseFactor);
+}
+
+std::unique_ptr<ScenarioRenderer> ScenarioRenderer::create(const Scenario& sc, int coarseFactor) {
+    if (!sc.rendered) throw SetupError(sc.file + ": the scenario has no [scene] to render");
     auto r = std::unique_ptr<ScenarioRenderer>(new ScenarioRenderer());
-    r->scenario_ = scene::loadRenderScenario(path);
-    r->scene_ = scene::loadScene(r->scenario_.sceneFile);
-    if (r->scenario_.lampsOn) {
+    r->scenario_ = sc;
+    const SceneSpec& spec = sc.scene;
+    r->scene_ = scene::loadScene(spec.sceneFile);
+    if (spec.lampsOn) {
         for (auto& l : r->scene_.lamps)
             l.on = false;
-        for (const std::string& name : *r->scenario_.lampsOn) {
+        for (const std::string& name : *spec.lampsOn) {
             const int i = r->scene_.lampIndex(name);
-            if (i < 0) {
-                throw SetupError(r->scenario_.file.string() + ": [scene] lamps_on: unknown lamp '" +
-                                 name + "'");
-            }
+            if (i < 0)
+                throw SetupError(sc.file + ": [scene] lamps_on: unknown lamp '" + name + "'");
             r->scene_.lamps[static_cast<std::size_t>(i)].on = true;
         }
     }
-    r->camera_ = sensor::loadCamera(r->scenario_.cameraPreset,
-                                    sensor::parseOverrides(r->scenario_.cameraOverrides));
-    r->ephemeris_ = std::make_unique<astro::Ephemeris>(r->scenario_.site);
-    r->epoch_ = astro::astroTimeFromUtc(
-        astro::parseIsoUtc(r->scenario_.utcStart, r->scenario_.file.string() + ": utc_start"),
-        r->scenario_.file.string() + ": utc_start");
+    // The sensor as designed (the scenario's size may differ: renderConfigFor keeps its field
+    // of view).
+    r->camera_ = sensor::loadCamera(sc.camera.preset, sc.camera.presetOverrides);
+    r->ephemeris_ = std::make_unique<astro::Ephemeris>(spec.site);
+    r->epoch_ = astro::astroTimeFromUtc(astro::parseIsoUtc(sc.utcStart, sc.file + ": utc_start"),
+                                        sc.file + ": utc_start");
 
-    RenderConfig cfg = renderConfigFor(r->camera_, r->scenario_.width, r->scenario_.height);
+    RenderConfig cfg = renderConfigFor(r->camera_, sc.width, sc.height);
     cfg.coarseFactor = coarseFactor;
-    sky::SkyModelConfig sc;
-    sc.atmosphere = r->scenario_.atmosphere;
-    sc.extraBands.push_back({"render_pe", cfg.bandWeight[kBandPe]});
-    sc.extraBands.push_back({"render_W", cfg.bandWeight[kBandW]});
-    r->sky_ = std::make_unique<sky::SkyModel>(sky::SkyModel::create(sc));
+    sky::SkyModelConfig skyConfig;
+    skyConfig.atmosphere = spec.atmosphere;
+    skyConfig.extraBands.push_back({"render_pe", cfg.bandWeight[kBandPe]});
+    skyConfig.extraBands.push_back({"render_W", cfg.bandWeight[kBandW]});
+    r->sky_ = std::make_unique<sky::SkyModel>(sky::SkyModel::create(skyConfig));
     r->tableBand_ = {r->sky_->table().bandIndex("render_pe"),
                      r->sky_->table().bandIndex("render_W")};
     cfg.moonShape = r->sky_->moon().referenceIrradiance_W_m2_nm();
@@ -99,4 +105,4 @@ FrameSky ScenarioRenderer::prepare(double t_s) noexcept {
     return s;
 }
 
-}  // namespace nvs::render
+}  // namespace nvs::rt
