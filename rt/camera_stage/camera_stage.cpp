@@ -37,24 +37,26 @@ IiccdCameraStage::IiccdCameraStage(const sensor::CameraParams& cam, const std::s
     countsF_.fill(static_cast<float>(std::clamp(cam_.video_offset_dc, 0.0, 65535.0)));
 }
 
-void IiccdCameraStage::expose(const FrameRequest& req, ImageView<const float> radiance_W_m2_sr,
-                              ImageView<std::uint16_t> counts, FrameMeta& meta) noexcept {
+void IiccdCameraStage::expose(const FrameRequest& req, RadianceFrame in,
+                              ImageView<std::uint16_t> counts, FieldMeta& applied) noexcept {
     using sensor::AgcMode;
     info_ = sensor::FieldInfo{};
     info_.field = field_;
-    if (radiance_W_m2_sr.width() != cam_.width || radiance_W_m2_sr.height() != cam_.height ||
-        counts.width() != cam_.width || counts.height() != cam_.height) {
+    // Band radiance → photoelectron radiance: Lpe = L·k (Lpe given: as is, k = 1).
+    const bool given = !in.lpe_pe_s_m2_sr.empty();
+    const ImageView<const float> src = given ? in.lpe_pe_s_m2_sr : in.band_W_m2_sr;
+    const float k = given ? 1.0f : static_cast<float>(lpePerL_);
+    if (src.width() != cam_.width || src.height() != cam_.height || counts.width() != cam_.width ||
+        counts.height() != cam_.height) {
         info_.size_mismatch = true;
         counts.fill(0);
         return;
     }
-    // Band radiance → photoelectron radiance: Lpe = L·k.
-    const float k = static_cast<float>(lpePerL_);
     for (int y = 0; y < cam_.height; ++y) {
-        const float* in = radiance_W_m2_sr.row(y);
+        const float* px = src.row(y);
         float* out = lpe_.view().row(y);
         for (int x = 0; x < cam_.width; ++x)
-            out[x] = in[x] * k;
+            out[x] = px[x] * k;
     }
 
     // Controls for this field.
@@ -131,11 +133,8 @@ void IiccdCameraStage::expose(const FrameRequest& req, ImageView<const float> ra
     const std::size_t rowBytes = static_cast<std::size_t>(cam_.width) * sizeof(std::uint16_t);
     for (int y = 0; y < cam_.height; ++y)
         std::memcpy(counts.row(y), video_.cview().row(y), rowBytes);
-    // What the camera applied goes into the frame's metadata (the loop keeps it when
-    // t_sample_s matches the request).
-    meta.platform.t_sample_s = req.t_sample_s;
-    meta.platform.gain_V = ctx.gain_V;
-    meta.platform.gate_s = ctx.gate_s;
+    // What the camera applied: the field's metadata.
+    applied = FieldMeta{req.t_sample_s, ctx.gain_V, ctx.gate_s};
 }
 
 }  // namespace nvs::rt

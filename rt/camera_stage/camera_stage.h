@@ -7,11 +7,11 @@
 // from the call before, as the interlaced camera's output does, so every emitted frame holds two
 // fields, each exposed at its own t_sample_s.
 //
-// Input conversion: the render stage gives band radiance L [W m⁻² sr⁻¹]; the chain takes
-// photoelectron radiance Lpe = L·k [pe s⁻¹ m⁻² sr⁻¹], with k = peRadiancePerBandRadiance(camera,
-// spectrum) computed once at setup (sim/sensor/camera.h; `spectrum` flat | blackbody:T | moon |
-// night_sky names the source spectrum's shape). With spectrum "pe" the render stage already
-// gives photoelectron radiance (the scene renderer, rt/render_stage) and k = 1.
+// Input: the chain takes photoelectron radiance Lpe [pe s⁻¹ m⁻² sr⁻¹]. A render stage that gives
+// only band radiance L [W m⁻² sr⁻¹] (the test pattern) is converted, Lpe = L·k, with
+// k = peRadiancePerBandRadiance(camera, spectrum) computed once at setup (sim/sensor/camera.h;
+// `spectrum` flat | blackbody:T | moon | night_sky names the source spectrum's shape). The
+// scene renderer (rt/render_stage) gives Lpe itself, with spectrum "pe" and k = 1.
 //
 // Controls per frame (Controls::Platform, the default): the camera obeys the platform state
 // (telemetry, or the scenario's held [platform] values):
@@ -25,7 +25,7 @@
 //                    (a gate_s of 0 keeps the preset's gate)
 // With Controls::Preset the platform's camera fields are ignored and the chain runs exactly as
 // sim/sensor's IiccdChain does with the preset (a test holds the two equal bit for bit).
-// The gain and gate applied are written back into the frame's metadata.
+// The gain and gate applied are the stage's result (`applied`, the field's metadata).
 //
 // The stages are sim/sensor's public stage classes, run in IiccdChain::process's order with
 // the controls above supplied per field (IiccdChain takes them from the preset only). Setup
@@ -34,7 +34,7 @@
 #include <cstdint>
 #include <string>
 
-#include "rt/msg/stages.h"
+#include "rt/loop/stages.h"
 #include "sim/core/image.h"
 #include "sim/sensor/camera.h"
 #include "sim/sensor/chain.h"
@@ -53,8 +53,8 @@ class IiccdCameraStage final : public CameraStage {
     IiccdCameraStage& operator=(const IiccdCameraStage&) = delete;
 
     int bits() const noexcept override { return cam_.adc_bits; }
-    void expose(const FrameRequest& req, ImageView<const float> radiance_W_m2_sr,
-                ImageView<std::uint16_t> counts, FrameMeta& meta) noexcept override;
+    void expose(const FrameRequest& req, RadianceFrame in, ImageView<std::uint16_t> counts,
+                FieldMeta& applied) noexcept override;
 
     const sensor::FieldInfo& lastField() const { return info_; }
     const sensor::CameraParams& camera() const { return cam_; }

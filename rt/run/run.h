@@ -11,7 +11,7 @@
 #include <vector>
 
 #include "rt/loop/frame_loop.h"
-#include "rt/msg/stages.h"
+#include "rt/loop/stages.h"
 #include "rt/run/scenario.h"
 
 namespace nvs::rt {

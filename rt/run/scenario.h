@@ -60,7 +60,7 @@
 
 #include "rt/clock/clock.h"
 #include "rt/loop/frame_loop.h"
-#include "rt/msg/messages.h"
+#include "rt/loop/stages.h"
 #include "sim/sensor/camera.h"
 
 namespace nvs::rt {

@@ -5,7 +5,7 @@
 #include <string>
 
 #include "rt/loop/frame_loop.h"
-#include "rt/msg/stages.h"
+#include "rt/loop/stages.h"
 #include "rt/run/run.h"
 #include "rt/run/scenario.h"
 

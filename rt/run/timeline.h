@@ -11,7 +11,7 @@
 #include <string>
 #include <vector>
 
-#include "rt/msg/stages.h"
+#include "rt/loop/stages.h"
 #include "rt/run/scenario.h"
 
 namespace nvs::rt {

@@ -95,7 +95,7 @@ CameraParams linearPreset() {
 struct Frame {
     ImageF radiance;
     ImageU16 counts;
-    FrameMeta meta;
+    FieldMeta applied;  // what the camera applied (expose's result)
     FrameRequest req;
     Frame(int w, int h, float L) : radiance(w, h), counts(w, h) { radiance.fill(L); }
 };
@@ -123,7 +123,7 @@ TEST(IiccdCameraStage, PresetControlsAreTheChainBitForBit) {
             }
         }
         f.req.frame = k;
-        stage.expose(f.req, f.radiance.cview(), f.counts.view(), f.meta);
+        stage.expose(f.req, RadianceFrame{{}, f.radiance.cview()}, f.counts.view(), f.applied);
         const sensor::FieldInfo& info = chain.process(lpe.cview());
         EXPECT_EQ(stage.lastField().level_dc, info.level_dc) << "field " << k;
         for (int y = 0; y < 48; ++y)
@@ -141,7 +141,7 @@ float radianceFor(const CameraParams& cam, double target_dc) {
         Frame f(64, 48, L);
         f.req.platform.agc = false;
         f.req.platform.gain_V = 6.0;
-        probe.expose(f.req, f.radiance.cview(), f.counts.view(), f.meta);
+        probe.expose(f.req, RadianceFrame{{}, f.radiance.cview()}, f.counts.view(), f.applied);
         const double s = mean(f.counts) - cam.video_offset_dc;
         if (s > 10.0) return static_cast<float>(static_cast<double>(L) * target_dc / s);
         L *= 4.0f;
@@ -166,10 +166,10 @@ TEST(IiccdCameraStage, PlatformGainReachesTheMcpEachField) {
         f.req.t_sample_s = k / 59.94;
         f.req.platform.agc = false;
         f.req.platform.gain_V = volts[k];
-        stage.expose(f.req, f.radiance.cview(), f.counts.view(), f.meta);
+        stage.expose(f.req, RadianceFrame{{}, f.radiance.cview()}, f.counts.view(), f.applied);
         signal[k] = mean(f.counts) - cam.video_offset_dc;
-        EXPECT_EQ(f.meta.platform.gain_V, volts[k]);
-        EXPECT_EQ(f.meta.platform.t_sample_s, f.req.t_sample_s);
+        EXPECT_EQ(f.applied.gain_V, volts[k]);
+        EXPECT_EQ(f.applied.t_sample_s, f.req.t_sample_s);
     }
     EXPECT_GT(signal[0], 100.0);  // well inside the ADC range (EBI makes it not exactly 150)
     EXPECT_LT(signal[0], 200.0);
@@ -189,19 +189,19 @@ TEST(IiccdCameraStage, PlatformGateScalesTheSignal) {
     f.req.platform.agc = false;
     f.req.platform.gain_V = 6.0;
     f.req.platform.gateMode = 0;  // continuous
-    stage.expose(f.req, f.radiance.cview(), f.counts.view(), f.meta);
+    stage.expose(f.req, RadianceFrame{{}, f.radiance.cview()}, f.counts.view(), f.applied);
     const double full = mean(f.counts) - cam.video_offset_dc;
-    EXPECT_DOUBLE_EQ(f.meta.platform.gate_s, period_s);
+    EXPECT_DOUBLE_EQ(f.applied.gate_s, period_s);
     f.req.platform.gateMode = 1;  // gated for a quarter of the frame
     f.req.platform.gate_s = period_s / 4.0;
-    stage.expose(f.req, f.radiance.cview(), f.counts.view(), f.meta);
+    stage.expose(f.req, RadianceFrame{{}, f.radiance.cview()}, f.counts.view(), f.applied);
     const double quarter = mean(f.counts) - cam.video_offset_dc;
-    EXPECT_DOUBLE_EQ(f.meta.platform.gate_s, period_s / 4.0);
+    EXPECT_DOUBLE_EQ(f.applied.gate_s, period_s / 4.0);
     EXPECT_NEAR(quarter, full / 4.0, 0.6);
     // A gate shorter than the tube's fastest is held at gate_min_s.
     f.req.platform.gate_s = 1e-12;
-    stage.expose(f.req, f.radiance.cview(), f.counts.view(), f.meta);
-    EXPECT_DOUBLE_EQ(f.meta.platform.gate_s, cam.gate_min_s);
+    stage.expose(f.req, RadianceFrame{{}, f.radiance.cview()}, f.counts.view(), f.applied);
+    EXPECT_DOUBLE_EQ(f.applied.gate_s, cam.gate_min_s);
 }
 
 TEST(IiccdCameraStage, AgcOnSettlesTheVideoLevelAtTheTarget) {
@@ -213,25 +213,25 @@ TEST(IiccdCameraStage, AgcOnSettlesTheVideoLevelAtTheTarget) {
     f.req.platform.agc = true;  // the camera's AGC switch on (preset agc = "off" → AGC loop)
     double firstGain = 0.0;
     for (int k = 0; k < 300; ++k) {
-        stage.expose(f.req, f.radiance.cview(), f.counts.view(), f.meta);
-        if (k == 0) firstGain = f.meta.platform.gain_V;
+        stage.expose(f.req, RadianceFrame{{}, f.radiance.cview()}, f.counts.view(), f.applied);
+        if (k == 0) firstGain = f.applied.gain_V;
     }
     EXPECT_NEAR(stage.lastField().level_dc, cam.agc_target_dc, 3.0);
-    EXPECT_GT(f.meta.platform.gain_V, firstGain);
+    EXPECT_GT(f.applied.gain_V, firstGain);
 }
 
 TEST(IiccdCameraStage, ExposeAllocatesNothing) {
     const CameraParams cam = preset({{"agc", "agc"}});
     IiccdCameraStage stage(cam, "moon", 3, IiccdCameraStage::Controls::Platform);
     Frame f(64, 48, 3e-7f);
-    stage.expose(f.req, f.radiance.cview(), f.counts.view(), f.meta);
+    stage.expose(f.req, RadianceFrame{{}, f.radiance.cview()}, f.counts.view(), f.applied);
     const long before = gAllocations.load();
     for (int k = 0; k < 10; ++k) {
         f.req.platform.agc = k % 3 != 0;
         f.req.platform.gain_V = 4.0 + 0.1 * k;
         f.req.platform.gateMode = k % 2;
         f.req.platform.gate_s = 1e-3;
-        stage.expose(f.req, f.radiance.cview(), f.counts.view(), f.meta);
+        stage.expose(f.req, RadianceFrame{{}, f.radiance.cview()}, f.counts.view(), f.applied);
     }
     EXPECT_EQ(gAllocations.load() - before, 0);
 }

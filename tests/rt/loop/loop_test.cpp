@@ -62,8 +62,9 @@ TEST(TestPattern, BarsHaveTheirClosedFormRadianceAndCountsAreLinear) {
     FrameRequest req;
     req.platform.yaw_rad = 0.5 * 3.14159265358979;  // a quarter turn
     FrameMeta meta;
-    render.render(req, rad.view(), meta);
-    camera.expose(req, rad.cview(), counts.view(), meta);
+    render.render(req, RadianceTarget{{}, rad.view()}, meta);
+    FieldMeta applied;
+    camera.expose(req, RadianceFrame{{}, rad.cview()}, counts.view(), applied);
     for (int bar = 0; bar < 8; ++bar) {
         const int x = bar * 8 + 3;
         EXPECT_FLOAT_EQ(rad(x, 5), static_cast<float>(lMax * bar / 7.0)) << bar;
@@ -115,8 +116,9 @@ class SlowRender final : public RenderStage {
     static constexpr std::int64_t kEveryFrame = -2;  // slowFrame: every frame is slow
     explicit SlowRender(std::int64_t slowFrame, double delay_s)
         : slow_(slowFrame), delay_(delay_s) {}
-    void render(const FrameRequest& req, ImageView<float> r, FrameMeta&) noexcept override {
-        r.fill(static_cast<float>(req.frame));
+    Outputs outputs() const noexcept override { return {false, true}; }
+    void render(const FrameRequest& req, RadianceTarget out, FrameMeta&) noexcept override {
+        out.band_W_m2_sr.fill(static_cast<float>(req.frame));
         if (req.frame == slow_ || slow_ == kEveryFrame) {
             std::this_thread::sleep_for(std::chrono::duration<double>(delay_));
         }
@@ -249,10 +251,10 @@ class SlowCamera final : public CameraStage {
   public:
     SlowCamera(double delay_s, int bits) : inner_(1000.0, bits), delay_(delay_s) {}
     int bits() const noexcept override { return inner_.bits(); }
-    void expose(const FrameRequest& req, ImageView<const float> radiance,
-                ImageView<std::uint16_t> counts, FrameMeta& meta) noexcept override {
+    void expose(const FrameRequest& req, RadianceFrame in, ImageView<std::uint16_t> counts,
+                FieldMeta& applied) noexcept override {
         std::this_thread::sleep_for(std::chrono::duration<double>(delay_));
-        inner_.expose(req, radiance, counts, meta);
+        inner_.expose(req, in, counts, applied);
     }
 
   private:
