@@ -157,6 +157,65 @@ RunStats runToEnd(const LoopConfig& cfg, RenderStage& render, CameraStage& camer
     return runToEnd(cfg, platform, render, camera, sink, tick0_ns);
 }
 
+// A camera with its own gain control: it applies commanded + 1 V and a 2 ms gate.
+class GainControlCamera final : public CameraStage {
+  public:
+    int bits() const noexcept override { return 8; }
+    void expose(const FrameRequest& req, RadianceFrame, ImageView<std::uint16_t>,
+                FieldMeta& applied) noexcept override {
+        EXPECT_EQ(applied.gain_V, req.platform.gain_V);  // arrives as commanded
+        applied.gain_V = req.platform.gain_V + 1.0;
+        applied.gate_s = 2e-3;
+    }
+};
+
+// The sink sees the platform as commanded and each field as the camera applied it; exposure
+// observers get the applied gate.
+class MetaSink final : public FrameSink, public ExposureObserver {
+  public:
+    const char* name() const noexcept override { return "meta"; }
+    int write(const OutputFrame& f) noexcept override {
+        if (n < 8) meta[n++] = *f.meta;
+        return 0;
+    }
+    int close() noexcept override { return 0; }
+    std::string status() const override { return "meta"; }
+    void exposureScheduled(const ExposureWindow& w) noexcept override { gate_s = w.gate_s; }
+    FrameMeta meta[8];
+    int n = 0;
+    double gate_s = 0.0;
+};
+
+TEST(FrameLoop, MetadataKeepsCommandedAndAppliedApart) {
+    for (const ScanKind scan : {ScanKind::Progressive, ScanKind::Interlaced}) {
+        LoopConfig cfg = smallLoop(FrameRate{30, 1}, ClockKind::Sim, 3);
+        cfg.scan = scan;
+        PlatformState commanded;
+        commanded.gain_V = 4.5;
+        commanded.gate_s = 5e-3;
+        HeldPlatform platform(commanded);
+        SlowRender render(-1, 0.0);
+        GainControlCamera camera;
+        MetaSink sink;
+        FrameLoop loop(cfg, platform, render, camera, {&sink});
+        std::vector<std::string> msgs;
+        loop.start(msgs);
+        loop.join();
+        ASSERT_EQ(sink.n, 3);
+        for (int k = 0; k < sink.n; ++k) {
+            const FrameMeta& m = sink.meta[k];
+            EXPECT_EQ(m.platform.gain_V, 4.5);
+            EXPECT_EQ(m.platform.gate_s, 5e-3);
+            for (int f = 0; f < m.fieldCount; ++f) {
+                EXPECT_EQ(m.field[f].gain_V, 5.5);
+                EXPECT_EQ(m.field[f].gate_s, 2e-3);
+            }
+            EXPECT_EQ(m.applied().gain_V, 5.5);
+        }
+        EXPECT_EQ(sink.gate_s, 2e-3);
+    }
+}
+
 TEST(FrameLoop, SimClockEmitsEveryFrameInOrder) {
     LoopConfig cfg = smallLoop(FrameRate{60, 1}, ClockKind::Sim, 500);
     SlowRender render(-1, 0.0);
