@@ -11,15 +11,36 @@
 #include <cstdlib>
 #include <cstring>
 
-#include "rt/clock/clock.h"
-#include "rt/clock/threads.h"
 #include "sim/core/error.h"
 
 namespace nvs::drivers {
 
 namespace {
 constexpr const char* kConsumer = "nvstim";
+
+// CLOCK_REALTIME now [ns] (to recognise event stamps of kernels before 5.7).
+std::int64_t realtimeNow_ns() noexcept {
+    timespec ts{};
+    clock_gettime(CLOCK_REALTIME, &ts);
+    return static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
+}
+
+// Sleeps until `deadline_ns` on CLOCK_MONOTONIC (absolute: never early, no drift when cut
+// short). 0, or -EINTR when a signal interrupted it.
+int sleepUntilMonotonic(std::int64_t deadline_ns) noexcept {
+    timespec ts{};
+    ts.tv_sec = static_cast<time_t>(deadline_ns / 1'000'000'000);
+    ts.tv_nsec = static_cast<long>(deadline_ns % 1'000'000'000);
+    const int rc = clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr);
+    return rc == 0 ? 0 : -rc;
+}
 }  // namespace
+
+std::int64_t gpioMonotonicNow_ns() noexcept {
+    timespec ts{};
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
+}
 
 // ---- libgpiod v1 ---------------------------------------------------------------------------
 
@@ -104,65 +125,7 @@ void GpiodLine::release() noexcept {
     state_ = GpioState::Closed;
 }
 
-// ---- fake ------------------------------------------------------------------------------------
-
-int FakeGpioLine::requestOutput(const std::string& chipName, unsigned line, bool low) {
-    if (chipName != chip) return -ENOENT;
-    if (line >= lines) return -EINVAL;
-    activeLow = low;
-    state_ = GpioState::Output;
-    return 0;
-}
-
-int FakeGpioLine::requestRisingEdges(const std::string& chipName, unsigned line) {
-    if (chipName != chip) return -ENOENT;
-    if (line >= lines) return -EINVAL;
-    state_ = GpioState::Input;
-    return 0;
-}
-
-int FakeGpioLine::setValue(int value) noexcept {
-    const int err = failErr_.load();
-    if (err != 0) {
-        ++counters_.errors;
-        counters_.lastErrno = err;
-        return -err;
-    }
-    if (state_ != GpioState::Output) return -EBADF;
-    if (changes_.size() < changes_.capacity()) changes_.push_back({value, rt::monotonicNow_ns()});
-    ++counters_.sets;
-    return 0;
-}
-
-void FakeGpioLine::pushEdge(std::int64_t t_ns) {
-    {
-        const std::lock_guard<std::mutex> lock(edgeMutex_);
-        edges_.push_back(t_ns);
-    }
-    edgeCv_.notify_all();
-}
-
-int FakeGpioLine::waitEdge(std::int64_t timeout_ns, std::int64_t* edge_ns) noexcept {
-    if (failErr_.load() != 0) return -failErr_.load();
-    if (state_ != GpioState::Input) return -EBADF;
-    const std::int64_t until_ns = rt::monotonicNow_ns() + timeout_ns;
-    std::unique_lock<std::mutex> lock(edgeMutex_);
-    for (;;) {
-        const std::int64_t now_ns = rt::monotonicNow_ns();
-        // An edge is delivered once its time has come, as the kernel delivers a real one.
-        if (!edges_.empty() && edges_.front() <= now_ns) {
-            *edge_ns = edges_.front();
-            edges_.pop_front();
-            ++counters_.edges;
-            return 1;
-        }
-        if (now_ns >= until_ns) return 0;
-        const std::int64_t wake_ns = edges_.empty() ? until_ns : std::min(until_ns, edges_.front());
-        // steady_clock is CLOCK_MONOTONIC (libstdc++ on Linux).
-        edgeCv_.wait_until(
-            lock, std::chrono::steady_clock::time_point(std::chrono::nanoseconds(wake_ns)));
-    }
-}
+// ---- spec ----------------------------------------------------------------------------------
 
 bool parseGpioTarget(const std::string& target, std::string* chip, unsigned* line) {
     const auto colon = target.rfind(':');
@@ -187,15 +150,14 @@ GpioGateSink::GpioGateSink(std::unique_ptr<GpioLine> line, const std::string& ch
                          " (gpiodetect / gpioinfo list the chips and lines; see docs/hil.md)");
     }
     line_->setValue(0);
-    thread_ = std::thread([this] { pulseThread(); });
 }
 
 GpioGateSink::~GpioGateSink() {
     close();
 }
 
-void GpioGateSink::exposureScheduled(const rt::ExposureWindow& w) noexcept {
-    if (closed_) return;
+void GpioGateSink::exposureScheduled(const msg::ExposureWindow& w) noexcept {
+    if (closed_.load(std::memory_order_relaxed)) return;
     // Width: the gate when the photocathode is gated within the exposure, else the exposure.
     const double width_s = w.gate_s > 0.0 && w.gate_s < w.exposure_s ? w.gate_s : w.exposure_s;
     const std::uint32_t t = tail_.load(std::memory_order_relaxed);
@@ -209,24 +171,31 @@ void GpioGateSink::exposureScheduled(const rt::ExposureWindow& w) noexcept {
     wake_.notify_one();
 }
 
-void GpioGateSink::pulseThread() {
-    std::string msg;
-    rt::applyThreadSpec(rt::kThreadGpio, false, msg);
+void GpioGateSink::runWorker() noexcept {
+    // Announce the run before checking for close(): close() sets closed_ before reading
+    // active_ (both sequentially consistent), so either it waits for this run or this run
+    // sees it closed and leaves the line alone.
+    active_.store(true);
+    if (closed_.load()) {
+        active_.store(false);
+        active_.notify_all();
+        return;
+    }
     std::int64_t lastFall_ns = 0;
     for (;;) {
         const std::uint32_t seen = wake_.load(std::memory_order_acquire);
         const std::uint32_t h = head_.load(std::memory_order_relaxed);
         const std::uint32_t t = tail_.load(std::memory_order_acquire);
         if (h == t) {
-            // Stop once every scheduled pulse is out (close() comes after the loop's end, so
-            // nothing more is scheduled; the last ones end within a period or two).
+            // Stop once every scheduled pulse is out (stopWorker() comes after the loop's end,
+            // so nothing more is scheduled; the last ones end within a period or two).
             if (stop_.load(std::memory_order_acquire)) break;
             wake_.wait(seen, std::memory_order_acquire);
             continue;
         }
         const Pulse p = queue_[h % kQueue];
         head_.store(h + 1, std::memory_order_release);
-        const std::int64_t now_ns = rt::monotonicNow_ns();
+        const std::int64_t now_ns = gpioMonotonicNow_ns();
         // Step 1: the start of the exposure on CLOCK_MONOTONIC (sim clock: now).
         std::int64_t start_ns = p.start_ns != 0 ? p.start_ns : now_ns;
         if (start_ns - now_ns > 2'000'000'000) {
@@ -241,9 +210,9 @@ void GpioGateSink::pulseThread() {
             start_ns = lastFall_ns;
         }
         // Step 2: rise at the start (absolute sleep: never early).
-        while (rt::WallClock::sleepUntil(start_ns) == -EINTR) {
+        while (sleepUntilMonotonic(start_ns) == -EINTR) {
         }
-        const std::int64_t rise_ns = rt::monotonicNow_ns();
+        const std::int64_t rise_ns = gpioMonotonicNow_ns();
         if (line_->setValue(1) != 0) errors_.fetch_add(1, std::memory_order_relaxed);
         // Step 3: fall at the end of the window, start + width, on the absolute clock: a late
         // rise (scheduled after its start: trigger clock, a late render; or a late wake-up)
@@ -251,16 +220,24 @@ void GpioGateSink::pulseThread() {
         // still gives a pulse, as short as the line allows, so that pulses can be counted.
         const std::int64_t fall_ns = std::max(start_ns + p.width_ns, rise_ns);
         if (rise_ns - start_ns > kGateLate_ns) late_.fetch_add(1, std::memory_order_relaxed);
-        while (rt::WallClock::sleepUntil(fall_ns) == -EINTR) {
+        while (sleepUntilMonotonic(fall_ns) == -EINTR) {
         }
         if (line_->setValue(0) != 0) errors_.fetch_add(1, std::memory_order_relaxed);
         lastFall_ns = fall_ns;
         pulses_.fetch_add(1, std::memory_order_relaxed);
     }
+    active_.store(false);
+    active_.notify_all();
 }
 
-int GpioGateSink::write(const rt::OutputFrame& /*frame*/) noexcept {
-    if (closed_) return -EBADF;
+void GpioGateSink::stopWorker() noexcept {
+    stop_.store(true, std::memory_order_release);
+    wake_.fetch_add(1, std::memory_order_release);
+    wake_.notify_all();
+}
+
+int GpioGateSink::write(const msg::OutputFrame& /*frame*/) noexcept {
+    if (closed_.load(std::memory_order_relaxed)) return -EBADF;
     if (line_->state() == GpioState::Failed || errors_.load(std::memory_order_relaxed) > 0) {
         return -(line_->counters().lastErrno != 0 ? line_->counters().lastErrno : EIO);
     }
@@ -268,12 +245,11 @@ int GpioGateSink::write(const rt::OutputFrame& /*frame*/) noexcept {
 }
 
 int GpioGateSink::close() noexcept {
-    if (closed_) return 0;
-    closed_ = true;
-    stop_.store(true, std::memory_order_release);
-    wake_.fetch_add(1, std::memory_order_release);
-    wake_.notify_all();
-    if (thread_.joinable()) thread_.join();
+    if (closed_.exchange(true)) return 0;
+    // A pulse loop still running finishes the pulses it has, then returns.
+    stopWorker();
+    while (active_.load())
+        active_.wait(true);
     line_->setValue(0);
     line_->release();
     return 0;
@@ -309,8 +285,8 @@ int GpioTrigger::waitEdge(std::int64_t timeout_ns, std::int64_t* edgeMonotonic_n
     if (rc != 1) return rc;
     // Kernels before 5.7 stamp v1 line events with CLOCK_REALTIME: a stamp nearer to the
     // realtime clock than to the monotonic one is moved by their present difference.
-    const std::int64_t mono_ns = rt::monotonicNow_ns();
-    const std::int64_t real_ns = rt::realtimeNow_ns();
+    const std::int64_t mono_ns = gpioMonotonicNow_ns();
+    const std::int64_t real_ns = realtimeNow_ns();
     if (std::llabs(t_ns - real_ns) < std::llabs(t_ns - mono_ns)) {
         t_ns += mono_ns - real_ns;
         ++realtimeStamps_;

@@ -9,14 +9,13 @@
 //                     gpiod_line_request_output / gpiod_line_set_value /
 //                     gpiod_line_request_rising_edge_events / gpiod_line_event_wait / _read.
 //                     RAII: the line is released and the chip closed on destruction.
-//   FakeGpioLine      records every value set with its CLOCK_MONOTONIC time; edges are pushed
-//                     (from any thread) with their time and delivered when that time has come:
-//                     waitEdge sleeps until the first queued edge is due, up to its timeout.
-//   GpioGateSink      rt::FrameSink and rt::ExposureObserver: one pulse per exposure (frame, or
-//                     field when interlaced), marking the exposure window on the loop's
-//                     timeline. The render thread schedules each exposure ahead of emission
-//                     (exposureScheduled: start on CLOCK_MONOTONIC, gate); a pulse thread
-//                     (rt/clock/threads.h: nvs-gpio) sleeps to the start with an absolute
+//   FakeGpioLine      the in-memory line for tests (drivers/gpio/fake, a test-only target).
+//   GpioGateSink      msg::FrameSink, msg::ExposureObserver and msg::SinkWorker: one pulse per
+//                     exposure (frame, or field when interlaced), marking the exposure window
+//                     on the loop's timeline. The camera thread schedules each exposure ahead
+//                     of emission (exposureScheduled: start on CLOCK_MONOTONIC, gate); the
+//                     pulse loop, runWorker(), which the runtime runs on its nvs-gpio thread
+//                     (the driver starts no thread), sleeps to the start with an absolute
 //                     clock_nanosleep, raises the line, and lowers it at start + width (also
 //                     absolute), width = gate_s when 0 < gate_s < exposure, else the exposure.
 //                     A request that comes after its start (trigger clock, a late render) rises
@@ -24,9 +23,10 @@
 //                     and is counted late; one that starts before the previous pulse has ended
 //                     (windows that overlap) rises when it ends and is counted overlapped. Line
 //                     errors are counted, never fatal. Under the sim clock (no wall time) a pulse
-//                     rises as soon as its exposure is scheduled. close() lets the pulses already
-//                     scheduled finish.
-//   GpioTrigger       rt::TriggerSource: rising edges of an input line with the kernel's
+//                     rises as soon as its exposure is scheduled. stopWorker() lets the pulses
+//                     already scheduled finish before runWorker() returns; close() waits for
+//                     it to return, then lowers and releases the line.
+//   GpioTrigger       msg::TriggerSource: rising edges of an input line with the kernel's
 //                     timestamps, on CLOCK_MONOTONIC (the v1 uAPI stamps events with
 //                     CLOCK_MONOTONIC since Linux 5.7 and CLOCK_REALTIME before: a stamp closer
 //                     to CLOCK_REALTIME is moved onto CLOCK_MONOTONIC).
@@ -36,16 +36,11 @@
 // Trigger spec (scenario [runtime] trigger): gpio:CHIP:LINE.
 
 #include <atomic>
-#include <condition_variable>
 #include <cstdint>
-#include <deque>
 #include <memory>
-#include <mutex>
 #include <string>
-#include <thread>
-#include <vector>
 
-#include "rt/msg/stages.h"
+#include "sim/msg/output.h"
 
 struct gpiod_chip;
 struct gpiod_line;
@@ -101,53 +96,29 @@ class GpiodLine final : public GpioLine {
     GpioCounters counters_;
 };
 
-class FakeGpioLine final : public GpioLine {
+// CLOCK_MONOTONIC now [ns], the clock of line event stamps and of the loop's timeline (a kernel
+// interface, read directly).
+std::int64_t gpioMonotonicNow_ns() noexcept;
+
+class GpioGateSink final : public msg::FrameSink,
+                           public msg::ExposureObserver,
+                           public msg::SinkWorker {
   public:
-    struct Change {
-        int value;
-        std::int64_t t_ns;  // CLOCK_MONOTONIC
-    };
-    explicit FakeGpioLine(std::size_t capacity = 4096) { changes_.reserve(capacity); }
-    int requestOutput(const std::string& chip, unsigned line, bool activeLow) override;
-    int requestRisingEdges(const std::string& chip, unsigned line) override;
-    int setValue(int value) noexcept override;
-    int waitEdge(std::int64_t timeout_ns, std::int64_t* edge_ns) noexcept override;
-    void release() noexcept override { state_ = GpioState::Closed; }
-    GpioState state() const noexcept override { return state_; }
-    const GpioCounters& counters() const noexcept override { return counters_; }
-
-    std::string chip = "gpiochip0";  // the only chip that exists
-    unsigned lines = 32;             // lines it has
-    bool activeLow = false;
-    // Queues a rising edge stamped t_ns (CLOCK_MONOTONIC), delivered once t_ns has come.
-    void pushEdge(std::int64_t t_ns);
-    void fail(int err) { failErr_ = err; }  // from now on every call fails with -err
-    // Written by setValue (up to the capacity given; read after the writer has stopped).
-    const std::vector<Change>& changes() const { return changes_; }
-
-  private:
-    GpioState state_ = GpioState::Closed;
-    GpioCounters counters_;
-    std::vector<Change> changes_;
-    std::mutex edgeMutex_;
-    std::condition_variable edgeCv_;
-    std::deque<std::int64_t> edges_;
-    std::atomic<int> failErr_{0};
-};
-
-class GpioGateSink final : public rt::FrameSink, public rt::ExposureObserver {
-  public:
-    // Requests the line (throws SetupError naming the spec) and starts the pulse thread.
+    // Requests the line (throws SetupError naming the spec). Pulses need runWorker() running.
     GpioGateSink(std::unique_ptr<GpioLine> line, const std::string& chip, unsigned offset,
                  bool activeLow);
     ~GpioGateSink() override;
     const char* name() const noexcept override { return name_.c_str(); }
     // Emission: nothing to do (pulses follow exposures); reports line errors to the loop.
-    int write(const rt::OutputFrame& frame) noexcept override;
+    int write(const msg::OutputFrame& frame) noexcept override;
     int close() noexcept override;
     std::string status() const override;
-    // Render thread: queue the pulse of one exposure.
-    void exposureScheduled(const rt::ExposureWindow& w) noexcept override;
+    // Camera thread: queue the pulse of one exposure.
+    void exposureScheduled(const msg::ExposureWindow& w) noexcept override;
+    // The pulse loop: sleeps to each queued pulse's edges and drives the line; returns once
+    // stopWorker() has been called and the queue is empty (or at once after close()).
+    void runWorker() noexcept override;
+    void stopWorker() noexcept override;
     std::int64_t pulses() const { return pulses_.load(); }
     std::int64_t overlapped() const { return overlapped_.load(); }
     std::int64_t late() const { return late_.load(); }
@@ -159,10 +130,9 @@ class GpioGateSink final : public rt::FrameSink, public rt::ExposureObserver {
         std::int64_t width_ns = 0;
     };
     static constexpr std::uint32_t kQueue = 16;
-    void pulseThread();
     std::unique_ptr<GpioLine> line_;
     std::string name_;
-    // Single-producer (render thread) single-consumer (pulse thread) queue of pulses.
+    // Single-producer (camera thread) single-consumer (runWorker) queue of pulses.
     Pulse queue_[kQueue];
     std::atomic<std::uint32_t> head_{0};
     std::atomic<std::uint32_t> tail_{0};
@@ -173,15 +143,15 @@ class GpioGateSink final : public rt::FrameSink, public rt::ExposureObserver {
     std::atomic<std::int64_t> late_{0};  // rose more than kLate_ns after the exposure start
     std::atomic<std::int64_t> lost_{0};  // queue full: the render ran far ahead
     std::atomic<std::int64_t> errors_{0};
-    std::thread thread_;
-    bool closed_ = false;
+    std::atomic<bool> active_{false};  // runWorker() is running
+    std::atomic<bool> closed_{false};
 };
 
 // Late: a rise more than this after its exposure start (wake-up delays are shorter on an idle
 // machine).
 inline constexpr std::int64_t kGateLate_ns = 1'000'000;
 
-class GpioTrigger final : public rt::TriggerSource {
+class GpioTrigger final : public msg::TriggerSource {
   public:
     // Requests the line for rising edges (throws SetupError naming the spec).
     GpioTrigger(std::unique_ptr<GpioLine> line, const std::string& chip, unsigned offset);

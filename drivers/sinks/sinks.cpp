@@ -63,7 +63,7 @@ void makeOutputDir(const std::string& dir, const std::string& what) {
 
 // ---- y4m ---------------------------------------------------------------------------------------
 
-Y4mSink::Y4mSink(const std::string& path, int width, int height, int bits, rt::FrameRate rate)
+Y4mSink::Y4mSink(const std::string& path, int width, int height, int bits, msg::FrameRate rate)
     : name_("y4m:" + path),
       toStdout_(path == "-"),
       width_(width),
@@ -96,7 +96,7 @@ int Y4mSink::fail(int rc) noexcept {
     return rc;
 }
 
-int Y4mSink::write(const rt::OutputFrame& frame) noexcept {
+int Y4mSink::write(const msg::OutputFrame& frame) noexcept {
     if (state_ != SinkState::Open) {
         ++counters_.errors;
         return counters_.lastErrno != 0 ? -counters_.lastErrno : -EBADF;
@@ -160,7 +160,7 @@ PgmSequenceSink::PgmSequenceSink(const std::string& dir, int width, int height, 
     std::memcpy(buffer_.data(), header, headerSize_);
 }
 
-int PgmSequenceSink::write(const rt::OutputFrame& frame) noexcept {
+int PgmSequenceSink::write(const msg::OutputFrame& frame) noexcept {
     if (state_ == SinkState::Closed) return -EBADF;
     unsigned char* dst = buffer_.data() + headerSize_;
     for (int y = 0; y < height_; ++y) {
@@ -210,7 +210,7 @@ PngSequenceSink::PngSequenceSink(const std::string& dir, int width, int height, 
     }
 }
 
-int PngSequenceSink::write(const rt::OutputFrame& frame) noexcept {
+int PngSequenceSink::write(const msg::OutputFrame& frame) noexcept {
     if (state_ == SinkState::Closed) return -EBADF;
     for (int y = 0; y < height_; ++y) {
         const std::uint16_t* row = frame.counts.row(y);
@@ -262,7 +262,7 @@ int PngSequenceSink::close() noexcept {
 // ---- metadata ---------------------------------------------------------------------------------
 
 MetaJsonlSink::MetaJsonlSink(const std::string& path)
-    : name_("meta:" + path), toStdout_(path == "-"), line_(4096 + rt::kMaxTruthBoxes * 128) {
+    : name_("meta:" + path), toStdout_(path == "-"), line_(4096 + msg::kMaxTruthBoxes * 128) {
     if (!toStdout_) {
         const int rc = file_.open(path.c_str());
         if (rc != 0) throw SetupError(name_ + ": cannot open: " + std::strerror(-rc));
@@ -273,10 +273,11 @@ MetaJsonlSink::~MetaJsonlSink() {
     close();
 }
 
-std::size_t MetaJsonlSink::format(const rt::OutputFrame& frame, char* buf,
+std::size_t MetaJsonlSink::format(const msg::OutputFrame& frame, char* buf,
                                   std::size_t size) noexcept {
-    const rt::FrameMeta& m = *frame.meta;
-    const rt::PlatformState& p = m.platform;
+    const msg::FrameMeta& m = *frame.meta;
+    const msg::PlatformState& p = m.platform;  // as commanded
+    const msg::FieldMeta& a = m.applied();     // gain and gate as the camera applied them
     int n = std::snprintf(
         buf, size,
         "{\"frame\":%lld,\"tick\":%lld,\"repeat\":%s,\"t_sample_s\":%.9f,\"utc_unix_s\":%.6f,"
@@ -287,12 +288,12 @@ std::size_t MetaJsonlSink::format(const rt::OutputFrame& frame, char* buf,
         static_cast<long long>(m.frame), static_cast<long long>(frame.tick),
         frame.repeat ? "true" : "false", m.t_sample_s, p.utc_unix_s, m.exposure_s, p.lat_deg,
         p.lon_deg, p.alt_m, p.yaw_rad * kDegPerRad, p.pitch_rad * kDegPerRad,
-        p.roll_rad * kDegPerRad, p.gain_V, p.gate_s, p.gateMode, p.agc ? "true" : "false",
+        p.roll_rad * kDegPerRad, a.gain_V, a.gate_s, p.gateMode, p.agc ? "true" : "false",
         p.lampMask, p.poseFromTelemetry ? "true" : "false", p.stale ? "true" : "false");
     if (n < 0 || static_cast<std::size_t>(n) >= size) return 0;
     std::size_t len = static_cast<std::size_t>(n);
-    for (int i = 0; i < m.truthCount && i < rt::kMaxTruthBoxes; ++i) {
-        const rt::TruthBox& b = m.truth[i];
+    for (int i = 0; i < m.truthCount && i < msg::kMaxTruthBoxes; ++i) {
+        const msg::TruthBox& b = m.truth[i];
         n = std::snprintf(buf + len, size - len,
                           "%s{\"id\":%d,\"x_px\":%.3f,\"y_px\":%.3f,\"w_px\":%.3f,\"h_px\":%.3f}",
                           i > 0 ? "," : "", b.id, static_cast<double>(b.x_px),
@@ -304,12 +305,12 @@ std::size_t MetaJsonlSink::format(const rt::OutputFrame& frame, char* buf,
     if (len + 1 >= size) return 0;
     buf[len++] = ']';
     // Interlaced: each field's own exposure (the frame-level keys describe field 1).
-    if (m.fieldCount == rt::kMaxFields) {
+    if (m.fieldCount == msg::kMaxFields) {
         n = std::snprintf(buf + len, size - len, ",\"fields\":[");
         if (n < 0 || len + static_cast<std::size_t>(n) >= size) return 0;
         len += static_cast<std::size_t>(n);
-        for (int f = 0; f < rt::kMaxFields; ++f) {
-            const rt::FieldMeta& fm = m.field[f];
+        for (int f = 0; f < msg::kMaxFields; ++f) {
+            const msg::FieldMeta& fm = m.field[f];
             n = std::snprintf(buf + len, size - len,
                               "%s{\"t_sample_s\":%.9f,\"gain_V\":%.6g,\"gate_s\":%.9g}",
                               f > 0 ? "," : "", fm.t_sample_s, fm.gain_V, fm.gate_s);
@@ -325,7 +326,7 @@ std::size_t MetaJsonlSink::format(const rt::OutputFrame& frame, char* buf,
     return len;
 }
 
-int MetaJsonlSink::write(const rt::OutputFrame& frame) noexcept {
+int MetaJsonlSink::write(const msg::OutputFrame& frame) noexcept {
     if (state_ != SinkState::Open) {
         ++counters_.errors;
         return counters_.lastErrno != 0 ? -counters_.lastErrno : -EBADF;
@@ -406,7 +407,7 @@ std::int64_t ContactSheetSink::tickOfTile(int i) const noexcept {
                      static_cast<double>(tiles - 1)));
 }
 
-int ContactSheetSink::write(const rt::OutputFrame& frame) noexcept {
+int ContactSheetSink::write(const msg::OutputFrame& frame) noexcept {
     if (state_ == SinkState::Closed) return -EBADF;
     if (next_ >= cols_ * rows_ || frame.tick < tickOfTile(next_)) return 0;
     const int tx = kSheetGap_px + (next_ % cols_) * (tileW_ + kSheetGap_px);

@@ -1,5 +1,5 @@
 #pragma once
-// File and pipe sinks (DESIGN §6). Each is a FrameSink (rt/msg/stages.h): configured and
+// File and pipe sinks (DESIGN §6). Each is a FrameSink (sim/msg/output.h): configured and
 // allocated at construction (throws SetupError for a bad path), then write() per frame
 // returns 0 or -errno and counts; close() finishes the output.
 //
@@ -10,13 +10,20 @@
 //   PgmSequenceSink  DIR/NNNNNN.pgm, binary P5, maxval 2^bits − 1 (16-bit big-endian above 8
 //                    bits): the ADC counts exactly. Each file written whole, then renamed.
 //   PngSequenceSink  DIR/NNNNNN.png, 8-bit gray, or 16-bit with counts scaled to 16 bits.
-//   ExrSequenceSink  DIR/NNNNNN.exr, the radiance image as one FLOAT channel "Y" [W/m²/sr],
-//                    header attributes nvs_unit = "W/m2/sr", nvs_frame, nvs_t_sample_s.
+//   ExrSequenceSink  the frame's radiance as FLOAT channel "Y", each image labelled with its
+//                    unit as `nvstim render` labels its files (header attribute nvstim.unit,
+//                    read back by `nvstim sensor --in`): DIR/NNNNNN.exr the photoelectron
+//                    radiance ("pe/s/m2/sr") when the frame has it, else the band radiance
+//                    ("W/m2/sr"); DIR/NNNNNN.band.exr the band radiance when the frame has
+//                    both. Attributes nvs_frame, nvs_t_sample_s as well.
 //   MetaJsonlSink    one JSON object per emitted frame (file, temporary + rename, or stdout):
 //     {"frame","tick","repeat","t_sample_s","utc_unix_s","exposure_s",
 //      "pose":{"lat_deg","lon_deg","alt_m","yaw_deg","pitch_deg","roll_deg"},
 //      "gain_V","gate_s","gate_mode","agc","lamps","pose_from_telemetry","stale",
 //      "truth":[{"id","x_px","y_px","w_px","h_px"}]}
+//                    gain_V and gate_s are what the camera applied (FrameMeta::applied(), the
+//                    exposure completing the frame); the other camera keys are as commanded.
+//                    Interlaced frames add "fields":[{"t_sample_s","gain_V","gate_s"}, …].
 // PNG and EXR files are encoded by libpng / OpenEXR, which allocate: those two sinks are for
 // offline (sim clock) runs; the others allocate nothing per frame.
 
@@ -25,8 +32,8 @@
 #include <vector>
 
 #include "drivers/sinks/file_io.h"
-#include "rt/clock/clock.h"
-#include "rt/msg/stages.h"
+#include "sim/msg/output.h"
+#include "sim/msg/rate.h"
 
 namespace nvs::drivers {
 
@@ -41,13 +48,13 @@ struct SinkCounters {
 
 std::string describe(const char* name, SinkState state, const SinkCounters& c);
 
-class Y4mSink final : public rt::FrameSink {
+class Y4mSink final : public msg::FrameSink {
   public:
     // path "-" is stdout. `bits` is the camera's ADC depth.
-    Y4mSink(const std::string& path, int width, int height, int bits, rt::FrameRate rate);
+    Y4mSink(const std::string& path, int width, int height, int bits, msg::FrameRate rate);
     ~Y4mSink() override;
     const char* name() const noexcept override { return name_.c_str(); }
-    int write(const rt::OutputFrame& frame) noexcept override;
+    int write(const msg::OutputFrame& frame) noexcept override;
     int close() noexcept override;
     std::string status() const override { return describe(name_.c_str(), state_, counters_); }
     const SinkCounters& counters() const { return counters_; }
@@ -66,11 +73,11 @@ class Y4mSink final : public rt::FrameSink {
     SinkCounters counters_;
 };
 
-class PgmSequenceSink final : public rt::FrameSink {
+class PgmSequenceSink final : public msg::FrameSink {
   public:
     PgmSequenceSink(const std::string& dir, int width, int height, int bits);
     const char* name() const noexcept override { return name_.c_str(); }
-    int write(const rt::OutputFrame& frame) noexcept override;
+    int write(const msg::OutputFrame& frame) noexcept override;
     int close() noexcept override;
     std::string status() const override { return describe(name_.c_str(), state_, counters_); }
     const SinkCounters& counters() const { return counters_; }
@@ -85,11 +92,11 @@ class PgmSequenceSink final : public rt::FrameSink {
     SinkCounters counters_;
 };
 
-class PngSequenceSink final : public rt::FrameSink {
+class PngSequenceSink final : public msg::FrameSink {
   public:
     PngSequenceSink(const std::string& dir, int width, int height, int bits);
     const char* name() const noexcept override { return name_.c_str(); }
-    int write(const rt::OutputFrame& frame) noexcept override;
+    int write(const msg::OutputFrame& frame) noexcept override;
     int close() noexcept override;
     std::string status() const override { return describe(name_.c_str(), state_, counters_); }
 
@@ -102,15 +109,18 @@ class PngSequenceSink final : public rt::FrameSink {
     SinkCounters counters_;
 };
 
-class ExrSequenceSink final : public rt::FrameSink {
+class ExrSequenceSink final : public msg::FrameSink {
   public:
     ExrSequenceSink(const std::string& dir, int width, int height);
     const char* name() const noexcept override { return name_.c_str(); }
-    int write(const rt::OutputFrame& frame) noexcept override;
+    int write(const msg::OutputFrame& frame) noexcept override;
     int close() noexcept override;
     std::string status() const override { return describe(name_.c_str(), state_, counters_); }
 
   private:
+    // Writes one image to DIR/NNNNNN<suffix>.exr labelled `unit`. 0 or -errno.
+    int writeImage(const msg::OutputFrame& frame, ImageView<const float> img, const char* suffix,
+                   const char* unit) noexcept;
     std::string name_, dir_;
     int width_, height_;
     std::vector<float> buffer_;
@@ -118,17 +128,17 @@ class ExrSequenceSink final : public rt::FrameSink {
     SinkCounters counters_;
 };
 
-class MetaJsonlSink final : public rt::FrameSink {
+class MetaJsonlSink final : public msg::FrameSink {
   public:
     explicit MetaJsonlSink(const std::string& path);
     ~MetaJsonlSink() override;
     const char* name() const noexcept override { return name_.c_str(); }
-    int write(const rt::OutputFrame& frame) noexcept override;
+    int write(const msg::OutputFrame& frame) noexcept override;
     int close() noexcept override;
     std::string status() const override { return describe(name_.c_str(), state_, counters_); }
     const SinkCounters& counters() const { return counters_; }
     // Formats one record into buf (no allocation); returns its length, or 0 if it did not fit.
-    static std::size_t format(const rt::OutputFrame& frame, char* buf, std::size_t size) noexcept;
+    static std::size_t format(const msg::OutputFrame& frame, char* buf, std::size_t size) noexcept;
 
   private:
     std::string name_;
@@ -145,12 +155,12 @@ void makeOutputDir(const std::string& dir, const std::string& what);
 // A contact sheet: `cols × rows` frames spread evenly over a run of `frames` frames (or every
 // `every`-th frame when the length is not known), each shrunk by `shrink` (box filter), 8-bit,
 // on a white grid, written as one PNG when the run closes. A glance at a run's content.
-class ContactSheetSink final : public rt::FrameSink {
+class ContactSheetSink final : public msg::FrameSink {
   public:
     ContactSheetSink(const std::string& path, int width, int height, int bits, int cols, int rows,
                      int shrink, std::int64_t frames, std::int64_t every);
     const char* name() const noexcept override { return name_.c_str(); }
-    int write(const rt::OutputFrame& frame) noexcept override;
+    int write(const msg::OutputFrame& frame) noexcept override;
     int close() noexcept override;
     std::string status() const override { return describe(name_.c_str(), state_, counters_); }
     // The tick that fills tile i (exposed for tests).

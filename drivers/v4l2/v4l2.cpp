@@ -494,7 +494,7 @@ void V4l2Sink::convertRow(const std::uint16_t* counts, int width, V4l2Format for
     }
 }
 
-int V4l2Sink::write(const rt::OutputFrame& frame) noexcept {
+int V4l2Sink::write(const msg::OutputFrame& frame) noexcept {
     std::uint8_t* dst = out_.acquire();
     if (dst == nullptr) {
         // No buffer free (consumer behind: counted as busy, not an error) or a failed device.

@@ -5,14 +5,15 @@
 // Three layers, each testable alone:
 //
 //   V4l2DeviceOps   the five system calls the wrapper makes (open, close, ioctl, write, mmap/
-//                   munmap). KernelV4l2Ops calls the kernel; FakeV4l2Loopback is an in-memory
-//                   device that answers the same ioctls with v4l2loopback 0.12's semantics, so
-//                   the tests run the real wrapper code below against it.
+//                   munmap). KernelV4l2Ops calls the kernel; FakeV4l2Loopback (fake/, a
+//                   test-only target) is an in-memory device that answers the same ioctls
+//                   with v4l2loopback 0.12's semantics, so the tests run the real wrapper
+//                   code below against it.
 //   V4l2Output      thin RAII wrapper: a state machine
 //                     Closed → open() [QUERYCAP] → Open → configure() [S_FMT, G_FMT read-back,
 //                     REQBUFS/QUERYBUF/mmap] → Configured → first frame [STREAMON] → Streaming
 //                   with counters and status(). Calls return 0 or -errno.
-//   V4l2Sink        rt::FrameSink: counts → GREY / Y16 / YUYV into the device's buffer.
+//   V4l2Sink        msg::FrameSink: counts → GREY / Y16 / YUYV into the device's buffer.
 //
 // What v4l2loopback 0.12 does that the wrapper has to live with:
 //   * S_FMT succeeds but silently keeps the old format while the device is "ready for capture"
@@ -44,7 +45,7 @@
 #include <string_view>
 #include <vector>
 
-#include "rt/msg/stages.h"
+#include "sim/msg/output.h"
 
 namespace nvs::drivers {
 
@@ -188,7 +189,7 @@ class V4l2Output {
 
 // ---- the sink ------------------------------------------------------------------------------
 
-class V4l2Sink final : public rt::FrameSink {
+class V4l2Sink final : public msg::FrameSink {
   public:
     // Opens and configures the device; throws SetupError (naming the spec) when it is absent,
     // not an output, refuses the format or keeps another one.
@@ -196,7 +197,7 @@ class V4l2Sink final : public rt::FrameSink {
              int bits, V4l2Format format, V4l2Io io);
     ~V4l2Sink() override { close(); }
     const char* name() const noexcept override { return name_.c_str(); }
-    int write(const rt::OutputFrame& frame) noexcept override;
+    int write(const msg::OutputFrame& frame) noexcept override;
     int close() noexcept override;
     std::string status() const override;
     const V4l2Output& output() const { return out_; }
@@ -212,76 +213,6 @@ class V4l2Sink final : public rt::FrameSink {
     int width_, height_;
     V4l2Format format_;
     std::vector<std::uint16_t> lut_;  // count → sample value (2^bits entries)
-};
-
-// ---- the fake ------------------------------------------------------------------------------
-
-// An in-memory v4l2loopback 0.12 output node at `path`. Tests set its knobs, run the real
-// V4l2Output against it and read what a reader would receive from `frames`.
-class FakeV4l2Loopback final : public V4l2DeviceOps {
-  public:
-    struct Frame {
-        std::vector<std::uint8_t> data;  // exactly the bytes written / bytesused
-        std::uint32_t sequence = 0;
-        std::int64_t timestamp_ns = 0;
-        bool streamed = false;  // through MMAP buffers (else write())
-    };
-
-    explicit FakeV4l2Loopback(std::string path = "/dev/video9") : path_(std::move(path)) {}
-
-    // Knobs.
-    bool outputCapable = true;  // false: a capture-only node (QUERYCAP without VIDEO_OUTPUT)
-    bool readWrite = true;
-    bool streaming = true;
-    std::size_t pageSize = 4096;
-    bool stallConsumer = false;  // queued buffers are not taken (DQBUF → EAGAIN)
-    int maxBuffers = 8;          // REQBUFS grants at most this many
-    // 0.12's keep-format behaviour: the current format is held; S_FMT returns it unchanged.
-    void holdFormat(std::uint32_t width, std::uint32_t height, std::uint32_t pixelformat);
-    // From now on every call fails with -err (ENODEV: the device was removed).
-    void unplug(int err = ENODEV) { unplugged_ = err; }
-    // Takes every queued buffer (ends stallConsumer's backlog).
-    void releaseConsumer();
-
-    // What happened.
-    std::vector<Frame> frames;
-    std::vector<std::size_t> writeSizes;  // size of every write() call
-    const v4l2_pix_format& format() const { return fmt_; }
-    bool isStreaming() const { return streamOn_; }
-    int openCount() const { return opens_; }
-    int mappedCount() const { return mapped_; }
-
-    int open(const char* path, int flags) noexcept override;
-    int close(int fd) noexcept override;
-    int ioctl(int fd, unsigned long request, void* arg) noexcept override;
-    ssize_t write(int fd, const void* data, std::size_t size) noexcept override;
-    void* mmap(std::size_t length, int fd, off_t offset, int* err) noexcept override;
-    int munmap(void* addr, std::size_t length) noexcept override;
-
-  private:
-    static constexpr int kFd = 7;
-    struct Buffer {
-        std::vector<std::uint8_t> mem;
-        std::uint32_t bytesused = 0;
-        std::uint32_t sequence = 0;
-        std::int64_t timestamp_ns = 0;
-        bool queued = false;
-        bool done = false;
-    };
-    void consume(int index);
-    std::uint32_t bufferLength() const;
-
-    std::string path_;
-    bool isOpen_ = false;
-    int opens_ = 0;
-    int unplugged_ = 0;
-    bool holdFormat_ = false;
-    bool formatSet_ = false;
-    v4l2_pix_format fmt_{};
-    std::vector<Buffer> buffers_;
-    std::deque<int> done_;
-    bool streamOn_ = false;
-    int mapped_ = 0;
 };
 
 }  // namespace nvs::drivers

@@ -10,26 +10,28 @@ IiccdCameraStage::IiccdCameraStage(const sensor::CameraParams& cam, const std::s
       chain_(cam, seed, sensor::ChainOptions{},
              controls == Controls::Preset ? sensor::ControlSource::Preset
                                           : sensor::ControlSource::Command),
-      lpe_(lpePerL_ == 1.0 ? ImageF() : ImageF(cam.width, cam.height)) {}
+      lpe_(cam.width, cam.height) {}
 
-void IiccdCameraStage::expose(const FrameRequest& req, ImageView<const float> radiance_W_m2_sr,
-                              ImageView<std::uint16_t> counts, FrameMeta& meta) noexcept {
+void IiccdCameraStage::expose(const FrameRequest& req, RadianceFrame in,
+                              ImageView<std::uint16_t> counts, FieldMeta& applied) noexcept {
     const sensor::CameraParams& cam = chain_.camera();
-    if (radiance_W_m2_sr.width() != cam.width || radiance_W_m2_sr.height() != cam.height ||
-        counts.width() != cam.width || counts.height() != cam.height) {
+    // Photoelectron radiance as given, or band radiance converted: Lpe = L·k.
+    const bool given = !in.lpe_pe_s_m2_sr.empty();
+    const ImageView<const float> src = given ? in.lpe_pe_s_m2_sr : in.band_W_m2_sr;
+    if (src.width() != cam.width || src.height() != cam.height || counts.width() != cam.width ||
+        counts.height() != cam.height) {
         (void)chain_.process(ImageView<const float>{});  // reported as a size mismatch
         counts.fill(0);
         return;
     }
-    // Band radiance → photoelectron radiance: Lpe = L·k (k = 1: the input already is Lpe).
-    ImageView<const float> lpe = radiance_W_m2_sr;
-    if (lpePerL_ != 1.0) {
+    ImageView<const float> lpe = src;
+    if (!given) {
         const float k = static_cast<float>(lpePerL_);
         for (int y = 0; y < cam.height; ++y) {
-            const float* in = radiance_W_m2_sr.row(y);
+            const float* px = src.row(y);
             float* out = lpe_.view().row(y);
             for (int x = 0; x < cam.width; ++x)
-                out[x] = in[x] * k;
+                out[x] = px[x] * k;
         }
         lpe = lpe_.cview();
     }
@@ -40,11 +42,8 @@ void IiccdCameraStage::expose(const FrameRequest& req, ImageView<const float> ra
     const std::size_t rowBytes = static_cast<std::size_t>(cam.width) * sizeof(std::uint16_t);
     for (int y = 0; y < cam.height; ++y)
         std::memcpy(counts.row(y), chain_.video().cview().row(y), rowBytes);
-    // What the camera applied goes into the frame's metadata (the loop keeps it when
-    // t_sample_s matches the request).
-    meta.platform.t_sample_s = req.t_sample_s;
-    meta.platform.gain_V = info.gain_V;
-    meta.platform.gate_s = info.gate_s;
+    // What the camera applied: the field's metadata.
+    applied = FieldMeta{req.t_sample_s, info.gain_V, info.gate_s};
 }
 
 }  // namespace nvs::rt

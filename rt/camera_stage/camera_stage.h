@@ -7,23 +7,23 @@
 // from the call before, as the interlaced camera's output does, so every emitted frame holds two
 // fields, each exposed at its own t_sample_s.
 //
-// Input conversion: the render stage gives band radiance L [W m⁻² sr⁻¹]; the chain takes
-// photoelectron radiance Lpe = L·k [pe s⁻¹ m⁻² sr⁻¹], with k = peRadiancePerBandRadiance(camera,
-// spectrum) computed once at setup (sim/sensor/camera.h; `spectrum` flat | blackbody:T | moon |
-// night_sky names the source spectrum's shape). With spectrum "pe" the render stage already
-// gives photoelectron radiance (the scene renderer, rt/render_stage) and k = 1.
+// Input: the chain takes photoelectron radiance Lpe [pe s⁻¹ m⁻² sr⁻¹]. A render stage that gives
+// only band radiance L [W m⁻² sr⁻¹] (the test pattern) is converted, Lpe = L·k, with
+// k = peRadiancePerBandRadiance(camera, spectrum) computed once at setup (sim/sensor/camera.h;
+// `spectrum` flat | blackbody:T | moon | night_sky names the source spectrum's shape). The
+// scene renderer (rt/render_stage) gives Lpe itself, with spectrum "pe" and k = 1.
 //
 // The controls (manual gain, the automatic loops, the gate) are the chain's own policy
 // (sim/sensor/chain.h, ControlSource): with Controls::Platform each field's command is the
 // platform state's gain_V, agc, gate_s and gate_mode; with Controls::Preset the chain runs on
 // its preset alone. This stage converts units, hands the command over and copies the woven
-// video out; it does no physics. The gain and gate applied are written back into the frame's
+// video out; it does no physics. What the camera applied (gain, gate) is the field's
 // metadata. Setup allocates everything; expose() allocates nothing and throws nothing.
 
 #include <cstdint>
 #include <string>
 
-#include "rt/msg/stages.h"
+#include "rt/loop/stages.h"
 #include "sim/core/image.h"
 #include "sim/sensor/camera.h"
 #include "sim/sensor/chain.h"
@@ -42,8 +42,8 @@ class IiccdCameraStage final : public CameraStage {
     IiccdCameraStage& operator=(const IiccdCameraStage&) = delete;
 
     int bits() const noexcept override { return chain_.camera().adc_bits; }
-    void expose(const FrameRequest& req, ImageView<const float> radiance_W_m2_sr,
-                ImageView<std::uint16_t> counts, FrameMeta& meta) noexcept override;
+    void expose(const FrameRequest& req, RadianceFrame in, ImageView<std::uint16_t> counts,
+                FieldMeta& applied) noexcept override;
 
     const sensor::FieldInfo& lastField() const { return chain_.lastInfo(); }
     const sensor::CameraParams& camera() const { return chain_.camera(); }
@@ -54,7 +54,7 @@ class IiccdCameraStage final : public CameraStage {
   private:
     double lpePerL_;
     sensor::IiccdChain chain_;
-    ImageF lpe_;  // the input converted to photoelectron radiance (when lpePerL_ ≠ 1)
+    ImageF lpe_;  // band radiance converted to photoelectron radiance
 };
 
 }  // namespace nvs::rt

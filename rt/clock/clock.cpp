@@ -18,20 +18,6 @@ namespace {
 __extension__ typedef __int128 Int128;
 }  // namespace
 
-FrameRate FrameRate::fromHz(double hz) {
-    if (!(hz > 0.0) || hz > 10000.0) {
-        throw SetupError("frame rate " + std::to_string(hz) + " Hz: must be in (0, 10000]");
-    }
-    // The NTSC family is (n·1000/1001) Hz; accept its usual two-decimal spellings.
-    for (const std::int64_t n : {24, 30, 48, 60, 120}) {
-        const double ntsc = static_cast<double>(n) * 1000.0 / 1001.0;
-        if (std::fabs(hz - ntsc) < 0.006) return {n * 1000, 1001};
-    }
-    if (std::fabs(hz - std::round(hz)) < 1e-9)
-        return {static_cast<std::int64_t>(std::llround(hz)), 1};
-    return {static_cast<std::int64_t>(std::llround(hz * 1000.0)), 1000};
-}
-
 std::int64_t monotonicNow_ns() noexcept {
     timespec ts{};
     clock_gettime(CLOCK_MONOTONIC, &ts);

@@ -13,19 +13,12 @@
 #include <cstdint>
 #include <string>
 
+#include "sim/msg/rate.h"
+
 namespace nvs::rt {
 
-// A frame rate as an exact fraction num/den [Hz].
-struct FrameRate {
-    std::int64_t num = 60;
-    std::int64_t den = 1;
-
-    double hz() const { return static_cast<double>(num) / static_cast<double>(den); }
-    double period_s() const { return static_cast<double>(den) / static_cast<double>(num); }
-    // 59.94 → 60000/1001, 29.97 → 30000/1001, 23.976 → 24000/1001, integers → n/1, else the
-    // value in millihertz. Throws SetupError for non-positive or absurd rates.
-    static FrameRate fromHz(double hz);
-};
+// The exact rational rate the clocks tick at (sim/msg/rate.h: a file format carries it too).
+using msg::FrameRate;
 
 std::int64_t monotonicNow_ns() noexcept;
 std::int64_t realtimeNow_ns() noexcept;

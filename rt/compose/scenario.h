@@ -68,7 +68,7 @@
 
 #include "rt/clock/clock.h"
 #include "rt/loop/frame_loop.h"
-#include "rt/msg/messages.h"
+#include "rt/loop/stages.h"
 #include "sim/astro/ephemeris.h"
 #include "sim/sensor/camera.h"
 #include "sim/sky/atmosphere.h"

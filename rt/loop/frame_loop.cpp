@@ -28,15 +28,24 @@ FrameLoop::FrameLoop(const LoopConfig& config, PlatformSource& platform, RenderS
     if (config.clock == ClockKind::Trigger && config.trigger == nullptr) {
         throw SetupError("the trigger clock needs a trigger input");
     }
+    // Each slot holds the images the render stage fills, each in its own unit.
+    const RenderStage::Outputs out = render.outputs();
+    const auto image = [&](bool wanted) {
+        return wanted ? ImageF(config.width, config.height) : ImageF();
+    };
     for (int i = 0; i < kSlots; ++i) {
-        slots_[i].radiance = ImageF(config.width, config.height);
-        slots_[i].counts = ImageU16(config.width, config.height);
-        if (fields_ == 2) slots_[i].fieldRadiance = ImageF(config.width, config.height);
+        Slot& sl = slots_[i];
+        sl.lpe_pe_s_m2_sr = image(out.lpe_pe_s_m2_sr);
+        sl.band_W_m2_sr = image(out.band_W_m2_sr);
+        sl.counts = ImageU16(config.width, config.height);
+        sl.fieldLpe_pe_s_m2_sr = image(fields_ == 2 && out.lpe_pe_s_m2_sr);
+        sl.fieldBand_W_m2_sr = image(fields_ == 2 && out.band_W_m2_sr);
         free_.push(i);
     }
     if (fields_ == 2) fieldCounts_ = ImageU16(config.width, config.height);
     for (FrameSink* sink : sinks_) {
         if (auto* o = dynamic_cast<ExposureObserver*>(sink)) observers_.push_back(o);
+        if (auto* w = dynamic_cast<SinkWorker*>(sink)) workers_.push_back(w);
     }
     // Stalled: no edge for the timeout (default three nominal periods).
     triggerTimeout_ns_ =
@@ -54,7 +63,28 @@ double FrameLoop::tickTime_s(std::int64_t k) const {
     return config_.clock == ClockKind::Wall ? wall_.tickTime_s(k) : sim_.tickTime_s(k);
 }
 
+void FrameLoop::startWorkers() {
+    // Sink workers first, so that the first exposure scheduled finds its worker running. Real
+    // time as the table says when asked; a refusal is the one the loop's threads report.
+    const bool rt = config_.realtime;
+    for (SinkWorker* w : workers_) {
+        workerThreads_.emplace_back([w, rt] {
+            std::string ignored;
+            applyThreadSpec(kThreadGpio, rt, ignored);
+            w->runWorker();
+        });
+    }
+}
+
+void FrameLoop::joinWorkers() {
+    for (SinkWorker* w : workers_)
+        w->stopWorker();
+    for (std::thread& t : workerThreads_)
+        if (t.joinable()) t.join();
+}
+
 void FrameLoop::start(std::vector<std::string>& messages) {
+    startWorkers();
     if (config_.realtime) {
         std::string msg;
         if (lockMemory(msg) != 0) messages.push_back(msg);
@@ -96,6 +126,7 @@ void FrameLoop::join() {
     if (renderThread_.joinable()) renderThread_.join();
     if (cameraThread_.joinable()) cameraThread_.join();
     if (outputThread_.joinable()) outputThread_.join();
+    joinWorkers();
     stats_.frameTime = frameTime_;
     stats_.counters.framesRendered = framesRendered_;
     stats_.counters.droppedFrames += renderDropped_;
@@ -109,8 +140,10 @@ void FrameLoop::renderFrame(Slot& s, std::int64_t r, double t_k, double now_s) n
     for (int f = 0; f < fields_; ++f) {
         // Field f of an interlaced frame: t_f = t_k − (1 − f)·T_f; progressive: t_k.
         const double t_f = t_k - static_cast<double>(fields_ - 1 - f) * field_s_;
-        // Field 0 (or the whole frame) into the slot's image; field 1 into its field buffer.
-        ImageView<float> radiance = f == 0 ? s.radiance.view() : s.fieldRadiance.view();
+        // Field 0 (or the whole frame) into the slot's images; field 1 into its field buffers.
+        const RadianceTarget out =
+            f == 0 ? RadianceTarget{s.lpe_pe_s_m2_sr.view(), s.band_W_m2_sr.view()}
+                   : RadianceTarget{s.fieldLpe_pe_s_m2_sr.view(), s.fieldBand_W_m2_sr.view()};
         FrameMeta& m = f == 0 ? s.meta : s.fieldMeta;
         FrameRequest& req = s.request[f];
         req = FrameRequest{};
@@ -119,7 +152,7 @@ void FrameLoop::renderFrame(Slot& s, std::int64_t r, double t_k, double now_s) n
         req.exposure_s = exposure_s_;
         platform_.sample(t_f, now_s, req.platform);
         m.truthCount = 0;
-        render_.render(req, radiance, m);
+        render_.render(req, out, m);
     }
     s.frame = r;
 }
@@ -131,23 +164,21 @@ void FrameLoop::exposeFrame(Slot& s) noexcept {
     for (int f = 0; f < fields_; ++f) {
         const FrameRequest& req = s.request[f];
         const double t_f = req.t_sample_s;
-        const ImageF& radiance = f == 0 ? s.radiance : s.fieldRadiance;
+        const RadianceFrame in =
+            f == 0 ? RadianceFrame{s.lpe_pe_s_m2_sr.cview(), s.band_W_m2_sr.cview()}
+                   : RadianceFrame{s.fieldLpe_pe_s_m2_sr.cview(), s.fieldBand_W_m2_sr.cview()};
         ImageView<std::uint16_t> counts = f == 0 ? s.counts.view() : fieldCounts_.view();
         FrameMeta& m = f == 0 ? s.meta : s.fieldMeta;
-        camera_.expose(req, radiance.cview(), counts, m);
+        // What the camera applies starts as what was commanded; a camera with its own gain
+        // or gate control (AGC, autogate) overwrites it.
+        FieldMeta& applied = s.meta.field[f];
+        applied = FieldMeta{t_f, req.platform.gain_V, req.platform.gate_s};
+        camera_.expose(req, in, counts, applied);
+        applied.t_sample_s = t_f;
         m.frame = r;
         m.t_sample_s = t_f;
         m.exposure_s = exposure_s_;
-        // The camera stage may have changed gain/gate (AGC); keep what it set.
-        const double gain = m.platform.gain_V;
-        const double gate = m.platform.gate_s;
-        const bool cameraSet = m.platform.t_sample_s == t_f;
-        m.platform = req.platform;
-        if (cameraSet) {
-            m.platform.gain_V = gain;
-            m.platform.gate_s = gate;
-        }
-        s.meta.field[f] = FieldMeta{t_f, m.platform.gain_V, m.platform.gate_s};
+        m.platform = req.platform;  // as commanded
         stale = stale || req.platform.stale;
         // The exposure on the loop's timeline, for the gate pulse: it is scheduled now, while
         // the frame is made ahead of its emission.
@@ -158,7 +189,7 @@ void FrameLoop::exposeFrame(Slot& s) noexcept {
             w.t_sample_s = t_f;
             w.start_s = t_f - 0.5 * exposure_s_;
             w.exposure_s = exposure_s_;
-            w.gate_s = m.platform.gate_s;
+            w.gate_s = applied.gate_s;
             w.startMonotonic_ns = realClock ? wall_.start_ns() + std::llround(w.start_s * 1e9) : 0;
             for (ExposureObserver* o : observers_)
                 o->exposureScheduled(w);
@@ -170,8 +201,11 @@ void FrameLoop::exposeFrame(Slot& s) noexcept {
         const std::size_t radBytes = static_cast<std::size_t>(config_.width) * sizeof(float);
         const std::size_t cntBytes =
             static_cast<std::size_t>(config_.width) * sizeof(std::uint16_t);
+        const bool lpe = !s.lpe_pe_s_m2_sr.empty();
+        const bool band = !s.band_W_m2_sr.empty();
         for (int y = 1; y < config_.height; y += 2) {
-            std::memcpy(s.radiance.view().row(y), s.fieldRadiance.cview().row(y), radBytes);
+            if (lpe) std::memcpy(s.lpe_pe_s_m2_sr.row(y), s.fieldLpe_pe_s_m2_sr.row(y), radBytes);
+            if (band) std::memcpy(s.band_W_m2_sr.row(y), s.fieldBand_W_m2_sr.row(y), radBytes);
             std::memcpy(s.counts.view().row(y), fieldCounts_.cview().row(y), cntBytes);
         }
         s.meta.t_sample_s = s.fieldMeta.t_sample_s;
@@ -400,7 +434,7 @@ void FrameLoop::emit(int slot, std::int64_t tick, bool repeat, std::int64_t now_
     const bool wall = config_.clock != ClockKind::Sim;  // emission times are real
     OutputFrame of;
     of.meta = &s.meta;
-    of.radiance_W_m2_sr = s.radiance.cview();
+    of.radiance = RadianceFrame{s.lpe_pe_s_m2_sr.cview(), s.band_W_m2_sr.cview()};
     of.counts = s.counts.cview();
     of.bits = camera_.bits();
     of.tick = tick;

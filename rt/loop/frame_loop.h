@@ -53,6 +53,13 @@
 // edges that queued up while a frame rendered are overruns (counted; the newest one is used).
 // No edge for trigger timeout (default three periods) marks the trigger stalled in the live
 // counters until the next edge. Latency edge → frame written to every sink is a histogram.
+//
+// Commanded and applied. FrameMeta::platform is the platform state as commanded (the request's);
+// FrameMeta::field[f] is what the camera stage applied to each exposure (CameraStage::expose
+// fills it: with AGC the camera chooses its gain). The exposure observers get the applied gate.
+//
+// Sink workers. A sink that implements SinkWorker (the GPIO gate pulse) gets a thread of the
+// thread table (nvs-gpio) from start() to join(): drivers start no thread themselves.
 
 #include <array>
 #include <atomic>
@@ -62,7 +69,7 @@
 #include <vector>
 
 #include "rt/clock/clock.h"
-#include "rt/msg/stages.h"
+#include "rt/loop/stages.h"
 #include "rt/stats/stats.h"
 #include "sim/core/image.h"
 
@@ -155,12 +162,14 @@ class FrameLoop {
     FrameLoop(const FrameLoop&) = delete;
     FrameLoop& operator=(const FrameLoop&) = delete;
 
-    // Starts both threads. Messages about refused real-time settings go to `messages`.
+    // Starts the sink workers and the loop's threads. Messages about refused real-time settings go
+    // to `messages`.
     void start(std::vector<std::string>& messages);
     // Asks both threads to finish the frame in hand and stop (async-signal-safe: a store).
     void requestStop() noexcept;
     bool finished() const noexcept { return outputDone_.load(std::memory_order_acquire); }
-    // Waits for both threads. Statistics are complete after this.
+    // Waits for the loop's threads, then stops and joins the sink workers (the work they
+    // were given is finished). Statistics are complete after this.
     void join();
 
     const LiveCounters& live() const { return live_; }
@@ -179,11 +188,14 @@ class FrameLoop {
     struct Slot {
         std::int64_t frame = -1;
         FrameMeta meta;
-        ImageF radiance;
+        // The render stage's images (those its outputs() names are allocated).
+        ImageF lpe_pe_s_m2_sr;
+        ImageF band_W_m2_sr;
         ImageU16 counts;
-        // Render → camera: each exposure's request; interlaced: field 1's radiance and meta.
+        // Render → camera: each exposure's request; interlaced: field 1's images and meta.
         FrameRequest request[kMaxFields];
-        ImageF fieldRadiance;
+        ImageF fieldLpe_pe_s_m2_sr;
+        ImageF fieldBand_W_m2_sr;
         FrameMeta fieldMeta;
         std::int64_t start_ns = 0;  // when the render of this frame began (CLOCK_MONOTONIC)
         std::int64_t edge_ns = 0;   // trigger clock: the edge that started it
@@ -202,6 +214,8 @@ class FrameLoop {
     // Trigger clock: the next good edge (false when stopping).
     bool waitTrigger(std::int64_t& edge_ns) noexcept;
     bool acceptEdge(std::int64_t t_ns) noexcept;  // classifies one edge; false: extra
+    void startWorkers();                          // one thread per sink worker (start)
+    void joinWorkers();                           // stops them and waits (join)
 
     LoopConfig config_;
     PlatformSource& platform_;
@@ -215,6 +229,8 @@ class FrameLoop {
     double field_s_;  // field period (interlaced) [s]
     std::int64_t period_ns_;
     std::vector<ExposureObserver*> observers_;
+    std::vector<SinkWorker*> workers_;
+    std::vector<std::thread> workerThreads_;
     // Interlaced: the second field's counts (camera thread).
     ImageU16 fieldCounts_;
 

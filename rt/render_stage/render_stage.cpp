@@ -51,7 +51,7 @@ scene::CameraPose SceneRenderStage::poseFor(const PlatformState& p) const noexce
     return pose;
 }
 
-void SceneRenderStage::render(const FrameRequest& req, ImageView<float> lpe,
+void SceneRenderStage::render(const FrameRequest& req, RadianceTarget out,
                               FrameMeta& meta) noexcept {
     render::Renderer& r = sr_->renderer();
     const double t_s =
@@ -60,7 +60,8 @@ void SceneRenderStage::render(const FrameRequest& req, ImageView<float> lpe,
         r.setLampOn(i, ((req.platform.lampMask >> i) & 1u) != 0);
     if (req.platform.poseFromTelemetry) r.setCamera(poseFor(req.platform));
     const render::FrameSky sky = sr_->prepare(t_s);
-    r.render(sky, lpe, band_.view(), *pool_);
+    const ImageView<float> band = out.band_W_m2_sr.empty() ? band_.view() : out.band_W_m2_sr;
+    r.render(sky, out.lpe_pe_s_m2_sr, band, *pool_);
     const int n = r.truthBoxes(ids_, boxes_, kMaxTruthBoxes);
     meta.truthCount = n;
     for (int i = 0; i < n; ++i) {

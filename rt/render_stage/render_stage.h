@@ -1,5 +1,5 @@
 #pragma once
-// The renderer as the runtime's render stage (rt/msg/stages.h).
+// The renderer as the runtime's render stage (rt/loop/stages.h).
 //
 // UNIT: the image this stage writes is the photoelectron radiance at the lens, Lpe
 // [pe s⁻¹ m⁻² sr⁻¹] in the scenario camera's band (DESIGN §3) — what the IICCD chain consumes
@@ -22,7 +22,7 @@
 #include <memory>
 
 #include "rt/compose/scene_setup.h"
-#include "rt/msg/stages.h"
+#include "rt/loop/stages.h"
 #include "rt/render_stage/row_pool.h"
 
 namespace nvs::rt {
@@ -33,9 +33,11 @@ class SceneRenderStage final : public RenderStage {
     // scenario's size with its coarse tiles on its render threads (throws SetupError).
     static std::unique_ptr<SceneRenderStage> create(const Scenario& scenario);
 
-    void render(const FrameRequest& req, ImageView<float> lpe, FrameMeta& meta) noexcept override;
+    // Both images: Lpe for the camera, and the band radiance of the same frame.
+    Outputs outputs() const noexcept override { return {true, true}; }
+    void render(const FrameRequest& req, RadianceTarget out, FrameMeta& meta) noexcept override;
 
-    // The last frame's band radiance [W m⁻² sr⁻¹].
+    // The last frame's band radiance [W m⁻² sr⁻¹] when render() was given no band image.
     ImageView<const float> bandRadiance() const { return band_.cview(); }
     // Lamps of the scene switched on by the scenario at the start, as a lamp mask.
     std::uint32_t initialLampMask() const { return initialLamps_; }

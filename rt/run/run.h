@@ -12,7 +12,7 @@
 
 #include "rt/compose/scenario.h"
 #include "rt/loop/frame_loop.h"
-#include "rt/msg/stages.h"
+#include "rt/loop/stages.h"
 
 namespace nvs::rt {
 

@@ -6,7 +6,7 @@
 
 #include "rt/compose/scenario.h"
 #include "rt/loop/frame_loop.h"
-#include "rt/msg/stages.h"
+#include "rt/loop/stages.h"
 #include "rt/run/run.h"
 
 namespace nvs::rt {

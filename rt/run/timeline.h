@@ -12,7 +12,7 @@
 #include <vector>
 
 #include "rt/compose/scenario.h"
-#include "rt/msg/stages.h"
+#include "rt/loop/stages.h"
 
 namespace nvs::rt {
 

@@ -7,8 +7,9 @@
 
 namespace nvs::rt {
 
-void TestPatternRender::render(const FrameRequest& req, ImageView<float> radiance,
+void TestPatternRender::render(const FrameRequest& req, RadianceTarget out,
                                FrameMeta& meta) noexcept {
+    const ImageView<float> radiance = out.band_W_m2_sr;
     const int w = radiance.width();
     const int h = radiance.height();
     const int barRows = 3 * h / 4;
@@ -48,8 +49,9 @@ void TestPatternRender::render(const FrameRequest& req, ImageView<float> radianc
                  static_cast<float>(std::min(side, w - x0)), static_cast<float>(h - y0)};
 }
 
-void LinearCamera::expose(const FrameRequest& /*req*/, ImageView<const float> radiance,
-                          ImageView<std::uint16_t> counts, FrameMeta& /*meta*/) noexcept {
+void LinearCamera::expose(const FrameRequest& /*req*/, RadianceFrame in,
+                          ImageView<std::uint16_t> counts, FieldMeta& /*applied*/) noexcept {
+    const ImageView<const float> radiance = in.band_W_m2_sr;
     const float maxCount = static_cast<float>((1u << bits_) - 1u);
     quantize<std::uint16_t>(radiance, counts,
                             static_cast<float>(static_cast<double>(maxCount) / fullScale_), 0.0f);

@@ -18,7 +18,7 @@
 
 #include "drivers/can/can.h"
 #include "drivers/serial/serial.h"
-#include "rt/msg/stages.h"
+#include "rt/loop/stages.h"
 #include "rt/telemetry/track.h"
 
 namespace nvs::rt {

@@ -14,7 +14,7 @@
 
 #include <cstdint>
 
-#include "rt/msg/messages.h"
+#include "rt/loop/stages.h"
 
 namespace nvs::rt {
 

@@ -4,6 +4,8 @@
 
 #include <gtest/gtest.h>
 
+#include "drivers/can/fake/fake_can.h"
+
 namespace nvs::drivers {
 namespace {
 

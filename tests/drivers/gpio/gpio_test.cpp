@@ -15,6 +15,7 @@
 #include <thread>
 #include <vector>
 
+#include "drivers/gpio/fake/fake_gpio.h"
 #include "rt/clock/clock.h"
 #include "rt/loop/frame_loop.h"
 #include "rt/synth/synth.h"
@@ -236,14 +237,43 @@ TEST(GpioGateSink, LineErrorsAreCountedNotFatal) {
     rt::ExposureWindow w;
     w.exposure_s = 1e-3;  // startMonotonic_ns 0: at once
     line.fail(EIO);
+    // The pulse loop on a thread of the test's own (the runtime uses its thread table).
+    std::thread worker([&gate] { gate.runWorker(); });
     for (int k = 0; k < 3; ++k) {
         gate.exposureScheduled(w);
         std::this_thread::sleep_for(std::chrono::milliseconds(5));
     }
     EXPECT_LT(gate.write(f), 0);  // reported to the loop, which counts it
+    gate.stopWorker();
+    worker.join();
     gate.close();
     EXPECT_GE(line.counters().errors, 3);
     EXPECT_NE(gate.status().find("Input/output error"), std::string::npos) << gate.status();
+}
+
+// The sink starts no thread: a pulse waits for the runtime to run the sink's worker, which
+// then drives it and returns once stopped with its queue empty.
+TEST(GpioGateSink, PulsesWaitForTheWorkerTheRuntimeRuns) {
+    auto owned = std::make_unique<FakeGpioLine>();
+    FakeGpioLine& line = *owned;
+    GpioGateSink gate(std::move(owned), "gpiochip0", 4, false);
+    rt::ExposureWindow w;
+    w.exposure_s = 1e-3;  // startMonotonic_ns 0: at once
+    gate.exposureScheduled(w);
+    gate.exposureScheduled(w);
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    EXPECT_EQ(gate.pulses(), 0);
+    ASSERT_EQ(line.changes().size(), 1u);  // only the line set inactive at setup
+    gate.stopWorker();                     // stop before it runs: still drains the queue
+    std::thread worker([&gate] { gate.runWorker(); });
+    worker.join();
+    EXPECT_EQ(gate.pulses(), 2);
+    EXPECT_EQ(line.changes().size(), 5u);  // 0, then 1 and 0 per pulse
+    gate.close();
+    // After close() a worker returns at once and leaves the released line alone.
+    std::thread late([&gate] { gate.runWorker(); });
+    late.join();
+    EXPECT_EQ(line.changes().size(), 6u);  // close() set it inactive once more
 }
 
 TEST(GpioTrigger, MissingChipIsASetupErrorNamingTheSpec) {

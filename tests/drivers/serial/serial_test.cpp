@@ -6,6 +6,8 @@
 
 #include <cstring>
 
+#include "drivers/serial/fake/fake_serial.h"
+
 namespace nvs::drivers {
 namespace {
 

@@ -7,6 +7,8 @@
 #include <fstream>
 #include <sstream>
 
+#include "sim/sensor/image_io.h"
+
 namespace nvs::drivers {
 namespace {
 
@@ -22,13 +24,13 @@ std::string slurp(const fs::path& p) {
 // The metadata line: an interlaced frame also lists each field's own exposure (time, gain,
 // gate); a progressive one has no "fields" key. Both lines are whole JSON objects.
 TEST(Sinks, MetaLineListsTheFieldsOfAnInterlacedFrame) {
-    rt::FrameMeta meta;
+    msg::FrameMeta meta;
     meta.frame = 3;
     meta.t_sample_s = 0.1;
     meta.fieldCount = 2;
-    meta.field[0] = rt::FieldMeta{0.0833333333, 5.5, 0.0};
-    meta.field[1] = rt::FieldMeta{0.1, 5.75, 1e-4};
-    rt::OutputFrame f;
+    meta.field[0] = msg::FieldMeta{0.0833333333, 5.5, 0.0};
+    meta.field[1] = msg::FieldMeta{0.1, 5.75, 1e-4};
+    msg::OutputFrame f;
     f.meta = &meta;
     char buf[4096];
     const std::size_t n = MetaJsonlSink::format(f, buf, sizeof buf);
@@ -47,6 +49,64 @@ TEST(Sinks, MetaLineListsTheFieldsOfAnInterlacedFrame) {
     EXPECT_EQ(MetaJsonlSink::format(f, buf, n - 1), 0u);
 }
 
+// The frame-level gain_V and gate_s are what the camera applied to the exposure completing the
+// frame (field 1 when interlaced), not what the platform commanded; gate_mode and agc are the
+// commands.
+TEST(Sinks, MetaLineGivesTheAppliedGainAndGate) {
+    msg::FrameMeta meta;
+    meta.platform.gain_V = 4.0;  // commanded
+    meta.platform.gate_s = 2e-3;
+    meta.platform.gateMode = 1;
+    meta.fieldCount = 2;
+    meta.field[0] = msg::FieldMeta{0.0, 5.5, 1e-3};
+    meta.field[1] = msg::FieldMeta{0.02, 5.75, 1e-4};
+    msg::OutputFrame f;
+    f.meta = &meta;
+    char buf[4096];
+    std::string line(buf, MetaJsonlSink::format(f, buf, sizeof buf));
+    EXPECT_NE(line.find("\"gain_V\":5.75,\"gate_s\":0.0001,\"gate_mode\":1,"), std::string::npos)
+        << line;
+    meta.fieldCount = 1;
+    line.assign(buf, MetaJsonlSink::format(f, buf, sizeof buf));
+    EXPECT_NE(line.find("\"gain_V\":5.5,\"gate_s\":0.001,\"gate_mode\":1,"), std::string::npos)
+        << line;
+}
+
+// EXR files say what they hold, as `nvstim render` labels its files (nvstim.unit, which
+// `nvstim sensor --in` reads): Lpe in NNNNNN.exr and the band radiance in NNNNNN.band.exr
+// when the frame has both; the band radiance alone in NNNNNN.exr.
+TEST(Sinks, ExrFilesCarryTheirUnit) {
+    const fs::path dir = fs::temp_directory_path() / ("nvs_exr_" + std::to_string(::getpid()));
+    fs::remove_all(dir);
+    ImageF lpe(4, 3), band(4, 3);
+    lpe.fill(2.5e6f);
+    band.fill(1.25e-7f);
+    msg::FrameMeta meta;
+    msg::OutputFrame f;
+    f.meta = &meta;
+    f.radiance = msg::RadianceFrame{lpe.cview(), band.cview()};
+    f.tick = 2;
+    ExrSequenceSink sink((dir / "both").string(), 4, 3);
+    ASSERT_EQ(sink.write(f), 0);
+    f.radiance = msg::RadianceFrame{{}, band.cview()};
+    ExrSequenceSink bandOnly((dir / "band").string(), 4, 3);
+    ASSERT_EQ(bandOnly.write(f), 0);
+    f.radiance = msg::RadianceFrame{};
+    EXPECT_LT(bandOnly.write(f), 0);  // nothing to write is an error, counted
+
+    const sensor::RadianceFile pe = sensor::readRadiance(dir / "both" / "000002.exr");
+    EXPECT_EQ(pe.unit, "pe/s/m2/sr");
+    EXPECT_EQ(pe.image(3, 2), 2.5e6f);
+    const sensor::RadianceFile l = sensor::readRadiance(dir / "both" / "000002.band.exr");
+    EXPECT_EQ(l.unit, "W/m2/sr");
+    EXPECT_EQ(l.image(0, 0), 1.25e-7f);
+    const sensor::RadianceFile only = sensor::readRadiance(dir / "band" / "000002.exr");
+    EXPECT_EQ(only.unit, "W/m2/sr");
+    EXPECT_EQ(only.image(1, 1), 1.25e-7f);
+    EXPECT_FALSE(fs::exists(dir / "band" / "000002.band.exr"));
+    fs::remove_all(dir);
+}
+
 TEST(Sinks, PgmAndY4mBytesAreExact) {
     const fs::path dir = fs::temp_directory_path() / ("nvs_sinks_" + std::to_string(::getpid()));
     fs::remove_all(dir);
@@ -56,18 +116,18 @@ TEST(Sinks, PgmAndY4mBytesAreExact) {
         for (int x = 0; x < 3; ++x)
             counts(x, y) = static_cast<std::uint16_t>(1000 * y + x);  // 10-bit values
     ImageF rad(3, 2);
-    rt::FrameMeta meta;
-    rt::OutputFrame f;
+    msg::FrameMeta meta;
+    msg::OutputFrame f;
     f.meta = &meta;
     f.counts = counts.cview();
-    f.radiance_W_m2_sr = rad.cview();
+    f.radiance.band_W_m2_sr = rad.cview();
     f.bits = 10;
     f.tick = 7;
     {
         PgmSequenceSink pgm((dir / "pgm").string(), 3, 2, 10);
         ASSERT_EQ(pgm.write(f), 0);
         pgm.close();
-        Y4mSink y4m((dir / "v.y4m").string(), 3, 2, 10, rt::FrameRate{30000, 1001});
+        Y4mSink y4m((dir / "v.y4m").string(), 3, 2, 10, msg::FrameRate{30000, 1001});
         ASSERT_EQ(y4m.write(f), 0);
         EXPECT_FALSE(fs::exists(dir / "v.y4m"));  // only complete streams appear
         y4m.close();
@@ -90,7 +150,7 @@ TEST(Sinks, PgmAndY4mBytesAreExact) {
 }
 
 TEST(Sinks, UnwritablePathIsASetupError) {
-    EXPECT_THROW(Y4mSink("/proc/nvs-no/v.y4m", 4, 4, 8, rt::FrameRate{}), std::exception);
+    EXPECT_THROW(Y4mSink("/proc/nvs-no/v.y4m", 4, 4, 8, msg::FrameRate{}), std::exception);
     EXPECT_THROW(MetaJsonlSink("/proc/nvs-no/m.jsonl"), std::exception);
 }
 

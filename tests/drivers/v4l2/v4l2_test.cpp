@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "drivers/v4l2/fake/fake_v4l2.h"
 #include "rt/loop/frame_loop.h"
 #include "rt/synth/synth.h"
 

@@ -16,13 +16,14 @@ namespace {
 
 class NullRender final : public RenderStage {
   public:
-    void render(const FrameRequest&, ImageView<float>, FrameMeta&) noexcept override {}
+    Outputs outputs() const noexcept override { return {false, true}; }
+    void render(const FrameRequest&, RadianceTarget, FrameMeta&) noexcept override {}
 };
 class NullCamera final : public CameraStage {
   public:
     int bits() const noexcept override { return 8; }
-    void expose(const FrameRequest&, ImageView<const float>, ImageView<std::uint16_t>,
-                FrameMeta&) noexcept override {}
+    void expose(const FrameRequest&, RadianceFrame, ImageView<std::uint16_t>,
+                FieldMeta&) noexcept override {}
 };
 class NullSink final : public FrameSink {
   public:

@@ -82,7 +82,7 @@ CameraParams preset(sensor::Overrides ov) {
 struct Frame {
     ImageF radiance;
     ImageU16 counts;
-    FrameMeta meta;
+    FieldMeta applied;  // what the camera applied (expose's result)
     FrameRequest req;
     Frame(int w, int h, float L) : radiance(w, h), counts(w, h) { radiance.fill(L); }
 };
@@ -102,7 +102,7 @@ TEST(IiccdCameraStage, PresetControlsAreTheChainBitForBit) {
             }
         }
         f.req.frame = k;
-        stage.expose(f.req, f.radiance.cview(), f.counts.view(), f.meta);
+        stage.expose(f.req, RadianceFrame{{}, f.radiance.cview()}, f.counts.view(), f.applied);
         const sensor::FieldInfo& info = chain.process(lpe.cview());
         EXPECT_EQ(stage.lastField().level_dc, info.level_dc) << "field " << k;
         for (int y = 0; y < 48; ++y)
@@ -130,12 +130,12 @@ TEST(IiccdCameraStage, PlatformStateIsTheChainsCommand) {
         f.req.platform.gain_V = volts[k];
         f.req.platform.gateMode = k == 1 ? 1 : 0;
         f.req.platform.gate_s = 2e-3;
-        stage.expose(f.req, f.radiance.cview(), f.counts.view(), f.meta);
+        stage.expose(f.req, RadianceFrame{{}, f.radiance.cview()}, f.counts.view(), f.applied);
         const sensor::CameraCommand cmd{volts[k], 2e-3, k == 1 ? 1 : 0, k == 2};
         const sensor::FieldInfo& info = chain.process(lpe.cview(), cmd, f.req.t_sample_s);
-        EXPECT_EQ(f.meta.platform.gain_V, info.gain_V) << "field " << k;
-        EXPECT_EQ(f.meta.platform.gate_s, info.gate_s) << "field " << k;
-        EXPECT_EQ(f.meta.platform.t_sample_s, f.req.t_sample_s);
+        EXPECT_EQ(f.applied.gain_V, info.gain_V) << "field " << k;
+        EXPECT_EQ(f.applied.gate_s, info.gate_s) << "field " << k;
+        EXPECT_EQ(f.applied.t_sample_s, f.req.t_sample_s);
         for (int y = 0; y < 48; ++y)
             for (int x = 0; x < 64; ++x)
                 ASSERT_EQ(f.counts.cview().row(y)[x], chain.video().cview().row(y)[x])
@@ -147,14 +147,14 @@ TEST(IiccdCameraStage, ExposeAllocatesNothing) {
     const CameraParams cam = preset({{"agc", "agc"}});
     IiccdCameraStage stage(cam, "moon", 3, IiccdCameraStage::Controls::Platform);
     Frame f(64, 48, 3e-7f);
-    stage.expose(f.req, f.radiance.cview(), f.counts.view(), f.meta);
+    stage.expose(f.req, RadianceFrame{{}, f.radiance.cview()}, f.counts.view(), f.applied);
     const long before = gAllocations.load();
     for (int k = 0; k < 10; ++k) {
         f.req.platform.agc = k % 3 != 0;
         f.req.platform.gain_V = 4.0 + 0.1 * k;
         f.req.platform.gateMode = k % 2;
         f.req.platform.gate_s = 1e-3;
-        stage.expose(f.req, f.radiance.cview(), f.counts.view(), f.meta);
+        stage.expose(f.req, RadianceFrame{{}, f.radiance.cview()}, f.counts.view(), f.applied);
     }
     EXPECT_EQ(gAllocations.load() - before, 0);
 }

@@ -62,8 +62,9 @@ TEST(TestPattern, BarsHaveTheirClosedFormRadianceAndCountsAreLinear) {
     FrameRequest req;
     req.platform.yaw_rad = 0.5 * 3.14159265358979;  // a quarter turn
     FrameMeta meta;
-    render.render(req, rad.view(), meta);
-    camera.expose(req, rad.cview(), counts.view(), meta);
+    render.render(req, RadianceTarget{{}, rad.view()}, meta);
+    FieldMeta applied;
+    camera.expose(req, RadianceFrame{{}, rad.cview()}, counts.view(), applied);
     for (int bar = 0; bar < 8; ++bar) {
         const int x = bar * 8 + 3;
         EXPECT_FLOAT_EQ(rad(x, 5), static_cast<float>(lMax * bar / 7.0)) << bar;
@@ -115,8 +116,9 @@ class SlowRender final : public RenderStage {
     static constexpr std::int64_t kEveryFrame = -2;  // slowFrame: every frame is slow
     explicit SlowRender(std::int64_t slowFrame, double delay_s)
         : slow_(slowFrame), delay_(delay_s) {}
-    void render(const FrameRequest& req, ImageView<float> r, FrameMeta&) noexcept override {
-        r.fill(static_cast<float>(req.frame));
+    Outputs outputs() const noexcept override { return {false, true}; }
+    void render(const FrameRequest& req, RadianceTarget out, FrameMeta&) noexcept override {
+        out.band_W_m2_sr.fill(static_cast<float>(req.frame));
         if (req.frame == slow_ || slow_ == kEveryFrame) {
             std::this_thread::sleep_for(std::chrono::duration<double>(delay_));
         }
@@ -153,6 +155,65 @@ RunStats runToEnd(const LoopConfig& cfg, RenderStage& render, CameraStage& camer
                   RecordingSink& sink, std::int64_t* tick0_ns = nullptr) {
     HeldPlatform platform(PlatformState{});
     return runToEnd(cfg, platform, render, camera, sink, tick0_ns);
+}
+
+// A camera with its own gain control: it applies commanded + 1 V and a 2 ms gate.
+class GainControlCamera final : public CameraStage {
+  public:
+    int bits() const noexcept override { return 8; }
+    void expose(const FrameRequest& req, RadianceFrame, ImageView<std::uint16_t>,
+                FieldMeta& applied) noexcept override {
+        EXPECT_EQ(applied.gain_V, req.platform.gain_V);  // arrives as commanded
+        applied.gain_V = req.platform.gain_V + 1.0;
+        applied.gate_s = 2e-3;
+    }
+};
+
+// The sink sees the platform as commanded and each field as the camera applied it; exposure
+// observers get the applied gate.
+class MetaSink final : public FrameSink, public ExposureObserver {
+  public:
+    const char* name() const noexcept override { return "meta"; }
+    int write(const OutputFrame& f) noexcept override {
+        if (n < 8) meta[n++] = *f.meta;
+        return 0;
+    }
+    int close() noexcept override { return 0; }
+    std::string status() const override { return "meta"; }
+    void exposureScheduled(const ExposureWindow& w) noexcept override { gate_s = w.gate_s; }
+    FrameMeta meta[8];
+    int n = 0;
+    double gate_s = 0.0;
+};
+
+TEST(FrameLoop, MetadataKeepsCommandedAndAppliedApart) {
+    for (const ScanKind scan : {ScanKind::Progressive, ScanKind::Interlaced}) {
+        LoopConfig cfg = smallLoop(FrameRate{30, 1}, ClockKind::Sim, 3);
+        cfg.scan = scan;
+        PlatformState commanded;
+        commanded.gain_V = 4.5;
+        commanded.gate_s = 5e-3;
+        HeldPlatform platform(commanded);
+        SlowRender render(-1, 0.0);
+        GainControlCamera camera;
+        MetaSink sink;
+        FrameLoop loop(cfg, platform, render, camera, {&sink});
+        std::vector<std::string> msgs;
+        loop.start(msgs);
+        loop.join();
+        ASSERT_EQ(sink.n, 3);
+        for (int k = 0; k < sink.n; ++k) {
+            const FrameMeta& m = sink.meta[k];
+            EXPECT_EQ(m.platform.gain_V, 4.5);
+            EXPECT_EQ(m.platform.gate_s, 5e-3);
+            for (int f = 0; f < m.fieldCount; ++f) {
+                EXPECT_EQ(m.field[f].gain_V, 5.5);
+                EXPECT_EQ(m.field[f].gate_s, 2e-3);
+            }
+            EXPECT_EQ(m.applied().gain_V, 5.5);
+        }
+        EXPECT_EQ(sink.gate_s, 2e-3);
+    }
 }
 
 TEST(FrameLoop, SimClockEmitsEveryFrameInOrder) {
@@ -249,10 +310,10 @@ class SlowCamera final : public CameraStage {
   public:
     SlowCamera(double delay_s, int bits) : inner_(1000.0, bits), delay_(delay_s) {}
     int bits() const noexcept override { return inner_.bits(); }
-    void expose(const FrameRequest& req, ImageView<const float> radiance,
-                ImageView<std::uint16_t> counts, FrameMeta& meta) noexcept override {
+    void expose(const FrameRequest& req, RadianceFrame in, ImageView<std::uint16_t> counts,
+                FieldMeta& applied) noexcept override {
         std::this_thread::sleep_for(std::chrono::duration<double>(delay_));
-        inner_.expose(req, radiance, counts, meta);
+        inner_.expose(req, in, counts, applied);
     }
 
   private:

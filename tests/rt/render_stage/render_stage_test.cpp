@@ -27,13 +27,13 @@ Scenario ritScenario(const char* name, int coarse, int threads) {
 TEST(SceneRenderStage, SamePixelsAsTheRendererWithOneAndTwoThreads) {
     auto one = SceneRenderStage::create(ritScenario("nolight.toml", 1, 1));
     auto two = SceneRenderStage::create(ritScenario("nolight.toml", 1, 2));
-    ImageF a(768, 494), b(768, 494), direct(768, 494), band(768, 494);
+    ImageF a(768, 494), b(768, 494), direct(768, 494), band(768, 494), bandA(768, 494);
     FrameRequest req;
     req.t_sample_s = 0.0;
     req.platform.lampMask = one->initialLampMask();
     FrameMeta ma, mb;
-    one->render(req, a.view(), ma);
-    two->render(req, b.view(), mb);
+    one->render(req, RadianceTarget{a.view(), bandA.view()}, ma);
+    two->render(req, RadianceTarget{b.view(), {}}, mb);
     auto sr = ScenarioRenderer::create(rit("nolight.toml"), 1);
     render::SerialExecutor exec;
     sr->renderer().render(sr->prepare(0.0), direct.view(), band.view(), exec);
@@ -42,6 +42,7 @@ TEST(SceneRenderStage, SamePixelsAsTheRendererWithOneAndTwoThreads) {
         for (int x = 0; x < 768; ++x) {
             ASSERT_EQ(a(x, y), b(x, y)) << x << "," << y;
             ASSERT_EQ(a(x, y), direct(x, y)) << x << "," << y;
+            ASSERT_EQ(bandA(x, y), band(x, y)) << x << "," << y;  // into the loop's image
             sum += static_cast<double>(a(x, y));
         }
     }
@@ -87,9 +88,9 @@ TEST(SceneRenderStage, LampMaskSwitchesLamps) {
     FrameRequest req;
     FrameMeta m;
     req.platform.lampMask = s->initialLampMask();
-    s->render(req, on.view(), m);
+    s->render(req, RadianceTarget{on.view(), {}}, m);
     req.platform.lampMask = 0;
-    s->render(req, off.view(), m);
+    s->render(req, RadianceTarget{off.view(), {}}, m);
     double sOn = 0.0, sOff = 0.0;
     for (int y = 0; y < 494; ++y) {
         for (int x = 0; x < 768; ++x) {

@@ -10,6 +10,8 @@
 #include <string>
 #include <vector>
 
+#include "drivers/can/fake/fake_can.h"
+#include "drivers/serial/fake/fake_serial.h"
 #include "rt/clock/clock.h"
 #include "rt/telemetry/sources.h"
 #include "sim/core/units.h"

@@ -14,10 +14,10 @@
 //              ready for DQBUF, unless stallConsumer. DQBUF: EAGAIN when none is ready
 //              (the node is non-blocking). STREAMON takes what was queued before it.
 
+#include "drivers/v4l2/fake/fake_v4l2.h"
+
 #include <cerrno>
 #include <cstring>
-
-#include "drivers/v4l2/v4l2.h"
 
 namespace nvs::drivers {
 

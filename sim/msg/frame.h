@@ -1,0 +1,77 @@
+#pragma once
+// Per-frame messages between the runtime's stages and its sinks (STYLE §5). Plain structs,
+// fixed size, no owning pointers: a stage consumes one and fills another; nothing is allocated
+// per frame. Every time is on the run clock (seconds since the run started).
+
+#include <cstdint>
+
+#include "sim/core/image.h"
+#include "sim/msg/platform.h"
+
+namespace nvs::msg {
+
+// A tagged object's bounding box in output pixel coordinates (ground truth for the equipment
+// under test's detector).
+struct TruthBox {
+    std::int32_t id = 0;
+    float x_px = 0.0f, y_px = 0.0f, w_px = 0.0f, h_px = 0.0f;
+};
+inline constexpr int kMaxTruthBoxes = 16;
+
+// Request to render and expose one frame (or one field of an interlaced frame).
+struct FrameRequest {
+    std::int64_t frame = 0;   // frame index k
+    double t_sample_s = 0.0;  // exposure mid-time [s]
+    double exposure_s = 0.0;  // integration time [s]
+    PlatformState platform;   // pose and camera commands at t_sample_s
+};
+
+// The radiance at the lens of one frame, each image in its own unit. Either may be empty: a
+// stage fills what it produces (RenderStage::Outputs, rt/loop/stages.h).
+//   lpe_pe_s_m2_sr  photoelectron radiance Lpe [pe s⁻¹ m⁻² sr⁻¹] in the camera's band: what
+//                   the camera chain consumes (the scene renderer's output).
+//   band_W_m2_sr    band-integrated radiance L [W m⁻² sr⁻¹] (the scene renderer's second
+//                   output; the test pattern's only one, which a camera converts to Lpe with
+//                   its own k = peRadiancePerBandRadiance, sim/sensor/camera.h).
+template <typename T>
+struct RadianceImages {
+    ImageView<T> lpe_pe_s_m2_sr;
+    ImageView<T> band_W_m2_sr;
+};
+using RadianceFrame = RadianceImages<const float>;  // to read (camera, sinks)
+using RadianceTarget = RadianceImages<float>;       // to fill (render)
+
+// What the camera applied to one exposure: the whole frame (progressive scan) or one field
+// (interlaced scan). The camera stage's result (CameraStage::expose, rt/loop/stages.h).
+struct FieldMeta {
+    double t_sample_s = 0.0;  // exposure mid-time [s]
+    double gain_V = 0.0;      // MCP control voltage applied (a linear camera: as commanded) [V]
+    double gate_s = 0.0;      // photocathode gate applied [s] (0: continuous)
+};
+inline constexpr int kMaxFields = 2;
+
+// What a frame carries besides its pixels (the JSON-lines metadata record, DESIGN §6).
+// Interlaced scan (rt/loop/frame_loop.h): a frame is woven from two fields, field 0 on the even
+// rows, exposed one field period before field 1 on the odd rows. The frame-level fields
+// (t_sample_s, platform, truth) are those of field 1, the field that completes the frame;
+// `field[f]` holds what the camera applied to each field. Progressive scan: fieldCount = 1 and
+// field[0] is the frame's.
+struct FrameMeta {
+    std::int64_t frame = 0;
+    double t_sample_s = 0.0;  // exposure mid-time [s]
+    double exposure_s = 0.0;  // of one exposure (a field when interlaced) [s]
+    PlatformState platform;   // as commanded
+    std::int32_t truthCount = 0;
+    TruthBox truth[kMaxTruthBoxes];
+    std::int32_t fieldCount = 1;
+    FieldMeta field[kMaxFields];  // as applied, per exposure
+    // Trigger clock: CLOCK_MONOTONIC time of the rising edge that started the exposure (0 else).
+    std::int64_t triggerEdge_ns = 0;
+
+    // What the camera applied to the exposure that completes the frame.
+    const FieldMeta& applied() const {
+        return field[fieldCount >= kMaxFields ? kMaxFields - 1 : 0];
+    }
+};
+
+}  // namespace nvs::msg
