@@ -12,18 +12,21 @@ sensor::CameraParams IiccdCameraStage::autoParams(const sensor::CameraParams& ca
 }
 
 IiccdCameraStage::IiccdCameraStage(const sensor::CameraParams& cam, const std::string& spectrum,
-                                   std::uint64_t seed, Controls controls)
+                                   std::uint64_t seed, Controls controls,
+                                   const std::filesystem::path& configDir,
+                                   GammaTableCache& gammaTables)
     : cam_(cam),
       camAuto_(autoParams(cam)),
       controls_(controls),
-      lpePerL_(spectrum == "pe" ? 1.0 : sensor::peRadiancePerBandRadiance(cam, spectrum)),
+      lpePerL_(spectrum == "pe" ? 1.0
+                                : sensor::peRadiancePerBandRadiance(configDir, cam, spectrum)),
       optics_(cam_),
       gate_(cam_),
       cathode_(cam_, seed),
       bsp_(cam_),
-      mcp_(cam_, seed),
+      mcp_(cam_, seed, gammaTables),
       phosphor_(cam_),
-      blur_(cam_, sensor::ChainOptions{}),
+      blur_(cam_, sensor::ChainOptions{}, configDir),
       ccd_(cam_, seed),
       videoStage_(cam_),
       agcPreset_(cam_),

@@ -28,10 +28,11 @@ double unixFromCalendar(const astro::CalendarInstant& c) {
 }  // namespace
 
 std::unique_ptr<SceneRenderStage> SceneRenderStage::create(const std::filesystem::path& scenario,
-                                                           int width, int height, int coarseFactor,
+                                                           const DataDirs& dirs, int width,
+                                                           int height, int coarseFactor,
                                                            int threads) {
     auto s = std::unique_ptr<SceneRenderStage>(new SceneRenderStage());
-    s->sr_ = render::ScenarioRenderer::create(scenario, coarseFactor);
+    s->sr_ = render::ScenarioRenderer::create(scenario, dirs, coarseFactor);
     const scene::RenderScenario& rs = s->sr_->scenario();
     if (rs.width != width || rs.height != height) {
         throw SetupError(rs.file.string() + ": the render size " + std::to_string(rs.width) + "x" +

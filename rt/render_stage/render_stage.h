@@ -29,11 +29,11 @@ namespace nvs::rt {
 
 class SceneRenderStage final : public RenderStage {
   public:
-    // Setup: loads the scenario's scene, camera preset and sky (throws SetupError). The
-    // runtime's image must be width × height of the scenario.
+    // Setup: loads the scenario's scene, camera preset and sky (throws SetupError), data and
+    // caches from dirs. The runtime's image must be width × height of the scenario.
     static std::unique_ptr<SceneRenderStage> create(const std::filesystem::path& scenario,
-                                                    int width, int height, int coarseFactor,
-                                                    int threads);
+                                                    const DataDirs& dirs, int width, int height,
+                                                    int coarseFactor, int threads);
 
     void render(const FrameRequest& req, ImageView<float> lpe, FrameMeta& meta) noexcept override;
 

@@ -55,7 +55,8 @@ T getOr(const std::optional<ConfigTable>& t, std::string_view key, const T& def)
 // [camera]: the preset with its overrides; the scenario's explicit size and ADC depth are
 // applied as overrides so that the preset's own validation sees them.
 void readCamera(const ConfigTable& t, std::optional<int> width, std::optional<int> height,
-                std::optional<int> bits, std::uint64_t defaultSeed, CameraSpec& out) {
+                std::optional<int> bits, std::uint64_t defaultSeed,
+                const std::filesystem::path& configDir, CameraSpec& out) {
     const std::string preset = t.require<std::string>("preset");
     sensor::Overrides ov;
     try {
@@ -72,13 +73,13 @@ void readCamera(const ConfigTable& t, std::optional<int> width, std::optional<in
     put("height", height);
     put("video.adc_bits", bits);
     try {
-        out.params = sensor::loadCamera(preset, ov);
+        out.params = sensor::loadCamera(configDir, preset, ov);
     } catch (const SetupError& e) {
         t.fail("preset", e.what());
     }
     out.spectrum = t.get<std::string>("spectrum", "flat");
     try {
-        (void)sensor::spectrumShape(out.spectrum);
+        (void)sensor::spectrumShape(configDir, out.spectrum);
     } catch (const SetupError& e) {
         t.fail("spectrum", e.what());
     }
@@ -93,7 +94,8 @@ void readCamera(const ConfigTable& t, std::optional<int> width, std::optional<in
     out.enabled = true;
 }
 
-Scenario fromDocument(const ConfigDocument& doc, const std::string& file) {
+Scenario fromDocument(const ConfigDocument& doc, const std::string& file,
+                      const std::filesystem::path& configDir) {
     Scenario sc;
     sc.file = file;
     const ConfigTable root = doc.root();
@@ -110,7 +112,7 @@ Scenario fromDocument(const ConfigDocument& doc, const std::string& file) {
     const std::optional<int> heightGiven = s.optional<int>("height");
     const std::optional<int> bitsGiven = s.optional<int>("bits");
     const std::optional<ConfigTable> cam = root.optionalTable("camera");
-    if (cam) readCamera(*cam, widthGiven, heightGiven, bitsGiven, sc.seed, sc.camera);
+    if (cam) readCamera(*cam, widthGiven, heightGiven, bitsGiven, sc.seed, configDir, sc.camera);
     const sensor::CameraParams& cp = sc.camera.params;
     const std::string scan = s.get<std::string>("scan", "progressive");
     if (scan == "progressive") {
@@ -307,19 +309,20 @@ Scenario fromDocument(const ConfigDocument& doc, const std::string& file) {
 
 }  // namespace
 
-Scenario loadScenario(const std::filesystem::path& path) {
+Scenario loadScenario(const std::filesystem::path& path, const std::filesystem::path& configDir) {
     std::filesystem::path file = path;
     if (std::filesystem::is_directory(path)) file = path / "scenario.toml";
     if (!std::filesystem::exists(file)) {
         throw SetupError("scenario '" + path.string() + "': no such file");
     }
     const ConfigDocument doc = ConfigDocument::parseFile(file);
-    return fromDocument(doc, file.string());
+    return fromDocument(doc, file.string(), configDir);
 }
 
-Scenario parseScenario(const std::string& text, const std::string& name) {
+Scenario parseScenario(const std::string& text, const std::string& name,
+                       const std::filesystem::path& configDir) {
     const ConfigDocument doc = ConfigDocument::parseString(text, name);
-    return fromDocument(doc, name);
+    return fromDocument(doc, name, configDir);
 }
 
 }  // namespace nvs::rt

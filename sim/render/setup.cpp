@@ -23,7 +23,7 @@ RenderConfig renderConfigFor(const sensor::CameraParams& cam, int width, int hei
 }
 
 std::unique_ptr<ScenarioRenderer> ScenarioRenderer::create(const std::filesystem::path& path,
-                                                           int coarseFactor) {
+                                                           const DataDirs& dirs, int coarseFactor) {
     auto r = std::unique_ptr<ScenarioRenderer>(new ScenarioRenderer());
     r->scenario_ = scene::loadRenderScenario(path);
     r->scene_ = scene::loadScene(r->scenario_.sceneFile);
@@ -39,7 +39,7 @@ std::unique_ptr<ScenarioRenderer> ScenarioRenderer::create(const std::filesystem
             r->scene_.lamps[static_cast<std::size_t>(i)].on = true;
         }
     }
-    r->camera_ = sensor::loadCamera(r->scenario_.cameraPreset,
+    r->camera_ = sensor::loadCamera(dirs.config, r->scenario_.cameraPreset,
                                     sensor::parseOverrides(r->scenario_.cameraOverrides));
     r->ephemeris_ = std::make_unique<astro::Ephemeris>(r->scenario_.site);
     r->epoch_ = astro::astroTimeFromUtc(
@@ -52,20 +52,21 @@ std::unique_ptr<ScenarioRenderer> ScenarioRenderer::create(const std::filesystem
     sc.atmosphere = r->scenario_.atmosphere;
     sc.extraBands.push_back({"render_pe", cfg.bandWeight[kBandPe]});
     sc.extraBands.push_back({"render_W", cfg.bandWeight[kBandW]});
-    r->sky_ = std::make_unique<sky::SkyModel>(sky::SkyModel::create(sc));
+    r->sky_ = std::make_unique<sky::SkyModel>(sky::SkyModel::create(sc, dirs));
     r->tableBand_ = {r->sky_->table().bandIndex("render_pe"),
                      r->sky_->table().bandIndex("render_W")};
     cfg.moonShape = r->sky_->moon().referenceIrradiance_W_m2_nm();
-    const sky::NightSkyModel night = sky::NightSkyModel::load();
+    const sky::NightSkyModel night = sky::NightSkyModel::load(dirs.config);
     cfg.nightSkyShape = night.measured_W_m2_sr_nm();
     r->renderer_ = std::make_unique<Renderer>(r->scene_, cfg);
-    r->stars_ = loadStarCatalog(defaultStarCatalogPath());
+    r->stars_ = loadStarCatalog(starCatalogPath(dirs.config));
     if (r->stars_.size() > static_cast<std::size_t>(kMaxStars)) {
         throw SetupError(r->stars_.file + ": more than " + std::to_string(kMaxStars) + " stars");
     }
+    const Photometry photometry(dirs.config);
     for (int b = 0; b < kBands; ++b) {
         r->starBandPerLux_[static_cast<std::size_t>(b)] =
-            bandPerLux(cfg.bandWeight[static_cast<std::size_t>(b)], kStarTemperature_K);
+            bandPerLux(photometry, cfg.bandWeight[static_cast<std::size_t>(b)], kStarTemperature_K);
     }
     r->starAz_.assign(r->stars_.size(), 0.0);
     r->starAlt_.assign(r->stars_.size(), 0.0);

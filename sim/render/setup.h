@@ -26,8 +26,10 @@ RenderConfig renderConfigFor(const sensor::CameraParams& cam, int width, int hei
 
 class ScenarioRenderer {
   public:
+    // Data (camera preset, sky, stars) from dirs.config, the atmosphere table cached in
+    // dirs.cache.
     static std::unique_ptr<ScenarioRenderer> create(const std::filesystem::path& scenarioPath,
-                                                    int coarseFactor = 1);
+                                                    const DataDirs& dirs, int coarseFactor = 1);
 
     // Sets the scene to frame k (moving objects, Sun/Moon, stars) and returns the frame's sky.
     // t_s is the time since the scenario epoch. No allocation, no throw.

@@ -21,6 +21,7 @@
 #include "rt/run/scenario.h"
 #include "sim/core/error.h"
 #include "sim/sensor/chain.h"
+#include "tests/sim/core/test_paths.h"
 
 namespace {
 std::atomic<long> gAllocations{0};
@@ -73,10 +74,15 @@ namespace {
 
 using sensor::CameraParams;
 
+GammaTableCache& gammaTables() {
+    static GammaTableCache tables;
+    return tables;
+}
+
 CameraParams preset(sensor::Overrides ov) {
     ov["width"] = "64";
     ov["height"] = "48";
-    return sensor::loadCamera("pulnix-ag5745ef3", ov);
+    return sensor::loadCamera(test::configDir(), "pulnix-ag5745ef3", ov);
 }
 
 // A camera with every noise and spatial effect off, frame scan: the output is a deterministic
@@ -110,8 +116,9 @@ double mean(const ImageU16& img) {
 
 TEST(IiccdCameraStage, PresetControlsAreTheChainBitForBit) {
     const CameraParams cam = preset({});  // shot noise, MCP noise, phosphor, MTF, field weave
-    IiccdCameraStage stage(cam, "flat", 7, IiccdCameraStage::Controls::Preset);
-    sensor::IiccdChain chain(cam, 7);
+    IiccdCameraStage stage(cam, "flat", 7, IiccdCameraStage::Controls::Preset, test::configDir(),
+                           gammaTables());
+    sensor::IiccdChain chain(cam, 7, test::configDir(), gammaTables());
     Frame f(64, 48, 0.0f);
     ImageF lpe(64, 48);
     for (int k = 0; k < 6; ++k) {
@@ -137,7 +144,8 @@ TEST(IiccdCameraStage, PresetControlsAreTheChainBitForBit) {
 float radianceFor(const CameraParams& cam, double target_dc) {
     float L = 1e-12f;
     for (int i = 0; i < 40; ++i) {
-        IiccdCameraStage probe(cam, "flat", 1, IiccdCameraStage::Controls::Platform);
+        IiccdCameraStage probe(cam, "flat", 1, IiccdCameraStage::Controls::Platform,
+                               test::configDir(), gammaTables());
         Frame f(64, 48, L);
         f.req.platform.agc = false;
         f.req.platform.gain_V = 6.0;
@@ -152,7 +160,8 @@ float radianceFor(const CameraParams& cam, double target_dc) {
 TEST(IiccdCameraStage, PlatformGainReachesTheMcpEachField) {
     const CameraParams cam = linearPreset();
     const float L = radianceFor(cam, 150.0);
-    IiccdCameraStage stage(cam, "flat", 1, IiccdCameraStage::Controls::Platform);
+    IiccdCameraStage stage(cam, "flat", 1, IiccdCameraStage::Controls::Platform, test::configDir(),
+                           gammaTables());
     // Eq. 6.1 with this preset's numbers: G(V) = ((Voff + s·V)/Vc)^g.
     const auto G = [&](double v) {
         return std::pow((cam.mcp_offset_V + cam.mcp_V_per_control_V * v) / cam.mcp_crossover_V,
@@ -183,7 +192,8 @@ TEST(IiccdCameraStage, PlatformGainReachesTheMcpEachField) {
 TEST(IiccdCameraStage, PlatformGateScalesTheSignal) {
     const CameraParams cam = linearPreset();
     const float L = radianceFor(cam, 160.0);
-    IiccdCameraStage stage(cam, "flat", 1, IiccdCameraStage::Controls::Platform);
+    IiccdCameraStage stage(cam, "flat", 1, IiccdCameraStage::Controls::Platform, test::configDir(),
+                           gammaTables());
     const double period_s = cam.integrationPeriod_s();
     Frame f(64, 48, L);
     f.req.platform.agc = false;
@@ -208,7 +218,8 @@ TEST(IiccdCameraStage, AgcOnSettlesTheVideoLevelAtTheTarget) {
     CameraParams cam = linearPreset();
     cam.field_rate_Hz = 59.94;
     const float L = radianceFor(cam, 40.0);  // dim at 6 V: the loop must raise the gain
-    IiccdCameraStage stage(cam, "flat", 1, IiccdCameraStage::Controls::Platform);
+    IiccdCameraStage stage(cam, "flat", 1, IiccdCameraStage::Controls::Platform, test::configDir(),
+                           gammaTables());
     Frame f(64, 48, L);
     f.req.platform.agc = true;  // the camera's AGC switch on (preset agc = "off" → AGC loop)
     double firstGain = 0.0;
@@ -222,7 +233,8 @@ TEST(IiccdCameraStage, AgcOnSettlesTheVideoLevelAtTheTarget) {
 
 TEST(IiccdCameraStage, ExposeAllocatesNothing) {
     const CameraParams cam = preset({{"agc", "agc"}});
-    IiccdCameraStage stage(cam, "moon", 3, IiccdCameraStage::Controls::Platform);
+    IiccdCameraStage stage(cam, "moon", 3, IiccdCameraStage::Controls::Platform, test::configDir(),
+                           gammaTables());
     Frame f(64, 48, 3e-7f);
     stage.expose(f.req, f.radiance.cview(), f.counts.view(), f.meta);
     const long before = gAllocations.load();
@@ -240,7 +252,7 @@ TEST(ScenarioCamera, PresetSetsSizeDepthAndRateUnlessGiven) {
     const Scenario a = parseScenario(
         "[scenario]\nname = \"a\"\n[camera]\npreset = \"pulnix-ag5745ef3\"\n"
         "[[source]]\nkind = \"test_pattern\"\n",
-        "a.toml");
+        "a.toml", test::configDir());
     ASSERT_TRUE(a.camera.enabled);
     EXPECT_EQ(a.width, 768);
     EXPECT_EQ(a.height, 494);
@@ -253,7 +265,7 @@ TEST(ScenarioCamera, PresetSetsSizeDepthAndRateUnlessGiven) {
         "[camera]\npreset = \"pulnix-ag5745ef3\"\nset = [\"video.scan=frame\"]\n"
         "spectrum = \"blackbody:2856\"\nseed = 5\ncontrols = \"preset\"\n"
         "[[source]]\nkind = \"test_pattern\"\n",
-        "b.toml");
+        "b.toml", test::configDir());
     EXPECT_EQ(b.camera.params.width, 96);
     EXPECT_EQ(b.camera.params.height, 64);
     EXPECT_DOUBLE_EQ(b.camera.params.field_rate_Hz, 60.0);  // frame scan: two fields a frame
@@ -266,7 +278,7 @@ TEST(ScenarioCamera, PresetSetsSizeDepthAndRateUnlessGiven) {
 TEST(ScenarioCamera, BadCameraTablesNameTheFileAndLine) {
     const auto expectError = [](const std::string& text, const std::string& needle) {
         try {
-            parseScenario(text, "bad.toml");
+            parseScenario(text, "bad.toml", test::configDir());
             ADD_FAILURE() << "no error for: " << text;
         } catch (const SetupError& e) {
             EXPECT_NE(std::string(e.what()).find(needle), std::string::npos) << e.what();

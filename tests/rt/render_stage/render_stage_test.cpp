@@ -8,6 +8,7 @@
 
 #include "sim/core/error.h"
 #include "sim/core/units.h"
+#include "tests/sim/core/test_paths.h"
 
 namespace nvs::rt {
 namespace {
@@ -17,8 +18,8 @@ std::filesystem::path rit(const char* name) {
 }
 
 TEST(SceneRenderStage, SamePixelsAsTheRendererWithOneAndTwoThreads) {
-    auto one = SceneRenderStage::create(rit("nolight.toml"), 768, 494, 1, 1);
-    auto two = SceneRenderStage::create(rit("nolight.toml"), 768, 494, 1, 2);
+    auto one = SceneRenderStage::create(rit("nolight.toml"), test::dataDirs(), 768, 494, 1, 1);
+    auto two = SceneRenderStage::create(rit("nolight.toml"), test::dataDirs(), 768, 494, 1, 2);
     ImageF a(768, 494), b(768, 494), direct(768, 494), band(768, 494);
     FrameRequest req;
     req.t_sample_s = 0.0;
@@ -26,7 +27,7 @@ TEST(SceneRenderStage, SamePixelsAsTheRendererWithOneAndTwoThreads) {
     FrameMeta ma, mb;
     one->render(req, a.view(), ma);
     two->render(req, b.view(), mb);
-    auto sr = render::ScenarioRenderer::create(rit("nolight.toml"), 1);
+    auto sr = render::ScenarioRenderer::create(rit("nolight.toml"), test::dataDirs(), 1);
     render::SerialExecutor exec;
     sr->renderer().render(sr->prepare(0.0), direct.view(), band.view(), exec);
     double sum = 0.0;
@@ -42,7 +43,7 @@ TEST(SceneRenderStage, SamePixelsAsTheRendererWithOneAndTwoThreads) {
 }
 
 TEST(SceneRenderStage, TelemetryPoseIsPlacedInTheSceneFrame) {
-    auto s = SceneRenderStage::create(rit("nolight.toml"), 768, 494, 4, 1);
+    auto s = SceneRenderStage::create(rit("nolight.toml"), test::dataDirs(), 768, 494, 4, 1);
     const auto& site = s->scenario().scenario().site;
     PlatformState p;
     p.lat_deg = site.lat_deg;
@@ -73,7 +74,7 @@ TEST(SceneRenderStage, TelemetryPoseIsPlacedInTheSceneFrame) {
 }
 
 TEST(SceneRenderStage, LampMaskSwitchesLamps) {
-    auto s = SceneRenderStage::create(rit("stlamp.toml"), 768, 494, 4, 1);
+    auto s = SceneRenderStage::create(rit("stlamp.toml"), test::dataDirs(), 768, 494, 4, 1);
     ASSERT_NE(s->initialLampMask(), 0u);
     ImageF on(768, 494), off(768, 494);
     FrameRequest req;
@@ -93,7 +94,8 @@ TEST(SceneRenderStage, LampMaskSwitchesLamps) {
 }
 
 TEST(SceneRenderStage, SizeMismatchIsASetupError) {
-    EXPECT_THROW(SceneRenderStage::create(rit("nolight.toml"), 320, 240, 1, 1), SetupError);
+    EXPECT_THROW(SceneRenderStage::create(rit("nolight.toml"), test::dataDirs(), 320, 240, 1, 1),
+                 SetupError);
 }
 
 }  // namespace
