@@ -75,12 +75,14 @@ std::unique_ptr<ScenarioRenderer> ScenarioRenderer::create(const std::filesystem
 
 FrameSky ScenarioRenderer::prepare(double t_s) noexcept {
     const astro::AstroTime t = epoch_.plusSeconds(t_s);
-    sunMoon_ = ephemeris_->compute(t);
+    // ERFA's context for this instant, built once for the Moon and the stars.
+    const astro::AstrometryContext astrometry = ephemeris_->prepare(t);
+    sunMoon_ = ephemeris_->compute(astrometry);
     renderer_->setTime(t_s);
     FrameSky s = frameSky(*sky_, tableBand_, sunMoon_.moon);
     // Stars above the horizon: E_b = E_v(V) · (band per lux) · T_direct(z).
     const int n = static_cast<int>(stars_.size());
-    ephemeris_->stars(t, stars_.ra_rad.data(), stars_.dec_rad.data(), n, starAz_.data(),
+    ephemeris_->stars(astrometry, stars_.ra_rad.data(), stars_.dec_rad.data(), n, starAz_.data(),
                       starAlt_.data());
     s.starCount = 0;
     for (int k = 0; k < n; ++k) {
