@@ -5,9 +5,12 @@
 namespace nvs::rt {
 
 IiccdCameraStage::IiccdCameraStage(const sensor::CameraParams& cam, const std::string& spectrum,
-                                   std::uint64_t seed, Controls controls)
-    : lpePerL_(spectrum == "pe" ? 1.0 : sensor::peRadiancePerBandRadiance(cam, spectrum)),
-      chain_(cam, seed, sensor::ChainOptions{},
+                                   std::uint64_t seed, Controls controls,
+                                   const std::filesystem::path& configDir,
+                                   GammaTableCache& gammaTables)
+    : lpePerL_(spectrum == "pe" ? 1.0
+                                : sensor::peRadiancePerBandRadiance(configDir, cam, spectrum)),
+      chain_(cam, seed, configDir, gammaTables, sensor::ChainOptions{},
              controls == Controls::Preset ? sensor::ControlSource::Preset
                                           : sensor::ControlSource::Command),
       lpe_(cam.width, cam.height) {}

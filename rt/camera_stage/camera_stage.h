@@ -21,6 +21,7 @@
 // metadata. Setup allocates everything; expose() allocates nothing and throws nothing.
 
 #include <cstdint>
+#include <filesystem>
 #include <string>
 
 #include "rt/loop/stages.h"
@@ -35,9 +36,11 @@ class IiccdCameraStage final : public CameraStage {
     enum class Controls { Platform, Preset };
 
     // `cam` must already have the loop's width and height and the field rate matching the
-    // loop's rate (rt/run does that). Throws SetupError for an unknown spectrum.
+    // loop's rate (rt/run does that). Spectra and FFTW wisdom from configDir; the MCP's Gamma
+    // tables from gammaTables. Throws SetupError for an unknown spectrum.
     IiccdCameraStage(const sensor::CameraParams& cam, const std::string& spectrum,
-                     std::uint64_t seed, Controls controls);
+                     std::uint64_t seed, Controls controls, const std::filesystem::path& configDir,
+                     GammaTableCache& gammaTables);
     IiccdCameraStage(const IiccdCameraStage&) = delete;
     IiccdCameraStage& operator=(const IiccdCameraStage&) = delete;
 

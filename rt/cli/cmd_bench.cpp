@@ -12,11 +12,11 @@
 #include <vector>
 
 #include "rt/cli/commands.h"
+#include "rt/cli/data_dirs.h"
 #include "rt/compose/scene_setup.h"
 #include "rt/render_stage/row_pool.h"
 #include "sim/astro/ephemeris.h"
 #include "sim/core/error.h"
-#include "sim/core/paths.h"
 #include "sim/core/units.h"
 #include "sim/sensor/camera.h"
 #include "sim/sensor/chain.h"
@@ -67,7 +67,9 @@ int runBench(const BenchOptions& opts) {
     const auto wanted = [&](const std::string& name) {
         return !opts.filter || name.find(*opts.filter) != std::string::npos;
     };
-    const auto rit = configDir().parent_path() / "scenarios" / "rit" / "stlamp.toml";
+    // The shipped scenarios lie beside config/ (in the source tree and in an installed tree).
+    const DataDirs dirs = resolveDataDirs();
+    const auto rit = dirs.config.parent_path() / "scenarios" / "rit" / "stlamp.toml";
 
     // Ephemeris and sources, one frame.
     if (wanted("ephemeris_sources")) {
@@ -78,8 +80,8 @@ int runBench(const BenchOptions& opts) {
         const astro::Ephemeris eph(site);
         const astro::AstroTime t0 =
             astro::astroTimeFromUtc(astro::parseIsoUtc("1998-09-02T01:00Z"));
-        const sky::MoonSource moon = sky::MoonSource::load();
-        const sky::NightSkyModel night = sky::NightSkyModel::load();
+        const sky::MoonSource moon = sky::MoonSource::load(dirs.config);
+        const sky::NightSkyModel night = sky::NightSkyModel::load(dirs.config);
         Spectrum m, n;
         long long k = 0;
         results.push_back(
@@ -92,7 +94,7 @@ int runBench(const BenchOptions& opts) {
     }
     // Sky terms for one Moon geometry.
     if (wanted("sky_lookup")) {
-        const sky::SkyModel model = sky::SkyModel::create(sky::SkyModelConfig{});
+        const sky::SkyModel model = sky::SkyModel::create(sky::SkyModelConfig{}, dirs);
         astro::MoonState moon;
         moon.alt_rad = 0.6;
         moon.phaseAngle_rad = 0.3;
@@ -125,7 +127,7 @@ int runBench(const BenchOptions& opts) {
                 !wanted(base + "_2t_moving")) {
                 continue;
             }
-            auto sr = rt::ScenarioRenderer::create(rit, coarse);
+            auto sr = rt::ScenarioRenderer::create(rit, dirs, coarse);
             ImageF pe(sr->scenario().width, sr->scenario().height), band(pe.width(), pe.height());
             for (int threads : {1, 2}) {
                 rt::RowPool pool(threads);
@@ -153,13 +155,13 @@ int runBench(const BenchOptions& opts) {
     // A truck crossing the lot under the fixed camera (scenarios/vehicle-drive): each frame
     // moves it on by 1/29.97 s (the first 2 s of its trajectory, over and over), so only the
     // pixels and rays it touches are redone.
-    const auto drive = configDir().parent_path() / "scenarios" / "vehicle-drive" / "scenario.toml";
+    const auto drive = dirs.config.parent_path() / "scenarios" / "vehicle-drive" / "scenario.toml";
     if (std::filesystem::exists(drive)) {
         for (int coarse : {1, 4}) {
             const std::string name =
                 std::string(coarse == 1 ? "render_full" : "render_coarse4") + "_2t_truck";
             if (!wanted(name)) continue;
-            auto sr = rt::ScenarioRenderer::create(drive, coarse);
+            auto sr = rt::ScenarioRenderer::create(drive, dirs, coarse);
             ImageF pe(sr->scenario().width, sr->scenario().height), band(pe.width(), pe.height());
             rt::RowPool pool(2);
             int k = 0;
@@ -175,8 +177,9 @@ int runBench(const BenchOptions& opts) {
     // photoelectron radiance of the thesis scenes (rendered once: Moon and sky only, and with
     // the street lamp on) and on a uniform bright field where every pixel draws.
     {
-        const sensor::CameraParams cam = sensor::loadCamera("pulnix-ag5745ef3");
-        sensor::IiccdChain chain(cam, 1);
+        const sensor::CameraParams cam = sensor::loadCamera(dirs.config, "pulnix-ag5745ef3");
+        GammaTableCache gammaTables;
+        sensor::IiccdChain chain(cam, 1, dirs.config, gammaTables);
         ImageF lpe(cam.width, cam.height);
         struct Input {
             const char* name;
@@ -191,7 +194,7 @@ int runBench(const BenchOptions& opts) {
             if (in.scene != nullptr) {
                 const auto file = rit.parent_path() / in.scene;
                 if (!std::filesystem::exists(file)) continue;
-                auto sr = rt::ScenarioRenderer::create(file, 1);
+                auto sr = rt::ScenarioRenderer::create(file, dirs, 1);
                 if (sr->scenario().width != cam.width || sr->scenario().height != cam.height) {
                     continue;
                 }

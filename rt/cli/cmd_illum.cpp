@@ -7,6 +7,7 @@
 #include <cstdio>
 
 #include "rt/cli/commands.h"
+#include "rt/cli/data_dirs.h"
 #include "sim/astro/ephemeris.h"
 #include "sim/core/error.h"
 #include "sim/core/units.h"
@@ -39,15 +40,17 @@ int runIllum(const IllumOptions& opts) {
         if (!(*opts.visibility_km > 0.0)) throw SetupError("--visibility-km: must be positive");
         config.atmosphere.visibility_km = *opts.visibility_km;
     }
+    const DataDirs dirs = resolveDataDirs();
     std::string cameraName;
     if (opts.camera) {
-        const sensor::CameraParams cam = sensor::loadCamera(*opts.camera);
+        const sensor::CameraParams cam = sensor::loadCamera(dirs.config, *opts.camera);
         cameraName = cam.name;
         config.extraBands.push_back(
             {"pe", sky::photoelectronWeight(sensor::cameraResponse(cam) * cam.qe_peak)});
     }
-    const sky::SkyModel model = sky::SkyModel::create(config);
-    const Spectrum solar = sky::loadSolarSpectrum_W_m2_nm();
+    const sky::SkyModel model = sky::SkyModel::create(config, dirs);
+    const Spectrum solar = sky::loadSolarSpectrum_W_m2_nm(dirs.config);
+    const Photometry photometry(dirs.config);
 
     // Evaluation.
     const astro::SunMoonState s = eph.compute(t);
@@ -67,7 +70,7 @@ int runIllum(const IllumOptions& opts) {
         model.moonToa(sky::SkyModel::kLuxBand, s.moon),
         model.table().directTransmittance(sky::SkyModel::kLuxBand, kPi / 2 - s.moon.alt_rad));
     std::printf(",\"sun\":{\"alt_deg\":%.4f,\"toa_normal_lux\":%.6g}", s.sun.alt_rad * kDegPerRad,
-                sky::sunIlluminanceToa_lux(solar, s.sun.distance_m));
+                sky::sunIlluminanceToa_lux(photometry, solar, s.sun.distance_m));
     std::printf(
         ",\"atmosphere\":{\"visibility_km\":%.6g,\"aerosol\":\"%s\",\"site_altitude_m\":%.6g}",
         config.atmosphere.visibility_km, sky::aerosolModelName(config.atmosphere.aerosol),

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "rt/cli/commands.h"
+#include "rt/cli/data_dirs.h"
 #include "rt/compose/scene_setup.h"
 #include "sim/core/error.h"
 #include "sim/render/exr_out.h"
@@ -45,7 +46,7 @@ int runRender(const RenderOptions& opts) {
     if (opts.frame < 0) throw SetupError("--frame: must be ≥ 0");
     const std::filesystem::path out = opts.out;
     if (out.extension() != ".exr") throw SetupError("--out " + opts.out + ": must end in .exr");
-    auto sr = rt::ScenarioRenderer::create(opts.scenario);
+    auto sr = rt::ScenarioRenderer::create(opts.scenario, resolveDataDirs());
     const double t_s = sr->frameTime_s(opts.frame);
     const render::FrameSky sky = sr->prepare(t_s);
     const auto& cam = sr->renderer().camera();

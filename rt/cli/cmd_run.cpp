@@ -1,4 +1,5 @@
 #include "rt/cli/commands.h"
+#include "rt/cli/data_dirs.h"
 #include "rt/run/run.h"
 
 namespace nvs::cli {
@@ -11,6 +12,7 @@ int runRun(const RunOptions& opts) {
     req.frames = opts.frames;
     req.telemetry = opts.telemetry;
     req.statsPath = opts.statsPath;
+    req.dirs = resolveDataDirs();
     return rt::runScenario(req, stderr) == 0 ? kExitOk : kExitFailure;
 }
 

@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "rt/cli/commands.h"
+#include "rt/cli/data_dirs.h"
 #include "sim/core/error.h"
 #include "sim/sensor/camera.h"
 #include "sim/sensor/chain.h"
@@ -34,7 +35,7 @@ std::string lowerExt(const std::string& path) {
 
 // Reads one input and turns it into Lpe [pe s⁻¹ m⁻² sr⁻¹], validating size and values.
 ImageF loadInput(const std::string& file, const sensor::CameraParams& cam,
-                 const SensorOptions& opts) {
+                 const SensorOptions& opts, const DataDirs& dirs) {
     sensor::RadianceFile r = sensor::readRadiance(file);
     if (r.image.width() != cam.width || r.image.height() != cam.height) {
         throw SetupError(file + ": image is " + std::to_string(r.image.width()) + "x" +
@@ -58,7 +59,8 @@ ImageF loadInput(const std::string& file, const sensor::CameraParams& cam,
     if (unit == "W/m2/sr") {
         const std::string spectrum =
             opts.spectrum ? *opts.spectrum : (r.spectrum.empty() ? "flat" : r.spectrum);
-        const float k = static_cast<float>(sensor::peRadiancePerBandRadiance(cam, spectrum));
+        const float k =
+            static_cast<float>(sensor::peRadiancePerBandRadiance(dirs.config, cam, spectrum));
         for (int y = 0; y < r.image.height(); ++y) {
             float* row = r.image.row(y);
             for (int x = 0; x < r.image.width(); ++x)
@@ -91,8 +93,9 @@ void writeOutput(const std::string& file, const sensor::IiccdChain& chain) {
 
 int runSensor(const SensorOptions& opts) {
     // ---- Setup: camera, inputs, outputs; every check before anything is written.
+    const DataDirs dirs = resolveDataDirs();
     const sensor::Overrides ov = sensor::parseOverrides(opts.sets);
-    const sensor::CameraParams cam = sensor::loadCamera(opts.camera, ov);
+    const sensor::CameraParams cam = sensor::loadCamera(dirs.config, opts.camera, ov);
     const std::string outExt = lowerExt(opts.out);
     if (outExt != ".pgm" && outExt != ".png" && outExt != ".exr") {
         throw SetupError("--out " + opts.out + ": output must be .pgm, .png or .exr");
@@ -110,20 +113,22 @@ int runSensor(const SensorOptions& opts) {
     if (opts.unit && *opts.unit != "W/m2/sr" && *opts.unit != "pe/s/m2/sr") {
         throw SetupError("--unit " + *opts.unit + ": expected W/m2/sr or pe/s/m2/sr");
     }
-    if (opts.spectrum) (void)sensor::spectrumShape(*opts.spectrum);  // validates the spec
+    if (opts.spectrum)
+        (void)sensor::spectrumShape(dirs.config, *opts.spectrum);  // validates the spec
     ImageF held;
     if (inPattern) {
         for (long long k = 0; k < frames; ++k)
-            (void)loadInput(sensor::expandFramePattern(opts.in, k), cam, opts);
+            (void)loadInput(sensor::expandFramePattern(opts.in, k), cam, opts, dirs);
     } else {
-        held = loadInput(opts.in, cam, opts);
+        held = loadInput(opts.in, cam, opts, dirs);
     }
     const std::filesystem::path outDir =
         std::filesystem::path(sensor::expandFramePattern(opts.out, 0)).parent_path();
     if (!outDir.empty() && !std::filesystem::is_directory(outDir)) {
         throw SetupError("--out " + opts.out + ": no directory " + outDir.string());
     }
-    sensor::IiccdChain chain(cam, opts.seed ? *opts.seed : 0);
+    GammaTableCache gammaTables;
+    sensor::IiccdChain chain(cam, opts.seed ? *opts.seed : 0, dirs.config, gammaTables);
 
     // ---- Run.
     const bool outPattern = sensor::hasFramePattern(opts.out);
@@ -131,7 +136,8 @@ int runSensor(const SensorOptions& opts) {
         "{\"camera\":\"" + cam.name + "\",\"frames\":" + std::to_string(frames) + ",\"fields\":[";
     for (long long k = 0; k < frames; ++k) {
         ImageF frameInput;
-        if (inPattern) frameInput = loadInput(sensor::expandFramePattern(opts.in, k), cam, opts);
+        if (inPattern)
+            frameInput = loadInput(sensor::expandFramePattern(opts.in, k), cam, opts, dirs);
         const ImageF& in = inPattern ? frameInput : held;
         const sensor::FieldInfo& info = chain.process(in.cview());
         if (outPattern)

@@ -55,7 +55,8 @@ T getOr(const std::optional<ConfigTable>& t, std::string_view key, const T& def)
 // [camera]: the preset with its overrides; the scenario's explicit size and ADC depth are
 // applied as overrides so that the preset's own validation sees them.
 void readCamera(const ConfigTable& t, std::optional<int> width, std::optional<int> height,
-                std::optional<int> bits, std::uint64_t defaultSeed, CameraSpec& out) {
+                std::optional<int> bits, std::uint64_t defaultSeed,
+                const std::filesystem::path& configDir, CameraSpec& out) {
     out.preset = t.require<std::string>("preset");
     sensor::Overrides ov;
     try {
@@ -73,13 +74,13 @@ void readCamera(const ConfigTable& t, std::optional<int> width, std::optional<in
     put("height", height);
     put("video.adc_bits", bits);
     try {
-        out.params = sensor::loadCamera(out.preset, ov);
+        out.params = sensor::loadCamera(configDir, out.preset, ov);
     } catch (const SetupError& e) {
         t.fail("preset", e.what());
     }
     out.spectrum = t.get<std::string>("spectrum", "flat");
     try {
-        (void)sensor::spectrumShape(out.spectrum);
+        (void)sensor::spectrumShape(configDir, out.spectrum);
     } catch (const SetupError& e) {
         t.fail("spectrum", e.what());
     }
@@ -140,7 +141,8 @@ void readSceneTables(const ConfigTable& root, const std::filesystem::path& file,
 // [scenario] and [camera]: names, seed, scan, rate, size, depth, exposure, start and duration.
 // One set of defaults: the camera preset's where there is one, else 320×240, 8 bits, 60 Hz
 // progressive (30 Hz interlaced).
-void readScenarioTable(const ConfigTable& root, Scenario& sc) {
+void readScenarioTable(const ConfigTable& root, const std::filesystem::path& configDir,
+                       Scenario& sc) {
     const ConfigTable s = root.table("scenario");
     sc.name = s.require<std::string>("name");
     sc.description = s.get<std::string>("description", "");
@@ -153,7 +155,7 @@ void readScenarioTable(const ConfigTable& root, Scenario& sc) {
     const std::optional<int> heightGiven = s.optional<int>("height");
     const std::optional<int> bitsGiven = s.optional<int>("bits");
     const std::optional<ConfigTable> cam = root.optionalTable("camera");
-    if (cam) readCamera(*cam, widthGiven, heightGiven, bitsGiven, sc.seed, sc.camera);
+    if (cam) readCamera(*cam, widthGiven, heightGiven, bitsGiven, sc.seed, configDir, sc.camera);
     const sensor::CameraParams& cp = sc.camera.params;
     const std::string scan = s.get<std::string>("scan", "progressive");
     if (scan != "progressive" && scan != "interlaced") {
@@ -345,12 +347,13 @@ void readEvents(const ConfigTable& root, Scenario& sc) {
                      [](const TimelineEvent& a, const TimelineEvent& b) { return a.t_s < b.t_s; });
 }
 
-Scenario fromDocument(const ConfigDocument& doc, const std::string& file) {
+Scenario fromDocument(const ConfigDocument& doc, const std::string& file,
+                      const std::filesystem::path& configDir) {
     Scenario sc;
     sc.file = file;
     const ConfigTable root = doc.root();
     sc.rendered = root.contains("scene");
-    readScenarioTable(root, sc);
+    readScenarioTable(root, configDir, sc);
     readPlatform(root, sc);
     readRuntime(root, sc);
     readFrames(root, file, sc);
@@ -362,19 +365,20 @@ Scenario fromDocument(const ConfigDocument& doc, const std::string& file) {
 
 }  // namespace
 
-Scenario loadScenario(const std::filesystem::path& path) {
+Scenario loadScenario(const std::filesystem::path& path, const std::filesystem::path& configDir) {
     std::filesystem::path file = path;
     if (std::filesystem::is_directory(path)) file = path / "scenario.toml";
     if (!std::filesystem::exists(file)) {
         throw SetupError("scenario '" + path.string() + "': no such file");
     }
     const ConfigDocument doc = ConfigDocument::parseFile(file);
-    return fromDocument(doc, file.string());
+    return fromDocument(doc, file.string(), configDir);
 }
 
-Scenario parseScenario(const std::string& text, const std::string& name) {
+Scenario parseScenario(const std::string& text, const std::string& name,
+                       const std::filesystem::path& configDir) {
     const ConfigDocument doc = ConfigDocument::parseString(text, name);
-    return fromDocument(doc, name);
+    return fromDocument(doc, name, configDir);
 }
 
 }  // namespace nvs::rt

@@ -153,9 +153,11 @@ struct Scenario {
     SceneSpec scene;  // rendered scenarios
 };
 
-// Reads a scenario TOML file (or SCENARIO/scenario.toml for a folder). Throws SetupError.
-Scenario loadScenario(const std::filesystem::path& path);
-Scenario parseScenario(const std::string& text, const std::string& name);
+// Reads a scenario TOML file (or SCENARIO/scenario.toml for a folder); camera presets and
+// spectra from configDir. Throws SetupError.
+Scenario loadScenario(const std::filesystem::path& path, const std::filesystem::path& configDir);
+Scenario parseScenario(const std::string& text, const std::string& name,
+                       const std::filesystem::path& configDir);
 
 // "2024-01-25T17:54:00Z" (fractional seconds and a +hh:mm offset accepted) → Unix seconds.
 // Returns false when malformed.

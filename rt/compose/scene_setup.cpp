@@ -26,11 +26,12 @@ RenderConfig renderConfigFor(const sensor::CameraParams& cam, int width, int hei
 }
 
 std::unique_ptr<ScenarioRenderer> ScenarioRenderer::create(const std::filesystem::path& path,
-                                                           int coarseFactor) {
-    return create(loadScenario(path), coarseFactor);
+                                                           const DataDirs& dirs, int coarseFactor) {
+    return create(loadScenario(path, dirs.config), dirs, coarseFactor);
 }
 
-std::unique_ptr<ScenarioRenderer> ScenarioRenderer::create(const Scenario& sc, int coarseFactor) {
+std::unique_ptr<ScenarioRenderer> ScenarioRenderer::create(const Scenario& sc, const DataDirs& dirs,
+                                                           int coarseFactor) {
     if (!sc.rendered) throw SetupError(sc.file + ": the scenario has no [scene] to render");
     auto r = std::unique_ptr<ScenarioRenderer>(new ScenarioRenderer());
     r->scenario_ = sc;
@@ -48,7 +49,7 @@ std::unique_ptr<ScenarioRenderer> ScenarioRenderer::create(const Scenario& sc, i
     }
     // The sensor as designed (the scenario's size may differ: renderConfigFor keeps its field
     // of view).
-    r->camera_ = sensor::loadCamera(sc.camera.preset, sc.camera.presetOverrides);
+    r->camera_ = sensor::loadCamera(dirs.config, sc.camera.preset, sc.camera.presetOverrides);
     r->ephemeris_ = std::make_unique<astro::Ephemeris>(spec.site);
     r->epoch_ = astro::astroTimeFromUtc(astro::parseIsoUtc(sc.utcStart, sc.file + ": utc_start"),
                                         sc.file + ": utc_start");
@@ -59,20 +60,21 @@ std::unique_ptr<ScenarioRenderer> ScenarioRenderer::create(const Scenario& sc, i
     skyConfig.atmosphere = spec.atmosphere;
     skyConfig.extraBands.push_back({"render_pe", cfg.bandWeight[kBandPe]});
     skyConfig.extraBands.push_back({"render_W", cfg.bandWeight[kBandW]});
-    r->sky_ = std::make_unique<sky::SkyModel>(sky::SkyModel::create(skyConfig));
+    r->sky_ = std::make_unique<sky::SkyModel>(sky::SkyModel::create(skyConfig, dirs));
     r->tableBand_ = {r->sky_->table().bandIndex("render_pe"),
                      r->sky_->table().bandIndex("render_W")};
     cfg.moonShape = r->sky_->moon().referenceIrradiance_W_m2_nm();
-    const sky::NightSkyModel night = sky::NightSkyModel::load();
+    const sky::NightSkyModel night = sky::NightSkyModel::load(dirs.config);
     cfg.nightSkyShape = night.measured_W_m2_sr_nm();
     r->renderer_ = std::make_unique<Renderer>(r->scene_, cfg);
-    r->stars_ = loadStarCatalog(defaultStarCatalogPath());
+    r->stars_ = loadStarCatalog(starCatalogPath(dirs.config));
     if (r->stars_.size() > static_cast<std::size_t>(kMaxStars)) {
         throw SetupError(r->stars_.file + ": more than " + std::to_string(kMaxStars) + " stars");
     }
+    const Photometry photometry(dirs.config);
     for (int b = 0; b < kBands; ++b) {
         r->starBandPerLux_[static_cast<std::size_t>(b)] =
-            bandPerLux(cfg.bandWeight[static_cast<std::size_t>(b)], kStarTemperature_K);
+            bandPerLux(photometry, cfg.bandWeight[static_cast<std::size_t>(b)], kStarTemperature_K);
     }
     r->starAz_.assign(r->stars_.size(), 0.0);
     r->starAlt_.assign(r->stars_.size(), 0.0);
@@ -81,12 +83,14 @@ std::unique_ptr<ScenarioRenderer> ScenarioRenderer::create(const Scenario& sc, i
 
 FrameSky ScenarioRenderer::prepare(double t_s) noexcept {
     const astro::AstroTime t = epoch_.plusSeconds(t_s);
-    sunMoon_ = ephemeris_->compute(t);
+    // ERFA's context for this instant, built once for the Moon and the stars.
+    const astro::AstrometryContext astrometry = ephemeris_->prepare(t);
+    sunMoon_ = ephemeris_->compute(astrometry);
     renderer_->setTime(t_s);
     FrameSky s = sky::frameSky(*sky_, tableBand_, sunMoon_.moon, t_s);
     // Stars above the horizon: E_b = E_v(V) · (band per lux) · T_direct(z).
     const int n = static_cast<int>(stars_.size());
-    ephemeris_->stars(t, stars_.ra_rad.data(), stars_.dec_rad.data(), n, starAz_.data(),
+    ephemeris_->stars(astrometry, stars_.ra_rad.data(), stars_.dec_rad.data(), n, starAz_.data(),
                       starAlt_.data());
     s.starCount = 0;
     for (int k = 0; k < n; ++k) {

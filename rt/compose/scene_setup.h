@@ -34,11 +34,13 @@ RenderConfig renderConfigFor(const sensor::CameraParams& cam, int width, int hei
 
 class ScenarioRenderer {
   public:
-    // A rendered scenario (one with a [scene]); throws SetupError otherwise.
-    static std::unique_ptr<ScenarioRenderer> create(const Scenario& scenario, int coarseFactor = 1);
+    // A rendered scenario (one with a [scene]); throws SetupError otherwise. Data (camera
+    // preset, sky, stars) from dirs.config, the atmosphere table cached in dirs.cache.
+    static std::unique_ptr<ScenarioRenderer> create(const Scenario& scenario, const DataDirs& dirs,
+                                                    int coarseFactor = 1);
     // The same from the scenario's file (rt/compose/scenario.h loads it).
     static std::unique_ptr<ScenarioRenderer> create(const std::filesystem::path& scenarioPath,
-                                                    int coarseFactor = 1);
+                                                    const DataDirs& dirs, int coarseFactor = 1);
 
     // Sets the scene to frame k (moving objects, Sun/Moon, stars) and returns the frame's sky.
     // t_s is the time since the scenario epoch. No allocation, no throw.

@@ -15,9 +15,10 @@ constexpr double kWgs84E2 = 6.69437999014e-3;
 
 }  // namespace
 
-std::unique_ptr<SceneRenderStage> SceneRenderStage::create(const Scenario& sc) {
+std::unique_ptr<SceneRenderStage> SceneRenderStage::create(const Scenario& sc,
+                                                           const DataDirs& dirs) {
     auto s = std::unique_ptr<SceneRenderStage>(new SceneRenderStage());
-    s->sr_ = ScenarioRenderer::create(sc, sc.renderCoarse);
+    s->sr_ = ScenarioRenderer::create(sc, dirs, sc.renderCoarse);
     const SceneSpec& rs = sc.scene;
     s->pool_ = std::make_unique<RowPool>(sc.renderThreads);
     s->band_ = ImageF(sc.width, sc.height);

@@ -30,8 +30,9 @@ namespace nvs::rt {
 class SceneRenderStage final : public RenderStage {
   public:
     // Setup: the scenario's scene, camera bands, sky and renderer (rt/compose), rendered at the
-    // scenario's size with its coarse tiles on its render threads (throws SetupError).
-    static std::unique_ptr<SceneRenderStage> create(const Scenario& scenario);
+    // scenario's size with its coarse tiles on its render threads, data and caches from dirs
+    // (throws SetupError).
+    static std::unique_ptr<SceneRenderStage> create(const Scenario& scenario, const DataDirs& dirs);
 
     // Both images: Lpe for the camera, and the band radiance of the same frame.
     Outputs outputs() const noexcept override { return {true, true}; }

@@ -106,10 +106,11 @@ std::unique_ptr<FrameSink> makeSink(const std::string& text, const Scenario& sc,
 }
 
 std::unique_ptr<PlatformSource> makePlatformSource(const std::optional<std::string>& text,
-                                                   const Scenario& sc, ClockKind clock) {
+                                                   const Scenario& sc, ClockKind clock,
+                                                   const DataDirs& dirs) {
     if (!text) return std::make_unique<HeldPlatform>(sc.platform);
     Spec s = parseSpec(*text, "--telemetry");
-    auto src = makeTelemetrySource(s, sc, clock, "--telemetry " + *text);
+    auto src = makeTelemetrySource(s, sc, clock, "--telemetry " + *text, dirs.config);
     s.finish("--telemetry " + *text);
     return src;
 }
@@ -213,7 +214,7 @@ int runScenario(const RunRequest& req, std::FILE* status) {
     // soon as the loop exists.
     installStopSignals();
     // Setup: everything that can fail fails here, before the first frame.
-    Scenario sc = loadScenario(req.scenario);
+    Scenario sc = loadScenario(req.scenario, req.dirs.config);
     LoopConfig cfg;
     cfg.rate = sc.rate;
     cfg.clock = req.clock;
@@ -246,25 +247,27 @@ int runScenario(const RunRequest& req, std::FILE* status) {
                                   sc.testPattern.targetSpeed_px_s);
     RenderStage* render = &testPattern;
     if (sc.rendered) {
-        sceneStage = SceneRenderStage::create(sc);
+        sceneStage = SceneRenderStage::create(sc, req.dirs);
         render = sceneStage.get();
         sc.platform.lampMask = sceneStage->initialLampMask();
         sc.camera.spectrum = "pe";
     }
     std::unique_ptr<PlatformSource> platform =
-        makePlatformSource(req.telemetry ? req.telemetry : sc.telemetry, sc, req.clock);
+        makePlatformSource(req.telemetry ? req.telemetry : sc.telemetry, sc, req.clock, req.dirs);
     if (!sc.events.empty()) {
         platform = std::make_unique<TimelineSource>(
             std::move(platform), resolveTimeline(sc, [&](const std::string& name) {
                 return sceneStage ? sceneStage->scenario().scene().lampIndex(name) : -1;
             }));
     }
+    GammaTableCache gammaTables;  // the MCP's Gamma tables, built here at setup
     std::unique_ptr<CameraStage> camera;
     if (sc.camera.enabled) {
         camera = std::make_unique<IiccdCameraStage>(
             sc.camera.params, sc.camera.spectrum, sc.camera.seed,
             sc.camera.controlsFromPlatform ? IiccdCameraStage::Controls::Platform
-                                           : IiccdCameraStage::Controls::Preset);
+                                           : IiccdCameraStage::Controls::Preset,
+            req.dirs.config, gammaTables);
     } else {
         camera = std::make_unique<LinearCamera>(sc.testPattern.fullScale_W_m2_sr, sc.bits);
     }

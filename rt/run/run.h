@@ -13,6 +13,7 @@
 #include "rt/compose/scenario.h"
 #include "rt/loop/frame_loop.h"
 #include "rt/loop/stages.h"
+#include "sim/core/paths.h"
 
 namespace nvs::rt {
 
@@ -23,6 +24,7 @@ struct RunRequest {
     std::optional<std::int64_t> frames;
     std::optional<std::string> telemetry;
     std::optional<std::string> statsPath;
+    DataDirs dirs;  // shipped data and caches (rt/cli/data_dirs.h resolves them)
 };
 
 // A parsed "scheme:target?key=value&key=value" (--output and --telemetry).
@@ -43,7 +45,8 @@ std::unique_ptr<FrameSink> makeSink(const std::string& spec, const Scenario& sc,
                                     std::int64_t frames);
 // Telemetry spec → platform source; none → the scenario's held pose.
 std::unique_ptr<PlatformSource> makePlatformSource(const std::optional<std::string>& spec,
-                                                   const Scenario& sc, ClockKind clock);
+                                                   const Scenario& sc, ClockKind clock,
+                                                   const DataDirs& dirs);
 
 // Statistics as one JSON object.
 std::string statsJson(const FrameLoop& loop, const PlatformSource& platform,

@@ -7,15 +7,14 @@
 #include "drivers/v4l2/v4l2.h"
 #include "rt/telemetry/sources.h"
 #include "sim/core/error.h"
-#include "sim/core/paths.h"
 
 namespace nvs::rt {
 
 namespace {
 
-drivers::DbcDatabase loadDbc(Spec& spec) {
+drivers::DbcDatabase loadDbc(Spec& spec, const std::filesystem::path& configDir) {
     const auto path = spec.take("dbc");
-    return drivers::DbcDatabase::load(path ? *path : (configDir() / "can" / "nvstim.dbc").string());
+    return drivers::DbcDatabase::load(path ? *path : (configDir / "can" / "nvstim.dbc").string());
 }
 
 }  // namespace
@@ -73,10 +72,11 @@ std::unique_ptr<TriggerSource> makeTrigger(const std::string& text, const std::s
 }
 
 std::unique_ptr<PlatformSource> makeTelemetrySource(Spec& spec, const Scenario& sc, ClockKind clock,
-                                                    const std::string& what) {
+                                                    const std::string& what,
+                                                    const std::filesystem::path& configDir) {
     std::unique_ptr<TelemetryInput> input;
     if (spec.scheme == "replay") {
-        input = std::make_unique<ReplayInput>(spec.target, loadDbc(spec));
+        input = std::make_unique<ReplayInput>(spec.target, loadDbc(spec, configDir));
     } else if (spec.scheme == "can" || spec.scheme == "serial") {
         if (clock == ClockKind::Sim) {
             throw SetupError(what + ": live telemetry needs --clock wall (use replay: with sim)");
@@ -84,9 +84,9 @@ std::unique_ptr<PlatformSource> makeTelemetrySource(Spec& spec, const Scenario& 
         if (spec.scheme == "can") {
             const auto fd = spec.take("fd");
             const auto record = spec.take("record");
-            input =
-                std::make_unique<CanInput>(std::make_unique<drivers::SocketCanBus>(), spec.target,
-                                           fd && *fd == "1", loadDbc(spec), record ? *record : "");
+            input = std::make_unique<CanInput>(std::make_unique<drivers::SocketCanBus>(),
+                                               spec.target, fd && *fd == "1",
+                                               loadDbc(spec, configDir), record ? *record : "");
         } else {
             const auto baud = spec.take("baud");
             const auto proto = spec.take("proto");

@@ -1,6 +1,7 @@
 #pragma once
 // Device and telemetry factories for `nvstim run` (kept apart so run.cpp stays readable).
 
+#include <filesystem>
 #include <memory>
 #include <string>
 
@@ -17,7 +18,9 @@ std::unique_ptr<FrameSink> makeDeviceSink(Spec& spec, const Scenario& sc, const 
 // gpio:CHIP:LINE → a trigger input (rising edges); throws SetupError naming `what`.
 std::unique_ptr<TriggerSource> makeTrigger(const std::string& spec, const std::string& what);
 // replay:FILE[?dbc=FILE], can:IFACE[?dbc=FILE&fd=1], serial:DEV?baud=N&proto=nmea|mavlink.
+// The DBC file defaults to <configDir>/can/nvstim.dbc.
 std::unique_ptr<PlatformSource> makeTelemetrySource(Spec& spec, const Scenario& sc, ClockKind clock,
-                                                    const std::string& what);
+                                                    const std::string& what,
+                                                    const std::filesystem::path& configDir);
 
 }  // namespace nvs::rt

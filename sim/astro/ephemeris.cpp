@@ -93,12 +93,12 @@ Ephemeris::Ephemeris(const Site& site) : site_(site) {
         refractionScale(site.pressure_hPa, site.temperature_C, site.relativeHumidity);
 }
 
-SunMoonState Ephemeris::compute(const AstroTime& t) const noexcept {
-    SunMoonState out;
+AstrometryContext Ephemeris::prepare(const AstroTime& t) const noexcept {
+    AstrometryContext c;
+    c.t = t;
 
     // Step 1: Earth, heliocentric and barycentric (au, au/day).
-    double pvh[2][3], pvb[2][3];
-    eraEpv00(t.ttJd1, t.ttJd2, pvh, pvb);
+    eraEpv00(t.ttJd1, t.ttJd2, c.earthHelio, c.earthBary);
 
     // Step 2: bias-precession-nutation (IAU 2000B), CIP X,Y, CIO locator s, Earth rotation angle.
     double rbpn[3][3];
@@ -109,9 +109,18 @@ SunMoonState Ephemeris::compute(const AstroTime& t) const noexcept {
     const double theta = eraEra00(t.ut1Jd1, t.ut1Jd2);
 
     // Step 3: astrometry context for the observer, no refraction (added in step 6).
-    eraASTROM astrom;
-    eraApco(t.ttJd1, t.ttJd2, pvb, pvh[0], x, y, s, theta, lon_rad_, lat_rad_, site_.height_m, 0.0,
-            0.0, 0.0, 0.0, 0.0, &astrom);
+    eraApco(t.ttJd1, t.ttJd2, c.earthBary, c.earthHelio[0], x, y, s, theta, lon_rad_, lat_rad_,
+            site_.height_m, 0.0, 0.0, 0.0, 0.0, 0.0, &c.astrom);
+    return c;
+}
+
+SunMoonState Ephemeris::compute(const AstrometryContext& ctx) const noexcept {
+    SunMoonState out;
+    const AstroTime& t = ctx.t;
+    const auto& pvh = ctx.earthHelio;
+    const auto& pvb = ctx.earthBary;
+    // ERFA takes the context by non-const pointer (it does not write it): a local copy.
+    eraASTROM astrom = ctx.astrom;
     // Observer's geocentric position (au, BCRS axes).
     const double obsGeo[3] = {astrom.eb[0] - pvb[0][0], astrom.eb[1] - pvb[0][1],
                               astrom.eb[2] - pvb[0][2]};
@@ -164,20 +173,10 @@ SunMoonState Ephemeris::compute(const AstroTime& t) const noexcept {
     return out;
 }
 
-void Ephemeris::stars(const AstroTime& t, const double* ra_rad, const double* dec_rad, int count,
-                      double* az_rad, double* alt_rad) const noexcept {
-    // Steps 1–3 of compute(): Earth, bias-precession-nutation, the observer's astrometry context.
-    double pvh[2][3], pvb[2][3];
-    eraEpv00(t.ttJd1, t.ttJd2, pvh, pvb);
-    double rbpn[3][3];
-    eraPnm00b(t.ttJd1, t.ttJd2, rbpn);
-    double x = 0.0, y = 0.0;
-    eraBpn2xy(rbpn, &x, &y);
-    const double s = eraS00(t.ttJd1, t.ttJd2, x, y);
-    const double theta = eraEra00(t.ut1Jd1, t.ut1Jd2);
-    eraASTROM astrom;
-    eraApco(t.ttJd1, t.ttJd2, pvb, pvh[0], x, y, s, theta, lon_rad_, lat_rad_, site_.height_m, 0.0,
-            0.0, 0.0, 0.0, 0.0, &astrom);
+void Ephemeris::stars(const AstrometryContext& ctx, const double* ra_rad, const double* dec_rad,
+                      int count, double* az_rad, double* alt_rad) const noexcept {
+    // Steps 1–3 are in ctx (prepare); ERFA takes the context by non-const pointer: a copy.
+    eraASTROM astrom = ctx.astrom;
     for (int k = 0; k < count; ++k) {
         double ri = 0.0, di = 0.0;
         eraAtciq(ra_rad[k], dec_rad[k], 0.0, 0.0, 0.0, 0.0, &astrom, &ri, &di);

@@ -16,6 +16,9 @@
 //   6. Refraction added to the altitude (see refraction_rad below).
 // Phase angle i is the Sun–Moon–Earth angle (geocentric), illuminated fraction k = (1+cos i)/2.
 
+// ERFA's header for eraASTROM, which the per-instant context below carries.
+#include <erfa.h>
+
 #include "sim/astro/time.h"
 #include "sim/msg/sky.h"
 
@@ -53,20 +56,39 @@ double refraction_rad(double altGeometric_rad, double scale);
 // ERFA's refraction constant ratio for refraction_rad (0 for P = 0).
 double refractionScale(double pressure_hPa, double temperature_C, double relativeHumidity);
 
+// Steps 1–3 for one instant at one site: Earth's heliocentric and barycentric position and
+// velocity, and ERFA's astrometry context for the observer. The costly part of an instant
+// (eraEpv00, eraPnm00b, eraS00, eraApco); built once by Ephemeris::prepare and shared by the
+// Sun/Moon and the stars of that instant.
+struct AstrometryContext {
+    AstroTime t;
+    double earthHelio[2][3] = {};  // au, au/day
+    double earthBary[2][3] = {};   // au, au/day
+    eraASTROM astrom{};
+};
+
 class Ephemeris {
   public:
     // Validates the site (throws SetupError naming the field).
     explicit Ephemeris(const Site& site);
 
     // Per frame: no allocation, no throw.
-    SunMoonState compute(const AstroTime& t) const noexcept;
+    // Steps 1–3 for instant t (for compute and stars below; the same bits as their AstroTime
+    // forms, which build it themselves).
+    AstrometryContext prepare(const AstroTime& t) const noexcept;
+    SunMoonState compute(const AstrometryContext& ctx) const noexcept;
+    SunMoonState compute(const AstroTime& t) const noexcept { return compute(prepare(t)); }
     // Stars: apparent (refracted) topocentric azimuth and altitude of `count` stars from their
     // ICRS catalogue directions (ra_rad, dec_rad; proper motion, parallax and radial velocity
     // taken as zero) at t. Steps 1–3 as for the Moon, then eraAtciq (light deflection, annual
     // aberration, precession-nutation), eraAtioq (Earth rotation, diurnal aberration, no
     // refraction) and refraction_rad as in step 6. Per frame: no allocation, no throw.
-    void stars(const AstroTime& t, const double* ra_rad, const double* dec_rad, int count,
+    void stars(const AstrometryContext& ctx, const double* ra_rad, const double* dec_rad, int count,
                double* az_rad, double* alt_rad) const noexcept;
+    void stars(const AstroTime& t, const double* ra_rad, const double* dec_rad, int count,
+               double* az_rad, double* alt_rad) const noexcept {
+        stars(prepare(t), ra_rad, dec_rad, count, az_rad, alt_rad);
+    }
 
     const Site& site() const { return site_; }
 

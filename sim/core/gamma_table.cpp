@@ -63,15 +63,11 @@ GammaTable::GammaTable(double k)
     gsl_set_error_handler(old);
 }
 
-std::shared_ptr<const GammaTable> GammaTable::forShapeStep(double k) {
-    static std::mutex mutex;
-    static std::map<double, std::weak_ptr<const GammaTable>> cache;
-    const std::lock_guard<std::mutex> lock(mutex);
-    auto& slot = cache[k];
-    if (auto shared = slot.lock()) return shared;
-    auto made = std::make_shared<const GammaTable>(k);
-    slot = made;
-    return made;
+std::shared_ptr<const GammaTable> GammaTableCache::forShapeStep(double k) {
+    const std::lock_guard<std::mutex> lock(mutex_);
+    auto& slot = tables_[k];
+    if (!slot) slot = std::make_shared<const GammaTable>(k);
+    return slot;
 }
 
 double GammaTable::uniformOf(std::uint32_t word) noexcept {

@@ -1,20 +1,16 @@
 #include "sim/core/photometry.h"
 
-#include "sim/core/paths.h"
 #include "sim/core/units.h"
 
 namespace nvs {
 
-const Spectrum& photopicV() {
-    static const Spectrum kV = [] {
-        const auto path = configDir() / "spectra" / "cie1931_2deg_photopic_V_1nm.csv";
-        return loadSpectrumCsv(path, "wavelength_nm", "V_rel").resample(Extrapolation::Zero);
-    }();
-    return kV;
-}
+Photometry::Photometry(const std::filesystem::path& configDir)
+    : v_(loadSpectrumCsv(configDir / "spectra" / "cie1931_2deg_photopic_V_1nm.csv", "wavelength_nm",
+                         "V_rel")
+             .resample(Extrapolation::Zero)) {}
 
-double photometricIntegral(const Spectrum& spectral_per_nm) {
-    return kLuminousEfficacy_lm_W * integrateProduct_nm(spectral_per_nm, photopicV());
+double Photometry::photometricIntegral(const Spectrum& spectral_per_nm) const {
+    return kLuminousEfficacy_lm_W * integrateProduct_nm(spectral_per_nm, v_);
 }
 
 }  // namespace nvs

@@ -4,8 +4,6 @@
 
 #include "sim/core/csv.h"
 #include "sim/core/error.h"
-#include "sim/core/paths.h"
-#include "sim/core/photometry.h"
 #include "sim/core/planck.h"
 
 namespace nvs::render {
@@ -14,8 +12,8 @@ namespace {
 constexpr double kRadPerDeg = 3.14159265358979323846 / 180.0;
 }
 
-std::filesystem::path defaultStarCatalogPath() {
-    return configDir() / "stars" / "bright_stars.csv";
+std::filesystem::path starCatalogPath(const std::filesystem::path& configDir) {
+    return configDir / "stars" / "bright_stars.csv";
 }
 
 StarCatalog loadStarCatalog(const std::filesystem::path& path) {
@@ -49,9 +47,9 @@ double starIlluminanceToa_lx(double vMag) {
     return std::pow(10.0, -0.4 * (vMag + 13.99));
 }
 
-double bandPerLux(const Spectrum& weight, double temperature_K) {
+double bandPerLux(const Photometry& photometry, const Spectrum& weight, double temperature_K) {
     const Spectrum b = planckRadiance_W_m2_sr_nm(temperature_K);
-    return integrateProduct_nm(b, weight) / photometricIntegral(b);
+    return integrateProduct_nm(b, weight) / photometry.photometricIntegral(b);
 }
 
 }  // namespace nvs::render

@@ -19,6 +19,7 @@
 #include <string>
 #include <vector>
 
+#include "sim/core/photometry.h"
 #include "sim/core/spectrum.h"
 
 namespace nvs::render {
@@ -30,8 +31,8 @@ struct StarCatalog {
     std::size_t size() const { return name.size(); }
 };
 
-// config/stars/bright_stars.csv.
-std::filesystem::path defaultStarCatalogPath();
+// <configDir>/stars/bright_stars.csv.
+std::filesystem::path starCatalogPath(const std::filesystem::path& configDir);
 
 // Reads a catalogue (columns name, ra_deg, dec_deg, v_mag; a '# source:' line required).
 // Throws SetupError naming file:line for a missing column, a value out of range or no source.
@@ -41,7 +42,7 @@ StarCatalog loadStarCatalog(const std::filesystem::path& path);
 double starIlluminanceToa_lx(double vMag);
 
 // Band value per lux for a blackbody spectrum at temperature_K: ∫B w dλ / (K_m ∫B V dλ).
-double bandPerLux(const Spectrum& weight, double temperature_K);
+double bandPerLux(const Photometry& photometry, const Spectrum& weight, double temperature_K);
 
 inline constexpr double kStarTemperature_K = 5800.0;
 

@@ -8,7 +8,6 @@
 
 #include "sim/core/config.h"
 #include "sim/core/csv.h"
-#include "sim/core/paths.h"
 #include "sim/core/planck.h"
 #include "sim/core/units.h"
 
@@ -303,17 +302,18 @@ double CameraParams::peRatePerLpe_on_axis() const {
     return optics_transmission * omega_sr * pixelAreaAtCathode_m2() * optics_fill_factor;
 }
 
-std::filesystem::path resolveCameraPath(const std::string& nameOrPath) {
+std::filesystem::path resolveCameraPath(const std::filesystem::path& configDir,
+                                        const std::string& nameOrPath) {
     std::filesystem::path p = nameOrPath;
     if (p.extension() == ".toml" || nameOrPath.find('/') != std::string::npos) {
         if (!std::filesystem::exists(p)) throw SetupError("--camera: no file " + p.string());
         return p;
     }
-    const std::filesystem::path q = configDir() / "cameras" / (nameOrPath + ".toml");
+    const std::filesystem::path q = configDir / "cameras" / (nameOrPath + ".toml");
     if (!std::filesystem::exists(q)) {
         std::string names;
-        if (std::filesystem::is_directory(configDir() / "cameras")) {
-            for (const auto& e : std::filesystem::directory_iterator(configDir() / "cameras")) {
+        if (std::filesystem::is_directory(configDir / "cameras")) {
+            for (const auto& e : std::filesystem::directory_iterator(configDir / "cameras")) {
                 if (e.path().extension() == ".toml") names += " " + e.path().stem().string();
             }
         }
@@ -323,19 +323,20 @@ std::filesystem::path resolveCameraPath(const std::string& nameOrPath) {
     return q;
 }
 
-CameraParams loadCamera(const std::string& nameOrPath, const Overrides& overrides) {
-    const std::filesystem::path p = resolveCameraPath(nameOrPath);
+CameraParams loadCamera(const std::filesystem::path& configDir, const std::string& nameOrPath,
+                        const Overrides& overrides) {
+    const std::filesystem::path p = resolveCameraPath(configDir, nameOrPath);
     const ConfigDocument doc = ConfigDocument::parseFile(p);
     // Data files named by a preset are relative to config/.
     std::filesystem::path base = p.parent_path().parent_path();
-    if (!std::filesystem::exists(base / "spectra")) base = configDir();
+    if (!std::filesystem::exists(base / "spectra")) base = configDir;
     return readCamera(doc, overrides, FileLoc{p.string(), 0, 0}, base);
 }
 
-CameraParams parseCamera(const std::string& text, const std::string& name,
-                         const Overrides& overrides) {
+CameraParams parseCamera(const std::filesystem::path& configDir, const std::string& text,
+                         const std::string& name, const Overrides& overrides) {
     const ConfigDocument doc = ConfigDocument::parseString(text, name);
-    return readCamera(doc, overrides, FileLoc{name, 0, 0}, configDir());
+    return readCamera(doc, overrides, FileLoc{name, 0, 0}, configDir);
 }
 
 Overrides parseOverrides(const std::vector<std::string>& args) {
@@ -370,7 +371,7 @@ Spectrum cameraResponse(const CameraParams& cam) {
     return s;
 }
 
-Spectrum spectrumShape(const std::string& spec) {
+Spectrum spectrumShape(const std::filesystem::path& configDir, const std::string& spec) {
     if (spec == "flat") return Spectrum(1.0);
     if (spec.rfind("blackbody:", 0) == 0) {
         char* end = nullptr;
@@ -384,7 +385,7 @@ Spectrum spectrumShape(const std::string& spec) {
         // Tabulated spectra in config/spectra when present; otherwise documented blackbody
         // stand-ins: moonlight ≈ reflected sunlight (5800 K shape, lunar reddening ignored);
         // night sky (airglow + starlight) is red-rich, approximated by 2000 K.
-        const std::filesystem::path p = configDir() / "spectra" / (spec + "_shape.csv");
+        const std::filesystem::path p = configDir / "spectra" / (spec + "_shape.csv");
         if (std::filesystem::exists(p)) {
             return loadSpectrumCsv(p, "wavelength_nm", "radiance_rel").resample();
         }
@@ -405,12 +406,14 @@ double peRadiancePerBandRadiance(const CameraParams& cam, const Spectrum& shape,
     return pe / band;
 }
 
-double peRadiancePerBandRadiance(const CameraParams& cam, const std::string& spectrumSpec) {
+double peRadiancePerBandRadiance(const std::filesystem::path& configDir, const CameraParams& cam,
+                                 const std::string& spectrumSpec) {
     if (cam.monochromatic_nm > 0.0) {
         // Thesis eq. 6.25: every joule is counted as photons of one wavelength.
         return cam.qe_peak * cam.monochromatic_nm * 1e-9 / (kPlanck_J_s * kSpeedOfLight_m_s);
     }
-    return peRadiancePerBandRadiance(cam, spectrumShape(spectrumSpec), cameraResponse(cam));
+    return peRadiancePerBandRadiance(cam, spectrumShape(configDir, spectrumSpec),
+                                     cameraResponse(cam));
 }
 
 }  // namespace nvs::sensor

@@ -141,14 +141,18 @@ struct CameraParams {
 // KEY=VALUE overrides from the command line. Keys are dotted preset paths ("mcp.noise_factor").
 using Overrides = std::map<std::string, std::string>;
 
-// Loads a preset: NAME (config/cameras/NAME.toml) or a path to a .toml file, applies the
-// overrides, validates every value. Throws SetupError naming file:line:col or "--set KEY".
-CameraParams loadCamera(const std::string& nameOrPath, const Overrides& overrides = {});
-// Parses preset text (for tests).
-CameraParams parseCamera(const std::string& text, const std::string& name,
-                         const Overrides& overrides = {});
+// Loads a preset: NAME (<configDir>/cameras/NAME.toml) or a path to a .toml file, applies the
+// overrides, validates every value. Data files it names are relative to the config folder
+// above the preset's folder, else to configDir. Throws SetupError naming file:line:col or
+// "--set KEY".
+CameraParams loadCamera(const std::filesystem::path& configDir, const std::string& nameOrPath,
+                        const Overrides& overrides = {});
+// Parses preset text (for tests); data files relative to configDir.
+CameraParams parseCamera(const std::filesystem::path& configDir, const std::string& text,
+                         const std::string& name, const Overrides& overrides = {});
 // Resolves NAME or PATH to a preset file path (throws if absent).
-std::filesystem::path resolveCameraPath(const std::string& nameOrPath);
+std::filesystem::path resolveCameraPath(const std::filesystem::path& configDir,
+                                        const std::string& nameOrPath);
 
 // Parses "KEY=VALUE" arguments; throws SetupError naming the argument.
 Overrides parseOverrides(const std::vector<std::string>& args);
@@ -156,13 +160,15 @@ Overrides parseOverrides(const std::vector<std::string>& args);
 // Input unit conversion for band-integrated radiance images (DESIGN §3, §7).
 // Lpe = Lband · ∫ s(λ) QE(λ) λ/(hc) dλ / ∫ s(λ) β(λ) dλ, with s the source spectrum shape,
 // QE = qe_peak·β (the relative response of the camera), β the same response used to
-// integrate the band radiance. Spectrum spec: flat | blackbody:T | moon | night_sky.
-double peRadiancePerBandRadiance(const CameraParams& cam, const std::string& spectrumSpec);
+// integrate the band radiance. Spectrum spec: flat | blackbody:T | moon | night_sky (the last
+// two from <configDir>/spectra).
+double peRadiancePerBandRadiance(const std::filesystem::path& configDir, const CameraParams& cam,
+                                 const std::string& spectrumSpec);
 // The same with an explicit band weight (e.g. a 480-940 nm box, thesis §18.4).
 double peRadiancePerBandRadiance(const CameraParams& cam, const Spectrum& shape,
                                  const Spectrum& bandWeight);
 // The camera's QE(λ) [pe/photon] and its relative response β(λ).
 Spectrum cameraResponse(const CameraParams& cam);
-Spectrum spectrumShape(const std::string& spec);
+Spectrum spectrumShape(const std::filesystem::path& configDir, const std::string& spec);
 
 }  // namespace nvs::sensor

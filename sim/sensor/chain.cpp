@@ -5,9 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
-#include <mutex>
 
-#include "sim/core/paths.h"
 #include "sim/core/rng.h"
 #include "sim/core/units.h"
 #include "sim/sensor/mtf.h"
@@ -394,12 +392,12 @@ double BspStage::factor(double current_A) const noexcept {
 
 // ---- 5. MCP ---------------------------------------------------------------------------------
 
-McpStage::McpStage(const CameraParams& c, std::uint64_t seed)
+McpStage::McpStage(const CameraParams& c, std::uint64_t seed, GammaTableCache& gammaTables)
     : enabled_(c.mcp_enabled),
       noise_(c.mcp_noise && c.mcp_noise_factor > 1.0 + 1e-9),
       k_(c.mcp_noise_factor > 1.0 + 1e-9 ? 1.0 / (c.mcp_noise_factor - 1.0) : 0.0),
       seed_(seed),
-      table_(enabled_ && noise_ ? GammaTable::forShapeStep(k_) : nullptr),
+      table_(enabled_ && noise_ ? gammaTables.forShapeStep(k_) : nullptr),
       words_(new std::uint32_t[paddedRow(c.width)]),
       idx_(new int[paddedRow(c.width)]),
       blocks_(new std::uint32_t[paddedRow(c.width)]),
@@ -668,19 +666,22 @@ inline int padIndex(int i, int n, int np) {
 
 namespace {
 // The wisdom in config/fftw/wisdom-single.txt, made by `fftwf-wisdom -n -o FILE orf512x800
-// orb512x800` (PATIENT plans for the 800 × 512 transforms of a 768 × 494 camera): imported
-// once per process. FFTW uses it only where its solvers exist on this CPU (FFTW_WISDOM_ONLY
-// gives no plan otherwise). Measured: 1.6 → 1.3 ms per blur on one core (docs/sensor.md).
-void importShippedWisdom() {
-    static std::once_flag once;
-    std::call_once(once, [] {
-        const std::filesystem::path file = configDir() / "fftw" / "wisdom-single.txt";
-        if (std::filesystem::exists(file)) fftwf_import_wisdom_from_filename(file.c_str());
-    });
+// orb512x800` (PATIENT plans for the 800 × 512 transforms of a 768 × 494 camera). FFTW uses it
+// only where its solvers exist on this CPU (FFTW_WISDOM_ONLY gives no plan otherwise).
+// Measured: 1.6 → 1.3 ms per blur on one core (docs/sensor.md).
+// Imported by every BlurStage before it plans, from the config folder it was given: the wisdom
+// lives in FFTW's own planner, and importing the same file again replaces each entry with
+// itself (FFTW's hash table overwrites an entry of the same problem and flags), so repeating it
+// changes no plan; it also puts back the shipped entries should an FFTW_MEASURE plan have
+// replaced one. Not thread-safe, like FFTW's planner itself: chains are made on one thread.
+void importShippedWisdom(const std::filesystem::path& configDir) {
+    const std::filesystem::path file = configDir / "fftw" / "wisdom-single.txt";
+    if (std::filesystem::exists(file)) fftwf_import_wisdom_from_filename(file.c_str());
 }
 }  // namespace
 
-BlurStage::BlurStage(const CameraParams& c, const ChainOptions& opt)
+BlurStage::BlurStage(const CameraParams& c, const ChainOptions& opt,
+                     const std::filesystem::path& configDir)
     : enabled_(c.mtf_enabled), w_(c.width), h_(c.height) {
     if (!enabled_) return;
     // A margin of at least 8 px mirrored on each side keeps the periodic FFT from wrapping
@@ -698,7 +699,7 @@ BlurStage::BlurStage(const CameraParams& c, const ChainOptions& opt)
     // Plans: from the shipped wisdom where it holds this problem (deterministic, and as fast
     // as FFTW_PATIENT), else FFTW_ESTIMATE (deterministic); FFTW_MEASURE on request only, as a
     // measured plan can differ from run to run and so break bit-exact replay.
-    importShippedWisdom();
+    importShippedWisdom(configDir);
     const auto plan = [&](unsigned flags) {
         fft_->fwd = fftwf_plan_dft_r2c_2d(hp_, wp_, fft_->real, fft_->spec, flags);
         fft_->inv = fftwf_plan_dft_c2r_2d(hp_, wp_, fft_->spec, fft_->real, flags);
@@ -1204,8 +1205,9 @@ CameraParams withAutomaticLoop(const CameraParams& cam) {
 
 }  // namespace
 
-IiccdChain::IiccdChain(const CameraParams& cam, std::uint64_t seed, ChainOptions opt,
-                       ControlSource controls)
+IiccdChain::IiccdChain(const CameraParams& cam, std::uint64_t seed,
+                       const std::filesystem::path& configDir, GammaTableCache& gammaTables,
+                       ChainOptions opt, ControlSource controls)
     : cam_(cam),
       camAuto_(withAutomaticLoop(cam)),
       source_(controls),
@@ -1213,9 +1215,9 @@ IiccdChain::IiccdChain(const CameraParams& cam, std::uint64_t seed, ChainOptions
       gate_(cam_),
       cathode_(cam_, seed),
       bsp_(cam_),
-      mcp_(cam_, seed),
+      mcp_(cam_, seed, gammaTables),
       phosphor_(cam_),
-      blur_(cam_, opt),
+      blur_(cam_, opt, configDir),
       ccd_(cam_, seed),
       videoStage_(cam_),
       agc_(cam_),

@@ -22,6 +22,7 @@
 // constants), so a caller composing the stages one by one matches IiccdChain exactly.
 
 #include <cstdint>
+#include <filesystem>
 #include <memory>
 #include <vector>
 
@@ -134,7 +135,8 @@ class BspStage {
 // ---- 5. MCP ---------------------------------------------------------------------------------
 class McpStage {
   public:
-    McpStage(const CameraParams& cam, std::uint64_t seed);
+    // The Gamma tables come from `gammaTables` (shared with the other chains made with it).
+    McpStage(const CameraParams& cam, std::uint64_t seed, GammaTableCache& gammaTables);
     bool enabled() const { return enabled_; }
     // electrons = Σ of N single-electron gains ~ Gamma(N·k, G/k), k = 1/(F − 1).
     void apply(ImageView<float> pe, FieldContext& ctx) noexcept;
@@ -207,7 +209,9 @@ class PhosphorStage {
 // ---- 7. Blur (MTF) --------------------------------------------------------------------------
 class BlurStage {
   public:
-    BlurStage(const CameraParams& cam, const ChainOptions& opt);
+    // Plans the FFTs with the wisdom in <configDir>/fftw/wisdom-single.txt where it applies.
+    BlurStage(const CameraParams& cam, const ChainOptions& opt,
+              const std::filesystem::path& configDir);
     ~BlurStage();
     BlurStage(const BlurStage&) = delete;
     BlurStage& operator=(const BlurStage&) = delete;
@@ -345,7 +349,10 @@ enum class ControlSource { Preset, Command };
 // ---- The chain ------------------------------------------------------------------------------
 class IiccdChain {
   public:
-    IiccdChain(const CameraParams& cam, std::uint64_t seed, ChainOptions opt = {},
+    // configDir: the shipped data (FFTW wisdom); gammaTables: the MCP's Gamma tables, shared
+    // with the other chains made with the same cache; controls: who sets gain and gate.
+    IiccdChain(const CameraParams& cam, std::uint64_t seed, const std::filesystem::path& configDir,
+               GammaTableCache& gammaTables, ChainOptions opt = {},
                ControlSource controls = ControlSource::Preset);
     ~IiccdChain();
     IiccdChain(const IiccdChain&) = delete;

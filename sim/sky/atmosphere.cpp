@@ -4,7 +4,6 @@
 #include <array>
 #include <cmath>
 
-#include "sim/core/paths.h"
 #include "sim/core/units.h"
 
 namespace nvs::sky {
@@ -170,7 +169,7 @@ double diffuseTransmittanceIsotropic(double tau, double omega, double g) {
     return 2.0 * s;
 }
 
-Atmosphere::Atmosphere(const AtmosphereParams& params)
+Atmosphere::Atmosphere(const AtmosphereParams& params, const std::filesystem::path& configDir)
     : params_(params), aerosol_(aerosolOptics(params.aerosol)) {
     params_.validate();
     pressure_hPa_ =
@@ -179,7 +178,7 @@ Atmosphere::Atmosphere(const AtmosphereParams& params)
     water_cm_ =
         params_.precipitableWater_cm * std::exp(-params_.siteAltitude_m / kWaterScaleHeight_m);
 
-    const auto path = configDir() / "atmosphere" / "spectrl2_bird_riordan_1986.csv";
+    const auto path = configDir / "atmosphere" / "spectrl2_bird_riordan_1986.csv";
     coefWater_ = loadSpectrumCsv(path, "wavelength_nm", "water_coefficient_rel")
                      .resample(Extrapolation::Clamp);
     coefOzone_ = loadSpectrumCsv(path, "wavelength_nm", "ozone_coefficient_rel")

@@ -25,6 +25,7 @@
 // Everything here is setup-phase or table-building code; per-frame lookups go through
 // AtmosphereTable (atmosphere_table.h).
 
+#include <filesystem>
 #include <string>
 #include <string_view>
 
@@ -90,8 +91,9 @@ double diffuseTransmittanceIsotropic(double tau, double omega, double g);
 
 class Atmosphere {
   public:
-    // Loads config/atmosphere/spectrl2_bird_riordan_1986.csv; throws SetupError on bad params.
-    explicit Atmosphere(const AtmosphereParams& params);
+    // Loads <configDir>/atmosphere/spectrl2_bird_riordan_1986.csv; throws SetupError on bad
+    // params.
+    Atmosphere(const AtmosphereParams& params, const std::filesystem::path& configDir);
 
     const AtmosphereParams& params() const { return params_; }
     double sitePressure_hPa() const { return pressure_hPa_; }

@@ -81,17 +81,6 @@ double vanRhijn(double zenith_rad) {
 
 }  // namespace
 
-std::filesystem::path defaultCacheDir() {
-    if (const char* e = std::getenv("NVS_CACHE_DIR"); e != nullptr && *e != '\0') return e;
-    if (const char* x = std::getenv("XDG_CACHE_HOME"); x != nullptr && *x != '\0') {
-        return std::filesystem::path(x) / "nvstim";
-    }
-    if (const char* h = std::getenv("HOME"); h != nullptr && *h != '\0') {
-        return std::filesystem::path(h) / ".cache" / "nvstim";
-    }
-    return std::filesystem::temp_directory_path() / "nvstim-cache";
-}
-
 std::string AtmosphereTable::cacheKey(const AtmosphereTableInputs& inputs) {
     char buf[17];
     std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(hashInputs(inputs)));
@@ -105,9 +94,10 @@ int AtmosphereTable::bandIndex(const std::string& name) const {
     return -1;
 }
 
-AtmosphereTable AtmosphereTable::build(const AtmosphereTableInputs& in) {
+AtmosphereTable AtmosphereTable::build(const AtmosphereTableInputs& in,
+                                       const std::filesystem::path& configDir) {
     if (in.bands.empty()) throw SetupError("atmosphere table: no bands given");
-    const Atmosphere atm(in.atmosphere);
+    const Atmosphere atm(in.atmosphere, configDir);
     const int nb = static_cast<int>(in.bands.size());
     AtmosphereTable t;
     for (const SkyBand& b : in.bands) {
@@ -469,10 +459,14 @@ bool AtmosphereTable::load(const std::filesystem::path& file, std::uint64_t key,
 }
 
 AtmosphereTable AtmosphereTable::loadOrBuild(const AtmosphereTableInputs& inputs,
-                                             const std::filesystem::path& cacheDir, bool* rebuilt) {
+                                             const DataDirs& dirs, bool* rebuilt) {
     inputs.atmosphere.validate();
+    if (dirs.cache.empty()) {
+        if (rebuilt != nullptr) *rebuilt = true;
+        return build(inputs, dirs.config);
+    }
     const std::uint64_t key = hashInputs(inputs);
-    const auto file = cacheDir / ("atmosphere-" + cacheKey(inputs) + ".bin");
+    const auto file = dirs.cache / ("atmosphere-" + cacheKey(inputs) + ".bin");
     AtmosphereTable t;
     std::string why;
     if (t.load(file, key, static_cast<int>(inputs.bands.size()), &why)) {
@@ -483,7 +477,7 @@ AtmosphereTable AtmosphereTable::loadOrBuild(const AtmosphereTableInputs& inputs
         std::fprintf(stderr, "nvstim: atmosphere cache %s unusable (%s); rebuilding\n",
                      file.c_str(), why.c_str());
     }
-    t = build(inputs);
+    t = build(inputs, dirs.config);
     t.save(file, key);
     if (rebuilt != nullptr) *rebuilt = true;
     return t;

@@ -19,8 +19,8 @@
 // and a continuum part (integrated starlight, zodiacal light) taken as isotropic. Both keep their
 // horizontal irradiance; both are attenuated by a cloud layer.
 //
-// Cache files: <cacheDir>/atmosphere-<key>.bin, where <key> hashes every input and the format
-// version; the payload carries a checksum. A stale, truncated or corrupt file is detected,
+// Cache files: <DataDirs::cache>/atmosphere-<key>.bin, where <key> hashes every input and the
+// format version; the payload carries a checksum. A stale, truncated or corrupt file is detected,
 // reported on stderr and rebuilt, never used.
 
 #include <cstdint>
@@ -28,6 +28,7 @@
 #include <string>
 #include <vector>
 
+#include "sim/core/paths.h"
 #include "sim/core/spectrum.h"
 #include "sim/sky/atmosphere.h"
 
@@ -50,9 +51,6 @@ struct AtmosphereTableInputs {
     std::vector<SkyBand> bands;
 };
 
-// Where cache files go: $NVS_CACHE_DIR, else $XDG_CACHE_HOME/nvstim, else ~/.cache/nvstim.
-std::filesystem::path defaultCacheDir();
-
 // Path terms between a sensor above the ground and what it sees (per unit band TOA irradiance
 // of the source for the radiance; the night-sky part is absolute).
 struct PathTerms {
@@ -72,12 +70,13 @@ class AtmosphereTable {
     static constexpr int kAzimuths = 37;
     static constexpr std::uint32_t kFormatVersion = 1;
 
-    // Builds the table (seconds).
-    static AtmosphereTable build(const AtmosphereTableInputs& inputs);
-    // Loads the cached table for these inputs, or builds and caches it. `rebuilt`, if given,
-    // says which happened. Throws SetupError only for bad inputs; an unusable cache is rebuilt.
-    static AtmosphereTable loadOrBuild(const AtmosphereTableInputs& inputs,
-                                       const std::filesystem::path& cacheDir,
+    // Builds the table (seconds), with the atmosphere's data from configDir.
+    static AtmosphereTable build(const AtmosphereTableInputs& inputs,
+                                 const std::filesystem::path& configDir);
+    // Loads the cached table for these inputs from dirs.cache, or builds it and caches it there
+    // (an empty dirs.cache: builds it, caches nothing). `rebuilt`, if given, says which
+    // happened. Throws SetupError only for bad inputs; an unusable cache is rebuilt.
+    static AtmosphereTable loadOrBuild(const AtmosphereTableInputs& inputs, const DataDirs& dirs,
                                        bool* rebuilt = nullptr);
     // The cache key (hash of every input and the format version), as 16 hex digits.
     static std::string cacheKey(const AtmosphereTableInputs& inputs);

@@ -2,7 +2,6 @@
 
 #include <cmath>
 
-#include "sim/core/paths.h"
 #include "sim/core/photometry.h"
 #include "sim/core/units.h"
 #include "sim/sky/solar.h"
@@ -29,11 +28,12 @@ double lunarPhaseLaw(double phaseAngle_rad) {
     return std::pow(10.0, -0.4 * dm) * oppositionSurge(phaseAngle_rad);
 }
 
-MoonSource MoonSource::load() {
+MoonSource MoonSource::load(const std::filesystem::path& configDir) {
     MoonSource m;
-    const Spectrum sun = loadSolarSpectrum_W_m2_nm();
+    const Photometry photometry(configDir);
+    const Spectrum sun = loadSolarSpectrum_W_m2_nm(configDir);
     const TabulatedSpectrum albedo = loadSpectrumCsv(
-        configDir() / "spectra" / "lunar_albedo_velikodsky2011.csv", "wavelength_nm", "albedo_rel");
+        configDir / "spectra" / "lunar_albedo_velikodsky2011.csv", "wavelength_nm", "albedo_rel");
     // Above 1000 nm (end of the table) the albedo is held: the lunar spectrum flattens into the
     // 1 µm pyroxene band there (Velikodsky's highland/mare columns rise by < 5 % to 1050 nm).
     const Spectrum shape = albedo.resample(Extrapolation::Clamp);
@@ -43,7 +43,7 @@ MoonSource MoonSource::load() {
     Spectrum e = sun * shape * (omega0_sr / kPi);
     // Step 2: scale so that the photopic illuminance is that of V = −12.73 (α = 0, no surge).
     const double target_lux = illuminanceFromVMagnitude_lux(krisciunasSchaeferMagnitude(0.0));
-    const double c = target_lux / photometricIntegral(e);
+    const double c = target_lux / photometry.photometricIntegral(e);
     m.reference_ = e * c;
     m.reflectance_ = shape * c;
     m.referenceIlluminance_lux_ = target_lux;

@@ -18,6 +18,8 @@
 //          (Kieffer & Stone 2005, AJ 129, 2887, p1) and amplitude B = 0.10 (see docs).
 // Phase-dependent reddening (a few % across the band) is not modelled: Φ is grey.
 
+#include <filesystem>
+
 #include "sim/astro/ephemeris.h"
 #include "sim/core/spectrum.h"
 
@@ -43,8 +45,9 @@ double lunarPhaseLaw(double phaseAngle_rad);
 
 class MoonSource {
   public:
-    // Setup: loads the solar spectrum and the albedo shape, sets the absolute scale.
-    static MoonSource load();
+    // Setup: loads the solar spectrum, the albedo shape and V(λ) from configDir, sets the
+    // absolute scale.
+    static MoonSource load(const std::filesystem::path& configDir);
 
     // E(λ) at α = 0 (no surge), Sun at 1 au, Moon at mean distance [W m⁻² nm⁻¹].
     const Spectrum& referenceIrradiance_W_m2_nm() const { return reference_; }

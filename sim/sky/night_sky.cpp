@@ -3,7 +3,6 @@
 #include <cmath>
 #include <string>
 
-#include "sim/core/paths.h"
 #include "sim/core/photometry.h"
 #include "sim/core/planck.h"
 #include "sim/core/units.h"
@@ -48,8 +47,8 @@ Spectrum box(double centre_nm, double width_nm) {
 }
 
 // A component with the given spectral shape scaled to an illuminance π ∫L V K_m.
-Spectrum scaledToLux(Spectrum shape, double lux) {
-    return shape * (lux / (kPi * photometricIntegral(shape)));
+Spectrum scaledToLux(const Photometry& photometry, Spectrum shape, double lux) {
+    return shape * (lux / (kPi * photometry.photometricIntegral(shape)));
 }
 
 }  // namespace
@@ -77,9 +76,10 @@ double rayleighToRadiance_W_m2_sr(double intensity_R, double wavelength_nm) {
     return photons * kPlanck_J_s * kSpeedOfLight_m_s / (wavelength_nm * kMPerNm);
 }
 
-NightSkyModel NightSkyModel::load() {
+NightSkyModel NightSkyModel::load(const std::filesystem::path& configDir) {
     NightSkyModel m;
-    const auto path = configDir() / "spectra" / "night_sky_thesis_appendix_g.csv";
+    const Photometry photometry(configDir);
+    const auto path = configDir / "spectra" / "night_sky_thesis_appendix_g.csv";
     const TabulatedSpectrum g = loadSpectrumCsv(path, "wavelength_um", "radiance_W_cm-2_sr-1_um-1");
     // Clamp: the first grid bin [349.5, 350.5] nm starts half a nanometre before the table.
     m.measured_ = g.resample(Extrapolation::Clamp);
@@ -93,9 +93,9 @@ NightSkyModel NightSkyModel::load() {
         residual -= box(l.wavelength_nm, kLineBox_nm) * e;
     }
     // Step 2: continua with published illuminances and assumed shapes.
-    Spectrum star =
-        scaledToLux(planckRadiance_W_m2_sr_nm(kStarlightColourTemperature_K), kStarlight_lux);
-    Spectrum zodi = scaledToLux(loadSolarSpectrum_W_m2_nm(), kZodiacal_lux);
+    Spectrum star = scaledToLux(
+        photometry, planckRadiance_W_m2_sr_nm(kStarlightColourTemperature_K), kStarlight_lux);
+    Spectrum zodi = scaledToLux(photometry, loadSolarSpectrum_W_m2_nm(configDir), kZodiacal_lux);
     residual -= star;
     residual -= zodi;
     m.components_[static_cast<int>(NightSkyComponent::Starlight)] = star;
@@ -110,7 +110,7 @@ NightSkyModel NightSkyModel::load() {
     }
     m.components_[static_cast<int>(NightSkyComponent::OhAndContinuum)] = residual;
     for (int c = 0; c < kNightSkyComponentCount; ++c)
-        m.componentLux_[c] = kPi * photometricIntegral(m.components_[c]);
+        m.componentLux_[c] = kPi * photometry.photometricIntegral(m.components_[c]);
     return m;
 }
 

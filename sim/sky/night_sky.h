@@ -17,6 +17,7 @@
 // table's resolution), so the residual stays smooth and the total is preserved.
 
 #include <array>
+#include <filesystem>
 
 #include "sim/core/spectrum.h"
 
@@ -44,9 +45,9 @@ double rayleighToRadiance_W_m2_sr(double intensity_R, double wavelength_nm);
 
 class NightSkyModel {
   public:
-    // Setup: loads Appendix G and the solar spectrum, builds the components; throws SetupError if
-    // a component would make the residual negative.
-    static NightSkyModel load();
+    // Setup: loads Appendix G, the solar spectrum and V(λ) from configDir, builds the
+    // components; throws SetupError if a component would make the residual negative.
+    static NightSkyModel load(const std::filesystem::path& configDir);
 
     const Spectrum& measured_W_m2_sr_nm() const { return measured_; }
     const Spectrum& component(NightSkyComponent c) const {

@@ -13,10 +13,10 @@ Spectrum photoelectronWeight(const Spectrum& quantumEfficiency) {
            quantumEfficiency;
 }
 
-SkyModel SkyModel::create(const SkyModelConfig& config, bool* tableRebuilt) {
+SkyModel SkyModel::create(const SkyModelConfig& config, const DataDirs& dirs, bool* tableRebuilt) {
     SkyModel m;
-    m.moon_ = MoonSource::load();
-    const NightSkyModel night = NightSkyModel::load();
+    m.moon_ = MoonSource::load(dirs.config);
+    const NightSkyModel night = NightSkyModel::load(dirs.config);
 
     AtmosphereTableInputs in;
     in.atmosphere = config.atmosphere;
@@ -33,10 +33,10 @@ SkyModel SkyModel::create(const SkyModelConfig& config, bool* tableRebuilt) {
     night.radiance(airglow, in.nightSky.airglowRadiance_W_m2_sr_nm);
     night.radiance(continuum, in.nightSky.continuumRadiance_W_m2_sr_nm);
 
-    in.bands.push_back({"lux", photopicV() * kLuminousEfficacy_lm_W});
+    in.bands.push_back({"lux", Photometry(dirs.config).photopicV() * kLuminousEfficacy_lm_W});
     for (const SkyBand& b : config.extraBands)
         in.bands.push_back(b);
-    m.table_ = AtmosphereTable::loadOrBuild(in, config.cacheDir, tableRebuilt);
+    m.table_ = AtmosphereTable::loadOrBuild(in, dirs, tableRebuilt);
     return m;
 }
 

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "sim/astro/ephemeris.h"
+#include "sim/core/paths.h"
 #include "sim/sky/atmosphere_table.h"
 #include "sim/sky/moon.h"
 #include "sim/sky/night_sky.h"
@@ -25,7 +26,6 @@ struct SkyModelConfig {
     NightSkyScales nightSky;
     // Bands besides "lux" (683·V(λ)), e.g. a camera's photoelectron band QE(λ)·λ/(hc).
     std::vector<SkyBand> extraBands;
-    std::filesystem::path cacheDir = defaultCacheDir();
 };
 
 struct HorizontalTerms {
@@ -39,8 +39,10 @@ class SkyModel {
   public:
     static constexpr int kLuxBand = 0;
 
-    // Setup: loads the sources and the (cached) atmosphere table; throws SetupError.
-    static SkyModel create(const SkyModelConfig& config, bool* tableRebuilt = nullptr);
+    // Setup: loads the sources from dirs.config and the atmosphere table cached in dirs.cache;
+    // throws SetupError.
+    static SkyModel create(const SkyModelConfig& config, const DataDirs& dirs,
+                           bool* tableRebuilt = nullptr);
 
     const AtmosphereTable& table() const { return table_; }
     const MoonSource& moon() const { return moon_; }

@@ -21,6 +21,7 @@
 #include "rt/compose/scenario.h"
 #include "sim/core/error.h"
 #include "sim/sensor/chain.h"
+#include "tests/sim/core/test_paths.h"
 
 namespace {
 std::atomic<long> gAllocations{0};
@@ -73,10 +74,15 @@ namespace {
 
 using sensor::CameraParams;
 
+GammaTableCache& gammaTables() {
+    static GammaTableCache tables;
+    return tables;
+}
+
 CameraParams preset(sensor::Overrides ov) {
     ov["width"] = "64";
     ov["height"] = "48";
-    return sensor::loadCamera("pulnix-ag5745ef3", ov);
+    return sensor::loadCamera(test::configDir(), "pulnix-ag5745ef3", ov);
 }
 
 struct Frame {
@@ -89,8 +95,9 @@ struct Frame {
 
 TEST(IiccdCameraStage, PresetControlsAreTheChainBitForBit) {
     const CameraParams cam = preset({});  // shot noise, MCP noise, phosphor, MTF, field weave
-    IiccdCameraStage stage(cam, "flat", 7, IiccdCameraStage::Controls::Preset);
-    sensor::IiccdChain chain(cam, 7);
+    IiccdCameraStage stage(cam, "flat", 7, IiccdCameraStage::Controls::Preset, test::configDir(),
+                           gammaTables());
+    sensor::IiccdChain chain(cam, 7, test::configDir(), gammaTables());
     Frame f(64, 48, 0.0f);
     ImageF lpe(64, 48);
     for (int k = 0; k < 6; ++k) {
@@ -117,8 +124,10 @@ TEST(IiccdCameraStage, PresetControlsAreTheChainBitForBit) {
 // applied comes back in the frame's metadata.
 TEST(IiccdCameraStage, PlatformStateIsTheChainsCommand) {
     const CameraParams cam = preset({});
-    IiccdCameraStage stage(cam, "flat", 5, IiccdCameraStage::Controls::Platform);
-    sensor::IiccdChain chain(cam, 5, {}, sensor::ControlSource::Command);
+    IiccdCameraStage stage(cam, "flat", 5, IiccdCameraStage::Controls::Platform, test::configDir(),
+                           gammaTables());
+    sensor::IiccdChain chain(cam, 5, test::configDir(), gammaTables(), {},
+                             sensor::ControlSource::Command);
     Frame f(64, 48, 3e-7f);
     ImageF lpe(64, 48);
     lpe.fill(3e-7f * static_cast<float>(stage.lpePerRadiance()));
@@ -145,7 +154,8 @@ TEST(IiccdCameraStage, PlatformStateIsTheChainsCommand) {
 
 TEST(IiccdCameraStage, ExposeAllocatesNothing) {
     const CameraParams cam = preset({{"agc", "agc"}});
-    IiccdCameraStage stage(cam, "moon", 3, IiccdCameraStage::Controls::Platform);
+    IiccdCameraStage stage(cam, "moon", 3, IiccdCameraStage::Controls::Platform, test::configDir(),
+                           gammaTables());
     Frame f(64, 48, 3e-7f);
     stage.expose(f.req, RadianceFrame{{}, f.radiance.cview()}, f.counts.view(), f.applied);
     const long before = gAllocations.load();
@@ -163,7 +173,7 @@ TEST(ScenarioCamera, PresetSetsSizeDepthAndRateUnlessGiven) {
     const Scenario a = parseScenario(
         "[scenario]\nname = \"a\"\n[camera]\npreset = \"pulnix-ag5745ef3\"\n"
         "[[source]]\nkind = \"test_pattern\"\n",
-        "a.toml");
+        "a.toml", test::configDir());
     ASSERT_TRUE(a.camera.enabled);
     EXPECT_EQ(a.width, 768);
     EXPECT_EQ(a.height, 494);
@@ -176,7 +186,7 @@ TEST(ScenarioCamera, PresetSetsSizeDepthAndRateUnlessGiven) {
         "[camera]\npreset = \"pulnix-ag5745ef3\"\nset = [\"video.scan=frame\"]\n"
         "spectrum = \"blackbody:2856\"\nseed = 5\ncontrols = \"preset\"\n"
         "[[source]]\nkind = \"test_pattern\"\n",
-        "b.toml");
+        "b.toml", test::configDir());
     EXPECT_EQ(b.camera.params.width, 96);
     EXPECT_EQ(b.camera.params.height, 64);
     EXPECT_DOUBLE_EQ(b.camera.params.field_rate_Hz, 60.0);  // frame scan: two fields a frame
@@ -189,7 +199,7 @@ TEST(ScenarioCamera, PresetSetsSizeDepthAndRateUnlessGiven) {
 TEST(ScenarioCamera, BadCameraTablesNameTheFileAndLine) {
     const auto expectError = [](const std::string& text, const std::string& needle) {
         try {
-            parseScenario(text, "bad.toml");
+            parseScenario(text, "bad.toml", test::configDir());
             ADD_FAILURE() << "no error for: " << text;
         } catch (const SetupError& e) {
             EXPECT_NE(std::string(e.what()).find(needle), std::string::npos) << e.what();

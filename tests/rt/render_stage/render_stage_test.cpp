@@ -8,6 +8,7 @@
 
 #include "sim/core/error.h"
 #include "sim/core/units.h"
+#include "tests/sim/core/test_paths.h"
 
 namespace nvs::rt {
 namespace {
@@ -18,15 +19,15 @@ std::filesystem::path rit(const char* name) {
 
 // The RIT scenario `name`, rendered with coarse tiles of `coarse` on `threads` threads.
 Scenario ritScenario(const char* name, int coarse, int threads) {
-    Scenario sc = loadScenario(rit(name));
+    Scenario sc = loadScenario(rit(name), test::configDir());
     sc.renderCoarse = coarse;
     sc.renderThreads = threads;
     return sc;
 }
 
 TEST(SceneRenderStage, SamePixelsAsTheRendererWithOneAndTwoThreads) {
-    auto one = SceneRenderStage::create(ritScenario("nolight.toml", 1, 1));
-    auto two = SceneRenderStage::create(ritScenario("nolight.toml", 1, 2));
+    auto one = SceneRenderStage::create(ritScenario("nolight.toml", 1, 1), test::dataDirs());
+    auto two = SceneRenderStage::create(ritScenario("nolight.toml", 1, 2), test::dataDirs());
     ImageF a(768, 494), b(768, 494), direct(768, 494), band(768, 494), bandA(768, 494);
     FrameRequest req;
     req.t_sample_s = 0.0;
@@ -34,7 +35,7 @@ TEST(SceneRenderStage, SamePixelsAsTheRendererWithOneAndTwoThreads) {
     FrameMeta ma, mb;
     one->render(req, RadianceTarget{a.view(), bandA.view()}, ma);
     two->render(req, RadianceTarget{b.view(), {}}, mb);
-    auto sr = ScenarioRenderer::create(rit("nolight.toml"), 1);
+    auto sr = ScenarioRenderer::create(rit("nolight.toml"), test::dataDirs(), 1);
     render::SerialExecutor exec;
     sr->renderer().render(sr->prepare(0.0), direct.view(), band.view(), exec);
     double sum = 0.0;
@@ -51,7 +52,7 @@ TEST(SceneRenderStage, SamePixelsAsTheRendererWithOneAndTwoThreads) {
 }
 
 TEST(SceneRenderStage, TelemetryPoseIsPlacedInTheSceneFrame) {
-    auto s = SceneRenderStage::create(ritScenario("nolight.toml", 4, 1));
+    auto s = SceneRenderStage::create(ritScenario("nolight.toml", 4, 1), test::dataDirs());
     const auto& site = s->scenario().scenario().scene.site;
     PlatformState p;
     p.lat_deg = site.lat_deg;
@@ -82,7 +83,7 @@ TEST(SceneRenderStage, TelemetryPoseIsPlacedInTheSceneFrame) {
 }
 
 TEST(SceneRenderStage, LampMaskSwitchesLamps) {
-    auto s = SceneRenderStage::create(ritScenario("stlamp.toml", 4, 1));
+    auto s = SceneRenderStage::create(ritScenario("stlamp.toml", 4, 1), test::dataDirs());
     ASSERT_NE(s->initialLampMask(), 0u);
     ImageF on(768, 494), off(768, 494);
     FrameRequest req;
@@ -102,9 +103,9 @@ TEST(SceneRenderStage, LampMaskSwitchesLamps) {
 }
 
 TEST(SceneRenderStage, AScenarioWithoutASceneIsASetupError) {
-    Scenario sc = loadScenario(rit("nolight.toml"));
+    Scenario sc = loadScenario(rit("nolight.toml"), test::configDir());
     sc.rendered = false;
-    EXPECT_THROW(SceneRenderStage::create(sc), SetupError);
+    EXPECT_THROW(SceneRenderStage::create(sc, test::dataDirs()), SetupError);
 }
 
 }  // namespace

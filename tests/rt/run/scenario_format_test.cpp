@@ -8,6 +8,7 @@
 #include "rt/compose/scenario.h"
 #include "rt/run/run.h"
 #include "sim/core/error.h"
+#include "tests/sim/core/test_paths.h"
 
 namespace nvs::rt {
 namespace {
@@ -33,7 +34,7 @@ std::string rendered(const std::string& extra) {
 
 std::string errorOf(const fs::path& dir) {
     try {
-        loadScenario(dir);
+        loadScenario(dir, test::configDir());
     } catch (const SetupError& e) {
         return e.what();
     }
@@ -44,7 +45,7 @@ TEST(ScenarioFormat, ShippedScenariosLoad) {
     int n = 0;
     for (const auto& e : fs::directory_iterator(fs::path(NVS_SOURCE_DIR) / "scenarios")) {
         if (!fs::exists(e.path() / "scenario.toml")) continue;
-        const Scenario sc = loadScenario(e.path());
+        const Scenario sc = loadScenario(e.path(), test::configDir());
         EXPECT_TRUE(sc.rendered) << e.path();
         EXPECT_FALSE(sc.group.empty()) << e.path();
         EXPECT_TRUE(sc.duration_s.has_value()) << e.path();
@@ -56,7 +57,8 @@ TEST(ScenarioFormat, ShippedScenariosLoad) {
 
 TEST(ScenarioFormat, RitRenderScenariosLoadWithTheirSiteAndPreset) {
     for (const char* name : {"nolight", "tghg", "stlamp", "full_moon"}) {
-        const Scenario sc = loadScenario(kRit.parent_path() / (std::string(name) + ".toml"));
+        const Scenario sc =
+            loadScenario(kRit.parent_path() / (std::string(name) + ".toml"), test::configDir());
         EXPECT_TRUE(sc.rendered);
         EXPECT_NEAR(sc.scene.site.lat_deg, 43.16856, 1e-9);
         EXPECT_NEAR(sc.scene.site.lon_deg, -77.61583, 1e-9);
@@ -144,6 +146,7 @@ TEST(ScenarioFormat, UnknownLampInAnEventFailsAtRunSetup) {
         "nvs_sf_lamp", rendered("[[event]]\nt_s = 0.5\nlamp = \"moon_lamp\"\non = true\n"));
     RunRequest req;
     req.scenario = d.string();
+    req.dirs = test::dataDirs();
     req.clock = ClockKind::Sim;
     try {
         runScenario(req, stderr);
@@ -163,23 +166,23 @@ std::string pattern(const std::string& scenarioExtra, const std::string& tables)
 // Pacing modes: scan = progressive | interlaced; the rate given is the output frame rate, and a
 // camera preset is driven once per field (twice the frame rate) when interlaced.
 TEST(ScenarioFormat, ScanSelectsThePacingMode) {
-    Scenario sc = parseScenario(pattern("", ""), "p.toml");
+    Scenario sc = parseScenario(pattern("", ""), "p.toml", test::configDir());
     EXPECT_EQ(sc.scan, ScanKind::Progressive);
     EXPECT_EQ(sc.rate.num, 60);
-    sc = parseScenario(pattern("scan = \"interlaced\"\n", ""), "p.toml");
+    sc = parseScenario(pattern("scan = \"interlaced\"\n", ""), "p.toml", test::configDir());
     EXPECT_EQ(sc.scan, ScanKind::Interlaced);
     EXPECT_EQ(sc.rate.num, 30);  // 30 Hz frames of 60 Hz fields without a camera
     // The field-scan NTSC preset: 29.97 Hz frames, the camera at 59.94 fields/s.
     sc = parseScenario(pattern("scan = \"interlaced\"\nwidth = 64\nheight = 48\n",
                                "[camera]\npreset = \"pulnix-ag5745ef3\"\n"),
-                       "p.toml");
+                       "p.toml", test::configDir());
     EXPECT_EQ(sc.rate.num, 30000);
     EXPECT_EQ(sc.rate.den, 1001);
     EXPECT_NEAR(sc.camera.params.field_rate_Hz, 60000.0 / 1001.0, 1e-9);
     // Progressive with the same preset keeps the field-rate loop (one field per frame).
     sc = parseScenario(
-        pattern("width = 64\nheight = 48\n", "[camera]\npreset = \"pulnix-ag5745ef3\"\n"),
-        "p.toml");
+        pattern("width = 64\nheight = 48\n", "[camera]\npreset = \"pulnix-ag5745ef3\"\n"), "p.toml",
+        test::configDir());
     EXPECT_EQ(sc.rate.num, 60000);
     EXPECT_NEAR(sc.camera.params.field_rate_Hz, 60000.0 / 1001.0, 1e-9);
 }
@@ -187,7 +190,7 @@ TEST(ScenarioFormat, ScanSelectsThePacingMode) {
 TEST(ScenarioFormat, BadScanAndTriggerNameFileAndLine) {
     const auto err = [](const std::string& text) {
         try {
-            parseScenario(text, "s.toml");
+            parseScenario(text, "s.toml", test::configDir());
         } catch (const SetupError& e) {
             return std::string(e.what());
         }
@@ -203,8 +206,8 @@ TEST(ScenarioFormat, BadScanAndTriggerNameFileAndLine) {
     EXPECT_NE(msg.find("s.toml:6"), std::string::npos) << msg;
     msg = err(pattern("", "[runtime]\ntrigger = \"can:vcan0\"\n"));
     EXPECT_NE(msg.find("gpio:CHIP:LINE"), std::string::npos) << msg;
-    const Scenario sc =
-        parseScenario(pattern("", "[runtime]\ntrigger = \"gpio:gpiochip0:18\"\n"), "s.toml");
+    const Scenario sc = parseScenario(pattern("", "[runtime]\ntrigger = \"gpio:gpiochip0:18\"\n"),
+                                      "s.toml", test::configDir());
     ASSERT_TRUE(sc.trigger.has_value());
     EXPECT_EQ(*sc.trigger, "gpio:gpiochip0:18");
 }

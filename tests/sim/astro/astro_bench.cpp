@@ -6,6 +6,7 @@
 #include "sim/astro/ephemeris.h"
 #include "sim/sky/moon.h"
 #include "sim/sky/night_sky.h"
+#include "tests/sim/core/test_paths.h"
 
 namespace {
 
@@ -18,8 +19,8 @@ void BM_EphemerisAndSourcesPerFrame(benchmark::State& state) {
     site.height_m = 218.0;
     const astro::Ephemeris eph(site);
     const astro::AstroTime t0 = astro::astroTimeFromUtc(astro::parseIsoUtc("1998-09-06T03:00Z"));
-    const sky::MoonSource moon = sky::MoonSource::load();
-    const sky::NightSkyModel night = sky::NightSkyModel::load();
+    const sky::MoonSource moon = sky::MoonSource::load(test::configDir());
+    const sky::NightSkyModel night = sky::NightSkyModel::load(test::configDir());
     Spectrum moonSpectrum, skySpectrum;
     const sky::NightSkyScales scales;
     long long frame = 0;

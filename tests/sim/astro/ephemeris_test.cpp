@@ -122,5 +122,76 @@ TEST(EphemerisVsPyEphem, PositionsAgreeWithin0p02DegOver1950To2100) {
     EXPECT_LE(phase.value, 0.005) << phase.where;
 }
 
+// One context per instant (prepare) for the Sun/Moon and the stars gives the numbers of the
+// separate calls, bit for bit, at instants prepared out of order; both give the values this
+// code gave before the context was shared (C99 hex floats, printed by that code; to 1e-12 here
+// so that another libm's last bit does not fail it).
+TEST(Ephemeris, SharedContextGivesTheSeparateCallsNumbers) {
+    Site site;
+    site.lat_deg = 43.16856;
+    site.lon_deg = -77.61583;
+    site.height_m = 218.0;
+    const Ephemeris eph(site);
+    const double ra[3] = {1.7677943, 1.5497299, 4.8735582};
+    const double dec[3] = {-0.2917513, 0.1292776, 0.6769031};
+    struct Expected {
+        const char* utc;
+        double sunAz, sunAlt, moonAz, moonAlt, moonPhase, moonDistance_m;
+        double starAz[3], starAlt[3];
+    };
+    const Expected expected[2] = {
+        {"1998-09-03T01:00Z",
+         0x1.498eea0c86a09p+2,
+         -0x1.f505ad80bc1cp-3,
+         0x1.68d0a32fe88f3p+1,
+         0x1.d0100a6195759p-2,
+         0x1.9258c2954991bp-1,
+         0x1.67fa316206ce3p+28,
+         {0x1.8d874b7f342a7p+2, 0x1.e10dbea94605bp-3, 0x1.95024f9197762p+1},
+         {-0x1.1bb24888ad444p+0, -0x1.583546e91c68p-1, 0x1.7e8e7eb206d4p+0}},
+        {"2024-01-25T17:54:00Z",
+         0x1.a4c33e673fe52p+1,
+         0x1.eb4b62611adb7p-2,
+         0x1.d22d8b4e25951p-4,
+         -0x1.a90355a76014p-2,
+         0x1.565c5ba29b126p-4,
+         0x1.80d80da03a29ep+28,
+         {0x1.02fde1a05d916p+0, 0x1.cf8768866ccb1p-1, 0x1.312c70e1b2f4ep+2},
+         {-0x1.c7a1eb2f153ecp-1, -0x1.b22a6bf15b608p-2, 0x1.182663168383cp+0}},
+    };
+    const AstroTime t0 = astroTimeFromUtc(parseIsoUtc(expected[0].utc, "t0"));
+    const AstroTime t1 = astroTimeFromUtc(parseIsoUtc(expected[1].utc, "t1"));
+    const AstrometryContext c1 = eph.prepare(t1);  // out of order: no state between calls
+    const AstrometryContext c0 = eph.prepare(t0);
+    const AstroTime times[2] = {t0, t1};
+    const AstrometryContext* contexts[2] = {&c0, &c1};
+    for (int i = 0; i < 2; ++i) {
+        const Expected& e = expected[i];
+        const SunMoonState shared = eph.compute(*contexts[i]);
+        const SunMoonState separate = eph.compute(times[i]);
+        double azShared[3], altShared[3], azSeparate[3], altSeparate[3];
+        eph.stars(*contexts[i], ra, dec, 3, azShared, altShared);
+        eph.stars(times[i], ra, dec, 3, azSeparate, altSeparate);
+        EXPECT_EQ(shared.sun.az_rad, separate.sun.az_rad) << e.utc;
+        EXPECT_EQ(shared.sun.alt_rad, separate.sun.alt_rad) << e.utc;
+        EXPECT_EQ(shared.moon.az_rad, separate.moon.az_rad) << e.utc;
+        EXPECT_EQ(shared.moon.alt_rad, separate.moon.alt_rad) << e.utc;
+        EXPECT_EQ(shared.moon.phaseAngle_rad, separate.moon.phaseAngle_rad) << e.utc;
+        EXPECT_EQ(shared.moon.distanceTopocentric_m, separate.moon.distanceTopocentric_m);
+        EXPECT_NEAR(shared.sun.az_rad, e.sunAz, 1e-12) << e.utc;
+        EXPECT_NEAR(shared.sun.alt_rad, e.sunAlt, 1e-12) << e.utc;
+        EXPECT_NEAR(shared.moon.az_rad, e.moonAz, 1e-12) << e.utc;
+        EXPECT_NEAR(shared.moon.alt_rad, e.moonAlt, 1e-12) << e.utc;
+        EXPECT_NEAR(shared.moon.phaseAngle_rad, e.moonPhase, 1e-12) << e.utc;
+        EXPECT_NEAR(shared.moon.distanceTopocentric_m, e.moonDistance_m, 1e-3) << e.utc;
+        for (int k = 0; k < 3; ++k) {
+            EXPECT_EQ(azShared[k], azSeparate[k]) << e.utc << " star " << k;
+            EXPECT_EQ(altShared[k], altSeparate[k]) << e.utc << " star " << k;
+            EXPECT_NEAR(azShared[k], e.starAz[k], 1e-12) << e.utc << " star " << k;
+            EXPECT_NEAR(altShared[k], e.starAlt[k], 1e-12) << e.utc << " star " << k;
+        }
+    }
+}
+
 }  // namespace
 }  // namespace nvs::astro

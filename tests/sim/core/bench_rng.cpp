@@ -31,7 +31,8 @@ void BM_PoissonRow(benchmark::State& state) {
 BENCHMARK(BM_PoissonRow)->Arg(1)->Arg(30)->Arg(100)->Arg(300)->Arg(800)->Arg(2000)->Arg(6000);
 
 void BM_GammaTable(benchmark::State& state) {
-    const auto table = nvs::GammaTable::forShapeStep(1.0 / 0.6);
+    nvs::GammaTableCache tables;
+    const auto table = tables.forShapeStep(1.0 / 0.6);
     std::vector<float> n(kWidth), out(kWidth);
     for (int x = 0; x < kWidth; ++x)
         n[static_cast<std::size_t>(x)] = static_cast<float>(1 + x % state.range(0));

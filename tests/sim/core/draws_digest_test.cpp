@@ -41,7 +41,8 @@ TEST(Draws, SameBitsOnEveryTarget) {
         normalsFromWords(words.data(), out.data(), w);
         d.bytes(out.data(), out.size() * sizeof(float));
     }
-    const auto table = GammaTable::forShapeStep(1.0 / 0.6);
+    GammaTableCache tables;
+    const auto table = tables.forShapeStep(1.0 / 0.6);
     for (int y = 0; y < 16; ++y) {
         PixelRng(0x5eed, RngStream::McpGain, 7)
             .rowWords(static_cast<std::uint32_t>(y), 0, 0, (w + 3) / 4, words.data());

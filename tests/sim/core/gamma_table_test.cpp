@@ -9,6 +9,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <string>
 #include <vector>
 
@@ -39,7 +40,8 @@ TEST(GammaTable, WordsMapToTheOpenUnitInterval) {
 TEST(GammaTable, QuantilesMatchGslWithin1em4) {
     for (double f : {1.6, 2.0}) {
         const double k = 1.0 / (f - 1.0);
-        const auto table = GammaTable::forShapeStep(k);
+        GammaTableCache tables;
+        const auto table = tables.forShapeStep(k);
         const PixelRng rng(3, RngStream::Test, 0);
         std::vector<std::uint32_t> words(4096);
         double worst = 0.0;
@@ -65,7 +67,8 @@ TEST(GammaTable, QuantilesMatchGslWithin1em4) {
 // gammaTableDraws: θ·quantile bit for bit for whole N from 1 to kMaxN, 0 for N = 0, −1 (left to
 // the caller) for a fraction or N > kMaxN; any length, not only whole vectors.
 TEST(GammaTable, RowDrawsEqualSingleQuantiles) {
-    const auto table = GammaTable::forShapeStep(1.0 / 0.6);
+    GammaTableCache tables;
+    const auto table = tables.forShapeStep(1.0 / 0.6);
     const int m = 1000 + 7;
     std::vector<float> n(m), out(m);
     std::vector<std::uint32_t> words(1008);
@@ -93,7 +96,8 @@ TEST(GammaTable, RowDrawsEqualSingleQuantiles) {
 // value for 10⁶ samples (1.95/√n).
 TEST(GammaTable, DrawsHaveTheGammaLaw) {
     const double k = 1.0 / 0.6;
-    const auto table = GammaTable::forShapeStep(k);
+    GammaTableCache tables;
+    const auto table = tables.forShapeStep(k);
     const int count = 1 << 20;
     std::vector<std::uint32_t> words(static_cast<std::size_t>(count));
     PixelRng(9, RngStream::Test, 0).rowWords(0, 0, 0, count / 4, words.data());
@@ -125,6 +129,25 @@ TEST(GammaTable, DrawsHaveTheGammaLaw) {
         std::printf("N = %d: mean %.5f (%.5f), variance %.5f (%.5f), KS %.2e\n", n, mean, a, var, a,
                     ks);
     }
+}
+
+// A cache builds one table per shape step and hands the same one to every caller; another
+// cache (another runtime or test) has its own.
+TEST(GammaTableCache, SharesOneTablePerShapeStep) {
+    GammaTableCache a, b;
+    const auto t1 = a.forShapeStep(1.0 / 0.6);
+    const auto t2 = a.forShapeStep(1.0 / 0.6);
+    const auto t3 = a.forShapeStep(1.0);
+    const auto t4 = b.forShapeStep(1.0 / 0.6);
+    EXPECT_EQ(t1.get(), t2.get());
+    EXPECT_NE(t1.get(), t3.get());
+    EXPECT_NE(t1.get(), t4.get());
+    EXPECT_DOUBLE_EQ(t3->shapeStep(), 1.0);
+    EXPECT_EQ(
+        std::memcmp(t1->data(), t4->data(),
+                    sizeof(float) *
+                        (static_cast<std::size_t>(GammaTable::kMaxN) * GammaTable::kPerShape + 1)),
+        0);
 }
 
 }  // namespace

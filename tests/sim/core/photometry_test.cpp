@@ -11,8 +11,14 @@
 namespace nvs {
 namespace {
 
+// V(λ) from the source tree's config/ (loaded once for this file's tests).
+const Photometry& photometry() {
+    static const Photometry p(test::configDir());
+    return p;
+}
+
 TEST(Photometry, VPeaksAtOneAt555nm) {
-    const Spectrum& v = photopicV();
+    const Spectrum& v = photometry().photopicV();
     EXPECT_NEAR(v.at_nm(555.0), 1.0, 1e-4);
     EXPECT_NEAR(v.at_nm(507.0), 0.4443, 1e-3);  // CIE 1924 table
     EXPECT_EQ(v.at_nm(800.0), 0.0);
@@ -23,7 +29,7 @@ TEST(Photometry, VPeaksAtOneAt555nm) {
 TEST(Photometry, MonochromaticWattAt555nmIs683Lumens) {
     Spectrum s;
     s[555 - 350] = 1.0;  // 1 W in the 1 nm bin at 555 nm
-    EXPECT_NEAR(photometricIntegral(s), 683.0, 0.1);
+    EXPECT_NEAR(photometry().photometricIntegral(s), 683.0, 0.1);
 }
 
 // Luminous efficacy of radiation of a Planckian radiator, K(T) = Φv/Φe, with Φe = σT⁴ from the
@@ -31,7 +37,8 @@ TEST(Photometry, MonochromaticWattAt555nmIs683Lumens) {
 // 380–760 nm, inside the 350–1100 nm grid).
 double blackbodyEfficacy_lm_W(double t_K) {
     const Spectrum exitance = planckRadiance_W_m2_sr_nm(t_K) * kPi;
-    return photometricIntegral(exitance) / (kStefanBoltzmann_W_m2_K4 * std::pow(t_K, 4));
+    return photometry().photometricIntegral(exitance) /
+           (kStefanBoltzmann_W_m2_K4 * std::pow(t_K, 4));
 }
 
 // The candela of 1948–1979 was the luminance of a blackbody at the freezing point of platinum
@@ -39,7 +46,7 @@ double blackbodyEfficacy_lm_W(double t_K) {
 // and K_m together must give 60 cd/cm² (the platinum point is uncertain by a few K, ~0.5 %).
 TEST(Photometry, PlatinumPointBlackbodyIs60CandelaPerCm2) {
     const double t_K = 2042.0;
-    const double luminance_cd_m2 = photometricIntegral(planckRadiance_W_m2_sr_nm(t_K));
+    const double luminance_cd_m2 = photometry().photometricIntegral(planckRadiance_W_m2_sr_nm(t_K));
     EXPECT_NEAR(luminance_cd_m2 * 1e-4, 60.0, 0.6);
 }
 
@@ -66,7 +73,7 @@ TEST(Photometry, BlackbodyEfficacyMatchesPublishedValues) {
 TEST(Photometry, ThesisNightSkyIlluminance) {
     const TabulatedSpectrum m = loadSpectrumCsv(test::thesisData("night_sky_spectrum.csv"),
                                                 "wavelength_um", "irradiance_derived_W_m-2_um-1");
-    const double e_lx = photometricIntegral(m.resample());
+    const double e_lx = photometry().photometricIntegral(m.resample());
     RecordProperty("night_sky_lux", std::to_string(e_lx));
     EXPECT_NEAR(e_lx, 0.00121, 0.00121 * 0.05);
 }

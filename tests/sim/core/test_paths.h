@@ -1,7 +1,11 @@
 #pragma once
-// Paths the tests read: the thesis data tables (../shared/data/thesis) and the source tree.
+// Paths the tests read: the thesis data tables (../shared/data/thesis), the source tree, and the
+// data folders the tests hand to sim/ (the source tree's config/, the build tree's cache/: the
+// same folders ctest gives the `nvstim` runs through NVS_CONFIG_DIR and NVS_CACHE_DIR).
 
 #include <filesystem>
+
+#include "sim/core/paths.h"
 
 namespace nvs::test {
 
@@ -10,6 +14,12 @@ inline std::filesystem::path thesisData(const char* file) {
 }
 inline std::filesystem::path sourceDir() {
     return NVS_SOURCE_DIR;
+}
+inline std::filesystem::path configDir() {
+    return sourceDir() / "config";
+}
+inline DataDirs dataDirs() {
+    return DataDirs{configDir(), std::filesystem::path(NVS_BINARY_DIR) / "cache"};
 }
 
 }  // namespace nvs::test

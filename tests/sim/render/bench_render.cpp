@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "rt/compose/scene_setup.h"
+#include "tests/sim/core/test_paths.h"
 
 namespace {
 
@@ -88,7 +89,8 @@ Setup& setup() {
     static Setup s = [] {
         Setup r;
         r.sr = nvs::rt::ScenarioRenderer::create(
-            std::filesystem::path(NVS_SOURCE_DIR) / "scenarios/rit/stlamp.toml", 4);
+            std::filesystem::path(NVS_SOURCE_DIR) / "scenarios/rit/stlamp.toml",
+            nvs::test::dataDirs(), 4);
         r.sky = r.sr->prepare(0.0);
         r.embreeSingle = r.sr->renderer().measureEmbreePrimaryRate(5);
         r.embreePacket = r.sr->renderer().measureEmbreePacketRate(5);

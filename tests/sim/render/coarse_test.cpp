@@ -104,7 +104,8 @@ Diff compare(const ImageF& full, const ImageF& coarse, const std::vector<double>
 // largest single-pixel errors are on thin shadows (the 4 cm pole, ~3 px wide) which the coarse
 // nodes sample only every f pixels; they are reported, not bounded.
 TEST(CoarseTiles, RitSceneAfterTheCameraMtf) {
-    auto sr = ScenarioRenderer::create(test::sourceDir() / "scenarios/rit/stlamp.toml", 4);
+    auto sr = ScenarioRenderer::create(test::sourceDir() / "scenarios/rit/stlamp.toml",
+                                       test::dataDirs(), 4);
     const std::vector<double> k = psf(sr->camera());
     const FrameSky sky = sr->prepare(0.0);
     ImageF full(768, 494), coarse(768, 494), w(768, 494);
@@ -153,7 +154,7 @@ TEST(CoarseTiles, SharpShadowEdgesAfterTheCameraMtf) {
     addBox("post", {1.5, 0.5, 0}, {1.55, 0.55, 2});
     sc.camera.position_m = {0, -16, 12};
     sc.camera.target_m = {0, 1, 0};
-    const sensor::CameraParams cam = sensor::loadCamera("pulnix-ag5745ef3");
+    const sensor::CameraParams cam = sensor::loadCamera(test::configDir(), "pulnix-ag5745ef3");
     RenderConfig cfg = renderConfigFor(cam, 768, 494);
     cfg.moonShape = scene::greyReflectance(1.0);
     cfg.nightSkyShape = scene::greyReflectance(1.0);

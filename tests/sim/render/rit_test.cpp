@@ -29,7 +29,8 @@ constexpr double kDeg = 180.0 / kPi;
 constexpr int kW = 768, kH = 494;
 
 std::unique_ptr<ScenarioRenderer> open(const std::string& name) {
-    return ScenarioRenderer::create(test::sourceDir() / "scenarios/rit" / (name + ".toml"));
+    return ScenarioRenderer::create(test::sourceDir() / "scenarios/rit" / (name + ".toml"),
+                                    test::dataDirs());
 }
 
 int objectIndex(const ScenarioRenderer& sr, const std::string& name) {

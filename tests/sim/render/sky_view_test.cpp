@@ -31,7 +31,8 @@ Vec3 pixelDirection(const scene::CameraPose& p, const PinholeCamera& c, double p
 }
 
 TEST(SkyInView, MatchesTheAtmosphereTableAndTheMoonDisk) {
-    auto sr = ScenarioRenderer::create(test::sourceDir() / "scenarios/rit/nolight.toml");
+    auto sr = ScenarioRenderer::create(test::sourceDir() / "scenarios/rit/nolight.toml",
+                                       test::dataDirs());
     Renderer& r = sr->renderer();
     FrameSky sky = sr->prepare(0.0);
     sky.starCount = 0;  // stars in view: star_test.cpp

@@ -24,6 +24,12 @@ using rt::renderConfigFor;
 using rt::ScenarioRenderer;
 namespace {
 
+// V(λ) from the source tree's config/ (loaded once for this file's tests).
+const Photometry& photometry() {
+    static const Photometry p(test::configDir());
+    return p;
+}
+
 constexpr double kPi = 3.14159265358979323846;
 constexpr double kDeg = kPi / 180.0;
 
@@ -57,16 +63,17 @@ double perLux(const Spectrum& w, double temperature_K) {
         const double b =
             planckSpectralRadiance_W_m2_sr_nm(SpectralGrid::wavelength_nm(i), temperature_K);
         bw += b * w[i];
-        bv += b * photopicV()[i];
+        bv += b * photometry().photopicV()[i];
     }
     return bw / (683.0 * bv);
 }
 
 TEST(StarsInView, BrightStarGivesItsPhotoelectronFluxInItsPixel) {
-    auto sr = ScenarioRenderer::create(test::sourceDir() / "scenarios/rit/nolight.toml");
+    auto sr = ScenarioRenderer::create(test::sourceDir() / "scenarios/rit/nolight.toml",
+                                       test::dataDirs());
     Renderer& r = sr->renderer();
     const FrameSky sky = sr->prepare(0.0);
-    const StarCatalog cat = loadStarCatalog(defaultStarCatalogPath());
+    const StarCatalog cat = loadStarCatalog(starCatalogPath(test::configDir()));
     const auto& site = sr->scenario().scene.site;
     const astro::AstroTime t0 =
         astro::astroTimeFromUtc(astro::parseIsoUtc(sr->scenario().utcStart));
@@ -120,8 +127,9 @@ TEST(StarsInView, BrightStarGivesItsPhotoelectronFluxInItsPixel) {
 }
 
 TEST(StarsInView, FrameListsOnlyStarsAboveTheHorizon) {
-    auto sr = ScenarioRenderer::create(test::sourceDir() / "scenarios/rit/nolight.toml");
-    const StarCatalog cat = loadStarCatalog(defaultStarCatalogPath());
+    auto sr = ScenarioRenderer::create(test::sourceDir() / "scenarios/rit/nolight.toml",
+                                       test::dataDirs());
+    const StarCatalog cat = loadStarCatalog(starCatalogPath(test::configDir()));
     for (double t_s : {0.0, 6 * 3600.0, 12 * 3600.0}) {
         const FrameSky sky = sr->prepare(t_s);
         EXPECT_GT(sky.starCount, 5);

@@ -35,8 +35,8 @@ bool same(const Frame& a, const Frame& b) {
 
 TEST(StaticData, ReusedStateGivesTheImageOfAFreshRenderer) {
     const auto path = test::sourceDir() / "scenarios/rit/stlamp.toml";
-    auto a = ScenarioRenderer::create(path, 4);
-    auto b = ScenarioRenderer::create(path, 4);
+    auto a = ScenarioRenderer::create(path, test::dataDirs(), 4);
+    auto b = ScenarioRenderer::create(path, test::dataDirs(), 4);
     const FrameSky sky = a->prepare(0.0);
     (void)b->prepare(0.0);
     const int lamp = a->scene().lampIndex("street_lamp");
@@ -77,7 +77,7 @@ TEST(StaticData, ReusedStateGivesTheImageOfAFreshRenderer) {
     // Coarse factor 2 after 4 and 1: as fresh.
     a->renderer().setCoarseFactor(2);
     a->renderer().render(sky, fa.pe.view(), fa.w.view(), ex);
-    auto c = ScenarioRenderer::create(path, 4);
+    auto c = ScenarioRenderer::create(path, test::dataDirs(), 4);
     (void)c->prepare(0.0);
     c->renderer().setCoarseFactor(2);
     c->renderer().render(sky, fb.pe.view(), fb.w.view(), ex);
@@ -104,7 +104,7 @@ TEST(StaticData, MovingObjectGivesTheImageOfAFreshRenderer) {
     SerialExecutor ex;
     Frame fa, fb;
     for (int f : {1, 4}) {
-        auto a = ScenarioRenderer::create(path, 4);
+        auto a = ScenarioRenderer::create(path, test::dataDirs(), 4);
         a->renderer().setCoarseFactor(f);
         std::uint64_t fullPrimary = 0;
         for (double t : {0.0, 0.5, 0.6, 1.4}) {
@@ -118,7 +118,7 @@ TEST(StaticData, MovingObjectGivesTheImageOfAFreshRenderer) {
                 EXPECT_GT(primary, 0u) << t;
                 EXPECT_LT(primary, fullPrimary / 2) << t;
             }
-            auto b = ScenarioRenderer::create(path, 4);
+            auto b = ScenarioRenderer::create(path, test::dataDirs(), 4);
             b->renderer().setCoarseFactor(f);
             const FrameSky skyB = b->prepare(t);
             b->renderer().render(skyB, fb.pe.view(), fb.w.view(), ex);

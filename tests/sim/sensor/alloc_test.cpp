@@ -69,7 +69,7 @@ TEST(Allocation, NoneWhileProcessingFields) {
                                                                    {"ccd.prnu_rel", "0.05"},
                                                                    {"ccd.smear_rel", "0.01"},
                                                                    {"ccd.dark_e_s", "100"}});
-        IiccdChain chain(cam, 9);
+        IiccdChain chain(cam, 9, test::configDir(), test::gammaTables());
         ImageF in = test::uniform(160, 120, 3e11f);
         for (int y = 50; y < 60; ++y)
             for (int x = 70; x < 80; ++x)

@@ -9,11 +9,13 @@
 #include <filesystem>
 
 #include "sim/sensor/chain.h"
+#include "tests/sim/sensor/sensor_test_util.h"
 
 namespace {
 
 nvs::sensor::CameraParams camera(const char* agc) {
     return nvs::sensor::loadCamera(
+        nvs::test::configDir(),
         (std::filesystem::path(NVS_SOURCE_DIR) / "config/cameras/pulnix-ag5745ef3.toml").string(),
         {{"agc", agc},
          {"ccd.prnu_rel", "0.05"},
@@ -25,7 +27,7 @@ nvs::sensor::CameraParams camera(const char* agc) {
 void BM_ChainField(benchmark::State& state) {
     const char* modes[] = {"off", "agc", "bsp"};
     const nvs::sensor::CameraParams cam = camera(modes[state.range(0)]);
-    nvs::sensor::IiccdChain chain(cam, 1, {true});
+    nvs::sensor::IiccdChain chain(cam, 1, nvs::test::configDir(), nvs::test::gammaTables(), {true});
     nvs::ImageF in(cam.width, cam.height);
     for (int y = 0; y < cam.height; ++y)
         for (int x = 0; x < cam.width; ++x)
@@ -46,7 +48,7 @@ BENCHMARK(BM_ChainField)->Arg(0)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond);
 
 void BM_ChainFieldBright(benchmark::State& state) {
     const nvs::sensor::CameraParams cam = camera("off");
-    nvs::sensor::IiccdChain chain(cam, 1, {true});
+    nvs::sensor::IiccdChain chain(cam, 1, nvs::test::configDir(), nvs::test::gammaTables(), {true});
     nvs::ImageF in(cam.width, cam.height);
     for (int y = 0; y < cam.height; ++y)
         for (int x = 0; x < cam.width; ++x)

@@ -56,7 +56,7 @@ ImageF slantedEdge(int w, int h, double angle_rad, float dark, float bright) {
 // Measures the chain's horizontal SFR from a 5° slanted edge; returns the SFR with the
 // input's own pixel-area MTF divided out, and the edge angle.
 SfrResult measureSfr(const CameraParams& cam) {
-    IiccdChain chain(cam, 1);
+    IiccdChain chain(cam, 1, test::configDir(), test::gammaTables());
     const ImageF in =
         slantedEdge(cam.width, cam.height, 5.0 * 3.14159265358979 / 180.0, 1e11f, 5e11f);
     chain.process(in.cview());
@@ -124,7 +124,7 @@ double meanCounts(CameraParams cam, double L_W_m2_sr) {
     const double k = peRadiancePerBandRadiance(cam, planckRadiance_W_m2_sr_nm(2856.0), box);
     cam.width = 128;
     cam.height = 96;
-    IiccdChain chain(cam, 21);
+    IiccdChain chain(cam, 21, test::configDir(), test::gammaTables());
     const ImageF in = test::uniform(cam.width, cam.height, static_cast<float>(L_W_m2_sr * k));
     for (int i = 0; i < 12; ++i)  // both fields written, phosphor afterglow at steady state
         chain.process(in.cview());
@@ -188,7 +188,7 @@ TEST(Temporal, PhosphorDecayAcrossFields) {
     ov["height"] = "48";
     ov["mtf.enabled"] = "false";
     const CameraParams cam = preset("pulnix-ag5745ef3", ov);
-    IiccdChain chain(cam, 1);
+    IiccdChain chain(cam, 1, test::configDir(), test::gammaTables());
     const ImageF on = test::uniform(64, 48, 1e11f), off = test::uniform(64, 48, 0.0f);
     std::vector<double> out;
     for (int k = 0; k < 40; ++k) {
@@ -243,7 +243,7 @@ LampRun lampRun(const Overrides& extra) {
     for (const auto& [k, v] : extra)
         ov[k] = v;
     const CameraParams cam = preset("pulnix-ag5745ef3", ov);
-    IiccdChain chain(cam, 1);
+    IiccdChain chain(cam, 1, test::configDir(), test::gammaTables());
     ImageF scene = test::uniform(128, 96, 3e12f);
     ImageF lamp = scene;
     for (int y = 30; y < 60; ++y)
@@ -428,14 +428,14 @@ TEST(Video, GammaTableEqualsTheFormula) {
 TEST(BadInput, ClearErrors) {
     EXPECT_THROW(preset("pulnix-ag5745ef3", {{"mcp.bogus", "1"}}), SetupError);
     try {
-        (void)parseCamera("width = 64\nheight = 48\nf_numbr = 2\n", "cam.toml");
+        (void)parseCamera(test::configDir(), "width = 64\nheight = 48\nf_numbr = 2\n", "cam.toml");
         FAIL();
     } catch (const SetupError& e) {
         EXPECT_NE(std::string(e.what()).find("cam.toml:3"), std::string::npos) << e.what();
         EXPECT_NE(std::string(e.what()).find("f_number"), std::string::npos) << e.what();
     }
     CameraParams cam = preset("pulnix-ag5745ef3", {{"width", "32"}, {"height", "16"}});
-    IiccdChain chain(cam, 1);
+    IiccdChain chain(cam, 1, test::configDir(), test::gammaTables());
     ImageF wrong(31, 16);
     EXPECT_TRUE(chain.process(wrong.cview()).size_mismatch);
     ImageF bad = test::uniform(32, 16, 1.0f);

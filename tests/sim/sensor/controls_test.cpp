@@ -49,7 +49,8 @@ ImageF uniformFor(const CameraParams& cam, double target_dc) {
     float lpe = 1e3f;
     for (int i = 0; i < 40; ++i) {
         img.fill(lpe);
-        IiccdChain probe(cam, 1, {}, ControlSource::Command);
+        IiccdChain probe(cam, 1, test::configDir(), test::gammaTables(), {},
+                         ControlSource::Command);
         (void)probe.process(img.cview(), manual(6.0), 0.0);
         const double s = meanSignal(probe);
         if (s > 10.0) {
@@ -64,7 +65,7 @@ ImageF uniformFor(const CameraParams& cam, double target_dc) {
 TEST(CommandedControls, ManualGainReachesTheMcpEachFieldByEq6_1) {
     const CameraParams cam = linearCamera();
     const ImageF in = uniformFor(cam, 150.0);
-    IiccdChain chain(cam, 1, {}, ControlSource::Command);
+    IiccdChain chain(cam, 1, test::configDir(), test::gammaTables(), {}, ControlSource::Command);
     const auto G = [&](double v) {
         return std::pow((cam.mcp_offset_V + cam.mcp_V_per_control_V * v) / cam.mcp_crossover_V,
                         cam.mcp_exponent);
@@ -89,7 +90,7 @@ TEST(CommandedControls, ManualGainReachesTheMcpEachFieldByEq6_1) {
 TEST(CommandedControls, GateScalesTheSignalAndIsHeldWithinTheTubesRange) {
     const CameraParams cam = linearCamera();
     const ImageF in = uniformFor(cam, 160.0);
-    IiccdChain chain(cam, 1, {}, ControlSource::Command);
+    IiccdChain chain(cam, 1, test::configDir(), test::gammaTables(), {}, ControlSource::Command);
     const double period_s = cam.integrationPeriod_s();
     CameraCommand cmd = manual(6.0);  // gate mode 0: continuous
     EXPECT_DOUBLE_EQ(chain.process(in.cview(), cmd, 0.0).gate_s, period_s);
@@ -109,7 +110,7 @@ TEST(CommandedControls, AgcSwitchSettlesTheVideoLevelAtTheTarget) {
     CameraParams cam = linearCamera();
     cam.field_rate_Hz = 59.94;
     const ImageF in = uniformFor(cam, 40.0);  // dim at 6 V: the loop must raise the gain
-    IiccdChain chain(cam, 1, {}, ControlSource::Command);
+    IiccdChain chain(cam, 1, test::configDir(), test::gammaTables(), {}, ControlSource::Command);
     CameraCommand cmd;
     cmd.agc = true;  // the preset's agc is "off": the switch runs the plain AGC loop
     const double firstGain = chain.process(in.cview(), cmd, 0.0).gain_V;
@@ -122,8 +123,8 @@ TEST(CommandedControls, AgcSwitchSettlesTheVideoLevelAtTheTarget) {
 TEST(CommandedControls, PresetSourceIgnoresCommands) {
     const CameraParams cam = linearCamera();
     const ImageF in = uniformFor(cam, 100.0);
-    IiccdChain a(cam, 1, {}, ControlSource::Preset);
-    IiccdChain b(cam, 1);
+    IiccdChain a(cam, 1, test::configDir(), test::gammaTables(), {}, ControlSource::Preset);
+    IiccdChain b(cam, 1, test::configDir(), test::gammaTables());
     CameraCommand cmd = manual(3.0);
     cmd.gateMode = 1;
     cmd.gate_s = 1e-4;

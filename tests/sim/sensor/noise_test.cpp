@@ -44,7 +44,7 @@ TEST(PhotonTransfer, SlopeIsGainTimesExcessNoiseFactorWithReadNoiseFloor) {
     const double perLpe = cam.peRatePerLpe_on_axis() * cam.integrationPeriod_s();
     std::printf("photon transfer: G = %.1f, F = %.2f, read = %.0f e\n", G, F, read_e);
     for (double meanPe : {0.0, 0.01, 0.1, 1.0, 10.0, 100.0, 1000.0, 10000.0}) {
-        IiccdChain chain(cam, 7);
+        IiccdChain chain(cam, 7, test::configDir(), test::gammaTables());
         const ImageF in = test::uniform(cam.width, cam.height, static_cast<float>(meanPe / perLpe));
         const int fields = meanPe < 0.05 ? 16 : 4;
         double s = 0.0, s2 = 0.0, n = 0.0;
@@ -81,7 +81,7 @@ TEST(PhotonTransfer, PoissonExactAtLowCounts) {
     cam.mcp_enabled = false;
     const double perLpe = cam.peRatePerLpe_on_axis() * cam.integrationPeriod_s();
     for (double m : {0.05, 0.7, 3.0}) {
-        IiccdChain chain(cam, 11);
+        IiccdChain chain(cam, 11, test::configDir(), test::gammaTables());
         const ImageF in = test::uniform(cam.width, cam.height, static_cast<float>(m / perLpe));
         std::vector<double> hist(12, 0.0);
         double n = 0.0;
@@ -139,7 +139,7 @@ TEST(Section4_5, FixedPatternNoiseExplainsTheTwoFrameAverage) {
             q.read_noise_e = 0.0;
             q.prnu_rel = 0.0;
             q.adc_bits = 16;
-            IiccdChain chain(q, 3);
+            IiccdChain chain(q, 3, test::configDir(), test::gammaTables());
             const ImageF in = test::uniform(q.width, q.height, lpe);
             for (int k = 0; k < 12; ++k)
                 chain.process(in.cview());
@@ -147,7 +147,7 @@ TEST(Section4_5, FixedPatternNoiseExplainsTheTwoFrameAverage) {
         };
         const double c0 = probe(0.0f), c1 = probe(1.0e13f);
         const float L = static_cast<float>(1.0e13 * (mean - c0) / (c1 - c0));
-        IiccdChain chain(c, 5);
+        IiccdChain chain(c, 5, test::configDir(), test::gammaTables());
         const ImageF in = test::uniform(c.width, c.height, L);
         ImageF a(c.width, c.height), avg(c.width, c.height);
         for (int k = 0; k < 12; ++k) {
@@ -185,7 +185,7 @@ TEST(Section4_5, FixedPatternNoiseExplainsTheTwoFrameAverage) {
 // the quantile table, N past it (Marsaglia–Tsang from the pixel's stream) and a fractional N.
 TEST(McpStage, PixelDrawIsTheSameWhateverItsRowDraws) {
     const CameraParams cam = preset("pulnix-ag5745ef3", {});
-    McpStage mcp(cam, 42);
+    McpStage mcp(cam, 42, test::gammaTables());
     FieldContext ctx;
     ctx.field = 7;
     ctx.mcpGain = 3000.0;

@@ -8,17 +8,19 @@
 #include "sim/core/image.h"
 #include "sim/sensor/camera.h"
 #include "sim/sensor/chain.h"
+#include "tests/sim/core/test_paths.h"
 
 namespace nvs::test {
 
-inline std::filesystem::path thesisData(const char* file) {
-    return std::filesystem::path(NVS_SHARED_DATA_DIR) / "thesis" / file;
+inline sensor::CameraParams preset(const std::string& name, const sensor::Overrides& ov = {}) {
+    return sensor::loadCamera(configDir(), (configDir() / "cameras" / (name + ".toml")).string(),
+                              ov);
 }
 
-inline sensor::CameraParams preset(const std::string& name, const sensor::Overrides& ov = {}) {
-    return sensor::loadCamera(
-        (std::filesystem::path(NVS_SOURCE_DIR) / "config" / "cameras" / (name + ".toml")).string(),
-        ov);
+// The Gamma tables the chains of one test executable share (built once per shape step).
+inline GammaTableCache& gammaTables() {
+    static GammaTableCache tables;
+    return tables;
 }
 
 struct Stats {

@@ -99,8 +99,8 @@ test::Stats runEq71(double L, int stage, std::uint64_t seed) {
     if (stage < 3) ov["mtf.enabled"] = "false";
     if (stage < 4) ov["video.noise_dc"] = "0";
     const CameraParams cam = preset("thesis-eq7.1", ov);
-    const double lpe = L * peRadiancePerBandRadiance(cam, "flat");
-    IiccdChain chain(cam, seed);
+    const double lpe = L * peRadiancePerBandRadiance(test::configDir(), cam, "flat");
+    IiccdChain chain(cam, seed, test::configDir(), test::gammaTables());
     const ImageF in = test::uniform(cam.width, cam.height, static_cast<float>(lpe));
     chain.process(in.cview());
     if (stage < 5) return roiStats(chain.counts().cview(), 234, 147, 300, 200);
@@ -178,7 +178,7 @@ TEST(TruthPanels, PulnixPresetOnTheSamePanels) {
     const double k = peRadiancePerBandRadiance(cam, planckRadiance_W_m2_sr_nm(2856.0), box);
     for (std::size_t p = 0; p < stage1.size(); ++p) {
         const double L = (stage1[p].sigMean - kThesisBias) / kThesisGain;
-        IiccdChain chain(cam, 200 + p);
+        IiccdChain chain(cam, 200 + p, test::configDir(), test::gammaTables());
         const ImageF in = test::uniform(cam.width, cam.height, static_cast<float>(L * k));
         double m = 0.0, v = 0.0, pe = 0.0;
         const int n = 8;

@@ -7,6 +7,7 @@
 
 #include "sim/core/units.h"
 #include "sim/sky/sky_model.h"
+#include "tests/sim/core/test_paths.h"
 
 namespace {
 
@@ -16,17 +17,20 @@ std::filesystem::path benchCache() {
     return std::filesystem::temp_directory_path() / "nvs_atmosphere_bench";
 }
 
+nvs::DataDirs dirs() {
+    return nvs::DataDirs{nvs::test::configDir(), benchCache()};
+}
+
 sky::SkyModelConfig config() {
     sky::SkyModelConfig c;
     c.atmosphere.visibility_km = 23.0;
-    c.cacheDir = benchCache();
     return c;
 }
 
 // Every term for one Moon geometry: band TOA, direct, diffuse horizontal, night sky, the sky
 // radiance and the path terms in one view direction.
 void BM_PerFrameLookup(benchmark::State& state) {
-    const sky::SkyModel m = sky::SkyModel::create(config());
+    const sky::SkyModel m = sky::SkyModel::create(config(), dirs());
     astro::MoonState moon;
     moon.alt_rad = 0.6;
     moon.phaseAngle_rad = 0.3;
@@ -52,7 +56,7 @@ void BM_BuildTable(benchmark::State& state) {
     for (auto _ : state) {
         std::filesystem::remove_all(benchCache());
         bool rebuilt = false;
-        const sky::SkyModel m = sky::SkyModel::create(config(), &rebuilt);
+        const sky::SkyModel m = sky::SkyModel::create(config(), dirs(), &rebuilt);
         benchmark::DoNotOptimize(m.table().bandCount());
         if (!rebuilt) state.SkipWithError("table was not rebuilt");
     }
@@ -60,10 +64,10 @@ void BM_BuildTable(benchmark::State& state) {
 BENCHMARK(BM_BuildTable)->Unit(benchmark::kMillisecond)->Iterations(2);
 
 void BM_LoadCachedTable(benchmark::State& state) {
-    sky::SkyModel::create(config());  // make sure the cache exists
+    sky::SkyModel::create(config(), dirs());  // make sure the cache exists
     for (auto _ : state) {
         bool rebuilt = true;
-        const sky::SkyModel m = sky::SkyModel::create(config(), &rebuilt);
+        const sky::SkyModel m = sky::SkyModel::create(config(), dirs(), &rebuilt);
         if (rebuilt) state.SkipWithError("cache was not used");
         benchmark::DoNotOptimize(m.table().bandCount());
     }

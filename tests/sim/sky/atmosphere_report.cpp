@@ -13,6 +13,7 @@
 #include "sim/astro/ephemeris.h"
 #include "sim/core/units.h"
 #include "sim/sky/sky_model.h"
+#include "tests/sim/core/test_paths.h"
 
 using namespace nvs;
 
@@ -28,7 +29,7 @@ int main(int argc, char** argv) {
         sky::SkyModelConfig c;
         c.atmosphere.siteAltitude_m = 218.0;
         c.atmosphere.visibility_km = visibilities[i];
-        models[i] = sky::SkyModel::create(c);
+        models[i] = sky::SkyModel::create(c, nvs::test::dataDirs());
     }
 
     // 1. Sky luminance along the vertical through a Moon at 40° altitude, phase 10°, by

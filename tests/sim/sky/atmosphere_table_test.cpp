@@ -11,9 +11,16 @@
 #include "sim/core/photometry.h"
 #include "sim/core/planck.h"
 #include "sim/core/units.h"
+#include "tests/sim/core/test_paths.h"
 
 namespace nvs::sky {
 namespace {
+
+// V(λ) from the source tree's config/ (loaded once for this file's tests).
+const Photometry& photometry() {
+    static const Photometry p(test::configDir());
+    return p;
+}
 
 AtmosphereTableInputs inputs(double visibility_km) {
     AtmosphereTableInputs in;
@@ -21,7 +28,7 @@ AtmosphereTableInputs inputs(double visibility_km) {
     in.sourceShape = planckRadiance_W_m2_sr_nm(4100.0);  // moonlight-like reddened sunlight
     in.nightSky.airglowRadiance_W_m2_sr_nm = Spectrum(2e-9);
     in.nightSky.continuumRadiance_W_m2_sr_nm = Spectrum(1e-9);
-    in.bands.push_back({"lux", photopicV() * kLuminousEfficacy_lm_W});
+    in.bands.push_back({"lux", photometry().photopicV() * kLuminousEfficacy_lm_W});
     in.bands.push_back(
         {"nir", Spectrum::fromFunction([](double l) { return l > 750 ? 1.0 : 0.0; })});
     return in;
@@ -37,8 +44,8 @@ class AtmosphereTableTest : public ::testing::Test {
   protected:
     static void SetUpTestSuite() {
         in_ = new AtmosphereTableInputs(inputs(23.0));
-        table_ = new AtmosphereTable(AtmosphereTable::build(*in_));
-        atm_ = new Atmosphere(in_->atmosphere);
+        table_ = new AtmosphereTable(AtmosphereTable::build(*in_, test::configDir()));
+        atm_ = new Atmosphere(in_->atmosphere, test::configDir());
     }
     static void TearDownTestSuite() {
         delete table_;
@@ -146,10 +153,12 @@ TEST(AtmosphereTableCache, SecondLoadUsesCacheAndCorruptionRebuilds) {
     const auto dir = freshDir("nvs_atm_cache_test");
     const AtmosphereTableInputs in = inputs(40.0);
     bool rebuilt = false;
-    const AtmosphereTable a = AtmosphereTable::loadOrBuild(in, dir, &rebuilt);
+    const AtmosphereTable a =
+        AtmosphereTable::loadOrBuild(in, DataDirs{test::configDir(), dir}, &rebuilt);
     EXPECT_TRUE(rebuilt);
     const auto t0 = std::chrono::steady_clock::now();
-    const AtmosphereTable b = AtmosphereTable::loadOrBuild(in, dir, &rebuilt);
+    const AtmosphereTable b =
+        AtmosphereTable::loadOrBuild(in, DataDirs{test::configDir(), dir}, &rebuilt);
     const double load_s =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     EXPECT_FALSE(rebuilt);
@@ -167,12 +176,13 @@ TEST(AtmosphereTableCache, SecondLoadUsesCacheAndCorruptionRebuilds) {
         c = static_cast<char>(c ^ 0x5a);
         f.write(&c, 1);
     }
-    const AtmosphereTable c = AtmosphereTable::loadOrBuild(in, dir, &rebuilt);
+    const AtmosphereTable c =
+        AtmosphereTable::loadOrBuild(in, DataDirs{test::configDir(), dir}, &rebuilt);
     EXPECT_TRUE(rebuilt);
     EXPECT_EQ(a.skyRadiance(1, 0.4, 1.0, 0.7), c.skyRadiance(1, 0.4, 1.0, 0.7));
 
     std::filesystem::resize_file(file, 4000);  // truncated
-    AtmosphereTable::loadOrBuild(in, dir, &rebuilt);
+    AtmosphereTable::loadOrBuild(in, DataDirs{test::configDir(), dir}, &rebuilt);
     EXPECT_TRUE(rebuilt);
     std::filesystem::remove_all(dir);
 }
@@ -201,8 +211,8 @@ TEST(AtmosphereTableCache, KeyChangesWithEveryInput) {
 
 TEST(AtmosphereTableCache, UnwritableCacheStillReturnsATable) {
     bool rebuilt = false;
-    const AtmosphereTable t =
-        AtmosphereTable::loadOrBuild(inputs(60.0), "/proc/nvs-no-such-dir", &rebuilt);
+    const AtmosphereTable t = AtmosphereTable::loadOrBuild(
+        inputs(60.0), DataDirs{test::configDir(), "/proc/nvs-no-such-dir"}, &rebuilt);
     EXPECT_TRUE(rebuilt);
     EXPECT_GT(t.directTransmittance(0, 0.0), 0.5);
 }

@@ -8,9 +8,16 @@
 #include "sim/core/photometry.h"
 #include "sim/core/planck.h"
 #include "sim/core/units.h"
+#include "tests/sim/core/test_paths.h"
 
 namespace nvs::sky {
 namespace {
+
+// V(λ) from the source tree's config/ (loaded once for this file's tests).
+const Photometry& photometry() {
+    static const Photometry p(test::configDir());
+    return p;
+}
 
 int gridIndex(double wavelength_nm) {
     return static_cast<int>(wavelength_nm - SpectralGrid::kMin_nm);
@@ -20,7 +27,7 @@ int gridIndex(double wavelength_nm) {
 // τ = 0.008569 λ⁻⁴ (1 + 0.0113 λ⁻² + 0.00013 λ⁻⁴), λ in µm, at sea level.
 TEST(Atmosphere, RayleighDepthMatchesHansenTravis) {
     AtmosphereParams p;
-    const Atmosphere a(p);
+    const Atmosphere a(p, test::configDir());
     for (double wl : {400.0, 450.0, 550.0, 700.0, 900.0, 1050.0}) {
         const double l = wl * 1e-3;
         const double ht =
@@ -29,7 +36,7 @@ TEST(Atmosphere, RayleighDepthMatchesHansenTravis) {
     }
     // Pressure scaling: at 1500 m the column is e^{-1500/8434.5} of sea level.
     p.siteAltitude_m = 1500.0;
-    const Atmosphere high(p);
+    const Atmosphere high(p, test::configDir());
     EXPECT_NEAR(high.rayleighTau()[200] / a.rayleighTau()[200], std::exp(-1500.0 / 8434.5), 1e-9);
 }
 
@@ -38,7 +45,7 @@ TEST(Atmosphere, SurfaceExtinctionObeysKoschmieder) {
     for (double vis_km : {2.0, 5.0, 23.0, 100.0}) {
         AtmosphereParams p;
         p.visibility_km = vis_km;
-        const Atmosphere a(p);
+        const Atmosphere a(p, test::configDir());
         Spectrum beta;
         a.extinctionAtHeight(0.0, &beta);
         EXPECT_NEAR(beta[gridIndex(550.0)] * 1e3 * vis_km, 3.912, 1e-6) << vis_km;
@@ -48,7 +55,7 @@ TEST(Atmosphere, SurfaceExtinctionObeysKoschmieder) {
 TEST(Atmosphere, AerosolDepthFollowsAngstromLaw) {
     AtmosphereParams p;
     p.visibility_km = 10.0;
-    const Atmosphere a(p);
+    const Atmosphere a(p, test::configDir());
     const double alpha = aerosolOptics(AerosolModel::Rural).angstromExponent;
     EXPECT_NEAR(a.aerosolTau()[gridIndex(880.0)] / a.aerosolTau()[gridIndex(440.0)],
                 std::pow(2.0, -alpha), 1e-9);
@@ -112,7 +119,7 @@ TEST(Atmosphere, SingleScatterThinLimitSendsHalfDown) {
     p.ozone_DU = 0.0;
     p.precipitableWater_cm = 0.0;
     p.siteAltitude_m = 8000.0;  // thin column: τ_R(1050 nm) ≈ 0.003
-    const Atmosphere a(p);
+    const Atmosphere a(p, test::configDir());
     const int i = gridIndex(1050.0);
     const double tau = a.rayleighTau()[i];
     const double eDown = a.singleScatterHorizontalPerIrradiance(0.0)[i];
@@ -126,13 +133,13 @@ TEST(Atmosphere, SingleScatterThinLimitSendsHalfDown) {
 // solar elevation grows with haze and stays in the range measured under clear skies
 // (0.1–0.3 at 23 km visibility).
 TEST(Atmosphere, DiffuseGrowsWithHaze) {
-    const Spectrum& v = photopicV();
+    const Spectrum& v = photometry().photopicV();
     const Spectrum sun = planckRadiance_W_m2_sr_nm(5772.0);
     double last = 0.0;
     for (double vis : {100.0, 23.0, 5.0}) {
         AtmosphereParams p;
         p.visibility_km = vis;
-        const Atmosphere a(p);
+        const Atmosphere a(p, test::configDir());
         const double z = 45.0 * kRadPerDeg;
         const double dir = integrateProduct_nm(sun * a.directTransmittance(z), v) * std::cos(z);
         const double dif = integrateProduct_nm(sun * a.diffuseHorizontalPerIrradiance(z), v);
@@ -150,7 +157,7 @@ TEST(Atmosphere, CloudRemovesDirectAddsDiffuse) {
     AtmosphereParams clear;
     AtmosphereParams cloudy;
     cloudy.cloudOpticalDepth = 10.0;
-    const Atmosphere a(clear), c(cloudy);
+    const Atmosphere a(clear, test::configDir()), c(cloudy, test::configDir());
     const double z = 40.0 * kRadPerDeg;
     const int i = gridIndex(600.0);
     EXPECT_NEAR(c.directTransmittance(z)[i] / a.directTransmittance(z)[i],
@@ -168,9 +175,9 @@ TEST(Atmosphere, CloudRemovesDirectAddsDiffuse) {
 TEST(Atmosphere, BadParametersAreSetupErrors) {
     AtmosphereParams p;
     p.visibility_km = 0.0;
-    EXPECT_THROW(Atmosphere{p}, SetupError);
+    EXPECT_THROW((Atmosphere{p, test::configDir()}), SetupError);
     p.visibility_km = -3.0;
-    EXPECT_THROW(Atmosphere{p}, SetupError);
+    EXPECT_THROW((Atmosphere{p, test::configDir()}), SetupError);
     EXPECT_THROW(parseAerosolModel("desert", FileLoc{"s.toml", 4, 1}), SetupError);
     try {
         parseAerosolModel("desert", FileLoc{"s.toml", 4, 1});

@@ -9,9 +9,16 @@
 #include "sim/core/photometry.h"
 #include "sim/core/units.h"
 #include "sim/sky/solar.h"
+#include "tests/sim/core/test_paths.h"
 
 namespace nvs::sky {
 namespace {
+
+// V(λ) from the source tree's config/ (loaded once for this file's tests).
+const Photometry& photometry() {
+    static const Photometry p(test::configDir());
+    return p;
+}
 
 // Krisciunas & Schaefer (1991) eq. 20, values worked by hand from the formula
 // m = −12.73 + 0.026|α| + 4·10⁻⁹ α⁴:
@@ -46,7 +53,7 @@ astro::MoonState meanGeometry(double phase_deg) {
 // eclipse it is at least ~1.5°. At 5° the model gives 0.286 lx; at the mean 3.2° the opposition
 // surge lifts it to 0.303 lx (V ≈ −12.70, close to the −12.74 usually quoted for full Moon).
 TEST(MoonSource, FullMoonIlluminanceInPublishedRange) {
-    const MoonSource moon = MoonSource::load();
+    const MoonSource moon = MoonSource::load(test::configDir());
     for (double a : {3.2, 5.0}) {
         const double e = moon.illuminanceToa_lux(meanGeometry(a));
         RecordProperty("full_moon_lux_at_" + std::to_string(static_cast<int>(a * 10)),
@@ -58,13 +65,14 @@ TEST(MoonSource, FullMoonIlluminanceInPublishedRange) {
     // The spectrum integrates to the same illuminance (photometry of the spectral path).
     Spectrum s;
     moon.spectralIrradianceToa(meanGeometry(5.0), s);
-    EXPECT_NEAR(photometricIntegral(s), moon.illuminanceToa_lux(meanGeometry(5.0)), 1e-9);
+    EXPECT_NEAR(photometry().photometricIntegral(s), moon.illuminanceToa_lux(meanGeometry(5.0)),
+                1e-9);
 }
 
 // The implied disk-equivalent reflectance: ROLO gives ≈ 0.09–0.11 near 550 nm at small phase
 // (Kieffer & Stone 2005, fig. 13), rising to ≈ 0.2 at 1000 nm; the Moon is red.
 TEST(MoonSource, DiskReflectanceIsLunar) {
-    const MoonSource moon = MoonSource::load();
+    const MoonSource moon = MoonSource::load(test::configDir());
     const double a550 = moon.diskReflectance().at_nm(550.0);
     std::printf("disk reflectance: %.4f at 400 nm, %.4f at 550 nm, %.4f at 1000 nm\n",
                 moon.diskReflectance().at_nm(400.0), a550, moon.diskReflectance().at_nm(1000.0));
@@ -98,7 +106,7 @@ TEST(MoonSource, PhaseLawHasOppositionSurge) {
 
 // Inverse squares: 10 % farther from the Sun and from the observer → (1/1.1)⁴.
 TEST(MoonSource, DistanceScaling) {
-    const MoonSource moon = MoonSource::load();
+    const MoonSource moon = MoonSource::load(test::configDir());
     astro::MoonState far = meanGeometry(30.0);
     far.sunDistance_m *= 1.1;
     far.distanceTopocentric_m *= 1.1;
@@ -109,13 +117,14 @@ TEST(MoonSource, DistanceScaling) {
 // The Sun above the atmosphere: the solar constant's photopic equivalent is ≈ 133 klx at 1 au
 // (e.g. 133.3 klx for E-490 at 1 au; 128–135 klx across published spectra).
 TEST(Solar, IlluminanceAtOneAu) {
-    const Spectrum sun = loadSolarSpectrum_W_m2_nm();
-    const double e = sunIlluminanceToa_lux(sun, kAu_m);
+    const Spectrum sun = loadSolarSpectrum_W_m2_nm(test::configDir());
+    const double e = sunIlluminanceToa_lux(photometry(), sun, kAu_m);
     std::printf("Sun at 1 au: %.0f lx; 350-1100 nm irradiance %.1f W/m2\n", e, sun.integrate_nm());
     EXPECT_NEAR(e, 133000.0, 3000.0);
     // ASTM G173 ETR between 350 and 1100 nm holds ≈ 70 % of the 1366 W m⁻² solar constant.
     EXPECT_NEAR(sun.integrate_nm() / 1366.1, 0.70, 0.03);
-    EXPECT_NEAR(sunIlluminanceToa_lux(sun, 1.0167 * kAu_m), e / (1.0167 * 1.0167), 1e-6 * e);
+    EXPECT_NEAR(sunIlluminanceToa_lux(photometry(), sun, 1.0167 * kAu_m), e / (1.0167 * 1.0167),
+                1e-6 * e);
 }
 
 }  // namespace

@@ -8,9 +8,16 @@
 
 #include "sim/core/photometry.h"
 #include "sim/core/units.h"
+#include "tests/sim/core/test_paths.h"
 
 namespace nvs::sky {
 namespace {
+
+// V(λ) from the source tree's config/ (loaded once for this file's tests).
+const Photometry& photometry() {
+    static const Photometry p(test::configDir());
+    return p;
+}
 
 // 1 R of 557.7 nm photons: 10¹⁰/(4π) s⁻¹ m⁻² sr⁻¹ × 3.5618·10⁻¹⁹ J = 2.8344·10⁻¹⁰ W m⁻² sr⁻¹.
 TEST(NightSky, RayleighConversion) {
@@ -19,8 +26,8 @@ TEST(NightSky, RayleighConversion) {
 
 // Appendix G: "0.0012 lux"; the extracted table integrates to 0.00121 lx (data README).
 TEST(NightSky, ComponentsAddUpToAppendixG) {
-    const NightSkyModel m = NightSkyModel::load();
-    const double measured_lux = kPi * photometricIntegral(m.measured_W_m2_sr_nm());
+    const NightSkyModel m = NightSkyModel::load(test::configDir());
+    const double measured_lux = kPi * photometry().photometricIntegral(m.measured_W_m2_sr_nm());
     const double model_lux = m.horizontalIlluminance_lux(NightSkyScales{});
     std::printf("Appendix G: %.6f lx; components:", measured_lux);
     double energy = 0.0;
@@ -53,7 +60,7 @@ TEST(NightSky, ComponentsAddUpToAppendixG) {
 
 // Each component scales independently: doubling the OI 557.7 line adds exactly its illuminance.
 TEST(NightSky, ComponentsScale) {
-    const NightSkyModel m = NightSkyModel::load();
+    const NightSkyModel m = NightSkyModel::load(test::configDir());
     NightSkyScales s;
     const double base = m.horizontalIlluminance_lux(s);
     s[NightSkyComponent::OxygenGreen5577] = 2.0;
@@ -63,7 +70,8 @@ TEST(NightSky, ComponentsScale) {
     EXPECT_GT(m.componentIlluminance_lux(NightSkyComponent::OxygenGreen5577) / base, 0.02);
     Spectrum sp;
     m.radiance(s, sp);
-    EXPECT_NEAR(kPi * photometricIntegral(sp), m.horizontalIlluminance_lux(s), 1e-9 * base);
+    EXPECT_NEAR(kPi * photometry().photometricIntegral(sp), m.horizontalIlluminance_lux(s),
+                1e-9 * base);
     // The line sits at 557.7 nm.
     const Spectrum& line = m.component(NightSkyComponent::OxygenGreen5577);
     EXPECT_GT(line.at_nm(558.0), 100.0 * line.at_nm(552.0));

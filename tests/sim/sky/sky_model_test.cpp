@@ -9,6 +9,7 @@
 
 #include "sim/core/photometry.h"
 #include "sim/core/units.h"
+#include "tests/sim/core/test_paths.h"
 
 namespace nvs::sky {
 namespace {
@@ -23,8 +24,10 @@ const SkyModel& model(double visibility_km) {
     if (it == models.end()) {
         SkyModelConfig c;
         c.atmosphere.visibility_km = visibility_km;
-        c.cacheDir = cacheDir();
-        it = models.emplace(visibility_km, SkyModel::create(c)).first;
+        it = models
+                 .emplace(visibility_km,
+                          SkyModel::create(c, DataDirs{test::configDir(), cacheDir()}))
+                 .first;
     }
     return it->second;
 }
@@ -149,12 +152,11 @@ TEST(SkyModel, MoonlitSkyBrightnessAgreesWithKrisciunasSchaefer) {
 
 TEST(SkyModel, CameraBandInPhotoelectrons) {
     SkyModelConfig c;
-    c.cacheDir = cacheDir();
     // A flat 20 % QE from 500 to 900 nm.
     const Spectrum qe =
         Spectrum::fromFunction([](double l) { return (l >= 500 && l <= 900) ? 0.2 : 0.0; });
     c.extraBands.push_back({"pe", photoelectronWeight(qe)});
-    const SkyModel m = SkyModel::create(c);
+    const SkyModel m = SkyModel::create(c, DataDirs{test::configDir(), cacheDir()});
     const int pe = 1;
     const astro::MoonState moon = moonAt(50.0, 20.0);
     // Photoelectron irradiance of the direct beam ≈ E_toa(λ)·T·QE·λ/(hc) integrated.

@@ -14,6 +14,7 @@
 #include "sim/core/csv.h"
 #include "sim/core/units.h"
 #include "sim/sky/sky_model.h"
+#include "tests/sim/core/test_paths.h"
 
 namespace nvs::sky {
 namespace {
@@ -51,8 +52,9 @@ TEST(ThesisTable8_2, NightRowsWithLunarSkyScattering) {
     SkyModelConfig c;
     c.atmosphere.siteAltitude_m = 218.0;
     c.atmosphere.visibility_km = 23.0;  // thesis §9.1: clear sky, 23 km
-    c.cacheDir = std::filesystem::temp_directory_path() / "nvs_table8_2_test";
-    const SkyModel model = SkyModel::create(c);
+    const SkyModel model = SkyModel::create(
+        c,
+        DataDirs{test::configDir(), std::filesystem::temp_directory_path() / "nvs_table8_2_test"});
 
     std::printf("%-22s %6s %9s %9s %9s %9s %9s\n", "EDT", "alt", "adb_dir", "dir", "sky", "adb_tot",
                 "total");
