@@ -1,0 +1,4 @@
+#include <cstdlib>
+const char* home() {
+    return std::getenv("HOME");
+}

@@ -1,0 +1,1 @@
+#include "drivers/sinks/sinks.h"
