@@ -37,7 +37,7 @@ function(nvs_add_test name)
                         nvs_warnings nvs_sanitizers)
   target_compile_definitions(${name} PRIVATE
     NVS_SOURCE_DIR="${PROJECT_SOURCE_DIR}"
-    NVS_SHARED_DATA_DIR="${NVS_SHARED_DATA_DIR}")
+    NVS_TEST_DATA_DIR="${NVS_TEST_DATA_DIR}")
   set(serial FALSE)
   if(ARG_SERIAL)
     set(serial TRUE)

@@ -12,7 +12,7 @@
 namespace nvs::test {
 
 inline std::filesystem::path thesisData(const char* file) {
-    return std::filesystem::path(NVS_SHARED_DATA_DIR) / "thesis" / file;
+    return std::filesystem::path(NVS_TEST_DATA_DIR) / "thesis" / file;
 }
 
 inline sensor::CameraParams preset(const std::string& name, const sensor::Overrides& ov = {}) {
