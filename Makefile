@@ -1,7 +1,8 @@
 # nvstim — the two user commands:
 #   make run    install missing Debian packages, build, run the default scenario
 #   make test   the same set-up, then the whole test suite through ctest
-# Everything else is CMake (CMakePresets.json): `cmake --preset debug-asan` etc.
+# Everything else is CMake (CMakePresets.json): `cmake --preset debug-asan` etc.;
+# `cmake --install build/release --prefix PREFIX` installs nvstim with its config and scenarios.
 
 # Debian 12 packages the build, the tests and the runtime need. Only the missing ones are
 # installed, and the list of them is printed first.
@@ -32,6 +33,8 @@ run: .nvs-build
 	@echo "nvstim: metadata     $(OUT)/$(notdir $(SCENARIO)).jsonl"
 	@echo "nvstim: to send the same to a V4L2 device in real time instead (docs/hil.md):"
 	@echo "  $(NVSTIM) run $(SCENARIO) --clock wall --output v4l2:/dev/videoN"
+	@echo "nvstim: to install (binary, config, scenarios; runs from any directory):"
+	@echo "  cmake --install $(BUILD) --prefix PREFIX"
 
 test: .nvs-build
 	ctest --preset $(PRESET)

@@ -13,7 +13,7 @@ adb="$tmp/adb.csv"
 # make_adb's night rows (thesis Table 8-2): hours after 20:00 EDT, direct + night sky.
 awk -F, 'NR>1 && $5!="" && $5+0>0 && $4+0<-5 {split($2,a,"T"); split(a[2],b,":"); h=b[1]+0;
   if (h<12) h+=24; print (h-20)+b[2]/60 "," $8+$9}' \
-  "$root/../shared/data/thesis/table8-2_illuminance_timeline_make_adb.csv" > "$adb"
+  "$root/tests/data/thesis/table8-2_illuminance_timeline_make_adb.csv" > "$adb"
 gnuplot <<GP
 set datafile separator ","
 set terminal pngcairo size 900,560 font ",11" noenhanced

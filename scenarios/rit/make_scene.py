@@ -12,6 +12,10 @@ Dimensions not in the thesis (panel size, truck, person) are typical values, mar
 """
 import math, os
 
+# The thesis tables (materials, AutoCAD layers) live in the repository's tests/data/thesis;
+# THESIS_DATA in the environment may point elsewhere.
+THESIS_DATA = os.environ.get("THESIS_DATA") or os.path.join(
+    os.path.dirname(os.path.abspath(__file__)), "..", "..", "tests", "data", "thesis")
 IN = 0.0254
 CAD_Y_AZ = math.radians(262.0)
 # Unit vectors of the CAD axes in ENU.
@@ -156,7 +160,7 @@ b.write("meshes/building.obj", "CIS building block under the camera")
 
 # Reflectances: 1 − visible emissivity of the material files (thesis Appendix D, matfile
 # column of materials.csv; Table 14-2 where the file is not legible), grey 350-1100 nm.
-rows = [l.split(",") for l in open(os.path.join(os.environ.get("THESIS_DATA", "../../../shared/data/thesis"), "materials.csv")).read().splitlines()]
+rows = [l.split(",") for l in open(os.path.join(THESIS_DATA, "materials.csv")).read().splitlines()]
 hdr = rows[0]
 col = {n: i for i, n in enumerate(hdr)}
 mats = []
@@ -172,7 +176,7 @@ for r in rows[1:]:
                 "taken as grey over 350-1100 nm (the .ems curves are not in the text)\n" % (src, name))
         f.write("wavelength_nm,reflectance_rel\n350,%.3f\n1100,%.3f\n" % (rho, rho))
     mats.append((name, float(sp)))
-layers = [l.split(",") for l in open(os.path.join(os.environ.get("THESIS_DATA", "../../../shared/data/thesis"), "table14-1_autocad_layers.csv")).read().splitlines()[1:]]
+layers = [l.split(",") for l in open(os.path.join(THESIS_DATA, "table14-1_autocad_layers.csv")).read().splitlines()[1:]]
 
 cam = (-13.700 * IN, -784.700 * IN, (612.597 + 0.634) * IN)
 def write_scene(path, drive=False, air=False):

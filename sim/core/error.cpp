@@ -4,9 +4,16 @@ namespace nvs {
 
 std::string FileLoc::str() const {
     std::string s = file.empty() ? std::string("<input>") : file;
+    // Appended piecewise rather than as `":" + std::to_string(n)`: GCC 12 at -O3 inlines that
+    // operator+ into a memcpy it cannot prove non-overlapping and reports a false
+    // -Wrestrict (GCC bug 105329), which fails a -Werror build.
     if (line > 0) {
-        s += ":" + std::to_string(line);
-        if (column > 0) s += ":" + std::to_string(column);
+        s += ':';
+        s += std::to_string(line);
+        if (column > 0) {
+            s += ':';
+            s += std::to_string(column);
+        }
     }
     return s;
 }

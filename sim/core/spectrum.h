@@ -97,7 +97,7 @@ struct TabulatedSpectrum {
 };
 
 // Loads columns of a CSV file whose names carry their units (the convention of
-// ../shared/data/thesis: "wavelength_um", "radiance_W_cm-2_sr-1_um-1", "response_rel").
+// tests/data/thesis: "wavelength_um", "radiance_W_cm-2_sr-1_um-1", "response_rel").
 // The wavelength column ends in _nm, _um or _m. The value column's unit tokens are converted:
 // a length to the power −1 is per-wavelength (→ nm⁻¹), to the power −2 per-area (→ m⁻²);
 // "rel" is dimensionless and "pct" is divided by 100. Unknown tokens are errors naming the

@@ -1,4 +1,4 @@
-// The thesis's ephemeris tables (4-1, 4-2, 9-1, 9-2, 10-1; shared/data/thesis) reproduced.
+// The thesis's ephemeris tables (4-1, 4-2, 9-1, 9-2, 10-1; tests/data/thesis) reproduced.
 //
 // Site (data README): roof of the CIS building, RIT: 43.16856 N, 77.61583 W. The thesis's ephem
 // run (Appendix F) used 29.5 inHg (998.9 hPa), 45 °F (7.2 °C) and 800 ft; times are EDT = UTC−4.

@@ -1,5 +1,5 @@
 #pragma once
-// Paths the tests read: the thesis data tables (../shared/data/thesis), the source tree, and the
+// Paths the tests read: the thesis data tables (tests/data/thesis), the source tree, and the
 // data folders the tests hand to sim/ (the source tree's config/, the build tree's cache/: the
 // same folders ctest gives the `nvstim` runs through NVS_CONFIG_DIR and NVS_CACHE_DIR).
 
@@ -10,7 +10,7 @@
 namespace nvs::test {
 
 inline std::filesystem::path thesisData(const char* file) {
-    return std::filesystem::path(NVS_SHARED_DATA_DIR) / "thesis" / file;
+    return std::filesystem::path(NVS_TEST_DATA_DIR) / "thesis" / file;
 }
 inline std::filesystem::path sourceDir() {
     return NVS_SOURCE_DIR;

@@ -20,7 +20,7 @@ namespace nvs::sky {
 namespace {
 
 std::filesystem::path thesisData(const char* f) {
-    return std::filesystem::path(NVS_SHARED_DATA_DIR) / "thesis" / f;
+    return std::filesystem::path(NVS_TEST_DATA_DIR) / "thesis" / f;
 }
 
 TEST(ThesisTable8_2, NightRowsWithLunarSkyScattering) {
