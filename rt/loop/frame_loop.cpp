@@ -97,19 +97,24 @@ void FrameLoop::start(std::vector<std::string>& messages) {
     renderThread_ = std::thread([this, rt] { renderThread(rt); });
     cameraThread_ = std::thread([this, rt] { cameraThread(rt); });
     outputThread_ = std::thread([this, rt] { outputThread(rt); });
-    // Give the threads a moment to report refused real-time settings.
-    if (rt) {
-        for (int i = 0; i < 100 && (renderMessage_.empty() || cameraMessage_.empty() ||
-                                    outputMessage_.empty());
-             ++i)
-            std::this_thread::sleep_for(std::chrono::milliseconds(1));
-    }
+    // Collect what each thread said about its real-time settings. Each thread writes its
+    // message first thing and never again, then posts it (release); waiting here for all
+    // three posts (acquire) makes the strings safe to read. The wait is a few microseconds:
+    // the threads post before their first frame.
+    for (int n = messagesPosted_.load(std::memory_order_acquire); n < kLoopThreads;
+         n = messagesPosted_.load(std::memory_order_acquire))
+        messagesPosted_.wait(n, std::memory_order_acquire);
     for (const std::string* m : {&renderMessage_, &cameraMessage_, &outputMessage_}) {
         if (!m->empty() && *m != "ok" &&
             std::find(messages.begin(), messages.end(), *m) == messages.end()) {
             messages.push_back(*m);
         }
     }
+}
+
+void FrameLoop::postMessage() noexcept {
+    messagesPosted_.fetch_add(1, std::memory_order_release);
+    messagesPosted_.notify_all();
 }
 
 void FrameLoop::requestStop() noexcept {
@@ -303,6 +308,7 @@ void FrameLoop::renderThread(bool realtime) {
     std::string msg;
     applyThreadSpec(kThreadRender, realtime, msg);
     renderMessage_ = msg.empty() ? "ok" : msg;
+    postMessage();
     const bool wall = config_.clock == ClockKind::Wall;
     const bool trig = config_.clock == ClockKind::Trigger;
     std::int64_t r = 0;
@@ -384,6 +390,7 @@ void FrameLoop::cameraThread(bool realtime) {
     std::string msg;
     applyThreadSpec(kThreadCamera, realtime, msg);
     cameraMessage_ = msg.empty() ? "ok" : msg;
+    postMessage();
     for (;;) {
         int slot = -1;
         bool got = false;
@@ -477,6 +484,7 @@ void FrameLoop::outputThread(bool realtime) {
     std::string msg;
     applyThreadSpec(kThreadOutput, realtime, msg);
     outputMessage_ = msg.empty() ? "ok" : msg;
+    postMessage();
     const bool wall = config_.clock == ClockKind::Wall;
     const bool trig = config_.clock == ClockKind::Trigger;
     const std::int64_t period_ns = wall_.deadline_ns(1) - wall_.start_ns();

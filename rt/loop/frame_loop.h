@@ -253,9 +253,14 @@ class FrameLoop {
     std::thread renderThread_;
     std::thread cameraThread_;
     std::thread outputThread_;
+    // Each loop thread's report on its real-time settings: written once by that thread, then
+    // posted (messagesPosted_, release); start() reads them after all kLoopThreads posts.
+    static constexpr int kLoopThreads = 3;
     std::string renderMessage_;
     std::string cameraMessage_;
     std::string outputMessage_;
+    std::atomic<int> messagesPosted_{0};
+    void postMessage() noexcept;
     std::string failure_;
     std::int64_t lastEmit_ns_ = 0;
 
