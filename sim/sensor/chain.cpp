@@ -38,7 +38,7 @@ inline int blocksFor(int n) {
 // (x86-64-v4) and picked at load time (GCC function multi-versioning). The library is built
 // with -ffp-contract=off, so every version does the same IEEE operations: the same bits on
 // any CPU.
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && !defined(NVS_SINGLE_TARGET)
 #define NVS_ROW_CLONES __attribute__((target_clones("arch=x86-64-v4", "avx2", "default")))
 #else
 #define NVS_ROW_CLONES
