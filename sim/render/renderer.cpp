@@ -621,7 +621,7 @@ int lampFactors(const Renderer::Impl& im, const RenderConfig& cfg, std::uint64_t
                 const Vec3* p, const Vec3* n, float* out) noexcept {
     const int nl = static_cast<int>(im.lamps.size());
     int rays = 0;
-    int valid[kPacket];
+    alignas(64) int valid[kPacket];  // Embree: a packet's valid mask is 64-byte aligned
     Vec3 o[kPacket];
     RTCRay16 r;
     for (int k = 0; k < count; ++k) {
@@ -691,7 +691,7 @@ int lampFactors(const Renderer::Impl& im, const RenderConfig& cfg, std::uint64_t
 int moonFactors(const Ctx& c, int count, const Vec3* p, const Vec3* n, const bool* use,
                 float* out) noexcept {
     const Vec3& md = c.sky->moonDir_enu;
-    int valid[kPacket];
+    alignas(64) int valid[kPacket];  // Embree: a packet's valid mask is 64-byte aligned
     RTCRay16 r;
     int any = 0;
     for (int k = 0; k < kPacket; ++k) {
@@ -757,7 +757,8 @@ void buildStatic(const Ctx& c, int count, const std::size_t* idx, Counts& n) noe
                       fac + static_cast<std::size_t>(k + 1) * nl, &im.sLamp[idx[k] * nl]);
     }
     // Mirror rays of the specular pixels among them.
-    int valid[kPacket], ns = 0, sk[kPacket];
+    alignas(64) int valid[kPacket];  // Embree: a packet's valid mask is 64-byte aligned
+    int ns = 0, sk[kPacket];
     Vec3 o[kPacket], r[kPacket];
     RTCRayHit16 rh;
     initHits(rh);
@@ -913,7 +914,7 @@ void primaryRows(void* vctx, int y0, int y1) {
         const int y = c.rowLo + rowAt(yr, c.rowStepRect, c.rowCount);
         for (int x0 = c.colLo; x0 < c.colHi; x0 += kPacket) {
             const int count = std::min(kPacket, c.colHi - x0);
-            int valid[kPacket];
+            alignas(64) int valid[kPacket];  // Embree: a packet's valid mask is 64-byte aligned
             Vec3 d[kPacket];
             RTCRayHit16 rh;
             initHits(rh);
@@ -1448,7 +1449,7 @@ double Renderer::measureEmbreePacketRate(int repetitions) const {
     for (int r = 0; r < repetitions; ++r) {
         for (int y0 = 0; y0 < im.H; y0 += kTileH) {
             for (int x0 = 0; x0 < im.W; x0 += kTileW) {
-                int valid[kPacket];
+                alignas(64) int valid[kPacket];  // Embree: a packet's valid mask is 64-byte aligned
                 RTCRayHit16 rh;
                 initHits(rh);
                 for (int k = 0; k < kPacket; ++k) {
