@@ -240,7 +240,7 @@ TEST(Render, ThesisTable8_1StreetLampFalloff) {
         const double rr = geo.number(i, geo.column("r_source_to_point_in")) * kInch_m;
         const double h = geo.number(i, geo.column("y_height_in")) * kInch_m;
         const double y = std::sqrt(std::max(0.0, rr * rr - x * x - h * h));
-        int px, py;
+        int px = 0, py = 0;  // set by nearestPixel; initialised for GCC -O3 -Wmaybe-uninitialized
         Vec3 hit;
         ASSERT_TRUE(nearestPixel(r, {x, y, 0.0}, &px, &py, &hit));
         const double rendered = static_cast<double>(im.w.view()(px, py));
@@ -270,7 +270,7 @@ TEST(Render, ThesisAppendixIApertureFactorFromExtendedSource) {
     FrameSky sky;
     const Images a = renderOnce(bare, sky);
     const Images b = renderOnce(apert, sky);
-    int px, py;
+    int px = 0, py = 0;  // set by nearestPixel; initialised for GCC -O3 -Wmaybe-uninitialized
     Vec3 hit;
     ASSERT_TRUE(nearestPixel(bare, {0.0, 0.0, 0.0}, &px, &py, &hit));
     const double factor =
