@@ -1,10 +1,10 @@
 #pragma once
 // The renderer as the runtime's render stage (rt/loop/stages.h).
 //
-// UNIT: the image this stage writes is the photoelectron radiance at the lens, Lpe
-// [pe s⁻¹ m⁻² sr⁻¹] in the scenario camera's band (DESIGN §3) — what the IICCD chain consumes
-// directly. The band-integrated radiance [W m⁻² sr⁻¹] of the same frame is kept alongside
-// (bandRadiance()) for the EXR sink and for comparison with the thesis.
+// UNITS: the stage writes the photoelectron radiance at the lens, Lpe [pe s⁻¹ m⁻² sr⁻¹] in the
+// scenario camera's band (DESIGN §3) — what the IICCD chain consumes directly — and the
+// band-integrated radiance [W m⁻² sr⁻¹] of the same frame into the target's band image (the EXR
+// sink, comparison with the thesis); without a band image it renders that band into scratch.
 //
 // Per frame it takes from the request:
 //   time     the platform's UTC (telemetry time) if set, else the scenario epoch + t_sample_s;
@@ -38,8 +38,6 @@ class SceneRenderStage final : public RenderStage {
     Outputs outputs() const noexcept override { return {true, true}; }
     void render(const FrameRequest& req, RadianceTarget out, FrameMeta& meta) noexcept override;
 
-    // The last frame's band radiance [W m⁻² sr⁻¹] when render() was given no band image.
-    ImageView<const float> bandRadiance() const { return band_.cview(); }
     // Lamps of the scene switched on by the scenario at the start, as a lamp mask.
     std::uint32_t initialLampMask() const { return initialLamps_; }
     const ScenarioRenderer& scenario() const { return *sr_; }
@@ -52,7 +50,7 @@ class SceneRenderStage final : public RenderStage {
     SceneRenderStage() = default;
     std::unique_ptr<ScenarioRenderer> sr_;
     std::unique_ptr<RowPool> pool_;
-    ImageF band_;
+    ImageF band_;  // scratch band image when the target has none
     double epochUnix_s_ = 0.0;
     double lat0_rad_ = 0.0, lon0_rad_ = 0.0, h0_m_ = 0.0;
     double meridianRadius_m_ = 0.0, primeVerticalRadius_m_ = 0.0;
