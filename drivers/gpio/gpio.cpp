@@ -213,7 +213,7 @@ void GpioGateSink::runWorker() noexcept {
         while (sleepUntilMonotonic(start_ns) == -EINTR) {
         }
         const std::int64_t rise_ns = gpioMonotonicNow_ns();
-        if (line_->setValue(1) != 0) errors_.fetch_add(1, std::memory_order_relaxed);
+        if (const int rc = line_->setValue(1); rc != 0) noteError(rc);
         // Step 3: fall at the end of the window, start + width, on the absolute clock: a late
         // rise (scheduled after its start: trigger clock, a late render; or a late wake-up)
         // shortens the pulse but never shifts the windows after it. A window already over
@@ -222,7 +222,7 @@ void GpioGateSink::runWorker() noexcept {
         if (rise_ns - start_ns > kGateLate_ns) late_.fetch_add(1, std::memory_order_relaxed);
         while (sleepUntilMonotonic(fall_ns) == -EINTR) {
         }
-        if (line_->setValue(0) != 0) errors_.fetch_add(1, std::memory_order_relaxed);
+        if (const int rc = line_->setValue(0); rc != 0) noteError(rc);
         lastFall_ns = fall_ns;
         pulses_.fetch_add(1, std::memory_order_relaxed);
     }
@@ -236,10 +236,16 @@ void GpioGateSink::stopWorker() noexcept {
     wake_.notify_all();
 }
 
+void GpioGateSink::noteError(int rc) noexcept {
+    lastErrno_.store(-rc, std::memory_order_relaxed);
+    errors_.fetch_add(1, std::memory_order_release);
+}
+
 int GpioGateSink::write(const msg::OutputFrame& /*frame*/) noexcept {
     if (closed_.load(std::memory_order_relaxed)) return -EBADF;
-    if (line_->state() == GpioState::Failed || errors_.load(std::memory_order_relaxed) > 0) {
-        return -(line_->counters().lastErrno != 0 ? line_->counters().lastErrno : EIO);
+    if (line_->state() == GpioState::Failed || errors_.load(std::memory_order_acquire) > 0) {
+        const int err = lastErrno_.load(std::memory_order_relaxed);
+        return -(err != 0 ? err : EIO);
     }
     return 0;
 }
@@ -257,13 +263,15 @@ int GpioGateSink::close() noexcept {
 
 std::string GpioGateSink::status() const {
     char buf[320];
-    const GpioCounters& c = line_->counters();
+    // The line's own counters belong to the pulse thread while it runs: report its atomics.
+    const std::int64_t errors = errors_.load(std::memory_order_acquire);
+    const int lastErrno = lastErrno_.load(std::memory_order_relaxed);
     std::snprintf(
         buf, sizeof buf, "%s: pulses %lld, late %lld, overlapped %lld, lost %lld, errors %lld%s%s",
         name_.c_str(), static_cast<long long>(pulses_.load()), static_cast<long long>(late_.load()),
         static_cast<long long>(overlapped_.load()), static_cast<long long>(lost_.load()),
-        static_cast<long long>(errors_.load()), c.lastErrno != 0 ? ", last error: " : "",
-        c.lastErrno != 0 ? std::strerror(c.lastErrno) : "");
+        static_cast<long long>(errors), lastErrno != 0 ? ", last error: " : "",
+        lastErrno != 0 ? std::strerror(lastErrno) : "");
     return buf;
 }
 

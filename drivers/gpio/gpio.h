@@ -130,6 +130,7 @@ class GpioGateSink final : public msg::FrameSink,
         std::int64_t width_ns = 0;
     };
     static constexpr std::uint32_t kQueue = 16;
+    void noteError(int rc) noexcept;  // pulse thread: a failed set (rc = -errno)
     std::unique_ptr<GpioLine> line_;
     std::string name_;
     // Single-producer (camera thread) single-consumer (runWorker) queue of pulses.
@@ -143,6 +144,9 @@ class GpioGateSink final : public msg::FrameSink,
     std::atomic<std::int64_t> late_{0};  // rose more than kLate_ns after the exposure start
     std::atomic<std::int64_t> lost_{0};  // queue full: the render ran far ahead
     std::atomic<std::int64_t> errors_{0};
+    // errno of the last failed set, for write() and status() on other threads: the line's own
+    // counters belong to the pulse thread until close() has waited for it.
+    std::atomic<int> lastErrno_{0};
     std::atomic<bool> active_{false};  // runWorker() is running
     std::atomic<bool> closed_{false};
 };
