@@ -1,0 +1,39 @@
+#pragma once
+// Linear (not circular) 2-D convolution of frame-sized planes with radially symmetric kernels,
+// through FFTW (single precision). Frames are zero-padded to twice their size, so light spread
+// past the frame's edge leaves it and none comes in from outside, as with a real lens: the
+// scene outside the frame is not known, and is taken as dark.
+//
+// setFrames() transforms a set of planes once; convolve() then multiplies by one kernel's
+// spectrum and transforms back, so trying many kernels on the same frames costs one inverse
+// transform per frame and kernel.
+
+#include <functional>
+#include <memory>
+#include <vector>
+
+#include "sim/fit/dataset.h"
+
+namespace nvs::fit {
+
+class Convolver {
+  public:
+    // pitch_x, pitch_y: a pixel's size in the plane where the kernel is defined [µm].
+    Convolver(int width, int height, double pitchX_um, double pitchY_um);
+    ~Convolver();
+    Convolver(const Convolver&) = delete;
+    Convolver& operator=(const Convolver&) = delete;
+
+    void setFrames(const std::vector<Plane>& frames);
+    // kernel(r_um) for r = distance from the centre [µm]; normalised here to sum 1 over the
+    // padded plane. out[i] = kernel ⊛ frames[i].
+    void convolve(const std::function<double(double)>& kernel, std::vector<Plane>& out);
+    // A single plane with a kernel (no caching).
+    void convolveOne(const Plane& in, const std::function<double(double)>& kernel, Plane& out);
+
+  private:
+    struct Impl;
+    std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace nvs::fit

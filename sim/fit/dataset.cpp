@@ -1,0 +1,471 @@
+#include "sim/fit/dataset.h"
+
+#include <png.h>
+#include <toml++/toml.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <map>
+#include <memory>
+#include <sstream>
+
+#include "sim/core/config.h"
+#include "sim/core/error.h"
+#include "sim/core/fnv.h"
+#include "sim/sensor/image_io.h"
+
+namespace nvs::fit {
+
+namespace {
+
+namespace fs = std::filesystem;
+
+[[noreturn]] void fail(const fs::path& file, const std::string& msg) {
+    throw SetupError(FileLoc{file.string(), 0, 0}, msg);
+}
+
+std::string lowerExt(const fs::path& p) {
+    std::string e = p.extension().string();
+    for (char& c : e)
+        c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    return e;
+}
+
+// [camera.settings] as preset overrides: every leaf under it as "a.b" = its TOML text, which
+// the preset reader parses back as TOML (camera.h, Overrides).
+void flattenSettings(const toml::table& t, const std::string& prefix, sensor::Overrides& out) {
+    for (const auto& [k, node] : t) {
+        const std::string key = prefix + std::string(k.str());
+        if (const toml::table* sub = node.as_table()) {
+            flattenSettings(*sub, key + ".", out);
+            continue;
+        }
+        std::ostringstream s;
+        if (const auto* str = node.as_string())
+            s << '"' << str->get() << '"';
+        else if (const auto* arr = node.as_array())
+            s << toml::toml_formatter(*arr);
+        else
+            node.visit([&](const auto& v) { s << v; });
+        out[key] = s.str();
+    }
+}
+
+sensor::Overrides readSettings(const fs::path& tomlPath) {
+    sensor::Overrides ov;
+    try {
+        const toml::table doc = toml::parse_file(tomlPath.string());
+        if (const toml::table* s = doc["camera"]["settings"].as_table())
+            flattenSettings(*s, "", ov);
+    } catch (const toml::parse_error&) {
+        // ConfigDocument reports the syntax error with its place.
+    }
+    return ov;
+}
+
+// Radiance units this reader converts, to the base unit of their kind.
+struct UnitConversion {
+    const char* name;
+    const char* base;  // "W/m2/sr" or "pe/s/m2/sr"
+    double factor;
+};
+constexpr UnitConversion kUnits[] = {
+    {"W/m2/sr", "W/m2/sr", 1.0},       {"W/cm2/sr", "W/m2/sr", 1e4},
+    {"uW/cm2/sr", "W/m2/sr", 1e-2},    {"nW/cm2/sr", "W/m2/sr", 1e-5},
+    {"pe/s/m2/sr", "pe/s/m2/sr", 1.0}, {"pe/s/cm2/sr", "pe/s/m2/sr", 1e4},
+};
+
+// Factor from the given unit to Lpe [pe s⁻¹ m⁻² sr⁻¹].
+double toLpe(const std::string& unit, const sensor::CameraParams& cam, const fs::path& configDir,
+             const std::string& spectrum, const FileLoc& where) {
+    for (const UnitConversion& u : kUnits) {
+        if (unit != u.name) continue;
+        if (std::string(u.base) == "pe/s/m2/sr") return u.factor;
+        return u.factor * sensor::peRadiancePerBandRadiance(configDir, cam, spectrum);
+    }
+    std::string known;
+    for (const UnitConversion& u : kUnits)
+        known += std::string(known.empty() ? "" : ", ") + u.name;
+    throw SetupError(where,
+                     "stimulus unit '" + unit + "' cannot be converted (known: " + known + ")");
+}
+
+// Frame numbers and files of [output] frames: a pattern over first_frame.., or a list.
+struct FrameList {
+    std::vector<long long> numbers;
+    std::vector<fs::path> files;
+};
+
+long long numberInName(const fs::path& p) {
+    const std::string s = p.stem().string();
+    std::size_t end = s.size();
+    while (end > 0 && !std::isdigit(static_cast<unsigned char>(s[end - 1])))
+        --end;
+    std::size_t begin = end;
+    while (begin > 0 && std::isdigit(static_cast<unsigned char>(s[begin - 1])))
+        --begin;
+    if (begin == end) return -1;
+    return std::stoll(s.substr(begin, end - begin));
+}
+
+FrameList listFrames(const ConfigTable& out, const fs::path& dir, const fs::path& tomlPath) {
+    FrameList fl;
+    const long long first = out.get<std::int64_t>("first_frame", 0);
+    const std::int64_t count = out.get<std::int64_t>("count", -1);
+    if (first < 0) out.fail("first_frame", "must be >= 0");
+    if (out.contains("frames") && !out.optional<std::string>("frames")) {
+        const auto names = out.require<std::vector<std::string>>("frames");
+        long long prev = -1;
+        for (const std::string& n : names) {
+            const long long k = numberInName(n);
+            if (k < 0) out.fail("frames", "'" + n + "' has no frame number in its name");
+            if (prev >= 0 && k != prev + 1) {
+                out.fail("frames", "frames are not consecutive and increasing: '" + n +
+                                       "' (frame " + std::to_string(k) + ") follows frame " +
+                                       std::to_string(prev));
+            }
+            prev = k;
+            fl.numbers.push_back(k);
+            fl.files.push_back(dir / n);
+        }
+    } else {
+        const std::string pattern = out.require<std::string>("frames");
+        if (!sensor::hasFramePattern(pattern)) out.fail("frames", "needs {frame:06d} in it");
+        long long n = count >= 0 ? count : 0;
+        if (count < 0)
+            while (fs::exists(dir / sensor::expandFramePattern(pattern, first + n)))
+                ++n;
+        for (long long k = first; k < first + n; ++k) {
+            fl.numbers.push_back(k);
+            fl.files.push_back(dir / sensor::expandFramePattern(pattern, k));
+        }
+        // A frame after a gap: the sequence has a hole.
+        for (long long k = first + n + 1; k < first + n + 64 && count < 0; ++k) {
+            if (fs::exists(dir / sensor::expandFramePattern(pattern, k))) {
+                fail(tomlPath, "[output] frames: frame " + std::to_string(first + n) +
+                                   " is missing (frame " + std::to_string(k) + " exists)");
+            }
+        }
+    }
+    if (fl.files.empty()) fail(tomlPath, "[output] frames: no frame files found");
+    if (fl.files.size() < 4) fail(tomlPath, "[output] frames: diagnose needs at least 4 frames");
+    for (std::size_t i = 0; i < fl.files.size(); ++i)
+        if (!fs::exists(fl.files[i])) {
+            fail(fl.files[i], "frame " + std::to_string(fl.numbers[i]) + " is missing");
+        }
+    return fl;
+}
+
+}  // namespace
+
+namespace {
+
+// Cuts table [name] (to the next table header) out of TOML text; returns its body.
+std::string cutTable(std::string& text, const std::string& name) {
+    const std::string head = "[" + name + "]";
+    std::istringstream in(text);
+    std::string line, kept, body;
+    bool inside = false;
+    while (std::getline(in, line)) {
+        std::string t = line.substr(0, line.find('#'));
+        t.erase(0, t.find_first_not_of(" \t"));
+        t.erase(t.find_last_not_of(" \t\r") + 1);
+        if (!t.empty() && t[0] == '[') inside = t == head;
+        (inside ? body : kept) += line + "\n";
+    }
+    text = kept;
+    return body;
+}
+
+}  // namespace
+
+sensor::CameraParams loadModelCamera(const fs::path& configDir, const std::string& nameOrPath,
+                                     const sensor::Overrides& overrides, FitEffects& extra) {
+    const fs::path file = sensor::resolveCameraPath(configDir, nameOrPath);
+    std::ifstream in(file);
+    std::stringstream ss;
+    ss << in.rdbuf();
+    std::string text = ss.str();
+    std::string err;
+    try {
+        return sensor::loadCamera(configDir, file.string(), overrides);
+    } catch (const SetupError& e) {
+        err = e.what();
+    }
+    bool cut = false;
+    for (const char* t : {"halo", "mcp_saturation", "veiling_glare"}) {
+        if (err.find(std::string("'") + t) == std::string::npos &&
+            text.find(std::string("[") + t + "]") == std::string::npos)
+            continue;
+        const std::string body = cutTable(text, t);
+        if (body.empty()) continue;
+        cut = true;
+        const ConfigDocument doc =
+            ConfigDocument::parseString(body, file.string() + " [" + t + "]");
+        const ConfigTable tb = doc.root().table(t);
+        const bool on = tb.get<bool>("enabled", true);
+        if (std::string(t) == "halo") {
+            extra.haloFraction = on ? tb.get<double>("fraction", 0.0) : 0.0;
+            extra.haloRadius_um = tb.get<double>("radius_um", 0.0);
+        } else if (std::string(t) == "mcp_saturation") {
+            extra.satCharge_e = on ? tb.get<double>("pixel_charge_e", 0.0) : 0.0;
+            extra.satRecharge_s = tb.get<double>("recharge_s", 0.0);
+        } else {
+            extra.glareFraction = on ? tb.get<double>("fraction", 0.0) : 0.0;
+            extra.glareScale_um = tb.get<double>("scale_um", 0.0);
+        }
+        doc.finish();
+    }
+    if (!cut) throw SetupError(err);
+    // Data files of the preset stay relative to its config folder.
+    fs::path base = file.parent_path().parent_path();
+    if (!fs::exists(base / "spectra")) base = configDir;
+    return sensor::parseCamera(base, text, file.string(), overrides);
+}
+
+Plane readFrame(const fs::path& path, int& width, int& height, int& maxValue) {
+    const std::string ext = lowerExt(path);
+    if (ext == ".pgm") {
+        std::ifstream in(path, std::ios::binary);
+        std::string magic;
+        int maxv = 0;
+        in >> magic >> width >> height >> maxv;
+        if (magic != "P5" || maxv <= 0) fail(path, "not an 8/16-bit binary PGM");
+        maxValue = maxv;
+        const ImageU16 img = sensor::readPgm(path);
+        Plane p(static_cast<std::size_t>(width) * height);
+        for (int y = 0; y < height; ++y)
+            for (int x = 0; x < width; ++x)
+                p[static_cast<std::size_t>(y) * width + x] = img(x, y);
+        return p;
+    }
+    if (ext != ".png") fail(path, "frames must be .pgm or .png");
+    png_image im{};
+    im.version = PNG_IMAGE_VERSION;
+    if (!png_image_begin_read_from_file(&im, path.c_str())) fail(path, "not a readable PNG");
+    const bool wide = PNG_IMAGE_SAMPLE_COMPONENT_SIZE(im.format) == 2;
+    im.format = wide ? PNG_FORMAT_LINEAR_Y : PNG_FORMAT_GRAY;
+    // 16-bit PNGs are read without libpng's gamma conversion: PNG_FORMAT_LINEAR_Y would convert
+    // an sRGB-tagged file, so the rows are read raw through the low-level API instead.
+    width = static_cast<int>(im.width);
+    height = static_cast<int>(im.height);
+    Plane p(static_cast<std::size_t>(width) * height);
+    if (!wide) {
+        std::vector<unsigned char> buf(PNG_IMAGE_SIZE(im));
+        if (!png_image_finish_read(&im, nullptr, buf.data(), 0, nullptr))
+            fail(path, "PNG read failed");
+        for (std::size_t i = 0; i < p.size(); ++i)
+            p[i] = buf[i];
+        maxValue = 255;
+        return p;
+    }
+    png_image_free(&im);
+    std::unique_ptr<std::FILE, int (*)(std::FILE*)> fp(std::fopen(path.c_str(), "rb"),
+                                                       &std::fclose);
+    png_structp png = png_create_read_struct(PNG_LIBPNG_VER_STRING, nullptr, nullptr, nullptr);
+    png_infop info = png ? png_create_info_struct(png) : nullptr;
+    if (!fp || !png || !info) {
+        png_destroy_read_struct(&png, &info, nullptr);
+        fail(path, "cannot read");
+    }
+    std::vector<unsigned char> row(static_cast<std::size_t>(width) * 8);
+    if (setjmp(png_jmpbuf(png))) {
+        png_destroy_read_struct(&png, &info, nullptr);
+        fail(path, "PNG read failed");
+    }
+    png_init_io(png, fp.get());
+    png_read_info(png, info);
+    if (png_get_color_type(png, info) != PNG_COLOR_TYPE_GRAY ||
+        png_get_bit_depth(png, info) != 16) {
+        png_destroy_read_struct(&png, &info, nullptr);
+        fail(path, "16-bit frames must be greyscale PNG");
+    }
+    for (int y = 0; y < height; ++y) {
+        png_read_row(png, row.data(), nullptr);
+        for (int x = 0; x < width; ++x)
+            p[static_cast<std::size_t>(y) * width + x] =
+                static_cast<float>((row[2 * x] << 8) | row[2 * x + 1]);
+    }
+    png_destroy_read_struct(&png, &info, nullptr);
+    maxValue = 65535;
+    return p;
+}
+
+namespace {
+
+// The stimulus images: read once per distinct file, converted to Lpe and checked.
+void loadStimuli(Dataset& d, const ConfigTable& st, const std::vector<long long>& numbers,
+                 const fs::path& configDir) {
+    const std::string pattern = st.require<std::string>("radiance");
+    std::vector<std::int64_t> index;
+    if (st.contains("index")) {
+        for (double v : st.require<std::vector<double>>("index")) {
+            if (!(v >= 0.0) || v != std::floor(v))
+                st.fail("index", "entries must be integers >= 0");
+            index.push_back(static_cast<std::int64_t>(v));
+        }
+        if (index.size() != numbers.size()) {
+            st.fail("index", "has " + std::to_string(index.size()) + " entries for " +
+                                 std::to_string(numbers.size()) + " frames");
+        }
+    }
+    std::map<std::uint64_t, int> byHash;
+    std::map<std::string, int> byFile;
+    d.spectrum = st.get<std::string>("spectrum", "flat");
+    const std::string givenUnit = st.get<std::string>("unit", "");
+    for (std::size_t i = 0; i < numbers.size(); ++i) {
+        const long long k = index.empty() ? numbers[i] : index[i];
+        const fs::path file = d.dir / sensor::expandFramePattern(pattern, k);
+        if (auto it = byFile.find(file.string()); it != byFile.end()) {
+            d.stimulusOfFrame.push_back(it->second);
+            continue;
+        }
+        if (!fs::exists(file))
+            fail(file, "stimulus for frame " + std::to_string(numbers[i]) + " is missing");
+        sensor::RadianceFile r = sensor::readRadiance(file);
+        if (r.image.width() != d.width || r.image.height() != d.height) {
+            fail(file, "stimulus is " + std::to_string(r.image.width()) + "x" +
+                           std::to_string(r.image.height()) + " but the frames are " +
+                           std::to_string(d.width) + "x" + std::to_string(d.height));
+        }
+        const std::string unit =
+            !givenUnit.empty() ? givenUnit : (r.unit.empty() ? "pe/s/m2/sr" : r.unit);
+        d.unit = unit;
+        const double k2 = toLpe(unit, d.camera, configDir, d.spectrum, st.location("unit"));
+        Fnv1a h;
+        for (int y = 0; y < d.height; ++y) {
+            float* row = r.image.row(y);
+            for (int x = 0; x < d.width; ++x) {
+                if (!(row[x] >= 0.0f && row[x] < 3e38f)) {
+                    fail(file, "pixel (" + std::to_string(x) + ", " + std::to_string(y) +
+                                   ") is not a finite radiance >= 0");
+                }
+                row[x] = static_cast<float>(row[x] * k2);
+            }
+            h.bytes(row, sizeof(float) * static_cast<std::size_t>(d.width));
+        }
+        auto [it, fresh] = byHash.emplace(h.h, static_cast<int>(d.stimuli.size()));
+        if (fresh) d.stimuli.push_back(std::move(r.image));
+        byFile[file.string()] = it->second;
+        d.stimulusOfFrame.push_back(it->second);
+    }
+}
+
+}  // namespace
+
+Dataset loadDataset(const fs::path& dir, const fs::path& configDir, const Progress& progress) {
+    const fs::path tomlPath = dir / "dataset.toml";
+    if (!fs::exists(tomlPath)) fail(dir, "no dataset.toml in the dataset folder");
+    const ConfigDocument doc = ConfigDocument::parseFile(tomlPath);
+    const ConfigTable root = doc.root();
+    Dataset d;
+    d.dir = dir;
+    const ConfigTable cam = root.table("camera");
+    d.preset = cam.require<std::string>("preset");
+    cam.skip("settings");
+    d.settings = readSettings(tomlPath);
+    fs::path presetArg = d.preset;
+    if (presetArg.extension() == ".toml" && presetArg.is_relative() && fs::exists(dir / presetArg))
+        presetArg = dir / presetArg;
+    try {
+        d.camera = loadModelCamera(configDir, presetArg.string(), d.settings, d.cameraExtra);
+        d.presetFile = sensor::resolveCameraPath(configDir, presetArg.string());
+    } catch (const SetupError& e) {
+        fail(tomlPath, std::string("[camera] ") + e.what());
+    }
+    const ConfigTable out = root.table("output");
+    // One frame file per call of the camera model, as `nvstim sensor` writes them: a field
+    // in field scan, a frame in frame scan.
+    d.frameRate_Hz = out.get<double>("frame_rate_hz", 1.0 / d.camera.integrationPeriod_s());
+    if (!(d.frameRate_Hz > 0.0)) out.fail("frame_rate_hz", "must be > 0");
+    const FrameList fl = listFrames(out, dir, tomlPath);
+    d.firstFrame = fl.numbers.front();
+    const ConfigTable st = root.table("stimulus");
+    if (st.contains("scenario")) {
+        st.fail("scenario",
+                "a scenario stimulus is rendered by `nvstim diagnose` itself, not "
+                "read here");
+    }
+    for (const ConfigTable& r : root.tableArray("roi")) {
+        Roi roi{r.require<std::string>("name"), r.require<int>("x"), r.require<int>("y"),
+                r.require<int>("w"), r.require<int>("h")};
+        d.rois.push_back(roi);
+    }
+    if (progress) progress("reading " + std::to_string(fl.files.size()) + " frames");
+    for (std::size_t i = 0; i < fl.files.size(); ++i) {
+        int w = 0, h = 0, maxv = 0;
+        Plane p = readFrame(fl.files[i], w, h, maxv);
+        if (i == 0) {
+            d.width = w;
+            d.height = h;
+            d.frameMax_dc = maxv;
+        } else if (w != d.width || h != d.height) {
+            fail(fl.files[i], "frame is " + std::to_string(w) + "x" + std::to_string(h) +
+                                  ", frame " + std::to_string(fl.numbers[0]) + " is " +
+                                  std::to_string(d.width) + "x" + std::to_string(d.height));
+        }
+        d.frames.push_back(std::move(p));
+    }
+    for (const Roi& r : d.rois)
+        if (r.w <= 0 || r.h <= 0 || r.x < 0 || r.y < 0 || r.x + r.w > d.width ||
+            r.y + r.h > d.height) {
+            fail(tomlPath, "[[roi]] '" + r.name + "' lies outside the frame");
+        }
+    loadStimuli(d, st, fl.numbers, configDir);
+    if (d.width != d.camera.width || d.height != d.camera.height) {
+        fail(tomlPath, "frames are " + std::to_string(d.width) + "x" + std::to_string(d.height) +
+                           " but camera '" + d.camera.name + "' is " +
+                           std::to_string(d.camera.width) + "x" + std::to_string(d.camera.height) +
+                           " (set width and height in [camera.settings])");
+    }
+    doc.finish();
+    return d;
+}
+
+void writeDataset(const Dataset& d, const fs::path& dir) {
+    fs::create_directories(dir / "radiance");
+    fs::create_directories(dir / "frames");
+    for (std::size_t i = 0; i < d.stimuli.size(); ++i)
+        sensor::writePfm(
+            dir / "radiance" /
+                sensor::expandFramePattern("{frame:06d}.pfm", static_cast<long long>(i)),
+            d.stimuli[i].cview());
+    const int maxv = d.frameMax_dc;
+    ImageU16 img(d.width, d.height);
+    for (std::size_t k = 0; k < d.frames.size(); ++k) {
+        for (int y = 0; y < d.height; ++y)
+            for (int x = 0; x < d.width; ++x) {
+                const float v = d.frames[k][static_cast<std::size_t>(y) * d.width + x];
+                img(x, y) = static_cast<std::uint16_t>(std::clamp(std::lround(v), 0L, long{maxv}));
+            }
+        sensor::writePgm(dir / "frames" /
+                             sensor::expandFramePattern("{frame:06d}.pgm",
+                                                        d.firstFrame + static_cast<long long>(k)),
+                         img.cview(), maxv);
+    }
+    std::ofstream t(dir / "dataset.toml");
+    t << "# Measured dataset (docs/contracts.md, \"Measured dataset\")\n";
+    t << "[camera]\npreset = \"" << d.preset << "\"\n";
+    if (!d.settings.empty()) {
+        t << "[camera.settings]\n";
+        for (const auto& [k, v] : d.settings)
+            t << "\"" << k << "\" = " << v << "\n";
+    }
+    t << "\n[stimulus]\nradiance = \"radiance/{frame:06d}.pfm\"\nunit = \"pe/s/m2/sr\"\n";
+    t << "index = [";
+    for (std::size_t k = 0; k < d.stimulusOfFrame.size(); ++k)
+        t << (k ? ", " : "") << d.stimulusOfFrame[k];
+    t << "]\n\n[output]\nframes = \"frames/{frame:06d}.pgm\"\n";
+    char buf[64];
+    std::snprintf(buf, sizeof buf, "%.9g", d.frameRate_Hz);
+    t << "frame_rate_hz = " << buf << "\nfirst_frame = " << d.firstFrame
+      << "\ncount = " << d.frames.size() << "\n";
+    for (const Roi& r : d.rois)
+        t << "\n[[roi]]\nname = \"" << r.name << "\"\nx = " << r.x << "\ny = " << r.y
+          << "\nw = " << r.w << "\nh = " << r.h << "\n";
+    if (!t) fail(dir / "dataset.toml", "cannot write");
+}
+
+}  // namespace nvs::fit

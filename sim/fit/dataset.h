@@ -1,0 +1,79 @@
+#pragma once
+// A measured dataset (docs/contracts.md, "Measured dataset"): the folder `nvstim diagnose`
+// reads. dataset.toml names the camera preset and its settings, the stimulus (radiance images,
+// OpenEXR or PFM, with their unit and spectrum) and the camera's frames (8/16-bit PGM or PNG),
+// with optional named regions. Everything is read and checked at load: a frame of another size
+// than the stimulus, a missing or out-of-order frame, an unknown preset or a unit that cannot be
+// converted is a SetupError naming the file and the problem, before anything is written.
+
+#include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "sim/core/image.h"
+#include "sim/sensor/camera.h"
+
+namespace nvs::fit {
+
+// Progress lines for the caller to print (stderr in the command line).
+using Progress = std::function<void(const std::string&)>;
+
+struct Roi {
+    std::string name;
+    int x = 0, y = 0, w = 0, h = 0;  // [px]
+};
+
+// One frame-sized plane of floats, row-major without padding.
+using Plane = std::vector<float>;
+
+// Effects a preset may switch on that the camera chain (sim/sensor) does not implement: diagnose
+// applies its own forward models for them (effects.h) so that a preset written by
+// --write-preset is the model it describes. Keys as in docs/contracts.md.
+struct FitEffects {
+    double haloFraction = 0.0, haloRadius_um = 0.0;   // [halo]
+    double satCharge_e = 0.0, satRecharge_s = 0.0;    // [mcp_saturation]
+    double glareFraction = 0.0, glareScale_um = 0.0;  // [veiling_glare]
+};
+
+// Loads a preset (name or path) with overrides; tables the chain rejects as unknown among
+// [halo], [mcp_saturation] and [veiling_glare] are read into `extra` instead.
+sensor::CameraParams loadModelCamera(const std::filesystem::path& configDir,
+                                     const std::string& nameOrPath,
+                                     const sensor::Overrides& overrides, FitEffects& extra);
+
+struct Dataset {
+    std::filesystem::path dir;
+    std::string preset;          // [camera] preset, as written
+    sensor::Overrides settings;  // [camera.settings], as preset overrides
+    sensor::CameraParams camera;
+    FitEffects cameraExtra;  // the preset's effects applied by diagnose's own forward models
+    std::filesystem::path presetFile;
+    int width = 0, height = 0;
+    // The distinct stimulus images, photoelectron radiance Lpe [pe s⁻¹ m⁻² sr⁻¹], and which
+    // one each frame saw. Identical files are stored once.
+    std::vector<ImageF> stimuli;
+    std::vector<int> stimulusOfFrame;
+    std::vector<Plane> frames;  // measured frames [DC]
+    double frameRate_Hz = 0.0;
+    long long firstFrame = 0;
+    std::vector<Roi> rois;
+    std::string unit;       // of the stimulus files as given
+    std::string spectrum;   // for W/m2/sr stimuli
+    int frameMax_dc = 255;  // largest value the frame files can hold
+    std::size_t frameCount() const { return frames.size(); }
+};
+
+// Reads DATASET_DIR/dataset.toml and everything it names; presets from configDir/cameras.
+Dataset loadDataset(const std::filesystem::path& dir, const std::filesystem::path& configDir,
+                    const Progress& progress = {});
+
+// Writes a dataset folder in the contract's layout: dataset.toml, radiance/NNNNNN.pfm (one per
+// distinct stimulus, unit pe/s/m2/sr) and frames/NNNNNN.pgm. For the generator and the tests.
+void writeDataset(const Dataset& d, const std::filesystem::path& dir);
+
+// Reads an 8/16-bit PGM (P5) or PNG frame as DC values.
+Plane readFrame(const std::filesystem::path& path, int& width, int& height, int& maxValue);
+
+}  // namespace nvs::fit

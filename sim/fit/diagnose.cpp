@@ -1,0 +1,398 @@
+#include "sim/fit/diagnose.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <set>
+#include <sstream>
+
+#include "sim/fit/effects.h"
+
+namespace nvs::fit {
+
+namespace {
+
+std::string num(double v) {
+    char b[64];
+    std::snprintf(b, sizeof b, "%.6g", std::isfinite(v) ? v : 0.0);
+    return b;
+}
+
+void setCurrent(Work& w, Current& cur) {
+    cur.Y = predict(w, cur.mm);
+    cur.fit = fitLinear(w, cur.Y, nullptr);
+    cur.tileSse = heldoutTileSse(w, cur.Y, nullptr, cur.fit, cur.rms);
+}
+
+// Baseline: extra Gaussian blur (MTF) by search, gain and offset by least squares.
+void fitBaseline(Work& w, Current& cur, Result& r) {
+    auto sse = [&](double s) {
+        MeanModel mm = cur.mm;
+        mm.sigma_px = s;
+        const LinFit f = fitLinear(w, predict(w, mm), nullptr);
+        return f.ok ? f.sseCal : 1e300;
+    };
+    const double s0 = sse(0.0);
+    const double sb = searchLog(sse, 0.15, 3.0, 6);
+    if (sse(sb) < s0) cur.mm.sigma_px = sb;
+    setCurrent(w, cur);
+    r.baseline["gain_rel"] = cur.fit.a;
+    r.baseline["offset_dc"] = cur.fit.b;
+    r.baseline["model_offset_dc"] = w.m.offset_dc;
+    r.baseline["mtf_extra_blur_px"] = cur.mm.sigma_px;
+    r.baseline["heldout_rms_dc"] = cur.rms;
+    r.baseline["calibration_frames"] = static_cast<double>(w.cal.size());
+    r.baseline["heldout_frames"] = static_cast<double>(w.ho.size());
+}
+
+// Linearity (EMVA 1288 R4.0: deviation of the mean response from a straight line): measured
+// against predicted signal, binned, on the calibration frames.
+void linearity(const Work& w, const Current& cur, Result& r) {
+    constexpr int kBins = 24;
+    double top = 0.0;
+    for (std::size_t i = 0; i < w.cal.size(); ++i)
+        for (float v : cur.Y[i])
+            top = std::max(top, static_cast<double>(v));
+    if (!(top > 0.0)) return;
+    std::vector<double> sm(kBins, 0.0), sp(kBins, 0.0), n(kBins, 0.0);
+    for (std::size_t i = 0; i < w.cal.size(); ++i) {
+        const Plane& M = w.measured(w.sub[i]);
+        for (std::size_t p = 0; p < M.size(); ++p) {
+            if (!w.valid(M[p])) continue;
+            const int b = std::min(kBins - 1, static_cast<int>(cur.Y[i][p] / top * kBins));
+            if (b < 0) continue;
+            sm[static_cast<std::size_t>(b)] += M[p];
+            sp[static_cast<std::size_t>(b)] += cur.fit.b + cur.fit.a * cur.Y[i][p];
+            n[static_cast<std::size_t>(b)] += 1.0;
+        }
+    }
+    Curve c{
+        "linearity", "model prediction [DC]", "measured mean [DC]", {"measured", "model"}, {{}, {}},
+        {{}, {}}};
+    double worst = 0.0, lo = 1e300, hi = -1e300;
+    for (int b = 0; b < kBins; ++b) {
+        const std::size_t i = static_cast<std::size_t>(b);
+        if (n[i] < 20) continue;
+        const double pm = sp[i] / n[i], mm = sm[i] / n[i];
+        c.x[0].push_back(pm);
+        c.x[1].push_back(pm);
+        c.y[0].push_back(mm);
+        c.y[1].push_back(pm);
+        worst = std::max(worst, std::fabs(mm - pm));
+        lo = std::min(lo, pm);
+        hi = std::max(hi, pm);
+    }
+    if (hi > lo) r.baseline["linearity_error_pct"] = 100.0 * worst / (hi - lo);
+    r.curves.push_back(std::move(c));
+}
+
+// Region means on the held-out frames: measured and predicted.
+void roiMeans(const Work& w, const Current& cur, Result& r) {
+    for (const Roi& roi : w.d.rois) {
+        double sm = 0, sp = 0, n = 0;
+        for (std::size_t i = w.cal.size(); i < w.sub.size(); ++i) {
+            const Plane& M = w.measured(w.sub[i]);
+            for (int y = roi.y; y < roi.y + roi.h; ++y)
+                for (int x = roi.x; x < roi.x + roi.w; ++x) {
+                    const std::size_t p = static_cast<std::size_t>(y) * w.w + x;
+                    sm += M[p];
+                    sp += cur.fit.b + cur.fit.a * cur.Y[i][p];
+                    n += 1;
+                }
+        }
+        if (n > 0) {
+            r.baseline["roi_" + roi.name + "_measured_dc"] = sm / n;
+            r.baseline["roi_" + roi.name + "_model_dc"] = sp / n;
+        }
+    }
+}
+
+// Radial profile around the brightest predicted point of the held-out frames, and the
+// frame-mean residual map, before and after the findings.
+void signatures(const Work& w, const Current& before, const Current& after, Result& r) {
+    if (w.ho.empty()) return;
+    const std::size_t i0 = w.cal.size();
+    std::size_t best = 0;
+    float top = -1.0f;
+    for (std::size_t p = 0; p < before.Y[i0].size(); ++p)
+        if (before.Y[i0][p] > top) {
+            top = before.Y[i0][p];
+            best = p;
+        }
+    const int cx = static_cast<int>(best) % w.w, cy = static_cast<int>(best) / w.w;
+    const int R = std::min(40, std::max(w.w, w.h) / 3);
+    Curve c{"radial_profile", "distance from the brightest point [px]",
+            "mean [DC]",      {"measured", "model before", "model after"},
+            {{}, {}, {}},     {{}, {}, {}}};
+    std::vector<double> s[3], n(static_cast<std::size_t>(R), 0.0);
+    for (auto& v : s)
+        v.assign(static_cast<std::size_t>(R), 0.0);
+    Plane mapB(before.Y[0].size(), 0.0f), mapA(mapB.size(), 0.0f);
+    for (std::size_t i = i0; i < w.sub.size(); ++i) {
+        const Plane& M = w.measured(w.sub[i]);
+        for (int y = 0; y < w.h; ++y)
+            for (int x = 0; x < w.w; ++x) {
+                const std::size_t p = static_cast<std::size_t>(y) * w.w + x;
+                const double pb = before.fit.b + before.fit.a * before.Y[i][p];
+                const double pa = after.fit.b + after.fit.a * after.Y[i][p];
+                mapB[p] += static_cast<float>((M[p] - pb) / static_cast<double>(w.ho.size()));
+                mapA[p] += static_cast<float>((M[p] - pa) / static_cast<double>(w.ho.size()));
+                const int d = static_cast<int>(std::lround(std::hypot(x - cx, y - cy)));
+                if (d >= R) continue;
+                const std::size_t b = static_cast<std::size_t>(d);
+                s[0][b] += M[p];
+                s[1][b] += pb;
+                s[2][b] += pa;
+                n[b] += 1;
+            }
+    }
+    for (int d = 0; d < R; ++d) {
+        const std::size_t b = static_cast<std::size_t>(d);
+        if (n[b] == 0) continue;
+        for (int k = 0; k < 3; ++k) {
+            c.x[static_cast<std::size_t>(k)].push_back(d);
+            c.y[static_cast<std::size_t>(k)].push_back(s[k][b] / n[b]);
+        }
+    }
+    r.curves.push_back(std::move(c));
+    r.maps.push_back({"residual_heldout_before", std::move(mapB)});
+    r.maps.push_back({"residual_heldout_after", std::move(mapA)});
+}
+
+bool significant(const Candidate& c, const Options& o) {
+    return c.valid && c.finding.z >= o.zMin && c.finding.score > 0.0;
+}
+
+using TryFn = Candidate (*)(Work&, const Current&);
+
+}  // namespace
+
+namespace {
+
+void recordTrial(Result& r, const Candidate& c, bool tried) {
+    Trial t;
+    t.effect = c.finding.effect;
+    t.tried = tried;
+    t.z = c.finding.z;
+    t.score = c.finding.score;
+    t.before = c.finding.heldoutRmsBefore;
+    t.after = c.finding.heldoutRmsAfter;
+    std::string params;
+    for (const auto& [k, v] : c.finding.parameters)
+        params += (params.empty() ? "" : ", ") + k + " = " + num(v);
+    t.why = c.why.empty() ? params : c.why + (params.empty() ? "" : " (" + params + ")");
+    for (Trial& old : r.trials)
+        if (old.effect == t.effect) {
+            old = t;
+            return;
+        }
+    r.trials.push_back(t);
+}
+
+// Greedy forward selection of the mean effects: each round tries every effect not yet taken on
+// top of the current model and takes the best significant one.
+void meanEffects(Work& w, Current& cur, Result& r, const Options& opt, const Progress& progress) {
+    struct Entry {
+        const char* name;
+        TryFn fn;
+        bool present;  // the model under test has it
+    };
+    const FitEffects& ex = w.d.cameraExtra;
+    std::vector<Entry> catalog = {
+        {"phosphor_persistence", tryPersistence, false},
+        {"halo", tryHalo, ex.haloFraction > 0.0},
+        {"mcp_saturation", trySaturation, ex.satCharge_e > 0.0},
+        {"bright_source_protection", tryBsp, w.cam.agc == sensor::AgcMode::Bsp},
+        {"veiling_glare", tryGlare, ex.glareFraction > 0.0},
+        {"vertical_smear", trySmear, false},
+    };
+    std::set<std::string> taken;
+    for (int round = 0; round < opt.maxRounds; ++round) {
+        Candidate best;
+        bool any = false;
+        for (const Entry& e : catalog) {
+            if (taken.count(e.name) != 0) continue;
+            if (e.present) {
+                Candidate c;
+                c.finding.effect = e.name;
+                c.why = "the model under test has it on";
+                recordTrial(r, c, false);
+                continue;
+            }
+            if (progress)
+                progress(std::string("round ") + std::to_string(round + 1) + ": " + e.name);
+            Candidate c = e.fn(w, cur);
+            recordTrial(r, c, true);
+            if (significant(c, opt) && (!any || c.finding.score > best.finding.score)) {
+                best = c;
+                any = true;
+            }
+        }
+        if (!any) break;
+        taken.insert(best.finding.effect);
+        if (progress) progress("found " + best.finding.effect + ": " + best.finding.cause);
+        r.findings.push_back(best.finding);
+        cur.mm = best.mm;
+        setCurrent(w, cur);
+    }
+}
+
+MeanModel modelExtras(const Dataset& d, const ModelRun& m) {
+    MeanModel mm;
+    const FitEffects& e = d.cameraExtra;
+    mm.haloF = e.haloFraction;
+    mm.haloR_um = e.haloRadius_um;
+    mm.glareG = e.glareFraction;
+    mm.glareS_um = e.glareScale_um;
+    mm.satQ_dc = e.satCharge_e * m.dcPerMcpElectron;
+    return mm;
+}
+
+}  // namespace
+
+Result diagnose(const Dataset& d, const std::filesystem::path& configDir, const Options& opt,
+                const Progress& progress) {
+    Result r;
+    r.width = d.width;
+    r.height = d.height;
+    r.camera = d.camera.name;
+    const ModelRun m = simulate(d, d.camera, configDir, opt.seed, true, progress);
+    Work w(d, m, d.camera, opt, progress, configDir);
+    for (int k : w.sub) {
+        Plane u;
+        assembleFrame(m.unblurred, k, w.w, w.h, m.fieldScan, u);
+        w.unblurred.push_back(std::move(u));
+    }
+    if (progress)
+        progress("baseline: gain, offset, MTF on " + std::to_string(w.cal.size()) +
+                 " calibration frames");
+    Current cur;
+    cur.mm = modelExtras(d, m);
+    fitBaseline(w, cur, r);
+    linearity(w, cur, r);
+    roiMeans(w, cur, r);
+    const Current base = cur;
+    meanEffects(w, cur, r, opt, progress);
+    if (progress) progress("noise: photon transfer, fixed pattern, EBI");
+    for (const Candidate& c : tryNoiseEffects(w, cur, r)) {
+        const bool present = c.finding.effect == "fixed_pattern_noise" ? false : false;
+        recordTrial(r, c, !present);
+        if (significant(c, opt)) r.findings.push_back(c.finding);
+    }
+    for (const char* e : {"lunar_sky_scatter", "refraction", "cloud_transmission"}) {
+        Candidate c;
+        c.finding.effect = e;
+        c.why = "needs a stimulus rendered from a scenario with its ephemeris";
+        recordTrial(r, c, false);
+    }
+    signatures(w, base, cur, r);
+    std::stable_sort(r.findings.begin(), r.findings.end(),
+                     [](const Finding& a, const Finding& b) { return a.score > b.score; });
+    return r;
+}
+
+std::string toJson(const Result& r) {
+    std::string s = "{\"baseline\":{";
+    bool first = true;
+    for (const auto& [k, v] : r.baseline) {
+        s += (first ? "\"" : ",\"") + k + "\":" + num(v);
+        first = false;
+    }
+    s += "},\"findings\":[";
+    for (std::size_t i = 0; i < r.findings.size(); ++i) {
+        const Finding& f = r.findings[i];
+        s += (i ? "," : "") + std::string("{\"effect\":\"") + f.effect + "\",\"parameters\":{";
+        for (std::size_t j = 0; j < f.parameters.size(); ++j)
+            s += (j ? ",\"" : "\"") + f.parameters[j].first + "\":" + num(f.parameters[j].second);
+        s += "},\"heldout_rms_before\":" + num(f.heldoutRmsBefore) +
+             ",\"heldout_rms_after\":" + num(f.heldoutRmsAfter) +
+             ",\"confidence\":" + num(f.confidence) + ",\"z\":" + num(f.z) +
+             ",\"score\":" + num(f.score) + ",\"unit\":\"" + f.unit + "\",\"observable\":\"" +
+             f.observable + "\",\"cause\":\"";
+        for (char c : f.cause)
+            s += c == '"' ? std::string("\\\"") : std::string(1, c);
+        s += "\"}";
+    }
+    s += "],\"camera\":\"" + r.camera + "\"}";
+    return s;
+}
+
+namespace {
+
+// Sets key = value in table `table` ("" for the top level) of TOML text, keeping the comment
+// of a replaced line; adds the table at the end when it is absent.
+void setKey(std::vector<std::string>& lines, const std::string& table, const std::string& key,
+            const std::string& value) {
+    std::string cur;
+    std::ptrdiff_t tableEnd = -1, tableHead = -1;
+    for (std::size_t i = 0; i < lines.size(); ++i) {
+        std::string t = lines[i].substr(0, lines[i].find('#'));
+        t.erase(0, t.find_first_not_of(" \t"));
+        if (!t.empty() && t[0] == '[') {
+            if (cur == table && tableEnd < 0 && (table.empty() || tableHead >= 0))
+                tableEnd = static_cast<std::ptrdiff_t>(i);
+            cur = t.substr(1, t.find(']') - 1);
+            if (cur == table) tableHead = static_cast<std::ptrdiff_t>(i);
+            continue;
+        }
+        if (cur != table) continue;
+        const std::size_t eq = t.find('=');
+        if (eq == std::string::npos) continue;
+        std::string k = t.substr(0, eq);
+        k.erase(k.find_last_not_of(" \t") + 1);
+        if (k != key) continue;
+        const std::size_t hash = lines[i].find('#');
+        lines[i] = key + " = " + value +
+                   (hash != std::string::npos ? "  " + lines[i].substr(hash) : "") +
+                   "  # fitted by nvstim diagnose";
+        return;
+    }
+    const std::string line = key + " = " + value + "  # fitted by nvstim diagnose";
+    if (table.empty() || tableHead >= 0) {
+        std::size_t at = tableEnd >= 0 ? static_cast<std::size_t>(tableEnd) : lines.size();
+        if (table.empty() && tableEnd < 0) {
+            at = 0;
+            for (std::size_t i = 0; i < lines.size(); ++i)
+                if (lines[i].rfind('[', 0) == 0) {
+                    at = i;
+                    break;
+                }
+        }
+        while (at > 0 && lines[at - 1].empty())
+            --at;
+        lines.insert(lines.begin() + static_cast<std::ptrdiff_t>(at), line);
+        return;
+    }
+    lines.push_back("");
+    lines.push_back("[" + table + "]");
+    lines.push_back(line);
+}
+
+}  // namespace
+
+std::string presetWithFindings(const std::filesystem::path& presetFile, const Result& r) {
+    std::ifstream in(presetFile);
+    std::vector<std::string> lines;
+    std::string l;
+    lines.push_back("# Written by nvstim diagnose from " + presetFile.filename().string() +
+                    ": the effects it found switched on with their fitted parameters");
+    for (const Finding& f : r.findings)
+        lines.push_back("#   " + f.effect + ": " + f.cause);
+    while (std::getline(in, l))
+        lines.push_back(l);
+    for (const Finding& f : r.findings)
+        for (const auto& [k, v] : f.presetKeys) {
+            const std::size_t dot = k.find('.');
+            if (dot == std::string::npos)
+                setKey(lines, "", k, v);
+            else
+                setKey(lines, k.substr(0, dot), k.substr(dot + 1), v);
+        }
+    std::string out;
+    for (const std::string& s : lines)
+        out += s + "\n";
+    return out;
+}
+
+}  // namespace nvs::fit

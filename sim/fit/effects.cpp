@@ -1,0 +1,279 @@
+#include "sim/fit/effects.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+
+namespace nvs::fit {
+
+namespace {
+
+// printf-style text of up to three numbers.
+template <typename... A>
+std::string fmtText(const char* f, A... a) {
+    char buf[320];
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wformat-nonliteral"
+    std::snprintf(buf, sizeof buf, f, a...);
+#pragma GCC diagnostic pop
+    return buf;
+}
+
+std::string num(double v) {
+    return fmtText("%.6g", v);
+}
+
+// Scores a candidate b + a·Y + c·B against the current model on the held-out frames.
+void score(Work& w, const Current& cur, Candidate& cand, const std::vector<Plane>& Y,
+           const std::vector<Plane>* B, int k) {
+    double rms = 0.0;
+    const std::vector<double> t = heldoutTileSse(w, Y, B, cand.fit, rms);
+    const Score s = pairedScore(cur.tileSse, t, cur.rms, rms, k);
+    Finding& f = cand.finding;
+    f.heldoutRmsBefore = s.rmsBefore;
+    f.heldoutRmsAfter = s.rmsAfter;
+    f.z = s.z;
+    f.score = s.score;
+    f.confidence = normalCdf(s.z);
+    f.observable = "held-out frames, per pixel";
+    f.unit = "DC";
+}
+
+std::vector<Plane> minus(const std::vector<Plane>& a, const std::vector<Plane>& b) {
+    std::vector<Plane> d(a.size());
+    for (std::size_t i = 0; i < a.size(); ++i) {
+        d[i].resize(a[i].size());
+        for (std::size_t p = 0; p < a[i].size(); ++p)
+            d[i][p] = a[i][p] - b[i][p];
+    }
+    return d;
+}
+
+constexpr double kInf = 1e300;
+
+// A linear spatial effect (1 − f)·Y + f·K_s ⊛ Y: B = K_s ⊛ Y − Y, f = c/a, s searched.
+Candidate trySpread(Work& w, const Current& cur, const char* name,
+                    const std::function<std::function<double(double)>(double)>& kernelOf,
+                    double lo_um, double hi_um, double& best_um) {
+    Candidate cand;
+    cand.finding.effect = name;
+    w.conv->setFrames(cur.Y);
+    std::vector<Plane> K;
+    auto basis = [&](double s_um) {
+        w.conv->convolve(kernelOf(s_um), K);
+        return minus(K, cur.Y);
+    };
+    best_um = searchLog(
+        [&](double s_um) {
+            const std::vector<Plane> B = basis(s_um);
+            const LinFit f = fitLinear(w, cur.Y, &B);
+            return f.ok ? f.sseCal : kInf;
+        },
+        lo_um, hi_um, 8);
+    const std::vector<Plane> B = basis(best_um);
+    cand.fit = fitLinear(w, cur.Y, &B);
+    score(w, cur, cand, cur.Y, &B, 2);
+    const double frac = cand.fit.a != 0.0 ? cand.fit.c / cand.fit.a : 0.0;
+    cand.valid = cand.fit.ok && frac > 0.0 && frac < 1.0;
+    if (!cand.valid) cand.why = fmtText("fraction %.3g is not in (0, 1)", frac);
+    cand.finding.parameters = {{"fraction", frac}};
+    return cand;
+}
+
+}  // namespace
+
+Candidate tryHalo(Work& w, const Current& cur) {
+    double r_um = 0.0;
+    // Ring radii from 2 pixels to a twentieth of the frame's width at the cathode.
+    const double lo = 2.0 * w.pitchX_um, hi = std::max(4.0 * lo, 0.2 * w.w * w.pitchX_um);
+    Candidate c = trySpread(
+        w, cur, "halo", [&](double r) { return ringKernel(r, w.pitchX_um); }, lo, hi, r_um);
+    const double f = c.finding.parameters[0].second;
+    c.finding.parameters.push_back({"radius_um", r_um});
+    c.mm = cur.mm;
+    c.mm.haloF = f;
+    c.mm.haloR_um = r_um;
+    c.finding.cause = fmtText(
+        "light around bright points on a ring of %.0f um (%.1f px): %.1f %% of the photoelectrons "
+        "return to the photocathode a ring away (electron back-scatter off the MCP input), which "
+        "the model lacks",
+        r_um, r_um / w.pitchX_um, 100.0 * f);
+    c.finding.presetKeys = {
+        {"halo.enabled", "true"}, {"halo.fraction", num(f)}, {"halo.radius_um", num(r_um)}};
+    return c;
+}
+
+Candidate tryGlare(Work& w, const Current& cur) {
+    double s_um = 0.0;
+    const double lo = 8.0 * w.pitchX_um, hi = std::max(2.0 * lo, 1.0 * w.w * w.pitchX_um);
+    Candidate c = trySpread(w, cur, "veiling_glare", expKernel, lo, hi, s_um);
+    const double g = c.finding.parameters[0].second;
+    c.finding.parameters.push_back({"scale_um", s_um});
+    c.mm = cur.mm;
+    c.mm.glareG = g;
+    c.mm.glareS_um = s_um;
+    c.finding.cause = fmtText(
+        "a broad veil around bright areas (scale %.0f um, %.1f px): %.1f %% of the light is "
+        "scattered by the optics or tube window over the frame, which the model lacks",
+        s_um, s_um / w.pitchX_um, 100.0 * g);
+    c.finding.presetKeys = {{"veiling_glare.enabled", "true"},
+                            {"veiling_glare.fraction", num(g)},
+                            {"veiling_glare.scale_um", num(s_um)}};
+    return c;
+}
+
+Candidate trySmear(Work& w, const Current& cur) {
+    Candidate c;
+    c.finding.effect = "vertical_smear";
+    MeanModel one = cur.mm;
+    one.smear = cur.mm.smear + 1.0;
+    const std::vector<Plane> B = minus(predict(w, one), cur.Y);
+    c.fit = fitLinear(w, cur.Y, &B);
+    score(w, cur, c, cur.Y, &B, 1);
+    const double s = c.fit.a != 0.0 ? c.fit.c / c.fit.a : 0.0;
+    c.valid = c.fit.ok && s > 0.0;
+    if (!c.valid) c.why = fmtText("smear %.3g is not > 0", s);
+    c.mm = cur.mm;
+    c.mm.smear += s;
+    const double total = w.cam.smear_rel + c.mm.smear;
+    c.finding.parameters = {{"smear_rel", total}};
+    c.finding.cause = fmtText(
+        "columns carry a share of their own mean signal (%.2f %% of the column mean): charge "
+        "collected while the column is shifted out, which the model lacks",
+        100.0 * s);
+    c.finding.presetKeys = {{"ccd.smear_rel", num(total)}};
+    return c;
+}
+
+Candidate tryPersistence(Work& w, const Current& cur) {
+    Candidate c;
+    c.finding.effect = "phosphor_persistence";
+    const double T = w.m.period_s;
+    auto basis = [&](double tau) {
+        MeanModel one = cur.mm;
+        one.persistW = 1.0;
+        one.persistTau_s = tau;
+        return minus(predict(w, one), cur.Y);
+    };
+    const double tau = searchLog(
+        [&](double t) {
+            const std::vector<Plane> B = basis(t);
+            const LinFit f = fitLinear(w, cur.Y, &B);
+            return f.ok ? f.sseCal : kInf;
+        },
+        0.1 * T, 40.0 * T, 10);
+    const std::vector<Plane> B = basis(tau);
+    c.fit = fitLinear(w, cur.Y, &B);
+    score(w, cur, c, cur.Y, &B, 2);
+    const double wgt = c.fit.a != 0.0 ? c.fit.c / c.fit.a : 0.0;
+    c.valid = c.fit.ok && wgt > 0.0 && wgt < 1.0 && cur.mm.persistW == 0.0;
+    if (!c.valid) c.why = fmtText("weight %.3g is not in (0, 1)", wgt);
+    c.mm = cur.mm;
+    c.mm.persistW = wgt;
+    c.mm.persistTau_s = tau;
+    c.finding.parameters = {{"weight", wgt}, {"decay_s", tau}};
+    c.finding.cause = fmtText(
+        "frames lag the stimulus: %.1f %% of the screen's light comes from a phosphor decay "
+        "of %.1f ms (%.1f frame periods), which the model's phosphor lacks",
+        100.0 * wgt, 1e3 * tau, tau / T);
+    // The preset's phosphor with the component added and the others scaled by 1 − w.
+    std::string decay = "[", weight = "[";
+    for (std::size_t i = 0; i < w.cam.phosphor_decay_s.size(); ++i) {
+        decay += num(w.cam.phosphor_decay_s[i]) + ", ";
+        weight += num(w.cam.phosphor_weight[i] * (1.0 - wgt)) + ", ";
+    }
+    c.finding.presetKeys = {{"phosphor.enabled", "true"},
+                            {"phosphor.decay_s", decay + num(tau) + "]"},
+                            {"phosphor.weight", weight + num(wgt) + "]"}};
+    return c;
+}
+
+Candidate tryBsp(Work& w, const Current& cur) {
+    Candidate c;
+    c.finding.effect = "bright_source_protection";
+    std::vector<double> I;
+    for (int k : w.sub)
+        I.push_back(w.m.cathode_A[static_cast<std::size_t>(k)]);
+    std::sort(I.begin(), I.end());
+    const double med = I[I.size() / 2];
+    if (!(med > 0.0) || I.back() < 1.5 * I.front()) {
+        c.why =
+            "the cathode current hardly varies between frames: protection cannot be told from "
+            "gain";
+        return c;
+    }
+    MeanModel mm = cur.mm;
+    mm.bspExponent = w.cam.bsp_exponent;
+    auto fitKnee = [&](double knee) {
+        mm.bspKnee_A = knee;
+        return fitLinear(w, predict(w, mm), nullptr);
+    };
+    const double lo = 0.02 * med, hi = 50.0 * med;
+    const double knee = searchLog(
+        [&](double k) {
+            const LinFit f = fitKnee(k);
+            return f.ok ? f.sseCal : kInf;
+        },
+        lo, hi, 10);
+    mm.bspKnee_A = knee;
+    const std::vector<Plane> Y = predict(w, mm);
+    c.fit = fitLinear(w, Y, nullptr);
+    score(w, cur, c, Y, nullptr, 1);
+    c.valid = c.fit.ok && knee < 0.9 * hi && w.cam.agc != sensor::AgcMode::Bsp;
+    if (!c.valid)
+        c.why = fmtText("knee %.3g A at the search's edge or the model already has it", knee);
+    c.mm = mm;
+    c.finding.parameters = {{"knee_A", knee}, {"exponent", mm.bspExponent}};
+    c.finding.cause = fmtText(
+        "the gain falls as the whole scene brightens (halved at a cathode current of %.3g A; "
+        "frames span %.3g..%.3g A): bright-source protection, which the model has off",
+        knee, I.front(), I.back());
+    c.finding.presetKeys = {
+        {"agc", "\"bsp\""}, {"bsp.knee_A", num(knee)}, {"bsp.exponent", num(mm.bspExponent)}};
+    return c;
+}
+
+Candidate trySaturation(Work& w, const Current& cur) {
+    Candidate c;
+    c.finding.effect = "mcp_saturation";
+    if (w.unblurred.empty()) {
+        c.why = "no unblurred prediction";
+        return c;
+    }
+    double top = 0.0;
+    for (std::size_t i = 0; i < w.cal.size(); ++i)
+        for (float v : w.unblurred[i])
+            top = std::max(top, static_cast<double>(v));
+    if (!(top > 0.0)) {
+        c.why = "no signal";
+        return c;
+    }
+    MeanModel mm = cur.mm;
+    const double lo = 0.02 * top, hi = 20.0 * top;
+    const double q = searchLog(
+        [&](double qq) {
+            mm.satQ_dc = qq;
+            const LinFit f = fitLinear(w, predict(w, mm), nullptr);
+            return f.ok ? f.sseCal : kInf;
+        },
+        lo, hi, 10);
+    mm.satQ_dc = q;
+    const std::vector<Plane> Y = predict(w, mm);
+    c.fit = fitLinear(w, Y, nullptr);
+    score(w, cur, c, Y, nullptr, 1);
+    c.valid = c.fit.ok && q < 0.9 * hi && cur.mm.satQ_dc == 0.0;
+    if (!c.valid) c.why = fmtText("charge %.3g DC at the search's edge", q);
+    c.mm = mm;
+    const double q_e = q / w.m.dcPerMcpElectron;
+    c.finding.parameters = {{"pixel_charge_e", q_e}, {"recharge_s", 1e-3}};
+    c.finding.cause = fmtText(
+        "bright spots come out flattened: the MCP gives at most about %.3g output electrons per "
+        "CCD pixel area in a field (%.1f DC before the MTF), which the model lacks",
+        q_e, q);
+    c.finding.presetKeys = {{"mcp_saturation.enabled", "true"},
+                            {"mcp_saturation.pixel_charge_e", num(q_e)},
+                            {"mcp_saturation.recharge_s", num(1e-3)}};
+    return c;
+}
+
+}  // namespace nvs::fit

@@ -1,0 +1,52 @@
+#pragma once
+// The effect catalog's forward models and fits (docs/diagnose.md, "Effects").
+//
+// Mean effects change the predicted frames; each is tried on top of the mean model taken so far
+// (`acc`, with its prediction Y and gain/offset fit), its parameters fitted on the calibration
+// frames, its prediction scored on the held-out frames:
+//   phosphor_persistence  Y + w·(P_τ[X] − X): an added phosphor component of weight w, decay τ,
+//                         integrated over each field as the chain's phosphor (PhosphorStage)
+//   halo                  (1 − f)·Y + f·ring_R ⊛ Y: a fraction f of the photoelectrons lands on a
+//                         ring of radius R around where it started (photocathode plane)
+//   veiling_glare         (1 − g)·Y + g·exp(−r/s) ⊛ Y: stray light of fraction g, scale s
+//   vertical_smear        Y + s·column mean(Y): charge picked up during vertical transfer
+//   bright_source_protection  Y/(1 + (I/I_knee)^p): gain lowered by the cathode current I
+//   mcp_saturation        Y + MTF ⊛ (Q(1 − e^(−U/Q)) − U): each pixel's MCP charge limited to
+//                         Q per field, U the unblurred signal
+// Noise effects change the predicted statistics (noise.cpp): fixed_pattern_noise,
+// excess_noise, ebi_background.
+
+#include <optional>
+
+#include "sim/fit/engine.h"
+
+namespace nvs::fit {
+
+struct Candidate {
+    Finding finding;
+    MeanModel mm;  // acc with this effect
+    LinFit fit;
+    bool valid = false;  // parameters physical (a positive fraction, a finite time)
+    std::string why;     // when not valid
+};
+
+// The mean prediction taken so far, its fit and its held-out per-tile error.
+struct Current {
+    MeanModel mm;
+    std::vector<Plane> Y;
+    LinFit fit;
+    std::vector<double> tileSse;
+    double rms = 0.0;
+};
+
+Candidate tryPersistence(Work& w, const Current& cur);
+Candidate tryHalo(Work& w, const Current& cur);
+Candidate tryGlare(Work& w, const Current& cur);
+Candidate trySmear(Work& w, const Current& cur);
+Candidate tryBsp(Work& w, const Current& cur);
+Candidate trySaturation(Work& w, const Current& cur);
+
+// The noise effects, on the final mean model.
+std::vector<Candidate> tryNoiseEffects(Work& w, const Current& cur, Result& r);
+
+}  // namespace nvs::fit

@@ -1,0 +1,341 @@
+#include "sim/fit/engine.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "sim/sensor/chain.h"
+
+namespace nvs::fit {
+
+namespace {
+
+// Evenly spaced picks of at most n from v.
+std::vector<int> spread(const std::vector<int>& v, int n) {
+    if (static_cast<int>(v.size()) <= n) return v;
+    std::vector<int> out;
+    for (int i = 0; i < n; ++i)
+        out.push_back(v[static_cast<std::size_t>(i * static_cast<int>(v.size()) / n)]);
+    return out;
+}
+
+}  // namespace
+
+// Ring kernel of a halo: the ring radius R with a radial width of a tenth of R (at least half
+// a pixel), the blur of its edge being left to the MTF (docs/diagnose.md).
+std::function<double(double)> ringKernel(double r_um, double pitch_um) {
+    const double s = std::max(0.5 * pitch_um, 0.1 * r_um);
+    return [r_um, s](double r) {
+        const double u = (r - r_um) / s;
+        return u * u > 40.0 ? 0.0 : std::exp(-0.5 * u * u);
+    };
+}
+
+std::function<double(double)> expKernel(double s_um) {
+    return [s_um](double r) { return std::exp(-r / s_um); };
+}
+
+namespace {
+
+void spread2(Work& w, std::vector<Plane>& Y, double frac,
+             const std::function<double(double)>& kernel) {
+    std::vector<Plane> K;
+    w.conv->setFrames(Y);
+    w.conv->convolve(kernel, K);
+    for (std::size_t i = 0; i < Y.size(); ++i)
+        for (std::size_t p = 0; p < Y[i].size(); ++p)
+            Y[i][p] = static_cast<float>((1.0 - frac) * Y[i][p] + frac * K[i][p]);
+}
+
+// Per-call planes with bright-source protection and the added phosphor component applied.
+std::vector<Plane> perCall(const Work& w, const MeanModel& mm, const std::vector<char>& needed) {
+    const ModelRun& m = w.m;
+    const std::size_t n = static_cast<std::size_t>(w.w) * w.h;
+    std::vector<Plane> out(needed.size());
+    Plane st(mm.persistW != 0.0 ? n : 0, 0.0f);
+    double fin = 1.0, dc = 0.0;
+    if (mm.persistW != 0.0) {
+        fin = sensor::PhosphorStage::inPeriodFraction(mm.persistTau_s, m.gate_s, m.period_s);
+        dc = std::exp(-m.period_s / mm.persistTau_s);
+    }
+    const float W = static_cast<float>(mm.persistW);
+    for (std::size_t c = 0; c < needed.size(); ++c) {
+        double f = 1.0;
+        if (mm.bspKnee_A > 0.0)
+            f = 1.0 / (1.0 + std::pow(m.cathode_A[c] / mm.bspKnee_A, mm.bspExponent));
+        const Plane& X = m.signal[c];
+        Plane o(needed[c] ? n : 0);
+        for (std::size_t p = 0; p < n; ++p) {
+            const float x = static_cast<float>(X[p] * f);
+            float v = x;
+            if (W != 0.0f) {
+                v = (1.0f - W) * x +
+                    W * (static_cast<float>(fin) * x + static_cast<float>(1.0 - dc) * st[p]);
+                st[p] = static_cast<float>(dc) * st[p] + static_cast<float>(1.0 - fin) * x;
+            }
+            if (needed[c]) o[p] = v;
+        }
+        out[c] = std::move(o);
+    }
+    return out;
+}
+
+void addSaturation(Work& w, const MeanModel& mm, std::vector<Plane>& S) {
+    if (!w.blur)
+        w.blur = std::make_shared<sensor::BlurStage>(w.cam, sensor::ChainOptions{}, w.configDir);
+    const double q = mm.satQ_dc;
+    for (std::size_t i = 0; i < S.size(); ++i) {
+        const Plane& U = w.unblurred[i];
+        for (int y = 0; y < w.h; ++y) {
+            float* row = w.blur->inputRow(y);
+            for (int x = 0; x < w.w; ++x) {
+                const double u = U[static_cast<std::size_t>(y) * w.w + x];
+                row[x] = static_cast<float>(q * -std::expm1(-u / q) - u);
+            }
+        }
+        if (w.blur->enabled()) w.blur->filter();
+        for (int y = 0; y < w.h; ++y) {
+            const float* r = w.blur->enabled() ? w.blur->outputRow(y) : w.blur->inputRow(y);
+            for (int x = 0; x < w.w; ++x)
+                S[i][static_cast<std::size_t>(y) * w.w + x] += r[x];
+        }
+    }
+}
+
+}  // namespace
+
+Work::Work(const Dataset& ds, const ModelRun& mr, const sensor::CameraParams& c, Options o,
+           Progress p, std::filesystem::path config)
+    : d(ds), m(mr), cam(c), opt(o), progress(std::move(p)), configDir(std::move(config)) {
+    w = d.width;
+    h = d.height;
+    const int n = static_cast<int>(d.frameCount());
+    std::vector<int> a, b;
+    for (int k = 2; k < n; ++k) {
+        if (m.fieldScan && (k & 1)) continue;  // even frames share no field with each other
+        (k < n / 2 ? a : b).push_back(k);
+    }
+    int cap = opt.maxFramesPerSplit;
+    if (cap <= 0) cap = std::clamp(static_cast<int>(3.0e6 / (static_cast<double>(w) * h)), 6, 64);
+    cal = spread(a, cap);
+    ho = spread(b, cap);
+    sub = cal;
+    sub.insert(sub.end(), ho.begin(), ho.end());
+    tile = static_cast<double>(w) * h > 200000.0 ? 32 : 16;
+    tilesX = std::max(1, w / tile);
+    tilesY = std::max(1, h / tile);
+    pitchX_um = cam.pitch_x_um * cam.taper_magnification;
+    pitchY_um = cam.pitch_y_um * cam.taper_magnification;
+    conv = std::make_unique<Convolver>(w, h, pitchX_um, pitchY_um);
+}
+
+std::vector<Plane> predict(Work& w, const MeanModel& mm) {
+    const ModelRun& m = w.m;
+    int maxCall = 0;
+    for (int k : w.sub)
+        maxCall = std::max(maxCall, k);
+    std::vector<char> needed(static_cast<std::size_t>(maxCall) + 1, 0);
+    for (int k : w.sub) {
+        needed[static_cast<std::size_t>(k)] = 1;
+        if (k > 0) needed[static_cast<std::size_t>(k - 1)] = 1;
+    }
+    std::vector<Plane> calls;
+    const bool modified = mm.persistW != 0.0 || mm.bspKnee_A > 0.0;
+    if (modified) calls = perCall(w, mm, needed);
+    const std::vector<Plane>& src = modified ? calls : m.signal;
+    std::vector<Plane> S(w.sub.size());
+    for (std::size_t i = 0; i < w.sub.size(); ++i)
+        assembleFrame(src, w.sub[i], w.w, w.h, m.fieldScan, S[i]);
+    if (mm.satQ_dc > 0.0) addSaturation(w, mm, S);
+    if (mm.sigma_px > 0.0)
+        for (Plane& p : S)
+            gaussianBlur(p, w.w, w.h, mm.sigma_px);
+    if (mm.haloF != 0.0) spread2(w, S, mm.haloF, ringKernel(mm.haloR_um, w.pitchX_um));
+    if (mm.glareG != 0.0) spread2(w, S, mm.glareG, expKernel(mm.glareS_um));
+    if (mm.smear != 0.0) {
+        for (Plane& p : S) {
+            std::vector<double> col(static_cast<std::size_t>(w.w), 0.0);
+            for (int y = 0; y < w.h; ++y)
+                for (int x = 0; x < w.w; ++x)
+                    col[static_cast<std::size_t>(x)] += p[static_cast<std::size_t>(y) * w.w + x];
+            for (int y = 0; y < w.h; ++y)
+                for (int x = 0; x < w.w; ++x)
+                    p[static_cast<std::size_t>(y) * w.w + x] +=
+                        static_cast<float>(mm.smear * col[static_cast<std::size_t>(x)] / w.h);
+        }
+    }
+    return S;
+}
+
+namespace {
+// Solves the n×n system A x = r (n ≤ 3) by Gaussian elimination with partial pivoting.
+bool solve(int n, double A[3][3], double r[3], double x[3]) {
+    for (int i = 0; i < n; ++i) {
+        int piv = i;
+        for (int j = i + 1; j < n; ++j)
+            if (std::fabs(A[j][i]) > std::fabs(A[piv][i])) piv = j;
+        if (!(std::fabs(A[piv][i]) > 1e-300)) return false;
+        std::swap(A[i], A[piv]);
+        std::swap(r[i], r[piv]);
+        for (int j = i + 1; j < n; ++j) {
+            const double f = A[j][i] / A[i][i];
+            for (int k = i; k < n; ++k)
+                A[j][k] -= f * A[i][k];
+            r[j] -= f * r[i];
+        }
+    }
+    for (int i = n - 1; i >= 0; --i) {
+        double s = r[i];
+        for (int k = i + 1; k < n; ++k)
+            s -= A[i][k] * x[k];
+        x[i] = s / A[i][i];
+    }
+    return true;
+}
+}  // namespace
+
+LinFit fitLinear(const Work& w, const std::vector<Plane>& Y, const std::vector<Plane>* B) {
+    const int n = B ? 3 : 2;
+    double A[3][3] = {}, r[3] = {}, x[3] = {};
+    for (std::size_t i = 0; i < w.cal.size(); ++i) {
+        const Plane& M = w.measured(w.sub[i]);
+        for (std::size_t p = 0; p < M.size(); ++p) {
+            if (!w.valid(M[p])) continue;
+            const double v[3] = {1.0, Y[i][p], B ? (*B)[i][p] : 0.0};
+            for (int a = 0; a < n; ++a) {
+                r[a] += v[a] * M[p];
+                for (int b = 0; b < n; ++b)
+                    A[a][b] += v[a] * v[b];
+            }
+        }
+    }
+    LinFit f;
+    if (!solve(n, A, r, x)) return f;
+    f.b = x[0];
+    f.a = x[1];
+    f.c = B ? x[2] : 0.0;
+    f.ok = true;
+    const float maxDc = static_cast<float>(w.m.maxDc);
+    for (std::size_t i = 0; i < w.cal.size(); ++i) {
+        const Plane& M = w.measured(w.sub[i]);
+        for (std::size_t p = 0; p < M.size(); ++p) {
+            if (!w.valid(M[p])) continue;
+            double pr = f.b + f.a * Y[i][p] + (B ? f.c * (*B)[i][p] : 0.0);
+            pr = std::clamp(pr, 0.0, static_cast<double>(maxDc));
+            f.sseCal += (M[p] - pr) * (M[p] - pr);
+        }
+    }
+    return f;
+}
+
+std::vector<double> heldoutTileSse(const Work& w, const std::vector<Plane>& Y,
+                                   const std::vector<Plane>* B, const LinFit& f, double& rms) {
+    std::vector<double> t(static_cast<std::size_t>(w.tiles()), 0.0);
+    double sum = 0.0;
+    long long cnt = 0;
+    for (std::size_t i = w.cal.size(); i < w.sub.size(); ++i) {
+        const Plane& M = w.measured(w.sub[i]);
+        for (int y = 0; y < w.h; ++y)
+            for (int x = 0; x < w.w; ++x) {
+                const std::size_t p = static_cast<std::size_t>(y) * w.w + x;
+                if (!w.valid(M[p])) continue;
+                double pr = f.b + f.a * Y[i][p] + (B ? f.c * (*B)[i][p] : 0.0);
+                pr = std::clamp(pr, 0.0, w.m.maxDc);
+                const double e = (M[p] - pr) * (M[p] - pr);
+                t[static_cast<std::size_t>(w.tileOf(x, y))] += e;
+                sum += e;
+                ++cnt;
+            }
+    }
+    rms = cnt > 0 ? std::sqrt(sum / static_cast<double>(cnt)) : 0.0;
+    return t;
+}
+
+Score pairedScore(const std::vector<double>& before, const std::vector<double>& after,
+                  double rmsBefore, double rmsAfter, int k) {
+    Score s;
+    s.rmsBefore = rmsBefore;
+    s.rmsAfter = rmsAfter;
+    const std::size_t n = before.size();
+    if (n < 2) return s;
+    double mean = 0.0;
+    for (std::size_t i = 0; i < n; ++i)
+        mean += before[i] - after[i];
+    mean /= static_cast<double>(n);
+    double var = 0.0;
+    for (std::size_t i = 0; i < n; ++i) {
+        const double d = before[i] - after[i] - mean;
+        var += d * d;
+    }
+    var /= static_cast<double>(n - 1);
+    const double se = std::sqrt(var / static_cast<double>(n));
+    s.z = se > 0.0 ? mean / se : (mean > 0.0 ? 1e3 : 0.0);
+    s.z = std::min(s.z, 1e3);
+    s.score = (s.z > 0.0 ? s.z * s.z : 0.0) - k * std::log(static_cast<double>(n));
+    return s;
+}
+
+double searchLog(const std::function<double(double)>& f, double lo, double hi, int n) {
+    const double l0 = std::log(lo), l1 = std::log(hi);
+    int best = 0;
+    double fb = 0.0;
+    std::vector<double> vals(static_cast<std::size_t>(n));
+    for (int i = 0; i < n; ++i) {
+        vals[static_cast<std::size_t>(i)] = f(std::exp(l0 + (l1 - l0) * i / (n - 1)));
+        if (i == 0 || vals[static_cast<std::size_t>(i)] < fb) {
+            fb = vals[static_cast<std::size_t>(i)];
+            best = i;
+        }
+    }
+    const double step = (l1 - l0) / (n - 1);
+    double a = l0 + step * std::max(best - 1, 0), b = l0 + step * std::min(best + 1, n - 1);
+    const double g = 0.5 * (std::sqrt(5.0) - 1.0);
+    double c = b - g * (b - a), d = a + g * (b - a);
+    double fc = f(std::exp(c)), fd = f(std::exp(d));
+    for (int it = 0; it < 10; ++it) {
+        if (fc < fd) {
+            b = d;
+            d = c;
+            fd = fc;
+            c = b - g * (b - a);
+            fc = f(std::exp(c));
+        } else {
+            a = c;
+            c = d;
+            fc = fd;
+            d = a + g * (b - a);
+            fd = f(std::exp(d));
+        }
+    }
+    const double xm = std::exp(0.5 * (a + b));
+    return std::min(fc, fd) <= fb ? xm : std::exp(l0 + step * best);
+}
+
+void gaussianBlur(Plane& p, int width, int height, double sigma_px) {
+    const int r = std::max(1, static_cast<int>(std::ceil(4.0 * sigma_px)));
+    std::vector<double> k(static_cast<std::size_t>(2 * r + 1));
+    for (int i = -r; i <= r; ++i)
+        k[static_cast<std::size_t>(i + r)] = std::exp(-0.5 * i * i / (sigma_px * sigma_px));
+    Plane tmp(p.size());
+    auto pass = [&](const Plane& in, Plane& out, bool horizontal) {
+        for (int y = 0; y < height; ++y)
+            for (int x = 0; x < width; ++x) {
+                double s = 0.0, ws = 0.0;
+                for (int i = -r; i <= r; ++i) {
+                    const int xx = horizontal ? x + i : x, yy = horizontal ? y : y + i;
+                    if (xx < 0 || yy < 0 || xx >= width || yy >= height) continue;
+                    const double kv = k[static_cast<std::size_t>(i + r)];
+                    s += kv * in[static_cast<std::size_t>(yy) * width + xx];
+                    ws += kv;
+                }
+                out[static_cast<std::size_t>(y) * width + x] = static_cast<float>(s / ws);
+            }
+    };
+    pass(p, tmp, true);
+    pass(tmp, p, false);
+}
+
+double normalCdf(double z) {
+    return 0.5 * std::erfc(-z / std::sqrt(2.0));
+}
+
+}  // namespace nvs::fit

@@ -1,0 +1,100 @@
+#pragma once
+// Internals of diagnose(): the working set (frames of the two splits, tiles), the mean model
+// with the effects taken so far, the least-squares fit of gain and offset, and the held-out
+// score. effects.cpp builds each effect's candidates on these.
+
+#include <filesystem>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "sim/fit/conv.h"
+#include "sim/fit/diagnose.h"
+#include "sim/fit/model.h"
+
+namespace nvs::sensor {
+class BlurStage;
+}
+
+namespace nvs::fit {
+
+// The mean model: the chain's mean signal with the effects taken so far (0 = off).
+struct MeanModel {
+    double sigma_px = 0.0;      // baseline: extra Gaussian blur (MTF)
+    double persistW = 0.0;      // phosphor_persistence: weight of the added component
+    double persistTau_s = 0.0;  //   and its decay time
+    double bspKnee_A = 0.0;     // bright_source_protection: knee current
+    double bspExponent = 1.0;
+    double satQ_dc = 0.0;                  // mcp_saturation: charge per pixel [model DC]
+    double haloF = 0.0, haloR_um = 0.0;    // halo: fraction, ring radius at the cathode
+    double glareG = 0.0, glareS_um = 0.0;  // veiling_glare: fraction, scale at the cathode
+    double smear = 0.0;                    // vertical_smear: fraction of the column mean
+};
+
+// Gain and offset (and one effect amplitude) by least squares on the calibration frames.
+struct LinFit {
+    double b = 0.0, a = 1.0, c = 0.0;
+    double sseCal = 0.0;
+    bool ok = false;
+};
+
+// Ring kernel of a halo and the exponential kernel of veiling glare (r in µm at the cathode).
+std::function<double(double)> ringKernel(double r_um, double pitch_um);
+std::function<double(double)> expKernel(double s_um);
+
+// A scored candidate: per-tile held-out squared error and its paired test against `before`.
+struct Score {
+    double rmsBefore = 0.0, rmsAfter = 0.0, z = 0.0, score = 0.0;
+};
+
+struct Work {
+    const Dataset& d;
+    const ModelRun& m;
+    const sensor::CameraParams& cam;
+    Options opt;
+    Progress progress;
+    int w = 0, h = 0;
+    std::vector<int> cal, ho;  // frames of the two splits used for mean effects
+    std::vector<int> sub;      // cal then ho
+    int tile = 16, tilesX = 0, tilesY = 0;
+    std::vector<Plane> unblurred;  // assembled unblurred frames of `sub` (mcp_saturation)
+    std::unique_ptr<Convolver> conv;
+    std::shared_ptr<sensor::BlurStage> blur;  // the model's MTF (mcp_saturation)
+    double pitchX_um = 0.0, pitchY_um = 0.0;  // a pixel at the photocathode
+
+    std::filesystem::path configDir;
+
+    Work(const Dataset& ds, const ModelRun& mr, const sensor::CameraParams& c, Options o,
+         Progress p, std::filesystem::path config);
+    int tiles() const { return tilesX * tilesY; }
+    int tileOf(int x, int y) const {
+        return std::min(y / tile, tilesY - 1) * tilesX + std::min(x / tile, tilesX - 1);
+    }
+    const Plane& measured(int frame) const { return d.frames[static_cast<std::size_t>(frame)]; }
+    bool valid(float v) const { return v > 0.5f && v < static_cast<float>(m.maxDc) - 0.5f; }
+};
+
+// The mean model's signal above offset [model DC] for the frames of w.sub.
+std::vector<Plane> predict(Work& w, const MeanModel& mm);
+
+// b + a·Y + c·B on the calibration frames (B may be null).
+LinFit fitLinear(const Work& w, const std::vector<Plane>& Y, const std::vector<Plane>* B);
+// Held-out squared error per tile of b + a·Y + c·B (clipped to the ADC range), and its sum.
+std::vector<double> heldoutTileSse(const Work& w, const std::vector<Plane>& Y,
+                                   const std::vector<Plane>* B, const LinFit& f, double& rms);
+// Paired test over tiles: d_t = before_t − after_t; z = mean/se; score = z² − k·ln(tiles).
+Score pairedScore(const std::vector<double>& before, const std::vector<double>& after,
+                  double rmsBefore, double rmsAfter, int k);
+
+// Minimises f over [lo, hi] on a log grid of n points, then by golden section.
+double searchLog(const std::function<double(double)>& f, double lo, double hi, int n);
+
+// Gaussian blur of a plane, σ in pixels, truncated at 4σ and renormalised at the edges.
+void gaussianBlur(Plane& p, int width, int height, double sigma_px);
+
+// Normal CDF.
+double normalCdf(double z);
+
+}  // namespace nvs::fit

@@ -1,0 +1,123 @@
+#include "sim/fit/model.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "sim/core/gamma_table.h"
+#include "sim/sensor/chain.h"
+
+namespace nvs::fit {
+
+namespace {
+
+// The model with every random term off: its output is the chain's mean.
+sensor::CameraParams meanCamera(const sensor::CameraParams& cam) {
+    sensor::CameraParams m = cam;
+    m.shot_noise = false;
+    m.mcp_noise = false;
+    m.read_noise_e = 0.0;
+    m.video_noise_dc = 0.0;
+    m.prnu_rel = 0.0;
+    return m;
+}
+
+void copyPlane(ImageView<const float> img, double scale, Plane& out) {
+    const int w = img.width();
+    out.resize(static_cast<std::size_t>(w) * img.height());
+    for (int y = 0; y < img.height(); ++y) {
+        const float* r = img.row(y);
+        float* o = out.data() + static_cast<std::size_t>(y) * w;
+        for (int x = 0; x < w; ++x)
+            o[x] = static_cast<float>(static_cast<double>(r[x]) * scale);
+    }
+}
+
+// Dark signal per unit EBI [DC per lm/cm²], from the chain itself on a small dark frame.
+double ebiLevel(const sensor::CameraParams& mean, const std::filesystem::path& configDir,
+                GammaTableCache& tables) {
+    sensor::CameraParams c = mean;
+    c.width = 32;
+    c.height = 32;
+    c.agc = sensor::AgcMode::Off;
+    ImageF dark(32, 32);
+    double level[2] = {0.0, 0.0};
+    const double ebi[2] = {0.0, 1e-11};
+    for (int i = 0; i < 2; ++i) {
+        c.ebi_lm_cm2 = ebi[i];
+        sensor::IiccdChain chain(c, 0, configDir, tables);
+        for (int k = 0; k < 8; ++k)
+            chain.process(dark.cview());
+        double s = 0.0;
+        for (int y = 0; y < 32; ++y)
+            for (int x = 0; x < 32; ++x)
+                s += static_cast<double>(chain.electrons()(x, y));
+        level[i] = s / 1024.0 * c.video_gain_dc_per_e;
+    }
+    return (level[1] - level[0]) / 1e-11;
+}
+
+}  // namespace
+
+void assembleFrame(const std::vector<Plane>& perCall, int k, int width, int height, bool fieldScan,
+                   Plane& out) {
+    out.resize(static_cast<std::size_t>(width) * height);
+    for (int y = 0; y < height; ++y) {
+        const bool now = !fieldScan || (y & 1) == (k & 1) || k == 0;
+        const Plane& src = perCall[static_cast<std::size_t>(now ? k : k - 1)];
+        std::copy_n(src.data() + static_cast<std::size_t>(y) * width, width,
+                    out.data() + static_cast<std::size_t>(y) * width);
+    }
+}
+
+ModelRun simulate(const Dataset& d, const sensor::CameraParams& cam,
+                  const std::filesystem::path& configDir, std::uint64_t seed, bool unblurred,
+                  const Progress& progress) {
+    ModelRun m;
+    m.width = d.width;
+    m.height = d.height;
+    m.calls = static_cast<int>(d.frameCount());
+    m.fieldScan = cam.scan == sensor::ScanMode::Field;
+    m.offset_dc = cam.video_offset_dc;
+    m.maxDc = (1 << cam.adc_bits) - 1;
+    m.gamma = cam.gamma;
+    const double vg = cam.video_gain_dc_per_e;
+    m.readVar_dc2 =
+        cam.read_noise_e * vg * cam.read_noise_e * vg + cam.video_noise_dc * cam.video_noise_dc;
+    m.dcPerMcpElectron = cam.ccdElectronsPerMcpElectron() * vg;
+    m.period_s = cam.integrationPeriod_s();
+    m.gate_s = cam.gate_s > 0.0 ? cam.gate_s : m.period_s;
+    GammaTableCache tables;
+    const sensor::CameraParams mean = meanCamera(cam);
+    m.ebiLevel_dc_per_lm_cm2 = ebiLevel(mean, configDir, tables);
+    if (progress) progress("simulating " + std::to_string(m.calls) + " frames with the model");
+    {
+        sensor::IiccdChain chain(mean, seed, configDir, tables);
+        m.signal.resize(static_cast<std::size_t>(m.calls));
+        for (int k = 0; k < m.calls; ++k) {
+            const ImageF& s = d.stimuli[static_cast<std::size_t>(d.stimulusOfFrame[k])];
+            m.cathode_A.push_back(chain.process(s.cview()).cathode_current_A);
+            copyPlane(chain.electrons().cview(), vg, m.signal[static_cast<std::size_t>(k)]);
+        }
+    }
+    if (unblurred) {
+        sensor::CameraParams u = mean;
+        u.mtf_enabled = false;
+        sensor::IiccdChain chain(u, seed, configDir, tables);
+        m.unblurred.resize(static_cast<std::size_t>(m.calls));
+        for (int k = 0; k < m.calls; ++k) {
+            const ImageF& s = d.stimuli[static_cast<std::size_t>(d.stimulusOfFrame[k])];
+            chain.process(s.cview());
+            copyPlane(chain.electrons().cview(), vg, m.unblurred[static_cast<std::size_t>(k)]);
+        }
+    }
+    sensor::IiccdChain noisy(cam, seed ^ 0x5eedf17ull, configDir, tables);
+    m.noisy.resize(static_cast<std::size_t>(m.calls));
+    for (int k = 0; k < m.calls; ++k) {
+        const ImageF& s = d.stimuli[static_cast<std::size_t>(d.stimulusOfFrame[k])];
+        noisy.process(s.cview());
+        copyPlane(noisy.counts().cview(), 1.0, m.noisy[static_cast<std::size_t>(k)]);
+    }
+    return m;
+}
+
+}  // namespace nvs::fit

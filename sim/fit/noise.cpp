@@ -1,0 +1,456 @@
+// The noise effects (effects.h): statistics of the measured frames against the model's own
+// noisy run, tile by tile, calibration half against held-out half.
+//
+// Temporal noise: differences of frames that saw the same stimulus (and the one before, so the
+// phosphor has settled), lag 2 in field scan (frame k and k − 2 share no field), as EMVA 1288
+// (Release 4.0, Linear) estimates the temporal variance from the difference of two frames:
+// σ²_y = ½·mean((y_A − y_B)²). Per tile: v (variance) and c1 (covariance of horizontal
+// neighbours). The model's noisy run gives v_sim, c1_sim the same way.
+//   v_pred  = a²·(φ·(v_sim − r) + r) + s0 + v_e      r: the model's read noise + 1/12 DC²
+//   c1_pred = a²·φ·c1_sim + ρ·v_e                     ρ: neighbour correlation of shot noise
+// s0 (extra white noise) is the baseline's; excess_noise fits φ (F = φ·F_model); ebi_background
+// fits v_e: shot noise present at zero signal is blurred by the MTF like signal shot noise
+// (c1 > 0), read noise is not, so the neighbour covariance tells EBI from read noise.
+// Fixed pattern: the split's residual maps averaged over two sets of frames that share no field;
+// their covariance in a tile is the fixed pattern only (the temporal noise is independent):
+//   C = dsnu² + prnu²·a²·mean(Ȳ₁·Ȳ₂)   (EMVA 1288 DSNU and PRNU, in DC and relative).
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+
+#include "sim/fit/effects.h"
+
+namespace nvs::fit {
+
+namespace {
+
+struct Tiles {
+    std::vector<double> v, c1, vSim, c1Sim, mu, n, n1;
+};
+
+// Temporal statistics of frames [k0, k1) per tile.
+Tiles temporal(const Work& w, int k0, int k1) {
+    const int T = w.tiles();
+    Tiles t;
+    for (auto* v : {&t.v, &t.c1, &t.vSim, &t.c1Sim, &t.mu, &t.n, &t.n1})
+        v->assign(static_cast<std::size_t>(T), 0.0);
+    const int lag = w.m.fieldScan ? 2 : 1;
+    const auto& so = w.d.stimulusOfFrame;
+    for (int k = std::max(k0, lag + 1); k < k1; ++k) {
+        bool steady = true;
+        for (int j = k - lag - 1; j < k; ++j)
+            steady = steady && so[static_cast<std::size_t>(j)] == so[static_cast<std::size_t>(k)];
+        if (!steady) continue;
+        const Plane& A = w.measured(k);
+        const Plane& B = w.measured(k - lag);
+        const Plane& SA = w.m.noisy[static_cast<std::size_t>(k)];
+        const Plane& SB = w.m.noisy[static_cast<std::size_t>(k - lag)];
+        const Plane& X = w.m.signal[static_cast<std::size_t>(k)];
+        for (int y = 0; y < w.h; ++y)
+            for (int x = 0; x < w.w; ++x) {
+                const std::size_t p = static_cast<std::size_t>(y) * w.w + x;
+                if (!w.valid(A[p]) || !w.valid(B[p])) continue;
+                const std::size_t ti = static_cast<std::size_t>(w.tileOf(x, y));
+                const double d = A[p] - B[p], ds = SA[p] - SB[p];
+                t.v[ti] += d * d;
+                t.vSim[ti] += ds * ds;
+                t.mu[ti] += X[p];
+                t.n[ti] += 1.0;
+                if (x + 1 < w.w && w.tileOf(x + 1, y) == w.tileOf(x, y) && w.valid(A[p + 1]) &&
+                    w.valid(B[p + 1])) {
+                    t.c1[ti] += d * (A[p + 1] - B[p + 1]);
+                    t.c1Sim[ti] += ds * (SA[p + 1] - SB[p + 1]);
+                    t.n1[ti] += 1.0;
+                }
+            }
+    }
+    for (std::size_t i = 0; i < t.v.size(); ++i) {
+        if (t.n[i] > 0) {
+            t.v[i] /= 2.0 * t.n[i];
+            t.vSim[i] /= 2.0 * t.n[i];
+            t.mu[i] /= t.n[i];
+        }
+        if (t.n1[i] > 0) {
+            t.c1[i] /= 2.0 * t.n1[i];
+            t.c1Sim[i] /= 2.0 * t.n1[i];
+        }
+    }
+    return t;
+}
+
+// Residual maps of the split's subset frames, averaged over two interleaved halves, and the
+// tiles' covariance of the two and mean product of the two averaged signals.
+void fixedPattern(const Work& w, const Current& cur, std::size_t i0, std::size_t i1,
+                  std::vector<double>& C, std::vector<double>& q, std::vector<double>& n,
+                  Plane* map) {
+    const std::size_t np = static_cast<std::size_t>(w.w) * w.h;
+    Plane A[2] = {Plane(np, 0.0f), Plane(np, 0.0f)}, Y[2] = {Plane(np, 0.0f), Plane(np, 0.0f)};
+    std::vector<float> cnt[2] = {std::vector<float>(np, 0.0f), std::vector<float>(np, 0.0f)};
+    for (std::size_t i = i0; i < i1; ++i) {
+        const int g = static_cast<int>((i - i0) & 1u);
+        const Plane& M = w.measured(w.sub[i]);
+        for (std::size_t p = 0; p < np; ++p) {
+            if (!w.valid(M[p])) continue;
+            A[g][p] += static_cast<float>(M[p] - (cur.fit.b + cur.fit.a * cur.Y[i][p]));
+            Y[g][p] += cur.Y[i][p];
+            cnt[g][p] += 1.0f;
+        }
+    }
+    const int T = w.tiles();
+    std::vector<double> s1(static_cast<std::size_t>(T), 0.0), s2 = s1, s12 = s1;
+    C.assign(static_cast<std::size_t>(T), 0.0);
+    q = C;
+    n = C;
+    for (int y = 0; y < w.h; ++y)
+        for (int x = 0; x < w.w; ++x) {
+            const std::size_t p = static_cast<std::size_t>(y) * w.w + x;
+            if (cnt[0][p] == 0.0f || cnt[1][p] == 0.0f) continue;
+            const double a1 = A[0][p] / cnt[0][p], a2 = A[1][p] / cnt[1][p];
+            if (map) (*map)[p] = static_cast<float>(0.5 * (a1 + a2));
+            const std::size_t t = static_cast<std::size_t>(w.tileOf(x, y));
+            s1[t] += a1;
+            s2[t] += a2;
+            s12[t] += a1 * a2;
+            q[t] += cur.fit.a * cur.fit.a * (Y[0][p] / cnt[0][p]) * (Y[1][p] / cnt[1][p]);
+            n[t] += 1.0;
+        }
+    for (int t = 0; t < T; ++t) {
+        const std::size_t i = static_cast<std::size_t>(t);
+        if (n[i] < 2) continue;
+        C[i] = (s12[i] - s1[i] * s2[i] / n[i]) / (n[i] - 1.0);
+        q[i] /= n[i];
+    }
+}
+
+// Weighted least squares y = p0 + p1·x (p0 fixed when fix0 is set).
+void line(const std::vector<double>& x, const std::vector<double>& y, const std::vector<double>& wt,
+          double& p0, double& p1, bool fix0) {
+    double sw = 0, sx = 0, sy = 0, sxx = 0, sxy = 0;
+    for (std::size_t i = 0; i < x.size(); ++i) {
+        if (!(wt[i] > 0)) continue;
+        sw += wt[i];
+        sx += wt[i] * x[i];
+        sy += wt[i] * y[i];
+        sxx += wt[i] * x[i] * x[i];
+        sxy += wt[i] * x[i] * y[i];
+    }
+    if (fix0) {
+        p1 = sxx > 0 ? (sxy - p0 * sx) / sxx : 0.0;
+        return;
+    }
+    const double det = sw * sxx - sx * sx;
+    if (!(std::fabs(det) > 0)) {
+        p0 = sw > 0 ? sy / sw : 0.0;
+        p1 = 0.0;
+        return;
+    }
+    p0 = (sxx * sy - sx * sxy) / det;
+    p1 = (sw * sxy - sx * sy) / det;
+}
+
+// Held-out comparison of two predictions of a tile observable.
+Score compare(const std::vector<double>& obs, const std::vector<double>& before,
+              const std::vector<double>& after, const std::vector<double>& n, int k) {
+    std::vector<double> eb, ea;
+    double sb = 0, sa = 0, sn = 0;
+    for (std::size_t i = 0; i < obs.size(); ++i) {
+        if (!(n[i] > 0)) continue;
+        const double b = (obs[i] - before[i]) * (obs[i] - before[i]);
+        const double a = (obs[i] - after[i]) * (obs[i] - after[i]);
+        eb.push_back(b);
+        ea.push_back(a);
+        sb += b;
+        sa += a;
+        sn += 1;
+    }
+    return pairedScore(eb, ea, sn > 0 ? std::sqrt(sb / sn) : 0, sn > 0 ? std::sqrt(sa / sn) : 0, k);
+}
+
+void fill(Candidate& c, const Score& s, const char* observable) {
+    c.finding.heldoutRmsBefore = s.rmsBefore;
+    c.finding.heldoutRmsAfter = s.rmsAfter;
+    c.finding.z = s.z;
+    c.finding.score = s.score;
+    c.finding.confidence = normalCdf(s.z);
+    c.finding.observable = observable;
+    c.finding.unit = "DC2";
+}
+
+std::string num(double v) {
+    char b[64];
+    std::snprintf(b, sizeof b, "%.6g", v);
+    return b;
+}
+
+}  // namespace
+
+namespace {
+
+void addPtcCurve(const Tiles& t, double a, double s0, double phi, double rr, Result& res) {
+    Curve c{"photon_transfer",
+            "signal above offset [DC]",
+            "temporal variance [DC2]",
+            {"measured", "model", "model with fitted noise"},
+            {{}, {}, {}},
+            {{}, {}, {}}};
+    std::vector<std::size_t> idx;
+    for (std::size_t i = 0; i < t.v.size(); ++i)
+        if (t.n[i] > 0) idx.push_back(i);
+    std::sort(idx.begin(), idx.end(),
+              [&](std::size_t p, std::size_t q) { return t.mu[p] < t.mu[q]; });
+    for (std::size_t i : idx) {
+        const double x = a * t.mu[i];
+        for (auto& xs : c.x)
+            xs.push_back(x);
+        c.y[0].push_back(t.v[i]);
+        c.y[1].push_back(a * a * t.vSim[i] + s0);
+        c.y[2].push_back(a * a * (phi * (t.vSim[i] - rr) + rr) + s0);
+    }
+    res.curves.push_back(std::move(c));
+}
+
+double median(std::vector<double> v) {
+    if (v.empty()) return 0.0;
+    std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
+    return v[v.size() / 2];
+}
+
+// The noise model of a tile (header comment): parameters and which of them are fitted.
+struct NoiseFit {
+    double s0 = 0.0, phi = 1.0, ve = 0.0;
+};
+
+struct NoiseCtx {
+    double a = 1.0, rr = 0.0, rho = 0.0;
+};
+
+void predictTile(const Tiles& t, std::size_t i, const NoiseCtx& c, const NoiseFit& f, double& v,
+                 double& c1) {
+    v = c.a * c.a * (f.phi * (t.vSim[i] - c.rr) + c.rr) + f.s0 + f.ve;
+    c1 = c.a * c.a * f.phi * t.c1Sim[i] + c.rho * f.ve;
+}
+
+// Least squares of the stacked tile equations (v and c1 of every tile) for the free ones of
+// s0, φ, v_e; the others keep their values in `f`.
+NoiseFit fitNoise(const Tiles& t, const NoiseCtx& c, NoiseFit f, bool freePhi, bool freeVe) {
+    // Unknown vector u = (s0, φ, v_e); rows: v − a²r = s0 + φ·a²(v_sim − r) + v_e,
+    // c1 = φ·a²·c1_sim + ρ·v_e. Fixed unknowns move to the left side.
+    const bool freeU[3] = {true, freePhi, freeVe};
+    double A[3][3] = {}, r[3] = {};
+    auto row = [&](const double g[3], double y, double wgt) {
+        double yy = y;
+        for (int k = 0; k < 3; ++k)
+            if (!freeU[k]) yy -= g[k] * (k == 0 ? f.s0 : k == 1 ? f.phi : f.ve);
+        for (int i = 0; i < 3; ++i) {
+            if (!freeU[i]) continue;
+            r[i] += wgt * g[i] * yy;
+            for (int j = 0; j < 3; ++j)
+                if (freeU[j]) A[i][j] += wgt * g[i] * g[j];
+        }
+    };
+    const double a2 = c.a * c.a;
+    for (std::size_t i = 0; i < t.v.size(); ++i) {
+        if (!(t.n[i] > 0)) continue;
+        const double gv[3] = {1.0, a2 * (t.vSim[i] - c.rr), 1.0};
+        row(gv, t.v[i] - a2 * c.rr, 1.0);
+        if (t.n1[i] > 0) {
+            const double gc[3] = {0.0, a2 * t.c1Sim[i], c.rho};
+            row(gc, t.c1[i], 1.0);
+        }
+    }
+    // Solve the free block (Cramer on at most 3 unknowns via elimination).
+    int idx[3], n = 0;
+    for (int k = 0; k < 3; ++k)
+        if (freeU[k]) idx[n++] = k;
+    double M[3][4] = {};
+    for (int i = 0; i < n; ++i) {
+        for (int j = 0; j < n; ++j)
+            M[i][j] = A[idx[i]][idx[j]];
+        M[i][n] = r[idx[i]];
+    }
+    for (int i = 0; i < n; ++i) {
+        int piv = i;
+        for (int j = i + 1; j < n; ++j)
+            if (std::fabs(M[j][i]) > std::fabs(M[piv][i])) piv = j;
+        std::swap(M[i], M[piv]);
+        if (!(std::fabs(M[i][i]) > 1e-300)) return f;
+        for (int j = 0; j < n; ++j) {
+            if (j == i) continue;
+            const double q = M[j][i] / M[i][i];
+            for (int k = i; k <= n; ++k)
+                M[j][k] -= q * M[i][k];
+        }
+    }
+    double u[3] = {f.s0, f.phi, f.ve};
+    for (int i = 0; i < n; ++i)
+        u[idx[i]] = M[i][n] / M[i][i];
+    return NoiseFit{u[0], u[1], u[2]};
+}
+
+// Held-out squared residual of v and c1 per tile, and its RMS.
+std::vector<double> noiseSse(const Tiles& t, const NoiseCtx& c, const NoiseFit& f, double& rms) {
+    std::vector<double> e;
+    double s = 0.0;
+    for (std::size_t i = 0; i < t.v.size(); ++i) {
+        if (!(t.n[i] > 0)) continue;
+        double pv = 0.0, pc = 0.0;
+        predictTile(t, i, c, f, pv, pc);
+        const double ev = (t.v[i] - pv) * (t.v[i] - pv);
+        const double ec = t.n1[i] > 0 ? (t.c1[i] - pc) * (t.c1[i] - pc) : 0.0;
+        e.push_back(ev + ec);
+        s += ev + ec;
+    }
+    rms = e.empty() ? 0.0 : std::sqrt(s / (2.0 * static_cast<double>(e.size())));
+    return e;
+}
+
+// Nested test of one noise parameter: the others fitted with and without it.
+Score nested(const Tiles& tc, const Tiles& th, const NoiseCtx& c, bool phiTested, NoiseFit& after) {
+    NoiseFit before = fitNoise(tc, c, NoiseFit{}, !phiTested, phiTested);
+    after = fitNoise(tc, c, NoiseFit{}, true, true);
+    double rb = 0.0, ra = 0.0;
+    const std::vector<double> eb = noiseSse(th, c, before, rb), ea = noiseSse(th, c, after, ra);
+    return pairedScore(eb, ea, rb, ra, 1);
+}
+
+Candidate excessNoise(const Work& w, const Tiles& tc, const Tiles& th, const NoiseCtx& c) {
+    Candidate cand;
+    cand.finding.effect = "excess_noise";
+    NoiseFit f;
+    fill(cand, nested(tc, th, c, true, f), "temporal variance and neighbour covariance per tile");
+    const double F0 = w.cam.mcp_noise && w.cam.mcp_enabled ? w.cam.mcp_noise_factor : 1.0;
+    const double F = f.phi * F0;
+    double lo = 1e300, hi = -1e300;
+    for (std::size_t i = 0; i < tc.v.size(); ++i)
+        if (tc.n[i] > 0) {
+            lo = std::min(lo, tc.vSim[i]);
+            hi = std::max(hi, tc.vSim[i]);
+        }
+    cand.valid = f.phi > 0.0 && F >= 1.0 && hi - lo > 2.0 * c.rr;
+    if (!cand.valid) cand.why = "no range of signal in the steady frames, or F below 1";
+    cand.finding.parameters = {{"noise_factor", F}};
+    char buf[256];
+    std::snprintf(buf, sizeof buf,
+                  "temporal noise grows with signal %.2f times as fast as the model's: the MCP's "
+                  "excess noise factor is %.3g, not %.3g",
+                  f.phi, F, F0);
+    cand.finding.cause = buf;
+    cand.finding.presetKeys = {{"mcp.noise_factor", num(F)}, {"mcp.noise", "true"}};
+    return cand;
+}
+
+Candidate ebi(const Work& w, const Tiles& tc, const Tiles& th, const NoiseCtx& c) {
+    Candidate cand;
+    cand.finding.effect = "ebi_background";
+    NoiseFit f;
+    fill(cand, nested(tc, th, c, false, f), "temporal variance and neighbour covariance per tile");
+    // EBI signal [DC] from its shot-noise variance: v_e = K·d, K the measured PTC slope.
+    std::vector<double> K;
+    for (std::size_t i = 0; i < tc.v.size(); ++i)
+        if (tc.n[i] > 0 && tc.mu[i] > 5.0 && tc.vSim[i] - c.rr > c.rr)
+            K.push_back(c.a * f.phi * (tc.vSim[i] - c.rr) / tc.mu[i]);
+    const double k = median(K);
+    const double d_dc = k > 0 ? f.ve / k : 0.0;
+    const double L = w.m.ebiLevel_dc_per_lm_cm2;
+    const double total = w.cam.ebi_lm_cm2 + (L > 0 ? d_dc / (c.a * L) : 0.0);
+    cand.valid = L > 0 && k > 0 && c.rho > 0.05 && total >= 0.0;
+    if (!cand.valid) cand.why = "shot noise is not correlated between neighbours, or EBI < 0";
+    cand.finding.parameters = {{"ebi_lm_cm2", total}};
+    char buf[320];
+    std::snprintf(buf, sizeof buf,
+                  "the dark level carries blurred shot noise (%.3g DC2 at zero signal, %.3g DC of "
+                  "dark signal): equivalent background illumination of %.3g lm/cm2, not %.3g",
+                  f.ve, d_dc, total, w.cam.ebi_lm_cm2);
+    cand.finding.cause = buf;
+    cand.finding.presetKeys = {{"photocathode.ebi_lm_cm2", num(total)}};
+    return cand;
+}
+
+Candidate fpn(const Work& w, const Current& cur, Result& res) {
+    Candidate c;
+    c.finding.effect = "fixed_pattern_noise";
+    const std::size_t nc = w.cal.size(), nh = w.ho.size();
+    if (nc < 2 || nh < 2) {
+        c.why = "fewer than 2 frames per split";
+        return c;
+    }
+    std::vector<double> Cc, qc, ncnt, Ch, qh, nhcnt;
+    Plane map(static_cast<std::size_t>(w.w) * w.h, 0.0f);
+    fixedPattern(w, cur, 0, nc, Cc, qc, ncnt, &map);
+    fixedPattern(w, cur, nc, nc + nh, Ch, qh, nhcnt, nullptr);
+    res.maps.push_back({"residual_calibration_mean", map});
+    const double p0model = w.cam.prnu_rel * w.cam.prnu_rel;
+    double dsnuB = 0.0, pB = p0model;
+    {
+        std::vector<double> y(Cc.size());
+        for (std::size_t i = 0; i < Cc.size(); ++i)
+            y[i] = Cc[i] - p0model * qc[i];
+        double unused = 0.0;
+        std::vector<double> ones(Cc.size(), 0.0);
+        line(ones, y, ncnt, dsnuB, unused, false);
+    }
+    double dsnu = 0.0, P = 0.0;
+    line(qc, Cc, ncnt, dsnu, P, false);
+    res.baseline["dsnu_dc"] = std::sqrt(std::max(dsnuB, 0.0));
+    std::vector<double> before(Ch.size()), after(Ch.size());
+    for (std::size_t i = 0; i < Ch.size(); ++i) {
+        before[i] = dsnuB + pB * qh[i];
+        after[i] = dsnu + P * qh[i];
+    }
+    fill(c, compare(Ch, before, after, nhcnt, 1),
+         "covariance of two independent residual averages per tile, held-out frames");
+    const double prnu = std::sqrt(std::max(P, 0.0));
+    c.valid = P > 0.0 && prnu < 0.5;
+    if (!c.valid) c.why = "no fixed pattern that grows with signal";
+    c.finding.parameters = {{"prnu_rel", prnu}};
+    char buf[256];
+    std::snprintf(buf, sizeof buf,
+                  "a fixed pattern that grows with signal: pixel gains differ by %.2f %% rms "
+                  "(PRNU), the model has %.2f %%",
+                  100.0 * prnu, 100.0 * w.cam.prnu_rel);
+    c.finding.cause = buf;
+    c.finding.presetKeys = {{"ccd.prnu_rel", num(prnu)}};
+    return c;
+}
+
+}  // namespace
+
+std::vector<Candidate> tryNoiseEffects(Work& w, const Current& cur, Result& r) {
+    const int n = static_cast<int>(w.d.frameCount());
+    const Tiles tc = temporal(w, 0, n / 2), th = temporal(w, n / 2, n);
+    NoiseCtx c;
+    c.a = cur.fit.a;
+    c.rr = w.m.readVar_dc2 + 1.0 / 12.0;
+    std::vector<Candidate> out;
+    out.push_back(fpn(w, cur, r));
+    double sn = 0.0;
+    std::vector<double> rho;
+    for (std::size_t i = 0; i < tc.v.size(); ++i) {
+        sn += tc.n[i];
+        const double shot = tc.vSim[i] - c.rr;
+        if (tc.n1[i] > 0 && shot > 4.0 * c.rr + 1.0) rho.push_back(tc.c1Sim[i] / shot);
+    }
+    if (!(sn > 0) || rho.size() < 3) {
+        for (const char* e : {"excess_noise", "ebi_background"}) {
+            Candidate cand;
+            cand.finding.effect = e;
+            cand.why = "no steady frame pairs with signal (a stimulus held for 3 frames or more)";
+            out.push_back(cand);
+        }
+        return out;
+    }
+    c.rho = median(rho);
+    const NoiseFit base = fitNoise(tc, c, NoiseFit{}, false, false);
+    r.baseline["noise_extra_var_dc2"] = base.s0;
+    r.baseline["dark_noise_dc"] = std::sqrt(std::max(c.a * c.a * c.rr + base.s0, 0.0));
+    r.baseline["shot_noise_neighbour_correlation"] = c.rho;
+    Candidate ex = excessNoise(w, tc, th, c);
+    out.push_back(ex);
+    out.push_back(ebi(w, tc, th, c));
+    const NoiseFit all = fitNoise(tc, c, NoiseFit{}, true, true);
+    addPtcCurve(th, c.a, base.s0, all.phi, c.rr, r);
+    return out;
+}
+
+}  // namespace nvs::fit

@@ -1,0 +1,175 @@
+// The hidden-effect sweep behind `make validate` (docs/validation.md, "diagnose"): for each
+// catalog effect (and the null case, and pairs), N seeds of generated datasets (generate.h),
+// diagnose on the model without the effect; counts how often the top finding names it, how
+// often its parameters come back within 20 %, and writes the table as Markdown.
+//
+//   nvs_validate_diagnose [--seeds N] [--size WxH] [--effects a,b,...] [--out FILE.md] [-v]
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <map>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "sim/fit/diagnose.h"
+#include "sim/fit/generate.h"
+
+namespace {
+
+std::vector<std::string> split(const std::string& s, char c) {
+    std::vector<std::string> out;
+    std::stringstream ss(s);
+    std::string t;
+    while (std::getline(ss, t, c))
+        out.push_back(t);
+    return out;
+}
+
+struct Row {
+    std::string name;
+    int n = 0, named = 0, within = 0, allNamed = 0, none = 0;
+    double worstErr = 0.0;
+    double seconds = 0.0;
+};
+
+// Relative error of each true parameter that the finding reports (the worst one).
+double paramError(const nvs::fit::Finding& f, const std::map<std::string, double>& truth) {
+    double worst = 0.0;
+    for (const auto& [k, v] : truth) {
+        if (k.rfind(f.effect + ".", 0) != 0) continue;
+        const std::string p = k.substr(f.effect.size() + 1);
+        for (const auto& [pk, pv] : f.parameters)
+            if (pk == p) worst = std::max(worst, std::fabs(pv - v) / std::fabs(v));
+    }
+    return worst;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    int seeds = 20, w = 128, h = 96;
+    bool verbose = false;
+    std::string out, only;
+    for (int i = 1; i < argc; ++i) {
+        const std::string a = argv[i];
+        if (a == "--seeds" && i + 1 < argc)
+            seeds = std::atoi(argv[++i]);
+        else if (a == "--size" && i + 1 < argc)
+            std::sscanf(argv[++i], "%dx%d", &w, &h);
+        else if (a == "--out" && i + 1 < argc)
+            out = argv[++i];
+        else if (a == "--effects" && i + 1 < argc)
+            only = argv[++i];
+        else if (a == "-v")
+            verbose = true;
+        else {
+            std::fprintf(stderr,
+                         "usage: %s [--seeds N] [--size WxH] [--effects a,b] [--out F] [-v]\n",
+                         argv[0]);
+            return 2;
+        }
+    }
+    const std::filesystem::path config = NVS_SOURCE_DIR "/config";
+    std::vector<std::string> cases = {"null",
+                                      "phosphor_persistence",
+                                      "halo",
+                                      "fixed_pattern_noise",
+                                      "mcp_saturation",
+                                      "bright_source_protection",
+                                      "veiling_glare",
+                                      "vertical_smear",
+                                      "ebi_background",
+                                      "excess_noise",
+                                      "halo+phosphor_persistence",
+                                      "vertical_smear+excess_noise"};
+    if (!only.empty()) cases = split(only, ',');
+    std::vector<Row> rows;
+    for (const std::string& c : cases) {
+        Row row;
+        row.name = c;
+        const std::vector<std::string> effects =
+            c == "null" ? std::vector<std::string>{} : split(c, '+');
+        const auto t0 = std::chrono::steady_clock::now();
+        for (int s = 1; s <= seeds; ++s) {
+            nvs::fit::GenSpec spec;
+            spec.effects = effects;
+            spec.seed = static_cast<std::uint64_t>(s);
+            spec.width = w;
+            spec.height = h;
+            const nvs::fit::Generated g = nvs::fit::generate(spec, config);
+            const nvs::fit::Result r = nvs::fit::diagnose(g.data, config);
+            ++row.n;
+            if (effects.empty()) {
+                row.none += r.findings.empty() ? 1 : 0;
+            } else {
+                const bool top = !r.findings.empty() && r.findings[0].effect == effects[0];
+                bool all = true;
+                double err = 0.0;
+                for (const std::string& e : effects) {
+                    bool found = false;
+                    for (const auto& f : r.findings)
+                        if (f.effect == e) {
+                            found = true;
+                            err = std::max(err, paramError(f, g.truth));
+                        }
+                    all = all && found;
+                }
+                const bool anyTop =
+                    !r.findings.empty() && std::find(effects.begin(), effects.end(),
+                                                     r.findings[0].effect) != effects.end();
+                row.named += (effects.size() == 1 ? top : anyTop) ? 1 : 0;
+                row.allNamed += all ? 1 : 0;
+                row.within += all && err <= 0.2 ? 1 : 0;
+                row.worstErr = std::max(row.worstErr, all ? err : 0.0);
+            }
+            if (verbose) {
+                std::fprintf(stderr, "%s seed %d:", c.c_str(), s);
+                for (const auto& [k, v] : g.truth)
+                    std::fprintf(stderr, " %s=%.4g", k.c_str(), v);
+                std::fprintf(stderr, " ->");
+                for (const auto& f : r.findings) {
+                    std::fprintf(stderr, " [%s z=%.1f", f.effect.c_str(), f.z);
+                    for (const auto& [k, v] : f.parameters)
+                        std::fprintf(stderr, " %s=%.4g", k.c_str(), v);
+                    std::fprintf(stderr, "]");
+                }
+                std::fprintf(stderr, "\n");
+                if (verbose && argc > 0 && std::getenv("NVS_VALIDATE_TRIALS")) {
+                    for (const auto& t : r.trials)
+                        std::fprintf(stderr, "    %s z=%.2f score=%.1f rms %.4f->%.4f %s\n",
+                                     t.effect.c_str(), t.z, t.score, t.before, t.after,
+                                     t.why.c_str());
+                    for (const auto& [k, v] : r.baseline)
+                        std::fprintf(stderr, "    baseline %s=%.4g\n", k.c_str(), v);
+                }
+            }
+        }
+        row.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+        rows.push_back(row);
+        std::fprintf(stderr, "%s: done in %.1f s\n", c.c_str(), row.seconds);
+    }
+    std::ostringstream md;
+    md << "| hidden | seeds | top finding names it | all named | parameters within 20 % | worst "
+          "parameter error | no finding | time [s] |\n"
+       << "|---|---|---|---|---|---|---|---|\n";
+    for (const Row& r : rows) {
+        char buf[400];
+        if (r.name == "null")
+            std::snprintf(buf, sizeof buf, "| (none) | %d | | | | | %d/%d (%.0f %%) | %.1f |\n",
+                          r.n, r.none, r.n, 100.0 * r.none / r.n, r.seconds);
+        else
+            std::snprintf(
+                buf, sizeof buf,
+                "| %s | %d | %d/%d (%.0f %%) | %d/%d | %d/%d (%.0f %%) | %.1f %% | | %.1f |\n",
+                r.name.c_str(), r.n, r.named, r.n, 100.0 * r.named / r.n, r.allNamed, r.n, r.within,
+                r.n, 100.0 * r.within / r.n, 100.0 * r.worstErr, r.seconds);
+        md << buf;
+    }
+    std::printf("%s", md.str().c_str());
+    if (!out.empty()) std::ofstream(out) << md.str();
+    return 0;
+}
