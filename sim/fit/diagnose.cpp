@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "sim/fit/effects.h"
+#include "sim/fit/model.h"
 
 namespace nvs::fit {
 
@@ -238,6 +239,58 @@ void meanEffects(Work& w, Current& cur, Result& r, const Options& opt, const Pro
     }
 }
 
+// The model's noisy run again with the mean effects found: those the chain implements through
+// their preset keys, halo, veiling glare and MCP saturation applied to the stimulus (where they
+// commute with the chain's mean), so the noise statistics are compared with a model that has
+// the same mean.
+void resimulateNoise(const Dataset& d, ModelRun& m, const Work& w, const MeanModel& mm,
+                     const std::vector<Finding>& found, const std::filesystem::path& configDir,
+                     std::uint64_t seed) {
+    sensor::Overrides ov = d.settings;
+    for (const Finding& f : found)
+        for (const auto& [k, v] : f.presetKeys)
+            if (k.rfind("halo.", 0) != 0 && k.rfind("veiling_glare.", 0) != 0 &&
+                k.rfind("mcp_saturation.", 0) != 0)
+                ov[k] = v;
+    FitEffects unused;
+    const sensor::CameraParams cam = loadModelCamera(configDir, d.presetFile.string(), ov, unused);
+    std::vector<ImageF> stim;
+    for (std::size_t s = 0; s < d.stimuli.size(); ++s) {
+        const ImageF& in = d.stimuli[s];
+        Plane p(static_cast<std::size_t>(w.w) * w.h);
+        for (int y = 0; y < w.h; ++y)
+            for (int x = 0; x < w.w; ++x)
+                p[static_cast<std::size_t>(y) * w.w + x] = in(x, y);
+        if (mm.satQ_dc > 0.0) {
+            std::size_t k = 0;
+            while (d.stimulusOfFrame[k] != static_cast<int>(s))
+                ++k;
+            const Plane& u = m.unblurred[k];
+            for (std::size_t i = 0; i < p.size(); ++i)
+                if (u[i] > 0.0f)
+                    p[i] = static_cast<float>(
+                        p[i] * (-mm.satQ_dc * std::expm1(-u[i] / mm.satQ_dc)) / u[i]);
+        }
+        Plane o;
+        if (mm.haloF != 0.0) {
+            w.conv->convolveOne(p, ringKernel(mm.haloR_um, w.pitchX_um), o);
+            for (std::size_t i = 0; i < p.size(); ++i)
+                p[i] = static_cast<float>((1.0 - mm.haloF) * p[i] + mm.haloF * o[i]);
+        }
+        if (mm.glareG != 0.0) {
+            w.conv->convolveOne(p, expKernel(mm.glareS_um), o);
+            for (std::size_t i = 0; i < p.size(); ++i)
+                p[i] = static_cast<float>((1.0 - mm.glareG) * p[i] + mm.glareG * o[i]);
+        }
+        ImageF img(w.w, w.h);
+        for (int y = 0; y < w.h; ++y)
+            for (int x = 0; x < w.w; ++x)
+                img(x, y) = std::max(0.0f, p[static_cast<std::size_t>(y) * w.w + x]);
+        stim.push_back(std::move(img));
+    }
+    m.noisy = noisyRun(d, stim, cam, configDir, seed);
+}
+
 MeanModel modelExtras(const Dataset& d, const ModelRun& m) {
     MeanModel mm;
     const FitEffects& e = d.cameraExtra;
@@ -257,7 +310,7 @@ Result diagnose(const Dataset& d, const std::filesystem::path& configDir, const 
     r.width = d.width;
     r.height = d.height;
     r.camera = d.camera.name;
-    const ModelRun m = simulate(d, d.camera, configDir, opt.seed, true, progress);
+    ModelRun m = simulate(d, d.camera, configDir, opt.seed, true, progress);
     Work w(d, m, d.camera, opt, progress, configDir);
     for (int k : w.sub) {
         Plane u;
@@ -274,6 +327,10 @@ Result diagnose(const Dataset& d, const std::filesystem::path& configDir, const 
     roiMeans(w, cur, r);
     const Current base = cur;
     meanEffects(w, cur, r, opt, progress);
+    if (!r.findings.empty()) {
+        if (progress) progress("the model's noise again, with the effects found");
+        resimulateNoise(d, m, w, cur.mm, r.findings, configDir, opt.seed);
+    }
     if (progress) progress("noise: photon transfer, fixed pattern, EBI");
     for (const Candidate& c : tryNoiseEffects(w, cur, r)) {
         const bool present = c.finding.effect == "fixed_pattern_noise" ? false : false;

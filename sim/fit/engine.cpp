@@ -111,7 +111,6 @@ Work::Work(const Dataset& ds, const ModelRun& mr, const sensor::CameraParams& c,
     const int n = static_cast<int>(d.frameCount());
     std::vector<int> a, b;
     for (int k = 2; k < n; ++k) {
-        if (m.fieldScan && (k & 1)) continue;  // even frames share no field with each other
         (k < n / 2 ? a : b).push_back(k);
     }
     int cap = opt.maxFramesPerSplit;
@@ -126,6 +125,24 @@ Work::Work(const Dataset& ds, const ModelRun& mr, const sensor::CameraParams& c,
     pitchX_um = cam.pitch_x_um * cam.taper_magnification;
     pitchY_um = cam.pitch_y_um * cam.taper_magnification;
     conv = std::make_unique<Convolver>(w, h, pitchX_um, pitchY_um);
+    // The model's noise variance per tile on the held-out frames: each tile's squared error is
+    // weighed by it, so that a tile counts by how far it is from its noise, not by its level.
+    tileVar.assign(static_cast<std::size_t>(tiles()), 0.0);
+    std::vector<double> cnt(tileVar.size(), 0.0);
+    Plane S;
+    for (int k : ho) {
+        assembleFrame(m.signal, k, w, h, m.fieldScan, S);
+        const Plane& N = m.noisy[static_cast<std::size_t>(k)];
+        for (int y = 0; y < h; ++y)
+            for (int x = 0; x < w; ++x) {
+                const std::size_t q = static_cast<std::size_t>(y) * w + x;
+                const double e = N[q] - (m.offset_dc + S[q]);
+                tileVar[static_cast<std::size_t>(tileOf(x, y))] += e * e;
+                cnt[static_cast<std::size_t>(tileOf(x, y))] += 1.0;
+            }
+    }
+    for (std::size_t t = 0; t < tileVar.size(); ++t)
+        tileVar[t] = cnt[t] > 0 ? std::max(tileVar[t] / cnt[t], 0.25) : 1.0;
 }
 
 std::vector<Plane> predict(Work& w, const MeanModel& mm) {
@@ -247,6 +264,8 @@ std::vector<double> heldoutTileSse(const Work& w, const std::vector<Plane>& Y,
             }
     }
     rms = cnt > 0 ? std::sqrt(sum / static_cast<double>(cnt)) : 0.0;
+    for (std::size_t i = 0; i < t.size(); ++i)
+        t[i] /= w.tileVar[i];
     return t;
 }
 

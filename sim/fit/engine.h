@@ -59,6 +59,7 @@ struct Work {
     std::vector<int> cal, ho;  // frames of the two splits used for mean effects
     std::vector<int> sub;      // cal then ho
     int tile = 16, tilesX = 0, tilesY = 0;
+    std::vector<double> tileVar;   // the model's noise variance per tile [DC²]
     std::vector<Plane> unblurred;  // assembled unblurred frames of `sub` (mcp_saturation)
     std::unique_ptr<Convolver> conv;
     std::shared_ptr<sensor::BlurStage> blur;  // the model's MTF (mcp_saturation)
@@ -81,7 +82,8 @@ std::vector<Plane> predict(Work& w, const MeanModel& mm);
 
 // b + a·Y + c·B on the calibration frames (B may be null).
 LinFit fitLinear(const Work& w, const std::vector<Plane>& Y, const std::vector<Plane>* B);
-// Held-out squared error per tile of b + a·Y + c·B (clipped to the ADC range), and its sum.
+// Held-out squared error per tile of b + a·Y + c·B (clipped to the ADC range) over the tile's
+// noise variance (Work::tileVar), and the RMS error [DC].
 std::vector<double> heldoutTileSse(const Work& w, const std::vector<Plane>& Y,
                                    const std::vector<Plane>* B, const LinFit& f, double& rms);
 // Paired test over tiles: d_t = before_t − after_t; z = mean/se; score = z² − k·ln(tiles).

@@ -24,7 +24,7 @@ const std::vector<EffectRange>& effectRanges() {
         {"veiling_glare", "fraction", 0.05, 0.15},
         {"veiling_glare", "scale_um", 250.0, 600.0},
         {"vertical_smear", "smear_rel", 0.03, 0.1},
-        {"ebi_background", "ebi_lm_cm2", 1.5e-11, 5e-11},
+        {"ebi_background", "ebi_lm_cm2", 5e-10, 1.5e-9},
         {"excess_noise", "noise_factor_ratio", 1.3, 1.8},
     };
     return r;

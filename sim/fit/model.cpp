@@ -110,14 +110,22 @@ ModelRun simulate(const Dataset& d, const sensor::CameraParams& cam,
             copyPlane(chain.electrons().cview(), vg, m.unblurred[static_cast<std::size_t>(k)]);
         }
     }
-    sensor::IiccdChain noisy(cam, seed ^ 0x5eedf17ull, configDir, tables);
-    m.noisy.resize(static_cast<std::size_t>(m.calls));
-    for (int k = 0; k < m.calls; ++k) {
-        const ImageF& s = d.stimuli[static_cast<std::size_t>(d.stimulusOfFrame[k])];
-        noisy.process(s.cview());
-        copyPlane(noisy.counts().cview(), 1.0, m.noisy[static_cast<std::size_t>(k)]);
-    }
+    m.noisy = noisyRun(d, d.stimuli, cam, configDir, seed);
     return m;
+}
+
+std::vector<Plane> noisyRun(const Dataset& d, const std::vector<ImageF>& stimuli,
+                            const sensor::CameraParams& cam, const std::filesystem::path& configDir,
+                            std::uint64_t seed) {
+    GammaTableCache tables;
+    sensor::IiccdChain noisy(cam, seed ^ 0x5eedf17ull, configDir, tables);
+    std::vector<Plane> out(d.frameCount());
+    for (std::size_t k = 0; k < out.size(); ++k) {
+        const ImageF& s = stimuli[static_cast<std::size_t>(d.stimulusOfFrame[k])];
+        noisy.process(s.cview());
+        copyPlane(noisy.counts().cview(), 1.0, out[k]);
+    }
+    return out;
 }
 
 }  // namespace nvs::fit

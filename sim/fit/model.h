@@ -41,6 +41,12 @@ ModelRun simulate(const Dataset& d, const sensor::CameraParams& cam,
                   const std::filesystem::path& configDir, std::uint64_t seed, bool unblurred,
                   const Progress& progress = {});
 
+// The model's noisy output frames for the dataset's sequence of stimuli (one per distinct
+// stimulus, indexed by d.stimulusOfFrame).
+std::vector<Plane> noisyRun(const Dataset& d, const std::vector<ImageF>& stimuli,
+                            const sensor::CameraParams& cam, const std::filesystem::path& configDir,
+                            std::uint64_t seed);
+
 // Output frame k from per-call images: in field scan the rows read in call k come from call k,
 // the others from call k − 1 (call 0: from call 0).
 void assembleFrame(const std::vector<Plane>& perCall, int k, int width, int height, bool fieldScan,

@@ -83,12 +83,16 @@ Tiles temporal(const Work& w, int k0, int k1) {
 // tiles' covariance of the two and mean product of the two averaged signals.
 void fixedPattern(const Work& w, const Current& cur, std::size_t i0, std::size_t i1,
                   std::vector<double>& C, std::vector<double>& q, std::vector<double>& n,
-                  Plane* map) {
+                  std::vector<double>& scale2, Plane* map) {
     const std::size_t np = static_cast<std::size_t>(w.w) * w.h;
     Plane A[2] = {Plane(np, 0.0f), Plane(np, 0.0f)}, Y[2] = {Plane(np, 0.0f), Plane(np, 0.0f)};
     std::vector<float> cnt[2] = {std::vector<float>(np, 0.0f), std::vector<float>(np, 0.0f)};
     for (std::size_t i = i0; i < i1; ++i) {
-        const int g = static_cast<int>((i - i0) & 1u);
+        // Two groups with no field in common: in field scan frame k holds fields k and k − 1,
+        // so only even frames are used, alternately.
+        const int k = w.sub[i];
+        if (w.m.fieldScan && (k & 1)) continue;
+        const int g = w.m.fieldScan ? (k / 2) & 1 : k & 1;
         const Plane& M = w.measured(w.sub[i]);
         for (std::size_t p = 0; p < np; ++p) {
             if (!w.valid(M[p])) continue;
@@ -98,10 +102,11 @@ void fixedPattern(const Work& w, const Current& cur, std::size_t i0, std::size_t
         }
     }
     const int T = w.tiles();
-    std::vector<double> s1(static_cast<std::size_t>(T), 0.0), s2 = s1, s12 = s1;
+    std::vector<double> s1(static_cast<std::size_t>(T), 0.0), s2 = s1, s12 = s1, s11 = s1, s22 = s1;
     C.assign(static_cast<std::size_t>(T), 0.0);
     q = C;
     n = C;
+    scale2.assign(C.size(), 1.0);
     for (int y = 0; y < w.h; ++y)
         for (int x = 0; x < w.w; ++x) {
             const std::size_t p = static_cast<std::size_t>(y) * w.w + x;
@@ -112,6 +117,8 @@ void fixedPattern(const Work& w, const Current& cur, std::size_t i0, std::size_t
             s1[t] += a1;
             s2[t] += a2;
             s12[t] += a1 * a2;
+            s11[t] += a1 * a1;
+            s22[t] += a2 * a2;
             q[t] += cur.fit.a * cur.fit.a * (Y[0][p] / cnt[0][p]) * (Y[1][p] / cnt[1][p]);
             n[t] += 1.0;
         }
@@ -120,6 +127,10 @@ void fixedPattern(const Work& w, const Current& cur, std::size_t i0, std::size_t
         if (n[i] < 2) continue;
         C[i] = (s12[i] - s1[i] * s2[i] / n[i]) / (n[i] - 1.0);
         q[i] /= n[i];
+        // Sampling variance of a covariance of n pairs: (σ₁²σ₂² + C²)/n.
+        const double v1 = (s11[i] - s1[i] * s1[i] / n[i]) / (n[i] - 1.0);
+        const double v2 = (s22[i] - s2[i] * s2[i] / n[i]) / (n[i] - 1.0);
+        scale2[i] = std::max((v1 * v2 + C[i] * C[i]) / n[i], 1e-12);
     }
 }
 
@@ -150,16 +161,18 @@ void line(const std::vector<double>& x, const std::vector<double>& y, const std:
 }
 
 // Held-out comparison of two predictions of a tile observable.
+// Each tile's squared error is divided by scale2 (its sampling variance up to a common factor).
 Score compare(const std::vector<double>& obs, const std::vector<double>& before,
-              const std::vector<double>& after, const std::vector<double>& n, int k) {
+              const std::vector<double>& after, const std::vector<double>& n,
+              const std::vector<double>& scale2, int k) {
     std::vector<double> eb, ea;
     double sb = 0, sa = 0, sn = 0;
     for (std::size_t i = 0; i < obs.size(); ++i) {
         if (!(n[i] > 0)) continue;
         const double b = (obs[i] - before[i]) * (obs[i] - before[i]);
         const double a = (obs[i] - after[i]) * (obs[i] - after[i]);
-        eb.push_back(b);
-        ea.push_back(a);
+        eb.push_back(b / scale2[i]);
+        ea.push_back(a / scale2[i]);
         sb += b;
         sa += a;
         sn += 1;
@@ -298,7 +311,9 @@ std::vector<double> noiseSse(const Tiles& t, const NoiseCtx& c, const NoiseFit& 
         predictTile(t, i, c, f, pv, pc);
         const double ev = (t.v[i] - pv) * (t.v[i] - pv);
         const double ec = t.n1[i] > 0 ? (t.c1[i] - pc) * (t.c1[i] - pc) : 0.0;
-        e.push_back(ev + ec);
+        // Both estimates scatter in proportion to the tile's variance (χ² of its pairs).
+        const double sc = c.a * c.a * t.vSim[i] + 1.0;
+        e.push_back((ev + ec) / (sc * sc));
         s += ev + ec;
     }
     rms = e.empty() ? 0.0 : std::sqrt(s / (2.0 * static_cast<double>(e.size())));
@@ -375,10 +390,10 @@ Candidate fpn(const Work& w, const Current& cur, Result& res) {
         c.why = "fewer than 2 frames per split";
         return c;
     }
-    std::vector<double> Cc, qc, ncnt, Ch, qh, nhcnt;
+    std::vector<double> Cc, qc, ncnt, Ch, qh, nhcnt, scc, sch;
     Plane map(static_cast<std::size_t>(w.w) * w.h, 0.0f);
-    fixedPattern(w, cur, 0, nc, Cc, qc, ncnt, &map);
-    fixedPattern(w, cur, nc, nc + nh, Ch, qh, nhcnt, nullptr);
+    fixedPattern(w, cur, 0, nc, Cc, qc, ncnt, scc, &map);
+    fixedPattern(w, cur, nc, nc + nh, Ch, qh, nhcnt, sch, nullptr);
     res.maps.push_back({"residual_calibration_mean", map});
     const double p0model = w.cam.prnu_rel * w.cam.prnu_rel;
     double dsnuB = 0.0, pB = p0model;
@@ -398,7 +413,7 @@ Candidate fpn(const Work& w, const Current& cur, Result& res) {
         before[i] = dsnuB + pB * qh[i];
         after[i] = dsnu + P * qh[i];
     }
-    fill(c, compare(Ch, before, after, nhcnt, 1),
+    fill(c, compare(Ch, before, after, nhcnt, sch, 1),
          "covariance of two independent residual averages per tile, held-out frames");
     const double prnu = std::sqrt(std::max(P, 0.0));
     c.valid = P > 0.0 && prnu < 0.5;
