@@ -9,7 +9,7 @@
 PACKAGES := build-essential cmake ninja-build pkg-config \
             libtomlplusplus-dev libcli11-dev libgtest-dev libgmock-dev libbenchmark-dev \
             librandom123-dev libgsl-dev liberfa-dev libembree-dev libopenexr-dev libfftw3-dev \
-            libgpiod-dev libtinyobjloader-dev libssl-dev libpng-dev python3 python3-ephem clang-format ffmpeg
+            libgpiod-dev libtinyobjloader-dev libssl-dev libpng-dev python3 python3-ephem python3-matplotlib clang-format ffmpeg
 
 PRESET   ?= release
 BUILD    := build/$(PRESET)

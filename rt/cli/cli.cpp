@@ -133,7 +133,12 @@ int runCli(int argc, const char* const* argv) {
     diagnoseCmd->add_option("dataset_dir", diagnose.datasetDir, "Dataset folder (dataset.toml)")
         ->required();
     diagnoseCmd->add_option("--json", diagnose.json, "Write the findings as JSON to OUT");
-    diagnoseCmd->add_option("--report", diagnose.report, "Write a report with plots to DIR");
+    diagnoseCmd->add_option("--report", diagnose.report,
+                            "Write a report with plots to DIR (Markdown and PNG)");
+    diagnoseCmd->add_option("--write-preset", diagnose.writePreset,
+                            "Write the camera preset with the found effects on and fitted to FILE");
+    diagnoseCmd->add_option("--seed", diagnose.seed, "Seed of the model's noise")
+        ->capture_default_str();
 
     // bench ----------------------------------------------------------------------------------
     BenchOptions bench;

@@ -5,6 +5,7 @@
 // Exit status: 0 success; 1 a run failed (a check mismatched, a device failed); 2 bad usage or
 // setup error (one line on stderr naming the argument or file:line); 3 not implemented yet.
 
+#include <cstdint>
 #include <optional>
 #include <string>
 #include <vector>
@@ -67,6 +68,8 @@ struct DiagnoseOptions {
     std::string datasetDir;
     std::optional<std::string> json;
     std::optional<std::string> report;
+    std::optional<std::string> writePreset;  // the preset with the found effects on
+    std::uint64_t seed = 1;                  // the model's noise
 };
 
 struct BenchOptions {

@@ -115,7 +115,13 @@ FrameList listFrames(const ConfigTable& out, const fs::path& dir, const fs::path
     const long long first = out.get<std::int64_t>("first_frame", 0);
     const std::int64_t count = out.get<std::int64_t>("count", -1);
     if (first < 0) out.fail("first_frame", "must be >= 0");
-    if (out.contains("frames") && !out.optional<std::string>("frames")) {
+    bool isList = false;
+    try {
+        (void)out.optional<std::string>("frames");
+    } catch (const SetupError&) {
+        isList = true;  // not a string: a list of file names
+    }
+    if (isList) {
         const auto names = out.require<std::vector<std::string>>("frames");
         long long prev = -1;
         for (const std::string& n : names) {

@@ -377,6 +377,53 @@ std::string toJson(const Result& r) {
 
 namespace {
 
+std::string quoted(const std::string& t) {
+    std::string s = "\"";
+    for (char c : t)
+        s += c == '"' || c == '\\' ? std::string("\\") + c : std::string(1, c);
+    return s + "\"";
+}
+
+std::string numbers(const std::vector<double>& v) {
+    std::string s = "[";
+    for (std::size_t i = 0; i < v.size(); ++i)
+        s += (i ? "," : "") + num(v[i]);
+    return s + "]";
+}
+
+}  // namespace
+
+std::string reportJson(const Result& r, const std::string& dataset) {
+    std::string s = "{\"dataset\":" + quoted(dataset) + ",\"camera\":" + quoted(r.camera) +
+                    ",\"width\":" + std::to_string(r.width) +
+                    ",\"height\":" + std::to_string(r.height) + ",\"result\":" + toJson(r);
+    s += ",\"trials\":[";
+    for (std::size_t i = 0; i < r.trials.size(); ++i) {
+        const Trial& t = r.trials[i];
+        s += std::string(i ? "," : "") + "{\"effect\":" + quoted(t.effect) +
+             ",\"tried\":" + (t.tried ? "true" : "false") + ",\"z\":" + num(t.z) +
+             ",\"score\":" + num(t.score) + ",\"before\":" + num(t.before) +
+             ",\"after\":" + num(t.after) + ",\"why\":" + quoted(t.why) + "}";
+    }
+    s += "],\"curves\":[";
+    for (std::size_t i = 0; i < r.curves.size(); ++i) {
+        const Curve& c = r.curves[i];
+        s += std::string(i ? "," : "") + "{\"name\":" + quoted(c.name) +
+             ",\"x_label\":" + quoted(c.xLabel) + ",\"y_label\":" + quoted(c.yLabel) +
+             ",\"series\":[";
+        for (std::size_t j = 0; j < c.series.size(); ++j)
+            s += std::string(j ? "," : "") + "{\"name\":" + quoted(c.series[j]) +
+                 ",\"x\":" + numbers(c.x[j]) + ",\"y\":" + numbers(c.y[j]) + "}";
+        s += "]}";
+    }
+    s += "],\"maps\":[";
+    for (std::size_t i = 0; i < r.maps.size(); ++i)
+        s += std::string(i ? "," : "") + quoted(r.maps[i].first);
+    return s + "]}";
+}
+
+namespace {
+
 // Sets key = value in table `table` ("" for the top level) of TOML text, keeping the comment
 // of a replaced line; adds the table at the end when it is absent.
 void setKey(std::vector<std::string>& lines, const std::string& table, const std::string& key,

@@ -91,6 +91,10 @@ Result diagnose(const Dataset& d, const std::filesystem::path& configDir, const 
 // The contract's JSON: {"baseline":{...},"findings":[{...}]} on one line.
 std::string toJson(const Result& r);
 
+// Everything the report draws, as one JSON object: baseline, findings (with causes), every
+// effect's trial, the curves; the maps are written beside it as PFM by the caller.
+std::string reportJson(const Result& r, const std::string& dataset);
+
 // The preset text with every finding's keys set (tables added or keys replaced), from the
 // preset file the dataset names; with a header comment saying what was fitted.
 std::string presetWithFindings(const std::filesystem::path& presetFile, const Result& r);

@@ -4,6 +4,8 @@
 // often its parameters come back within 20 %, and writes the table as Markdown.
 //
 //   nvs_validate_diagnose [--seeds N] [--size WxH] [--effects a,b,...] [--out FILE.md] [-v]
+//   nvs_validate_diagnose --write DIR [--effects a+b] [--seeds SEED] [--size WxH]
+//       writes one generated dataset (seed SEED) to DIR and prints its hidden truth
 
 #include <chrono>
 #include <cmath>
@@ -64,6 +66,8 @@ int main(int argc, char** argv) {
             out = argv[++i];
         else if (a == "--effects" && i + 1 < argc)
             only = argv[++i];
+        else if (a == "--write" && i + 1 < argc)
+            out = std::string("write:") + argv[++i];
         else if (a == "-v")
             verbose = true;
         else {
@@ -74,6 +78,19 @@ int main(int argc, char** argv) {
         }
     }
     const std::filesystem::path config = NVS_SOURCE_DIR "/config";
+    if (out.rfind("write:", 0) == 0) {
+        // One generated dataset written to a folder (seed 1, the first case of --effects).
+        nvs::fit::GenSpec spec;
+        if (!only.empty() && only != "null") spec.effects = split(split(only, ',')[0], '+');
+        spec.seed = static_cast<std::uint64_t>(seeds);
+        spec.width = w;
+        spec.height = h;
+        const nvs::fit::Generated g = nvs::fit::generate(spec, config);
+        nvs::fit::writeDataset(g.data, out.substr(6));
+        for (const auto& [k, v] : g.truth)
+            std::printf("%s = %.6g\n", k.c_str(), v);
+        return 0;
+    }
     std::vector<std::string> cases = {"null",
                                       "phosphor_persistence",
                                       "halo",

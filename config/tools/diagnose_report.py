@@ -1,0 +1,119 @@
+#!/usr/bin/env python3
+"""Draws the report of `nvstim diagnose --report DIR` (docs/diagnose.md, "Report").
+
+Reads DIR/report.json and the residual maps DIR/*.pfm that nvstim wrote, draws every curve and
+map as PNG with Matplotlib (Debian python3-matplotlib, Agg backend, no display needed) and
+writes DIR/report.md: the baseline, the findings with their causes and fitted parameters, the
+held-out gain, every effect that was tried and why it was or was not taken, and the plots.
+
+Usage: diagnose_report.py DIR
+"""
+import json
+import os
+import struct
+import sys
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+
+
+def read_pfm(path):
+    """A greyscale PFM as a list of rows, top row first (PFM stores the bottom row first)."""
+    with open(path, "rb") as f:
+        if f.readline().strip() != b"Pf":
+            raise ValueError(path + ": not a greyscale PFM")
+        w, h = (int(v) for v in f.readline().split())
+        scale = float(f.readline())
+        fmt = "<" if scale < 0 else ">"
+        data = struct.unpack(fmt + "%df" % (w * h), f.read(4 * w * h))
+    rows = [list(data[y * w:(y + 1) * w]) for y in range(h)]
+    rows.reverse()
+    return rows
+
+
+def plot_curve(curve, out):
+    fig, ax = plt.subplots(figsize=(6.4, 4.0), dpi=100)
+    # Photon transfer is one point per tile: every series as markers; the others as lines.
+    styles = ["o", "x", "+", "."] if curve["name"] == "photon_transfer" else ["o", "-", "--", ":"]
+    for i, s in enumerate(curve["series"]):
+        st = styles[i % len(styles)]
+        if st in ("o", "x", "+", "."):
+            ax.plot(s["x"], s["y"], st, ms=4, label=s["name"])
+        else:
+            ax.plot(s["x"], s["y"], st, lw=1.5, label=s["name"])
+    ax.set_xlabel(curve["x_label"])
+    ax.set_ylabel(curve["y_label"])
+    ax.set_title(curve["name"].replace("_", " "))
+    ax.grid(True, alpha=0.3)
+    ax.legend()
+    fig.tight_layout()
+    fig.savefig(out)
+    plt.close(fig)
+
+
+def plot_map(name, rows, out):
+    flat = sorted(v for r in rows for v in r)
+    lim = max(abs(flat[int(0.01 * (len(flat) - 1))]), abs(flat[int(0.99 * (len(flat) - 1))]), 1e-6)
+    fig, ax = plt.subplots(figsize=(6.4, 4.8), dpi=100)
+    im = ax.imshow(rows, cmap="RdBu_r", vmin=-lim, vmax=lim, interpolation="nearest")
+    fig.colorbar(im, ax=ax, label="measured - model [DC]")
+    ax.set_title(name.replace("_", " "))
+    fig.tight_layout()
+    fig.savefig(out)
+    plt.close(fig)
+
+
+def fmt(v):
+    return "%.4g" % v if isinstance(v, float) else str(v)
+
+
+def main():
+    if len(sys.argv) != 2:
+        sys.stderr.write("usage: diagnose_report.py DIR\n")
+        return 2
+    d = sys.argv[1]
+    with open(os.path.join(d, "report.json")) as f:
+        rep = json.load(f)
+    res = rep["result"]
+    md = ["# nvstim diagnose: %s" % rep["dataset"], "",
+          "Camera model `%s`, frames %d x %d." % (rep["camera"], rep["width"], rep["height"]), ""]
+    md += ["## Findings", ""]
+    if not res["findings"]:
+        md += ["No finding: no effect of the catalog improved the held-out frames significantly.", ""]
+    else:
+        md += ["| effect | cause | parameters | held-out RMS before | after | unit | confidence |",
+               "|---|---|---|---|---|---|---|"]
+        for f in res["findings"]:
+            params = ", ".join("%s = %s" % (k, fmt(v)) for k, v in f["parameters"].items())
+            md.append("| `%s` | %s | %s | %s | %s | %s | %.4f |" % (
+                f["effect"], f["cause"], params, fmt(f["heldout_rms_before"]),
+                fmt(f["heldout_rms_after"]), f["unit"], f["confidence"]))
+        md.append("")
+    md += ["## Baseline (calibration half)", "", "| quantity | value |", "|---|---|"]
+    for k, v in sorted(res["baseline"].items()):
+        md.append("| %s | %s |" % (k, fmt(v)))
+    md += ["", "## Every effect tried", "",
+           "| effect | tried | held-out z | score | RMS before | after | fitted / why not |",
+           "|---|---|---|---|---|---|---|"]
+    for t in rep["trials"]:
+        md.append("| `%s` | %s | %.2f | %.1f | %s | %s | %s |" % (
+            t["effect"], "yes" if t["tried"] else "no", t["z"], t["score"], fmt(t["before"]),
+            fmt(t["after"]), t["why"]))
+    md += ["", "## Plots", ""]
+    for c in rep["curves"]:
+        png = c["name"] + ".png"
+        plot_curve(c, os.path.join(d, png))
+        md += ["### %s" % c["name"].replace("_", " "), "", "![%s](%s)" % (c["name"], png), ""]
+    for m in rep["maps"]:
+        png = m + ".png"
+        plot_map(m, read_pfm(os.path.join(d, m + ".pfm")), os.path.join(d, png))
+        md += ["### %s" % m.replace("_", " "), "", "![%s](%s)" % (m, png), ""]
+    with open(os.path.join(d, "report.md"), "w") as f:
+        f.write("\n".join(md) + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
