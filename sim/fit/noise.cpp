@@ -87,12 +87,27 @@ void fixedPattern(const Work& w, const Current& cur, std::size_t i0, std::size_t
     const std::size_t np = static_cast<std::size_t>(w.w) * w.h;
     Plane A[2] = {Plane(np, 0.0f), Plane(np, 0.0f)}, Y[2] = {Plane(np, 0.0f), Plane(np, 0.0f)};
     std::vector<float> cnt[2] = {std::vector<float>(np, 0.0f), std::vector<float>(np, 0.0f)};
+    // Two groups with no field in common (in field scan frame k holds fields k and k − 1, so
+    // only even frames are used) and, where the split saw more than one stimulus, from
+    // different stimuli: a pattern fixed to the sensor is in both, an error of the mean model
+    // tied to the scene is not.
+    std::vector<int> stimRank;
     for (std::size_t i = i0; i < i1; ++i) {
-        // Two groups with no field in common: in field scan frame k holds fields k and k − 1,
-        // so only even frames are used, alternately.
+        const int st = w.d.stimulusOfFrame[static_cast<std::size_t>(w.sub[i])];
+        if (std::find(stimRank.begin(), stimRank.end(), st) == stimRank.end())
+            stimRank.push_back(st);
+    }
+    int alt = 0;
+    for (std::size_t i = i0; i < i1; ++i) {
         const int k = w.sub[i];
         if (w.m.fieldScan && (k & 1)) continue;
-        const int g = w.m.fieldScan ? (k / 2) & 1 : k & 1;
+        int g = alt++ & 1;
+        if (stimRank.size() >= 2) {
+            const int st = w.d.stimulusOfFrame[static_cast<std::size_t>(k)];
+            g = static_cast<int>(std::find(stimRank.begin(), stimRank.end(), st) -
+                                 stimRank.begin()) &
+                1;
+        }
         const Plane& M = w.measured(w.sub[i]);
         for (std::size_t p = 0; p < np; ++p) {
             if (!w.valid(M[p])) continue;

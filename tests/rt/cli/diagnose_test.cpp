@@ -1,0 +1,127 @@
+// nvstim diagnose as a user meets it (docs/contracts.md "diagnose"): a generated dataset with a
+// hidden halo is diagnosed, the JSON names it, the report has its plots, and the preset written
+// by --write-preset, used again, leaves nothing to find; bad datasets exit 2 with one line and
+// write nothing.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <array>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include "rt/cli/cli.h"
+#include "sim/fit/dataset.h"
+#include "sim/fit/generate.h"
+
+namespace nvs {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct CliRun {
+    int status = -1;
+    std::string out, err;
+};
+
+CliRun nvstim(const std::string& args) {
+    CliRun r;
+    const fs::path errFile = fs::path(NVS_BINARY_DIR) / "test-diagnose-stderr.txt";
+    const std::string cmd = std::string(NVSTIM_EXE) + " " + args + " 2>" + errFile.string();
+    FILE* p = popen(cmd.c_str(), "r");
+    if (p == nullptr) return r;
+    std::array<char, 4096> buf{};
+    std::size_t n = 0;
+    while ((n = fread(buf.data(), 1, buf.size(), p)) > 0)
+        r.out.append(buf.data(), n);
+    const int st = pclose(p);
+    r.status = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+    std::ifstream e(errFile);
+    r.err.assign(std::istreambuf_iterator<char>(e), std::istreambuf_iterator<char>());
+    return r;
+}
+
+fs::path workDir() {
+    const fs::path p = fs::path(NVS_BINARY_DIR) / "test-diagnose";
+    fs::remove_all(p);
+    fs::create_directories(p);
+    return p;
+}
+
+fs::path writeHalo(const fs::path& dir) {
+    fit::GenSpec s;
+    s.effects = {"halo"};
+    s.seed = 1;
+    fit::writeDataset(fit::generate(s, NVS_SOURCE_DIR "/config").data, dir / "halo");
+    return dir / "halo";
+}
+
+TEST(Diagnose, NamesAHiddenHaloAndItsPresetLeavesNothingToFind) {
+    const fs::path dir = workDir();
+    const fs::path ds = writeHalo(dir);
+    const CliRun r = nvstim("diagnose " + ds.string() + " --json " + (dir / "out.json").string() +
+                            " --write-preset " + (dir / "fitted.toml").string());
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_NE(r.out.find("{\"baseline\":{"), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("\"findings\":[{\"effect\":\"halo\""), std::string::npos) << r.out;
+    for (const char* key : {"\"parameters\"", "\"heldout_rms_before\"", "\"heldout_rms_after\"",
+                            "\"confidence\"", "\"radius_um\"", "\"fraction\""})
+        EXPECT_NE(r.out.find(key), std::string::npos) << key;
+    EXPECT_NE(r.err.find("nvstim diagnose:"), std::string::npos) << "progress on stderr";
+    std::ifstream json(dir / "out.json");
+    std::string line;
+    std::getline(json, line);
+    EXPECT_EQ(line + "\n", r.out);
+    // The fitted preset, used as the model, has the halo: nothing left to find.
+    fs::copy_file(dir / "fitted.toml", ds / "fitted.toml");
+    std::ifstream in(ds / "dataset.toml");
+    std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    text.replace(text.find("preset = \"pulnix-ag5745ef3\""), 27, "preset = \"fitted.toml\"");
+    std::ofstream(ds / "dataset.toml") << text;
+    const CliRun again = nvstim("diagnose " + ds.string());
+    ASSERT_EQ(again.status, 0) << again.err;
+    EXPECT_NE(again.out.find("\"findings\":[]"), std::string::npos) << again.out;
+}
+
+TEST(Diagnose, ReportHasItsPlots) {
+    if (!fs::exists("/usr/bin/python3") ||
+        std::system("/usr/bin/python3 -c 'import matplotlib' 2>/dev/null") != 0)
+        GTEST_SKIP() << "python3-matplotlib is not installed (make test installs it)";
+    const fs::path dir = workDir();
+    const fs::path ds = writeHalo(dir);
+    const CliRun r = nvstim("diagnose " + ds.string() + " --report " + (dir / "report").string());
+    ASSERT_EQ(r.status, 0) << r.err;
+    for (const char* f : {"report.md", "photon_transfer.png", "linearity.png", "radial_profile.png",
+                          "residual_heldout_before.png", "residual_heldout_after.png"})
+        EXPECT_TRUE(fs::exists(dir / "report" / f)) << f;
+    EXPECT_FALSE(fs::exists(dir / "report.tmp"));
+}
+
+TEST(Diagnose, BadDatasetExitsTwoWithOneLineAndWritesNothing) {
+    const fs::path dir = workDir();
+    const fs::path ds = writeHalo(dir);
+    std::ifstream in(ds / "dataset.toml");
+    const std::string good((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    struct Case {
+        std::string from, to, named;
+    };
+    for (const Case& c : {Case{"preset = \"pulnix-ag5745ef3\"", "preset = \"no-such\"", "no-such"},
+                          Case{"unit = \"pe/s/m2/sr\"", "unit = \"lux\"", "'lux'"},
+                          Case{"count = 48", "count = 49", "frame 48 is missing"}}) {
+        std::string t = good;
+        t.replace(t.find(c.from), c.from.size(), c.to);
+        std::ofstream(ds / "dataset.toml") << t;
+        const fs::path out = dir / "out.json", preset = dir / "p.toml", rep = dir / "rep";
+        const CliRun r = nvstim("diagnose " + ds.string() + " --json " + out.string() +
+                                " --write-preset " + preset.string() + " --report " + rep.string());
+        EXPECT_EQ(r.status, cli::kExitUsage) << c.to;
+        EXPECT_EQ(r.err.find('\n'), r.err.size() - 1) << r.err;
+        EXPECT_NE(r.err.find(c.named), std::string::npos) << r.err;
+        EXPECT_TRUE(r.out.empty());
+        EXPECT_FALSE(fs::exists(out) || fs::exists(preset) || fs::exists(rep)) << c.to;
+    }
+}
+
+}  // namespace
+}  // namespace nvs
