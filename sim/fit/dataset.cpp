@@ -78,12 +78,22 @@ constexpr UnitConversion kUnits[] = {
 };
 
 // Factor from the given unit to Lpe [pe s⁻¹ m⁻² sr⁻¹].
+// A W/m2/sr radiance is band-integrated with the camera's relative response, or over the box
+// band [lo, hi] nm when `band` names one (the thesis's 480-940 nm radiances, §18.4).
 double toLpe(const std::string& unit, const sensor::CameraParams& cam, const fs::path& configDir,
-             const std::string& spectrum, const FileLoc& where) {
+             const std::string& spectrum, const std::string& band, const FileLoc& where) {
     for (const UnitConversion& u : kUnits) {
         if (unit != u.name) continue;
         if (std::string(u.base) == "pe/s/m2/sr") return u.factor;
-        return u.factor * sensor::peRadiancePerBandRadiance(configDir, cam, spectrum);
+        if (band.empty())
+            return u.factor * sensor::peRadiancePerBandRadiance(configDir, cam, spectrum);
+        double lo = 0.0, hi = 0.0;
+        if (std::sscanf(band.c_str(), "%lf-%lf", &lo, &hi) != 2 || !(lo > 0.0 && hi > lo))
+            throw SetupError(where, "band '" + band + "': expected LO-HI in nm, e.g. \"480-940\"");
+        const Spectrum box = Spectrum::fromFunction(
+            [lo, hi](double nm) { return nm >= lo && nm <= hi ? 1.0 : 0.0; });
+        return u.factor * sensor::peRadiancePerBandRadiance(
+                              cam, sensor::spectrumShape(configDir, spectrum), box);
     }
     std::string known;
     for (const UnitConversion& u : kUnits)
@@ -321,6 +331,7 @@ void loadStimuli(Dataset& d, const ConfigTable& st, const std::vector<long long>
     std::map<std::string, int> byFile;
     d.spectrum = st.get<std::string>("spectrum", "flat");
     const std::string givenUnit = st.get<std::string>("unit", "");
+    const std::string band = st.get<std::string>("band", "");
     for (std::size_t i = 0; i < numbers.size(); ++i) {
         const long long k = index.empty() ? numbers[i] : index[i];
         const fs::path file = d.dir / sensor::expandFramePattern(pattern, k);
@@ -339,7 +350,7 @@ void loadStimuli(Dataset& d, const ConfigTable& st, const std::vector<long long>
         const std::string unit =
             !givenUnit.empty() ? givenUnit : (r.unit.empty() ? "pe/s/m2/sr" : r.unit);
         d.unit = unit;
-        const double k2 = toLpe(unit, d.camera, configDir, d.spectrum, st.location("unit"));
+        const double k2 = toLpe(unit, d.camera, configDir, d.spectrum, band, st.location("unit"));
         Fnv1a h;
         for (int y = 0; y < d.height; ++y) {
             float* row = r.image.row(y);

@@ -36,7 +36,7 @@ void fitBaseline(Work& w, Current& cur, Result& r) {
     };
     const double s0 = sse(0.0);
     const double sb = searchLog(sse, 0.15, 3.0, 6);
-    if (sse(sb) < s0) cur.mm.sigma_px = sb;
+    if (sse(sb) < s0 * (1.0 - 1e-3)) cur.mm.sigma_px = sb;  // a real gain, not rounding
     setCurrent(w, cur);
     r.baseline["gain_rel"] = cur.fit.a;
     r.baseline["offset_dc"] = cur.fit.b;
@@ -60,7 +60,7 @@ void linearity(const Work& w, const Current& cur, Result& r) {
     for (std::size_t i = 0; i < w.cal.size(); ++i) {
         const Plane& M = w.measured(w.sub[i]);
         for (std::size_t p = 0; p < M.size(); ++p) {
-            if (!w.valid(M[p])) continue;
+            if (!w.valid(M[p], cur.Y[i][p])) continue;
             const int b = std::min(kBins - 1, static_cast<int>(cur.Y[i][p] / top * kBins));
             if (b < 0) continue;
             sm[static_cast<std::size_t>(b)] += M[p];

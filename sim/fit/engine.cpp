@@ -122,6 +122,8 @@ Work::Work(const Dataset& ds, const ModelRun& mr, const sensor::CameraParams& c,
     tile = static_cast<double>(w) * h > 200000.0 ? 32 : 16;
     tilesX = std::max(1, w / tile);
     tilesY = std::max(1, h / tile);
+    if (cam.full_well_e > 0.0)
+        fullWell_dc = static_cast<float>(0.95 * cam.full_well_e * cam.video_gain_dc_per_e);
     pitchX_um = cam.pitch_x_um * cam.taper_magnification;
     pitchY_um = cam.pitch_y_um * cam.taper_magnification;
     conv = std::make_unique<Convolver>(w, h, pitchX_um, pitchY_um);
@@ -213,17 +215,29 @@ bool solve(int n, double A[3][3], double r[3], double x[3]) {
 LinFit fitLinear(const Work& w, const std::vector<Plane>& Y, const std::vector<Plane>* B) {
     const int n = B ? 3 : 2;
     double A[3][3] = {}, r[3] = {}, x[3] = {};
+    double sy = 0.0, syy = 0.0, cnt = 0.0;
     for (std::size_t i = 0; i < w.cal.size(); ++i) {
         const Plane& M = w.measured(w.sub[i]);
         for (std::size_t p = 0; p < M.size(); ++p) {
-            if (!w.valid(M[p])) continue;
+            if (!w.valid(M[p], Y[i][p])) continue;
             const double v[3] = {1.0, Y[i][p], B ? (*B)[i][p] : 0.0};
+            sy += v[1];
+            syy += v[1] * v[1];
+            cnt += 1.0;
             for (int a = 0; a < n; ++a) {
                 r[a] += v[a] * M[p];
                 for (int b = 0; b < n; ++b)
                     A[a][b] += v[a] * v[b];
             }
         }
+    }
+    // A stimulus with one level cannot tell gain from offset: the offset is then the model's
+    // (row 0 becomes b = offset).
+    if (cnt > 0 && syy / cnt - (sy / cnt) * (sy / cnt) < 1e-6 * (syy / cnt) + 1e-12) {
+        A[0][0] = 1.0;
+        for (int b = 1; b < n; ++b)
+            A[0][b] = 0.0;
+        r[0] = w.m.offset_dc;
     }
     LinFit f;
     if (!solve(n, A, r, x)) return f;
@@ -235,7 +249,7 @@ LinFit fitLinear(const Work& w, const std::vector<Plane>& Y, const std::vector<P
     for (std::size_t i = 0; i < w.cal.size(); ++i) {
         const Plane& M = w.measured(w.sub[i]);
         for (std::size_t p = 0; p < M.size(); ++p) {
-            if (!w.valid(M[p])) continue;
+            if (!w.valid(M[p], Y[i][p])) continue;
             double pr = f.b + f.a * Y[i][p] + (B ? f.c * (*B)[i][p] : 0.0);
             pr = std::clamp(pr, 0.0, static_cast<double>(maxDc));
             f.sseCal += (M[p] - pr) * (M[p] - pr);
@@ -254,7 +268,7 @@ std::vector<double> heldoutTileSse(const Work& w, const std::vector<Plane>& Y,
         for (int y = 0; y < w.h; ++y)
             for (int x = 0; x < w.w; ++x) {
                 const std::size_t p = static_cast<std::size_t>(y) * w.w + x;
-                if (!w.valid(M[p])) continue;
+                if (!w.valid(M[p], Y[i][p])) continue;
                 double pr = f.b + f.a * Y[i][p] + (B ? f.c * (*B)[i][p] : 0.0);
                 pr = std::clamp(pr, 0.0, w.m.maxDc);
                 const double e = (M[p] - pr) * (M[p] - pr);

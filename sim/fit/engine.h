@@ -74,7 +74,11 @@ struct Work {
         return std::min(y / tile, tilesY - 1) * tilesX + std::min(x / tile, tilesX - 1);
     }
     const Plane& measured(int frame) const { return d.frames[static_cast<std::size_t>(frame)]; }
+    // A measured value inside the ADC's range, where the model is linear: not clipped, and
+    // not at the CCD's full well (blooming), where the effects' linear forward models fail.
     bool valid(float v) const { return v > 0.5f && v < static_cast<float>(m.maxDc) - 0.5f; }
+    bool valid(float v, float model) const { return valid(v) && model < fullWell_dc; }
+    float fullWell_dc = 3e38f;  // 95 % of the full well in model DC above offset
 };
 
 // The mean model's signal above offset [model DC] for the frames of w.sub.

@@ -51,7 +51,8 @@ sensor::Overrides baseOverrides(const GenSpec& s) {
             {"ccd.smear_rel", "0.0"},
             {"photocathode.ebi_lm_cm2", "0.0"},
             {"agc", "\"off\""},
-            {"gain_V", "4.0"}};
+            {"gain_V", "4.0"},
+            {"ccd.full_well_e", "0.0"}};
 }
 
 // DC above offset per unit Lpe on the axis, from the mean chain.

@@ -50,7 +50,7 @@ Tiles temporal(const Work& w, int k0, int k1) {
         for (int y = 0; y < w.h; ++y)
             for (int x = 0; x < w.w; ++x) {
                 const std::size_t p = static_cast<std::size_t>(y) * w.w + x;
-                if (!w.valid(A[p]) || !w.valid(B[p])) continue;
+                if (!w.valid(A[p], X[p]) || !w.valid(B[p], X[p])) continue;
                 const std::size_t ti = static_cast<std::size_t>(w.tileOf(x, y));
                 const double d = A[p] - B[p], ds = SA[p] - SB[p];
                 t.v[ti] += d * d;
@@ -110,7 +110,7 @@ void fixedPattern(const Work& w, const Current& cur, std::size_t i0, std::size_t
         }
         const Plane& M = w.measured(w.sub[i]);
         for (std::size_t p = 0; p < np; ++p) {
-            if (!w.valid(M[p])) continue;
+            if (!w.valid(M[p], cur.Y[i][p])) continue;
             A[g][p] += static_cast<float>(M[p] - (cur.fit.b + cur.fit.a * cur.Y[i][p]));
             Y[g][p] += cur.Y[i][p];
             cnt[g][p] += 1.0f;
@@ -357,16 +357,26 @@ Candidate excessNoise(const Work& w, const Tiles& tc, const Tiles& th, const Noi
             lo = std::min(lo, tc.vSim[i]);
             hi = std::max(hi, tc.vSim[i]);
         }
-    cand.valid = f.phi > 0.0 && F >= 1.0 && hi - lo > 2.0 * c.rr;
-    if (!cand.valid) cand.why = "no range of signal in the steady frames, or F below 1";
+    cand.valid = f.phi > 0.0 && hi - lo > 2.0 * c.rr;
+    if (!cand.valid) cand.why = "no range of signal in the steady frames";
     cand.finding.parameters = {{"noise_factor", F}};
-    char buf[256];
-    std::snprintf(buf, sizeof buf,
-                  "temporal noise grows with signal %.2f times as fast as the model's: the MCP's "
-                  "excess noise factor is %.3g, not %.3g",
-                  f.phi, F, F0);
+    char buf[400];
+    if (F >= 1.0) {
+        std::snprintf(buf, sizeof buf,
+                      "temporal noise grows with signal %.2f times as fast as the model's: the "
+                      "MCP's excess noise factor is %.3g, not %.3g",
+                      f.phi, F, F0);
+        cand.finding.presetKeys = {{"mcp.noise_factor", num(F)}, {"mcp.noise", "true"}};
+    } else {
+        // F < 1 is impossible for an MCP: the model's gain per photoelectron is too high (its
+        // photoelectron count too low) for this signal; no preset value of F can fix that.
+        std::snprintf(buf, sizeof buf,
+                      "temporal noise grows with signal only %.2f times as fast as the model's: "
+                      "a noise factor of %.3g (below 1, impossible for an MCP) means the camera "
+                      "makes more photoelectrons with less gain each than the model",
+                      f.phi, F);
+    }
     cand.finding.cause = buf;
-    cand.finding.presetKeys = {{"mcp.noise_factor", num(F)}, {"mcp.noise", "true"}};
     return cand;
 }
 
@@ -410,23 +420,32 @@ Candidate fpn(const Work& w, const Current& cur, Result& res) {
     fixedPattern(w, cur, 0, nc, Cc, qc, ncnt, scc, &map);
     fixedPattern(w, cur, nc, nc + nh, Ch, qh, nhcnt, sch, nullptr);
     res.maps.push_back({"residual_calibration_mean", map});
+    // The model has no offset pattern (the chain has no DSNU) and its own PRNU: before. After:
+    // the PRNU fitted (the preset's one parameter). DSNU and PRNU apart (EMVA 1288) need more
+    // than one signal level; the baseline reports that two-parameter split where it exists.
     const double p0model = w.cam.prnu_rel * w.cam.prnu_rel;
-    double dsnuB = 0.0, pB = p0model;
+    double P = p0model;
     {
-        std::vector<double> y(Cc.size());
-        for (std::size_t i = 0; i < Cc.size(); ++i)
-            y[i] = Cc[i] - p0model * qc[i];
-        double unused = 0.0;
-        std::vector<double> ones(Cc.size(), 0.0);
-        line(ones, y, ncnt, dsnuB, unused, false);
+        double zero = 0.0;
+        line(qc, Cc, ncnt, zero, P, true);
     }
-    double dsnu = 0.0, P = 0.0;
-    line(qc, Cc, ncnt, dsnu, P, false);
-    res.baseline["dsnu_dc"] = std::sqrt(std::max(dsnuB, 0.0));
+    double dsnu2 = 0.0, prnu2 = 0.0;
+    line(qc, Cc, ncnt, dsnu2, prnu2, false);
+    double qlo = 1e300, qhi = 0.0;
+    for (std::size_t i = 0; i < qc.size(); ++i)
+        if (ncnt[i] > 0) {
+            qlo = std::min(qlo, qc[i]);
+            qhi = std::max(qhi, qc[i]);
+        }
+    const bool levels = qhi > 2.0 * qlo + 1.0;
+    if (levels) {
+        res.baseline["dsnu_dc"] = std::sqrt(std::max(dsnu2, 0.0));
+        res.baseline["prnu_rel"] = std::sqrt(std::max(prnu2, 0.0));
+    }
     std::vector<double> before(Ch.size()), after(Ch.size());
     for (std::size_t i = 0; i < Ch.size(); ++i) {
-        before[i] = dsnuB + pB * qh[i];
-        after[i] = dsnu + P * qh[i];
+        before[i] = p0model * qh[i];
+        after[i] = P * qh[i];
     }
     fill(c, compare(Ch, before, after, nhcnt, sch, 1),
          "covariance of two independent residual averages per tile, held-out frames");
@@ -435,10 +454,12 @@ Candidate fpn(const Work& w, const Current& cur, Result& res) {
     if (!c.valid) c.why = "no fixed pattern that grows with signal";
     c.finding.parameters = {{"prnu_rel", prnu}};
     char buf[256];
-    std::snprintf(buf, sizeof buf,
-                  "a fixed pattern that grows with signal: pixel gains differ by %.2f %% rms "
-                  "(PRNU), the model has %.2f %%",
-                  100.0 * prnu, 100.0 * w.cam.prnu_rel);
+    std::snprintf(
+        buf, sizeof buf,
+        "a pattern fixed to the sensor: pixel gains differ by %.2f %% rms (PRNU), the "
+        "model has %.2f %%%s",
+        100.0 * prnu, 100.0 * w.cam.prnu_rel,
+        levels ? "" : " (one signal level: an offset pattern, DSNU, would look the same)");
     c.finding.cause = buf;
     c.finding.presetKeys = {{"ccd.prnu_rel", num(prnu)}};
     return c;
