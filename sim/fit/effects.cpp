@@ -85,7 +85,11 @@ Candidate trySpread(Work& w, const Current& cur, const char* name,
 Candidate tryHalo(Work& w, const Current& cur) {
     double r_um = 0.0;
     // Ring radii from 2 pixels to a twentieth of the frame's width at the cathode.
-    const double lo = 2.0 * w.pitchX_um, hi = std::max(4.0 * lo, 0.2 * w.w * w.pitchX_um);
+    // Ring radii from 2 pixels to 320 µm (twice the cathode-MCP gap of a Gen III tube, ~0.1 mm,
+    // with margin: a halo is the back-scattered electrons' landing ring, at most 2× the gap
+    // for a flat emission), and within a fifth of the frame.
+    const double lo = 2.0 * w.pitchX_um,
+                 hi = std::max(2.0 * lo, std::min(320.0, 0.2 * w.w * w.pitchX_um));
     Candidate c = trySpread(
         w, cur, "halo", [&](double r) { return ringKernel(r, w.pitchX_um); }, lo, hi, r_um);
     const double f = c.finding.parameters[0].second;
@@ -105,7 +109,9 @@ Candidate tryHalo(Work& w, const Current& cur) {
 
 Candidate tryGlare(Work& w, const Current& cur) {
     double s_um = 0.0;
-    const double lo = 8.0 * w.pitchX_um, hi = std::max(2.0 * lo, 1.0 * w.w * w.pitchX_um);
+    // Scales from 150 µm (beyond a halo's ring) to the frame's width.
+    const double lo = std::max(150.0, 4.0 * w.pitchX_um),
+                 hi = std::max(2.0 * lo, 1.0 * w.w * w.pitchX_um);
     Candidate c = trySpread(w, cur, "veiling_glare", expKernel, lo, hi, s_um);
     const double g = c.finding.parameters[0].second;
     c.finding.parameters.push_back({"scale_um", s_um});

@@ -56,6 +56,41 @@ double ebiLevel(const sensor::CameraParams& mean, const std::filesystem::path& c
     return (level[1] - level[0]) / 1e-11;
 }
 
+// Neighbour covariance of the temporal noise of a dark frame per unit EBI [DC² per lm/cm²],
+// from the noisy chain (frame differences at lag 2, as noise.cpp measures): what an EBI's shot
+// noise, blurred by the MTF, adds to it.
+double ebiC1(const sensor::CameraParams& cam, const std::filesystem::path& configDir,
+             GammaTableCache& tables) {
+    sensor::CameraParams c = cam;
+    c.width = c.height = 64;
+    c.agc = sensor::AgcMode::Off;
+    c.read_noise_e = 0.0;
+    c.video_noise_dc = 0.0;
+    c.adc_bits = 16;  // no quantisation: the covariance of the shot noise alone
+    c.video_gain_dc_per_e *= 256.0;
+    c.video_offset_dc = 1000.0;
+    const double ebi = 1e-9;
+    c.ebi_lm_cm2 = ebi;
+    ImageF dark(64, 64);
+    sensor::IiccdChain chain(c, 7, configDir, tables);
+    std::vector<Plane> f;
+    for (int k = 0; k < 14; ++k) {
+        chain.process(dark.cview());
+        Plane p;
+        copyPlane(chain.counts().cview(), 1.0 / 256.0, p);
+        f.push_back(std::move(p));
+    }
+    double s = 0.0, n = 0.0;
+    for (int k = 4; k < 14; ++k)
+        for (int y = 0; y < 64; ++y)
+            for (int x = 0; x + 1 < 64; ++x) {
+                const std::size_t p = static_cast<std::size_t>(y) * 64 + x;
+                s += (f[k][p] - f[k - 2][p]) * (f[k][p + 1] - f[k - 2][p + 1]);
+                n += 1.0;
+            }
+    return s / (2.0 * n) / ebi;
+}
+
 }  // namespace
 
 void assembleFrame(const std::vector<Plane>& perCall, int k, int width, int height, bool fieldScan,
@@ -89,6 +124,7 @@ ModelRun simulate(const Dataset& d, const sensor::CameraParams& cam,
     GammaTableCache tables;
     const sensor::CameraParams mean = meanCamera(cam);
     m.ebiLevel_dc_per_lm_cm2 = ebiLevel(mean, configDir, tables);
+    m.ebiC1_dc2_per_lm_cm2 = ebiC1(cam, configDir, tables);
     if (progress) progress("simulating " + std::to_string(m.calls) + " frames with the model");
     {
         sensor::IiccdChain chain(mean, seed, configDir, tables);

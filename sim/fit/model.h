@@ -32,6 +32,7 @@ struct ModelRun {
     double readVar_dc2 = 0.0;             // read + video noise of the model [DC²]
     double dcPerMcpElectron = 0.0;        // DC per MCP output electron (phosphor, CCD, video)
     double ebiLevel_dc_per_lm_cm2 = 0.0;  // dark signal per unit EBI [DC per lm/cm²]
+    double ebiC1_dc2_per_lm_cm2 = 0.0;    // neighbour covariance of dark noise per unit EBI
     double period_s = 0.0;                // one call's integration period
     double gate_s = 0.0;
 };

@@ -385,16 +385,16 @@ Candidate ebi(const Work& w, const Tiles& tc, const Tiles& th, const NoiseCtx& c
     cand.finding.effect = "ebi_background";
     NoiseFit f;
     fill(cand, nested(tc, th, c, false, f), "temporal variance and neighbour covariance per tile");
-    // EBI signal [DC] from its shot-noise variance: v_e = K·d, K the measured PTC slope.
-    std::vector<double> K;
-    for (std::size_t i = 0; i < tc.v.size(); ++i)
-        if (tc.n[i] > 0 && tc.mu[i] > 5.0 && tc.vSim[i] - c.rr > c.rr)
-            K.push_back(c.a * f.phi * (tc.vSim[i] - c.rr) / tc.mu[i]);
-    const double k = median(K);
-    const double d_dc = k > 0 ? f.ve / k : 0.0;
+    // EBI from its blurred shot noise: the neighbour covariance it adds (ρ·v_e) against what
+    // the model's own chain gives per unit EBI on a dark frame (ModelRun::ebiC1), scaled by
+    // the gain a² as every variance.
+    const double perEbi = w.m.ebiC1_dc2_per_lm_cm2 * c.a * c.a;
+    const double extra = perEbi > 0.0 ? c.rho * f.ve / perEbi : 0.0;
+    const double total = w.cam.ebi_lm_cm2 + extra;
     const double L = w.m.ebiLevel_dc_per_lm_cm2;
-    const double total = w.cam.ebi_lm_cm2 + (L > 0 ? d_dc / (c.a * L) : 0.0);
-    cand.valid = L > 0 && k > 0 && c.rho > 0.05 && total >= 0.0;
+    const double d_dc = c.a * L * extra;  // its dark signal in measured DC
+    const double k = perEbi;
+    cand.valid = k > 0 && c.rho > 0.05 && total >= 0.0;
     if (!cand.valid) cand.why = "shot noise is not correlated between neighbours, or EBI < 0";
     cand.finding.parameters = {{"ebi_lm_cm2", total}};
     char buf[320];
