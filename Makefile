@@ -1,6 +1,8 @@
 # nvstim — the two user commands:
 #   make run    install missing Debian packages, build, run the default scenario
 #   make test   the same set-up, then the whole test suite through ctest
+#   make validate  the hidden-effect sweep of `nvstim diagnose` (20 seeds per effect) and the
+#               thesis datasets; writes $(BUILD)/validate/diagnose.md (docs/validation.md)
 # Everything else is CMake (CMakePresets.json): `cmake --preset debug-asan` etc.;
 # `cmake --install build/release --prefix PREFIX` installs nvstim with its config and scenarios.
 
@@ -19,7 +21,7 @@ NVSTIM   := $(BUILD)/rt/cli/nvstim
 SCENARIO ?= scenarios/thesis-nolight
 OUT      := out
 
-.PHONY: run test
+.PHONY: run test validate
 run: .nvs-build
 	@mkdir -p $(OUT)
 	$(NVSTIM) run $(SCENARIO) --clock sim --output y4m:$(OUT)/$(notdir $(SCENARIO)).y4m \
@@ -38,6 +40,17 @@ run: .nvs-build
 
 test: .nvs-build
 	ctest --preset $(PRESET)
+
+VALIDATE := $(BUILD)/validate
+validate: .nvs-build
+	@mkdir -p $(VALIDATE)
+	$(BUILD)/tests/sim/fit/nvs_validate_diagnose --seeds 20 --out $(VALIDATE)/diagnose.md
+	rm -rf $(VALIDATE)/thesis && python3 tests/data/diagnose/make_thesis_datasets.py tests/data/thesis $(VALIDATE)/thesis
+	@for d in $(VALIDATE)/thesis/*/; do \
+	  echo "nvstim: diagnose $$d"; \
+	  $(NVSTIM) diagnose $$d --json $${d%/}.json --report $${d%/}-report 2>/dev/null || exit 1; \
+	done
+	@echo "nvstim: sweep table $(VALIDATE)/diagnose.md; thesis findings $(VALIDATE)/thesis/*.json"
 
 .PHONY: .nvs-deps .nvs-build
 .nvs-deps:

@@ -359,11 +359,11 @@ Candidate excessNoise(const Work& w, const Tiles& tc, const Tiles& th, const Noi
         }
     cand.valid = f.phi > 0.0 && hi - lo > 2.0 * c.rr;
     if (!cand.valid) cand.why = "no range of signal in the steady frames";
-    cand.finding.parameters = {{"noise_factor", F}};
+    cand.finding.parameters = {{"noise_factor", F}, {"variance_ratio_to_model", f.phi}};
     char buf[400];
     if (F >= 1.0) {
         std::snprintf(buf, sizeof buf,
-                      "temporal noise grows with signal %.2f times as fast as the model's: the "
+                      "temporal noise grows with signal %.3g times as fast as the model's: the "
                       "MCP's excess noise factor is %.3g, not %.3g",
                       f.phi, F, F0);
         cand.finding.presetKeys = {{"mcp.noise_factor", num(F)}, {"mcp.noise", "true"}};
@@ -371,7 +371,7 @@ Candidate excessNoise(const Work& w, const Tiles& tc, const Tiles& th, const Noi
         // F < 1 is impossible for an MCP: the model's gain per photoelectron is too high (its
         // photoelectron count too low) for this signal; no preset value of F can fix that.
         std::snprintf(buf, sizeof buf,
-                      "temporal noise grows with signal only %.2f times as fast as the model's: "
+                      "temporal noise grows with signal only %.3g times as fast as the model's: "
                       "a noise factor of %.3g (below 1, impossible for an MCP) means the camera "
                       "makes more photoelectrons with less gain each than the model",
                       f.phi, F);

@@ -5,6 +5,7 @@
 //
 //   nvs_validate_diagnose [--seeds N] [--size WxH] [--effects a,b,...] [--out FILE.md] [-v]
 //   nvs_validate_diagnose --write DIR [--effects a+b] [--seeds SEED] [--size WxH]
+//                         [--blocks B] [--hold H]   (B stimuli held H frames each)
 //       writes one generated dataset (seed SEED) to DIR and prints its hidden truth
 
 #include <chrono>
@@ -53,7 +54,7 @@ double paramError(const nvs::fit::Finding& f, const std::map<std::string, double
 }  // namespace
 
 int main(int argc, char** argv) {
-    int seeds = 20, w = 128, h = 96;
+    int seeds = 20, w = 128, h = 96, blocks = 8, hold = 6;
     bool verbose = false;
     std::string out, only;
     for (int i = 1; i < argc; ++i) {
@@ -66,6 +67,10 @@ int main(int argc, char** argv) {
             out = argv[++i];
         else if (a == "--effects" && i + 1 < argc)
             only = argv[++i];
+        else if (a == "--blocks" && i + 1 < argc)
+            blocks = std::atoi(argv[++i]);
+        else if (a == "--hold" && i + 1 < argc)
+            hold = std::atoi(argv[++i]);
         else if (a == "--write" && i + 1 < argc)
             out = std::string("write:") + argv[++i];
         else if (a == "-v")
@@ -85,6 +90,8 @@ int main(int argc, char** argv) {
         spec.seed = static_cast<std::uint64_t>(seeds);
         spec.width = w;
         spec.height = h;
+        spec.stimuli = blocks;
+        spec.hold = hold;
         const nvs::fit::Generated g = nvs::fit::generate(spec, config);
         nvs::fit::writeDataset(g.data, out.substr(6));
         for (const auto& [k, v] : g.truth)
