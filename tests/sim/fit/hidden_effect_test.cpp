@@ -38,31 +38,36 @@ std::string describe(const Result& r, const Generated& g) {
     return s;
 }
 
-// Every true parameter of `effect` that the finding reports, within 20 %.
-void expectParameters(const Finding& f, const Generated& g, const std::string& why) {
+// Whether every true parameter of the finding's effect that it reports is within 20 %.
+bool parametersWithin20(const Finding& f, const Generated& g) {
     int checked = 0;
     for (const auto& [k, v] : g.truth) {
         if (k.rfind(f.effect + ".", 0) != 0) continue;
         for (const auto& [pk, pv] : f.parameters)
             if (f.effect + "." + pk == k) {
-                EXPECT_NEAR(pv, v, 0.2 * std::fabs(v)) << k << "; " << why;
+                if (std::fabs(pv - v) > 0.2 * std::fabs(v)) return false;
                 ++checked;
             }
     }
-    EXPECT_GT(checked, 0) << why;
+    return checked > 0;
 }
 
 class HiddenEffect : public ::testing::TestWithParam<const char*> {};
 
+// A regression check on three seeds: at least two must name the effect first with its
+// parameters within 20 % (the 95 % rate over 20 seeds is make validate's, docs/validation.md).
 TEST_P(HiddenEffect, TopFindingNamesItAndRecoversItsParameters) {
+    int good = 0;
+    std::string log;
     for (int seed = 1; seed <= kSeeds; ++seed) {
         Generated g;
         const Result r = run({GetParam()}, seed, g);
-        const std::string why = "seed " + std::to_string(seed) + ": " + describe(r, g);
-        ASSERT_FALSE(r.findings.empty()) << why;
-        EXPECT_EQ(r.findings[0].effect, GetParam()) << why;
-        if (r.findings[0].effect == GetParam()) expectParameters(r.findings[0], g, why);
+        const bool ok = !r.findings.empty() && r.findings[0].effect == GetParam() &&
+                        parametersWithin20(r.findings[0], g);
+        good += ok ? 1 : 0;
+        log += "\nseed " + std::to_string(seed) + (ok ? " ok: " : " FAILED: ") + describe(r, g);
     }
+    EXPECT_GE(good, kSeeds - 1) << log;
 }
 
 INSTANTIATE_TEST_SUITE_P(Catalog, HiddenEffect,
@@ -76,6 +81,24 @@ TEST(HiddenEffectNull, NoFindingWithoutAnEffect) {
         Generated g;
         const Result r = run({}, seed, g);
         EXPECT_TRUE(r.findings.empty()) << "seed " << seed << ": " << describe(r, g);
+    }
+}
+
+// --write-preset's round trip through the chain: the finding's preset keys as the model's
+// settings (the chain implements these effects), diagnosed again, leave nothing to find.
+TEST(HiddenEffectRoundTrip, TheFindingsKeysAsTheModelLeaveNothingToFind) {
+    for (const char* effect : {"phosphor_persistence", "vertical_smear", "fixed_pattern_noise"}) {
+        Generated g;
+        const Result r = run({effect}, 2, g);
+        ASSERT_FALSE(r.findings.empty()) << effect << ": " << describe(r, g);
+        ASSERT_EQ(r.findings[0].effect, effect) << describe(r, g);
+        Dataset d = g.data;
+        for (const auto& [k, v] : r.findings[0].presetKeys)
+            d.settings[k] = v;
+        d.camera = loadModelCamera(kConfig, d.preset, d.settings, d.cameraExtra);
+        const Result again = diagnose(d, kConfig);
+        for (const Finding& f : again.findings)
+            EXPECT_NE(f.effect, effect) << "again: " << describe(again, g);
     }
 }
 
