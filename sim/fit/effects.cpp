@@ -74,8 +74,14 @@ Candidate trySpread(Work& w, const Current& cur, const char* name,
     cand.fit = fitLinear(w, cur.Y, &B);
     score(w, cur, cand, cur.Y, &B, 2);
     const double frac = cand.fit.a != 0.0 ? cand.fit.c / cand.fit.a : 0.0;
-    cand.valid = cand.fit.ok && frac > 0.0 && frac < 1.0;
-    if (!cand.valid) cand.why = fmtText("fraction %.3g is not in (0, 1)", frac);
+    // A scale at either end of its search range is no fit: the error still falls beyond it.
+    const bool inside = best_um > 1.05 * lo_um && best_um < 0.95 * hi_um;
+    cand.valid = cand.fit.ok && frac > 0.0 && frac < 1.0 && inside;
+    if (!cand.valid)
+        cand.why = fmtText(
+            "fraction %.3g (must be in (0, 1)), scale %.4g um (must be inside "
+            "%.4g..%.4g um)",
+            frac, best_um, lo_um, hi_um);
     cand.finding.parameters = {{"fraction", frac}};
     return cand;
 }
