@@ -402,8 +402,8 @@ Dataset loadDataset(const fs::path& dir, const fs::path& configDir, const Progre
     const ConfigTable st = root.table("stimulus");
     if (st.contains("scenario")) {
         st.fail("scenario",
-                "a scenario stimulus is rendered by `nvstim diagnose` itself, not "
-                "read here");
+                "a scenario stimulus is not implemented yet: give the stimulus as "
+                "radiance images");
     }
     for (const ConfigTable& r : root.tableArray("roi")) {
         Roi roi{r.require<std::string>("name"), r.require<int>("x"), r.require<int>("y"),
