@@ -63,7 +63,24 @@ void makeOutputDir(const std::string& dir, const std::string& what) {
 
 // ---- y4m ---------------------------------------------------------------------------------------
 
-Y4mSink::Y4mSink(const std::string& path, int width, int height, int bits, msg::FrameRate rate)
+namespace {
+// The YUV4MPEG2 interlacing tag (mjpegtools yuv4mpeg(5): Ip progressive, It top field first,
+// Ib bottom field first).
+const char* y4mInterlace(msg::FieldOrder order) {
+    switch (order) {
+        case msg::FieldOrder::TopFirst:
+            return "It";
+        case msg::FieldOrder::BottomFirst:
+            return "Ib";
+        case msg::FieldOrder::Progressive:
+            break;
+    }
+    return "Ip";
+}
+}  // namespace
+
+Y4mSink::Y4mSink(const std::string& path, int width, int height, int bits, msg::FrameRate rate,
+                 msg::FieldOrder order)
     : name_("y4m:" + path),
       toStdout_(path == "-"),
       width_(width),
@@ -75,8 +92,8 @@ Y4mSink::Y4mSink(const std::string& path, int width, int height, int bits, msg::
     buffer_.resize(6 + px * (wide_ ? 2 : 1));
     std::memcpy(buffer_.data(), "FRAME\n", 6);
     header_ = "YUV4MPEG2 W" + std::to_string(width) + " H" + std::to_string(height) + " F" +
-              std::to_string(rate.num) + ":" + std::to_string(rate.den) + " Ip A1:1 " +
-              (wide_ ? "Cmono16" : "Cmono") + "\n";
+              std::to_string(rate.num) + ":" + std::to_string(rate.den) + " " +
+              y4mInterlace(order) + " A1:1 " + (wide_ ? "Cmono16" : "Cmono") + "\n";
     if (!toStdout_) {
         const int rc = file_.open(path.c_str());
         if (rc != 0) throw SetupError(name_ + ": cannot open: " + std::strerror(-rc));

@@ -51,7 +51,8 @@ std::string describe(const char* name, SinkState state, const SinkCounters& c);
 class Y4mSink final : public msg::FrameSink {
   public:
     // path "-" is stdout. `bits` is the camera's ADC depth.
-    Y4mSink(const std::string& path, int width, int height, int bits, msg::FrameRate rate);
+    Y4mSink(const std::string& path, int width, int height, int bits, msg::FrameRate rate,
+            msg::FieldOrder order = msg::FieldOrder::Progressive);
     ~Y4mSink() override;
     const char* name() const noexcept override { return name_.c_str(); }
     int write(const msg::OutputFrame& frame) noexcept override;

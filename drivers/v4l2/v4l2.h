@@ -140,6 +140,10 @@ class V4l2Output {
     // format), then the I/O method: write() needs V4L2_CAP_READWRITE; MMAP needs
     // V4L2_CAP_STREAMING and maps `buffers` buffers (REQBUFS may grant fewer, at least 2).
     int configure(int width, int height, V4l2Format format, V4l2Io io, int buffers = 4);
+    // The field order to ask for at configure() (V4L2_FIELD_NONE unless set): interlaced
+    // frames are V4L2_FIELD_INTERLACED_TB (top field first) or _BT. Every buffer carries the
+    // field the device accepted.
+    void setField(v4l2_field field) noexcept { field_ = field; }
 
     // Per frame, no allocation. acquire(): memory for the next frame (frameBytes() bytes), or
     // nullptr when none is free (the consumer is behind: counted in `busy`) or the device has
@@ -170,6 +174,7 @@ class V4l2Output {
     int fd_ = -1;
     std::string path_;
     V4l2State state_ = V4l2State::Closed;
+    v4l2_field field_ = V4L2_FIELD_NONE;  // asked for at configure()
     V4l2Io io_ = V4l2Io::Write;
     V4l2Capability cap_;
     v4l2_pix_format active_{};
@@ -194,7 +199,8 @@ class V4l2Sink final : public msg::FrameSink {
     // Opens and configures the device; throws SetupError (naming the spec) when it is absent,
     // not an output, refuses the format or keeps another one.
     V4l2Sink(std::unique_ptr<V4l2DeviceOps> ops, const std::string& path, int width, int height,
-             int bits, V4l2Format format, V4l2Io io);
+             int bits, V4l2Format format, V4l2Io io,
+             msg::FieldOrder order = msg::FieldOrder::Progressive);
     ~V4l2Sink() override { close(); }
     const char* name() const noexcept override { return name_.c_str(); }
     int write(const msg::OutputFrame& frame) noexcept override;

@@ -138,6 +138,12 @@ void readSceneTables(const ConfigTable& root, const std::filesystem::path& file,
     }
 }
 
+std::string hzText(double hz) {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%.6g", hz);
+    return buf;
+}
+
 // [scenario] and [camera]: names, seed, scan, rate, size, depth, exposure, start and duration.
 // One set of defaults: the camera preset's where there is one, else 320×240, 8 bits, 60 Hz
 // progressive (30 Hz interlaced).
@@ -157,7 +163,10 @@ void readScenarioTable(const ConfigTable& root, const std::filesystem::path& con
     const std::optional<ConfigTable> cam = root.optionalTable("camera");
     if (cam) readCamera(*cam, widthGiven, heightGiven, bitsGiven, sc.seed, configDir, sc.camera);
     const sensor::CameraParams& cp = sc.camera.params;
-    const std::string scan = s.get<std::string>("scan", "progressive");
+    // Scan follows the camera: a field-scan camera (RS-170, CCIR) delivers interlaced frames,
+    // two fields each, every field exposed at its own time; a frame-scan camera, progressive.
+    const bool fieldCamera = cam && cp.scan == sensor::ScanMode::Field;
+    const std::string scan = s.get<std::string>("scan", fieldCamera ? "interlaced" : "progressive");
     if (scan != "progressive" && scan != "interlaced") {
         s.fail("scan", "must be \"progressive\" or \"interlaced\"");
     }
@@ -168,15 +177,24 @@ void readScenarioTable(const ConfigTable& root, const std::filesystem::path& con
                "interlaced output needs a field-scan camera preset (the preset has "
                "scan = \"frame\")");
     }
-    // Default rate: the preset's field rate (progressive: one field per frame, woven by the
-    // camera) or frame rate (interlaced, and frame-scan presets).
-    const bool fieldPerFrame = cp.scan == sensor::ScanMode::Field && !interlaced;
+    // Default rate: the preset's frame rate (interlaced: half its field rate), or its field
+    // rate (progressive output of a field-scan camera: one frame per field, woven by the
+    // camera, so each frame is the latest two fields).
+    const bool fieldPerFrame = fieldCamera && !interlaced;
     const double camRate_hz = fieldPerFrame ? cp.field_rate_Hz : cp.field_rate_Hz / 2.0;
     const double hz = hzGiven ? *hzGiven : (cam ? camRate_hz : (interlaced ? 30.0 : 60.0));
     try {
         sc.rate = FrameRate::fromHz(hz);
     } catch (const SetupError& e) {
         s.fail("frame_rate_hz", e.what());
+    }
+    if (fieldPerFrame && std::abs(sc.rate.hz() - cp.field_rate_Hz) > 1e-3 * cp.field_rate_Hz) {
+        // Otherwise each field would last a frame period: a camera that does not exist.
+        s.fail("frame_rate_hz",
+               "a field-scan camera in progressive scan emits one frame per field: the rate "
+               "must be its field rate (" +
+                   hzText(cp.field_rate_Hz) + " Hz), or set scan = \"interlaced\" for " +
+                   hzText(cp.field_rate_Hz / 2.0) + " frames/s");
     }
     sc.width = widthGiven ? *widthGiven : (cam ? cp.width : 320);
     sc.height = heightGiven ? *heightGiven : (cam ? cp.height : 240);

@@ -151,6 +151,14 @@ struct Scenario {
     TestPatternSpec testPattern;
     CameraSpec camera;
     SceneSpec scene;  // rendered scenarios
+
+    // How the emitted frames' rows were exposed (interlaced: the camera's field order; top
+    // field first without a camera).
+    msg::FieldOrder fieldOrder() const {
+        if (scan != ScanKind::Interlaced) return msg::FieldOrder::Progressive;
+        return !camera.enabled || camera.params.topFieldFirst ? msg::FieldOrder::TopFirst
+                                                              : msg::FieldOrder::BottomFirst;
+    }
 };
 
 // Reads a scenario TOML file (or SCENARIO/scenario.toml for a folder); camera presets and

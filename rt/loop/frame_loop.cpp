@@ -201,14 +201,14 @@ void FrameLoop::exposeFrame(Slot& s) noexcept {
         }
     }
     if (fields_ == 2) {
-        // Weave: the odd rows are field 1's. The frame is described by field 1, which
+        // Weave: field 1's rows (odd, top field first). The frame is described by field 1, which
         // completes it (messages.h); field[0] keeps the first field's own exposure.
         const std::size_t radBytes = static_cast<std::size_t>(config_.width) * sizeof(float);
         const std::size_t cntBytes =
             static_cast<std::size_t>(config_.width) * sizeof(std::uint16_t);
         const bool lpe = !s.lpe_pe_s_m2_sr.empty();
         const bool band = !s.band_W_m2_sr.empty();
-        for (int y = 1; y < config_.height; y += 2) {
+        for (int y = config_.topFieldFirst ? 1 : 0; y < config_.height; y += 2) {
             if (lpe) std::memcpy(s.lpe_pe_s_m2_sr.row(y), s.fieldLpe_pe_s_m2_sr.row(y), radBytes);
             if (band) std::memcpy(s.band_W_m2_sr.row(y), s.fieldBand_W_m2_sr.row(y), radBytes);
             std::memcpy(s.counts.view().row(y), fieldCounts_.cview().row(y), cntBytes);

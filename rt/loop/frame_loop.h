@@ -35,13 +35,14 @@
 //   Interlaced    frame-rate interlaced output: each frame is woven from two fields of period
 //                 T_f = dt/2, each rendered and exposed at its own time,
 //                     field f ∈ {0, 1}:  t_f = t_k − (1 − f)·T_f   (default e = T_f),
-//                 field 0 on the even rows, field 1 on the odd rows (as sim/sensor's video stage
-//                 numbers fields). The render and camera stages are called once per field, in
-//                 field order, in the same slot: field 0 straight into the slot, field 1 into
-//                 the slot's field buffer whose odd rows are then copied over. The loop
-//                 itself stays one tick per output frame, so pacing, repeats, statistics and
-//                 the output thread do not change. A frame is complete when its second field
-//                 is, so its t_sample_s is t_k, as in progressive scan.
+//                 field 0 on the even rows, field 1 on the odd rows (top field first, as
+//                 sim/sensor's video stage numbers fields; bottom first: the other way round). The
+//                 render and camera stages are called once per field, in field order, in the same
+//                 slot: field 0 straight into the slot, field 1 into the slot's field buffer whose
+//                 rows are then copied over. The loop itself stays one tick per output frame, so
+//                 pacing, repeats, statistics and the output thread do not change. A frame is
+//                 complete when its second field is, so its t_sample_s is t_k, as in progressive
+//                 scan.
 //
 // Trigger clock (ClockKind::Trigger): frames are locked to rising edges from the equipment
 // under test (LoopConfig::trigger, e.g. a GPIO input). Each good edge at time t_e (CLOCK_MONOTONIC,
@@ -91,6 +92,7 @@ struct LoopConfig {
     int height = 240;
     bool realtime = false;  // SCHED_FIFO per the thread table, and mlockall
     ScanKind scan = ScanKind::Progressive;
+    bool topFieldFirst = true;  // interlaced: field 0 on the even rows (else on the odd rows)
     TriggerSource* trigger = nullptr;  // ClockKind::Trigger: the edges (outlives the loop)
     double triggerTimeout_s = 0.0;     // no edge for this long: stalled; 0: three periods
 };

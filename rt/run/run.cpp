@@ -71,7 +71,8 @@ std::unique_ptr<FrameSink> makeSink(const std::string& text, const Scenario& sc,
     const std::string what = "--output " + text;
     std::unique_ptr<FrameSink> sink;
     if (s.scheme == "y4m") {
-        sink = std::make_unique<drivers::Y4mSink>(s.target, sc.width, sc.height, sc.bits, sc.rate);
+        sink = std::make_unique<drivers::Y4mSink>(s.target, sc.width, sc.height, sc.bits, sc.rate,
+                                                  sc.fieldOrder());
     } else if (s.scheme == "pgm") {
         sink = std::make_unique<drivers::PgmSequenceSink>(s.target, sc.width, sc.height, sc.bits);
     } else if (s.scheme == "png") {
@@ -225,6 +226,7 @@ int runScenario(const RunRequest& req, std::FILE* status) {
     cfg.height = sc.height;
     cfg.realtime = sc.realtime;
     cfg.scan = sc.scan;
+    cfg.topFieldFirst = sc.fieldOrder() != msg::FieldOrder::BottomFirst;
     cfg.triggerTimeout_s = sc.triggerTimeout_s;
     if (req.frames) {
         cfg.frames = *req.frames;

@@ -39,7 +39,7 @@ std::unique_ptr<FrameSink> makeDeviceSink(Spec& spec, const Scenario& sc, const 
         }
         return std::make_unique<drivers::V4l2Sink>(std::make_unique<drivers::KernelV4l2Ops>(),
                                                    spec.target, sc.width, sc.height, sc.bits,
-                                                   format, io);
+                                                   format, io, sc.fieldOrder());
     }
     if (spec.scheme == "gpio") {
         // gpio:CHIP:LINE[?active=high|low]

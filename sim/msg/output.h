@@ -18,6 +18,11 @@
 
 namespace nvs::msg {
 
+// How the rows of an emitted frame were exposed: all at once, or as two fields, the field on
+// the top (even) rows first or the one on the bottom (odd) rows first. Sinks that can say so
+// (y4m "Ip"/"It"/"Ib", V4L2 field NONE/INTERLACED_TB/INTERLACED_BT) do.
+enum class FieldOrder : std::uint8_t { Progressive, TopFirst, BottomFirst };
+
 // One frame as the output thread hands it to every sink.
 struct OutputFrame {
     const FrameMeta* meta = nullptr;

@@ -246,6 +246,9 @@ CameraParams readCamera(const ConfigDocument& doc, const Overrides& ov, const Fi
         c.scan = ScanMode::Frame;
     else
         video.fail("scan", "must be field or frame");
+    const std::string order = video.get<std::string>("field_order", "top");
+    if (order != "top" && order != "bottom") video.fail("field_order", "must be top or bottom");
+    c.topFieldFirst = order == "top";
 
     const Reader loop = root.sub("agc_loop");
     c.agc_target_dc = positive(loop, "target_dc", c.agc_target_dc);

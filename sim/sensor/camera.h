@@ -6,6 +6,7 @@
 // Defaults live here, in code. Each field states its unit in its name or comment and the source
 // of its default; a preset file repeats the parameters it relies on with their sources.
 
+#include <cstdint>
 #include <filesystem>
 #include <map>
 #include <string>
@@ -29,6 +30,9 @@ struct CameraParams {
     int height = 494;              // [px] 493 active lines (Table 11-2), even for two fields
     double field_rate_Hz = 59.94;  // [Hz] 525 lines 60 Hz 2:1 interlace (Table 11-2)
     ScanMode scan = ScanMode::Field;
+    // Field scan: which field comes first in time. Top: field 0 (and every even field) holds
+    // rows 0, 2, 4, …; bottom: rows 1, 3, 5, … (y4m "It" / "Ib", V4L2_FIELD_INTERLACED_TB/BT).
+    bool topFieldFirst = true;
 
     // --- Controls other tools rely on -----------------------------------------------------
     double gain_V = 6.0;  // [V] tube gain control, 0-8 V with AGC off (thesis §4.3.1)
@@ -121,6 +125,10 @@ struct CameraParams {
 
     // Derived
     double fieldPeriod_s() const { return 1.0 / field_rate_Hz; }
+    // Field scan: the parity of the rows field k reads out (0: even rows).
+    int fieldRowParity(std::uint64_t field) const {
+        return static_cast<int>(field & 1u) ^ (topFieldFirst ? 0 : 1);
+    }
     // The time one output image integrates: a field, or a frame (two fields).
     double integrationPeriod_s() const {
         return scan == ScanMode::Field ? fieldPeriod_s() : 2.0 * fieldPeriod_s();

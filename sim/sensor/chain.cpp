@@ -947,7 +947,7 @@ void CcdStage::begin(const FieldContext& ctx) noexcept {
     const double darkVar = static_cast<double>(dark_e_);
     sigma_e_ = static_cast<float>(std::sqrt(noiseSigma_e_ * noiseSigma_e_ + darkVar));
     // Read noise belongs to the rows read out: in field mode only this field's lines.
-    readY0_ = c.scan == ScanMode::Field ? static_cast<int>(ctx.field & 1u) : 0;
+    readY0_ = c.scan == ScanMode::Field ? c.fieldRowParity(ctx.field) : 0;
     readDy_ = c.scan == ScanMode::Field ? 2 : 1;
     const int w = c.width;
     std::fill(colMax_.get(), colMax_.get() + w, 0.0f);
@@ -1101,7 +1101,7 @@ double VideoStage::apply(ImageView<const float> e, std::uint64_t field, ImageVie
 }
 
 bool VideoStage::readsRow(std::uint64_t field, int y) const noexcept {
-    return cam_->scan != ScanMode::Field || (y & 1) == static_cast<int>(field & 1u);
+    return cam_->scan != ScanMode::Field || (y & 1) == cam_->fieldRowParity(field);
 }
 
 std::int64_t VideoStage::applyRow(const float* s, float* o, std::uint16_t* v,
@@ -1141,11 +1141,15 @@ AgcLoop::AgcLoop(const CameraParams& c) : cam_(&c) {
 }
 
 void AgcLoop::reset() noexcept {
+    start(cam_->gain_V);
+}
+
+void AgcLoop::start(double gain_V) noexcept {
     for (int i = 0; i < kRing; ++i) {
-        gainRing_[i] = cam_->gain_V;
+        gainRing_[i] = gain_V;
         gateRing_[i] = 1.0;
     }
-    gainCmd_V_ = cam_->gain_V;
+    gainCmd_V_ = gain_V;
     gateCmd_ = 1.0;
 }
 
@@ -1259,6 +1263,13 @@ IiccdChain::Controls IiccdChain::controlsFor(const CameraCommand& cmd, double pe
         const bool gainLoop = cmd.agc && (m == AgcMode::Agc || m == AgcMode::Abc);
         autogate = m == AgcMode::Autogate && (cmd.agc || cmd.gateMode == 2);
         if (gainLoop) {
+            // Switched on now (or at the first field): the loop starts from the gain in
+            // effect — the last field's, or at the first field the commanded one.
+            if (!autoRunning_) {
+                agcAuto_.start(field_ == 0 ? std::clamp(cmd.gain_V, camAuto_.agc_min_gain_V,
+                                                        camAuto_.agc_max_gain_V)
+                                           : lastGain_V_);
+            }
             c.gain_V = agcAuto_.gain_V(field_);
         } else if (cmd.agc) {
             c.gain_V = cam_.gain_V;  // bsp / autogate: the tube gain stays at the preset's
@@ -1266,6 +1277,8 @@ IiccdChain::Controls IiccdChain::controlsFor(const CameraCommand& cmd, double pe
             c.gain_V = std::clamp(cmd.gain_V, 0.0, cam_.agc_max_gain_V);
         }
         if (gainLoop || autogate) c.loop = &agcAuto_;
+        autoRunning_ = gainLoop;
+        lastGain_V_ = c.gain_V;
     }
     // 2. gate
     if (autogate) {

@@ -310,6 +310,8 @@ class AgcLoop {
     // After field k: measure and command field k + lag.
     void update(const FieldContext& ctx, double level_dc) noexcept;
     void reset() noexcept;
+    // Starts the loop from a tube gain (the one in effect when it is switched on).
+    void start(double gain_V) noexcept;
 
   private:
     static constexpr int kRing = 8;
@@ -394,6 +396,10 @@ class IiccdChain {
 
     CameraParams cam_;
     CameraParams camAuto_;  // cam_ with its automatic loop switched on (ControlSource::Command)
+    // Command: the gain applied to the last field, and whether agcAuto_ ran for it (a loop
+    // switched on starts from the gain in effect, not from the preset's).
+    double lastGain_V_ = 0.0;
+    bool autoRunning_ = false;
     ControlSource source_;
     std::uint64_t field_ = 0;
     OpticsStage optics_;
