@@ -8,6 +8,7 @@
 
 #include "sim/core/config.h"
 #include "sim/core/csv.h"
+#include "sim/core/photometry.h"
 #include "sim/core/planck.h"
 #include "sim/core/units.h"
 
@@ -42,6 +43,10 @@ class Reader {
         used_->insert(full);
         return parse<T>(full, it->second);
     }
+
+    // Whether the preset file gives the key, and whether an override does.
+    bool inFile(const std::string& key) const { return t_ && t_->contains(key); }
+    bool overridden(const std::string& key) const { return ov_->count(prefix_ + key) != 0; }
 
     [[noreturn]] void fail(const std::string& key, const std::string& msg) const {
         const std::string full = prefix_ + key;
@@ -146,6 +151,7 @@ CameraParams readCamera(const ConfigDocument& doc, const Overrides& ov, const Fi
         c.response_file = p;
     }
     c.response_column = spectral.get<std::string>("response_column", c.response_column);
+    const bool qeFile = spectral.inFile("qe_peak"), qeSet = spectral.overridden("qe_peak");
     c.qe_peak = positive(spectral, "qe_peak", c.qe_peak);
     require(c.qe_peak <= 1.0, spectral, "qe_peak", "must be <= 1");
     c.monochromatic_nm = nonNegative(spectral, "monochromatic_nm", c.monochromatic_nm);
@@ -157,8 +163,18 @@ CameraParams readCamera(const ConfigDocument& doc, const Overrides& ov, const Fi
     const Reader pc = root.sub("photocathode");
     c.shot_noise = pc.get<bool>("shot_noise", c.shot_noise);
     c.ebi_lm_cm2 = nonNegative(pc, "ebi_lm_cm2", c.ebi_lm_cm2);
+    const bool skFile = pc.inFile("luminous_sensitivity_uA_lm");
+    const bool skSet = pc.overridden("luminous_sensitivity_uA_lm");
     c.cathode_sensitivity_uA_lm =
         nonNegative(pc, "luminous_sensitivity_uA_lm", c.cathode_sensitivity_uA_lm);
+    // One of the two is the datasheet's; the other follows from it through the response.
+    if (qeFile && skFile && !c.response_file.empty()) {
+        pc.fail("luminous_sensitivity_uA_lm",
+                "give either [spectral] qe_peak or the luminous sensitivity, not both: each "
+                "follows from the other through the spectral response");
+    }
+    // The one given (an override wins over the file) is the source of the other.
+    const bool qeIsSource = qeSet || (qeFile && !skSet);
     c.taper_magnification = positive(pc, "taper_magnification", c.taper_magnification);
 
     const Reader bsp = root.sub("bsp");
@@ -167,7 +183,15 @@ CameraParams readCamera(const ConfigDocument& doc, const Overrides& ov, const Fi
 
     const Reader mcp = root.sub("mcp");
     c.mcp_enabled = mcp.get<bool>("enabled", c.mcp_enabled);
+    const bool vcFile = mcp.inFile("crossover_V"), vcSet = mcp.overridden("crossover_V");
     c.mcp_crossover_V = positive(mcp, "crossover_V", c.mcp_crossover_V);
+    c.luminous_gain_fL_fc = nonNegative(mcp, "luminous_gain_fL_fc", c.luminous_gain_fL_fc);
+    c.luminous_gain_control_V =
+        nonNegative(mcp, "luminous_gain_control_V", c.luminous_gain_control_V);
+    if (vcFile && mcp.inFile("luminous_gain_fL_fc")) {
+        mcp.fail("luminous_gain_fL_fc", "give either crossover_V or the luminous gain, not both");
+    }
+    if (vcSet && !mcp.overridden("luminous_gain_fL_fc")) c.luminous_gain_fL_fc = 0.0;  // Vc wins
     c.mcp_exponent = positive(mcp, "exponent", c.mcp_exponent);
     c.mcp_offset_V = mcp.get<double>("offset_V", c.mcp_offset_V);
     c.mcp_V_per_control_V = positive(mcp, "V_per_control_V", c.mcp_V_per_control_V);
@@ -199,6 +223,8 @@ CameraParams readCamera(const ConfigDocument& doc, const Overrides& ov, const Fi
     require(c.screen_dead_voltage_V < c.screen_voltage_V, ph, "dead_voltage_V",
             "must be below screen_voltage_V");
     c.phosphor_photons_per_eV = positive(ph, "photons_per_eV", c.phosphor_photons_per_eV);
+    c.phosphor_peak_nm = positive(ph, "peak_nm", c.phosphor_peak_nm);
+    c.phosphor_efficacy_lm_W = positive(ph, "efficacy_lm_W", c.phosphor_efficacy_lm_W);
     c.taper_transmission = positive(ph, "taper_transmission", c.taper_transmission);
     c.ccd_window_transmission = positive(ph, "ccd_window_transmission", c.ccd_window_transmission);
     c.ccd_qe = positive(ph, "ccd_qe", c.ccd_qe);
@@ -259,6 +285,28 @@ CameraParams readCamera(const ConfigDocument& doc, const Overrides& ov, const Fi
     c.agc_max_gain_V = positive(loop, "max_gain_V", c.agc_max_gain_V);
     require(c.agc_min_gain_V < c.agc_max_gain_V, loop, "max_gain_V", "must exceed min_gain_V");
 
+    // Datasheet quantities → the model's: QE ↔ luminous sensitivity, and the MCP law's Vc from
+    // the luminous gain at a control voltage.
+    if (!c.response_file.empty() && c.monochromatic_nm <= 0.0) {
+        const double perQe_uA_lm = luminousSensitivityPerQe_uA_lm(c, baseDir);
+        if (qeIsSource) {
+            c.cathode_sensitivity_uA_lm = c.qe_peak * perQe_uA_lm;
+        } else {
+            c.qe_peak = c.cathode_sensitivity_uA_lm / perQe_uA_lm;
+            require(c.qe_peak > 0.0 && c.qe_peak <= 1.0, pc, "luminous_sensitivity_uA_lm",
+                    "implies a peak QE of " + std::to_string(c.qe_peak) + ", outside (0, 1]");
+        }
+    }
+    if (c.luminous_gain_fL_fc > 0.0 && c.mcp_enabled) {
+        const double perMcpGain = c.luminousGain_fL_fc(-1.0);  // fL/fc per unit MCP gain
+        require(perMcpGain > 0.0, mcp, "luminous_gain_fL_fc",
+                "needs the cathode's luminous sensitivity and the screen's efficiency");
+        const double gainRef = c.luminous_gain_fL_fc / perMcpGain;
+        const double vmRef = c.mcp_offset_V + c.mcp_V_per_control_V * c.luminous_gain_control_V;
+        require(vmRef > 0.0, mcp, "luminous_gain_control_V", "gives no MCP voltage");
+        c.mcp_crossover_V = vmRef / std::pow(gainRef, 1.0 / c.mcp_exponent);
+    }
+
     doc.finish();
     for (const auto& [key, value] : ov) {
         if (used.count(key) == 0) {
@@ -282,6 +330,32 @@ double CameraParams::controlVoltageForGain(double gain) const {
     if (!(gain > 0.0)) return 0.0;
     const double vm = mcp_crossover_V * std::pow(gain, 1.0 / mcp_exponent);
     return (vm - mcp_offset_V) / mcp_V_per_control_V;
+}
+
+double CameraParams::screenLumensPerBeamWatt() const {
+    // P photons per eV of beam, each of energy hc/λ: the radiant efficiency P·hc/(λ·e).
+    const double photon_J = kPlanck_J_s * kSpeedOfLight_m_s / (phosphor_peak_nm * 1e-9);
+    return phosphor_photons_per_eV * photon_J / kElectronCharge_C * phosphor_efficacy_lm_W;
+}
+
+double CameraParams::luminousGain_fL_fc(double gainControl_V) const {
+    // Per lumen on the cathode: S_k amperes of photocurrent, G·S_k out of the MCP, each electron
+    // landing with (Va − Vd) eV of useful energy; gainControl_V < 0: per unit MCP gain.
+    const double g = gainControl_V < 0.0 ? 1.0 : mcpGain(gainControl_V);
+    return cathode_sensitivity_uA_lm * 1e-6 * g * (screen_voltage_V - screen_dead_voltage_V) *
+           screenLumensPerBeamWatt();
+}
+
+double luminousSensitivityPerQe_uA_lm(const CameraParams& cam,
+                                      const std::filesystem::path& configDir) {
+    // A 2856 K (CIE illuminant A) source, as photocathodes are specified: the photocurrent per
+    // lumen, q·∫QE(λ)·λ/(hc)·P(λ)dλ / (K_m∫V(λ)P(λ)dλ), for a QE of peak 1.
+    const Spectrum a = planckRadiance_W_m2_sr_nm(2856.0);
+    const Spectrum photonsPerJ = Spectrum::fromFunction(
+        [](double nm) { return nm * 1e-9 / (kPlanck_J_s * kSpeedOfLight_m_s); });
+    const double pe = integrateProduct_nm(a * cameraResponse(cam), photonsPerJ);
+    const double lm = Photometry(configDir).photometricIntegral(a);
+    return kElectronCharge_C * pe / lm * 1e6;
 }
 
 double CameraParams::ccdElectronsPerMcpElectron() const {
@@ -366,7 +440,7 @@ Spectrum cameraResponse(const CameraParams& cam) {
     if (cam.response_file.empty()) {
         throw SetupError(cam.loc, "camera has no spectral.response_file; W/m2/sr input needs one");
     }
-    TabulatedSpectrum t = loadSpectrumCsv(cam.response_file, "wavelength_um", cam.response_column);
+    TabulatedSpectrum t = loadSpectrumCsv(cam.response_file, "wavelength_*", cam.response_column);
     Spectrum s = t.resample(Extrapolation::Zero);
     const double peak = s.max();
     if (!(peak > 0.0)) throw SetupError(t.loc, "response curve is zero everywhere");

@@ -67,9 +67,13 @@ struct CameraParams {
     double bsp_exponent = 1.0;
 
     // --- 5. MCP ---------------------------------------------------------------------------
-    double mcp_crossover_V = 520.0;  // [V] Vc, eq. 6.1 (typical 350-530 V)
-    double mcp_exponent = 10.0;      // g, eq. 6.1 (typical 8.5-13)
-    double mcp_offset_V = 40.0;      // [V] Vm = offset + slope·gain_V
+    // Absolute gain: Vc directly, or (anchor) the tube's luminous gain at a control voltage,
+    // from which Vc follows (luminousGain_fL_fc).
+    double mcp_crossover_V = 520.0;        // [V] Vc, eq. 6.1 (typical 350-530 V)
+    double luminous_gain_fL_fc = 0.0;      // [fL/fc] anchor; 0: crossover_V as given
+    double luminous_gain_control_V = 0.0;  // [V] control voltage of that figure
+    double mcp_exponent = 10.0;            // g, eq. 6.1 (typical 8.5-13)
+    double mcp_offset_V = 40.0;            // [V] Vm = offset + slope·gain_V
     double mcp_V_per_control_V = 190.0;
     double mcp_noise_factor = 1.6;  // F, excess noise factor
     bool mcp_noise = true;
@@ -85,6 +89,8 @@ struct CameraParams {
     double screen_voltage_V = 6000.0;        // Va, thesis §6.2
     double screen_dead_voltage_V = 1500.0;   // Vd, eq. 6.2
     double phosphor_photons_per_eV = 0.065;  // P, eq. 6.2
+    double phosphor_peak_nm = 545.0;         // emission peak (P20)
+    double phosphor_efficacy_lm_W = 500.0;   // luminous efficacy of the screen's emission
     double taper_transmission = 0.3;         // T_fot, eq. 6.2
     double ccd_window_transmission = 1.0;    // T_CCD, eq. 6.2
     double ccd_qe = 0.35;                    // QE_CCD at the P20 peak, eq. 6.2
@@ -142,6 +148,18 @@ struct CameraParams {
     double controlVoltageForGain(double gain) const;
     // CCD electrons per MCP output electron, eq. 6.2/6.3.
     double ccdElectronsPerMcpElectron() const;
+    // Luminous flux out of the screen per watt of electron beam reaching it [lm/W]:
+    // P·(hc/λ_peak)/e photons' energy per eV of beam, times the emission's efficacy.
+    double screenLumensPerBeamWatt() const;
+    // Luminous gain of the tube at a control voltage [fL/fc = lm out per lm in]: cathode
+    // sensitivity · MCP gain · (Va − Vd) · screen lm/W (2856 K input, as tubes are specified).
+    double luminousGain_fL_fc(double gainControl_V) const;
+    // Mean output [DC above the offset] per photoelectron at a control voltage: the MCP gain,
+    // screen, fibre and CCD conversion and the video gain (photon transfer's K; the MCP's
+    // excess noise factor F = mcp_noise_factor comes on top for the variance).
+    double dcPerPhotoelectron(double gainControl_V) const {
+        return mcpGain(gainControl_V) * ccdElectronsPerMcpElectron() * video_gain_dc_per_e;
+    }
     // Photoelectrons per second per pixel per unit Lpe [pe s⁻¹ m⁻² sr⁻¹] on axis (step 1).
     double peRatePerLpe_on_axis() const;
 };
@@ -167,6 +185,11 @@ Overrides parseOverrides(const std::vector<std::string>& args);
 
 // Input unit conversion for band-integrated radiance images (DESIGN §3, §7).
 // Lpe = Lband · ∫ s(λ) QE(λ) λ/(hc) dλ / ∫ s(λ) β(λ) dλ, with s the source spectrum shape,
+// Luminous sensitivity [µA/lm, 2856 K] of the camera's photocathode for a peak QE of 1: the
+// factor between the datasheet's sensitivity and qe_peak (V(λ) from configDir/spectra).
+double luminousSensitivityPerQe_uA_lm(const CameraParams& cam,
+                                      const std::filesystem::path& configDir);
+
 // QE = qe_peak·β (the relative response of the camera), β the same response used to
 // integrate the band radiance. Spectrum spec: flat | blackbody:T | moon | night_sky (the last
 // two from <configDir>/spectra).

@@ -14,8 +14,6 @@ namespace nvs::sensor {
 
 namespace {
 
-constexpr double kElectronCharge_C = 1.602176634e-19;
-
 // Photometric → photoelectron rate: lm/m² × A/lm ÷ e.
 double ebiRatePerPixel_pe_s(const CameraParams& c) {
     const double ebi_lm_m2 = c.ebi_lm_cm2 * 1e4;
@@ -526,10 +524,11 @@ double McpStage::applyRow(float* __restrict v, int w, int y) noexcept {
 double PhosphorStage::inPeriodFraction(double tau_s, double gate_s, double period_s) {
     // An impulse at t0 is emitted as exp(−(t − t0)/τ)/τ; by the period's end T it has given
     // 1 − exp(−(T − t0)/τ). Averaged over t0 uniform in [0, g]:
-    //   f = 1 − exp(−T/τ)·(exp(g/τ) − 1)/(g/τ).
+    //   f = 1 − exp(−T/τ)·(exp(g/τ) − 1)/(g/τ) = 1 − exp(−(T − g)/τ)·(1 − exp(−g/τ))/(g/τ),
+    // the second form finite for τ ≪ g (the first is 0·∞ there).
     const double x = gate_s / tau_s;
-    const double ratio = x < 1e-12 ? 1.0 : std::expm1(x) / x;
-    const double tail = std::exp(-period_s / tau_s) * ratio;
+    const double ratio = x < 1e-12 ? 1.0 : -std::expm1(-x) / x;
+    const double tail = std::exp(-(period_s - (x < 1e-12 ? 0.0 : gate_s)) / tau_s) * ratio;
     return std::clamp(1.0 - tail, 0.0, 1.0);
 }
 

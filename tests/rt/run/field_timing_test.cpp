@@ -57,9 +57,11 @@ class FieldTiming : public ::testing::Test {
             << "[scenario]\nname = \"bar\"\nwidth = " << kW << "\nheight = " << kH
             << "\n[camera]\npreset = \"pulnix-ag5745ef3\"\n"
                "set = [\"mtf.enabled=false\", \"phosphor.enabled=false\", "
-               "\"photocathode.shot_noise=false\", \"mcp.noise=false\", \"ccd.read_noise_e=0\"]\n"
+               "\"photocathode.shot_noise=false\", \"mcp.noise=false\", \"ccd.read_noise_e=0\", "
+               "\"video.noise_dc=0\"]\n"
                "[platform]\nagc = false\ngain_V = 6.0\n"
-               "[[source]]\nkind = \"test_pattern\"\ntarget_speed_px_s = "
+               "[[source]]\nkind = \"test_pattern\"\nradiance_max_W_m2_sr = "
+               "2e-3\ntarget_speed_px_s = "
             << kSpeed_px_s << "\n";
     }
     void TearDown() override { fs::remove_all(dir_); }

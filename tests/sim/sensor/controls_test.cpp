@@ -24,6 +24,7 @@ CameraParams linearCamera() {
                                              {"mtf.enabled", "false"},
                                              {"optics.cos4", "false"},
                                              {"ccd.read_noise_e", "0"},
+                                             {"video.noise_dc", "0"},
                                              {"ccd.full_well_e", "0"},
                                              {"video.scan", "frame"}});
 }
