@@ -1,6 +1,7 @@
 #include <linux/can.h>
 #include <linux/can/raw.h>
 #include <net/if.h>
+#include <poll.h>
 #include <sys/ioctl.h>
 #include <sys/socket.h>
 #include <sys/time.h>
@@ -125,6 +126,15 @@ int SocketCanBus::read(CanFrame* frame, double* rxRealtime_s) noexcept {
     }
     ++counters_.frames;
     return 1;
+}
+
+int SocketCanBus::waitReadable(int timeout_ms) noexcept {
+    if (sock_ < 0) return -EBADF;
+    pollfd p{sock_, POLLIN, 0};
+    const int n = ::poll(&p, 1, timeout_ms);
+    if (n < 0) return errno == EINTR ? 0 : -errno;
+    if (n > 0 && (p.revents & (POLLERR | POLLNVAL)) != 0 && (p.revents & POLLIN) == 0) return -EIO;
+    return n > 0 ? 1 : 0;
 }
 
 int SocketCanBus::write(const CanFrame& frame) noexcept {
