@@ -96,6 +96,10 @@ struct CanBusCounters {
     std::int64_t errors = 0;     // failed reads (other than "nothing to read")
     std::int64_t truncated = 0;  // reads shorter than a CAN frame
     std::int64_t reopens = 0;
+    // Frames the kernel dropped because this socket's receive queue was full (SO_RXQ_OVFL:
+    // the kernel's running count, as of the last frame read). Linux: Documentation/networking/
+    // can.rst; socket(7).
+    std::int64_t dropped = 0;
     int lastErrno = 0;
 };
 

@@ -34,7 +34,7 @@ command -v qemu-system-x86_64 > /dev/null ||
     skip "qemu-system-x86_64 not found (Debian package qemu-system-x86; 'make test' installs it)"
 qemu-system-x86_64 -accel help 2> /dev/null | grep -qx tcg ||
     skip "qemu-system-x86_64 has no TCG accelerator"
-for tool in busybox v4l2-ctl canplayer cansend cpio depmod modprobe dpkg-deb apt-get python3 make; do
+for tool in busybox v4l2-ctl canplayer cansend chrt cpio depmod modprobe dpkg-deb apt-get python3 make; do
     command -v "$tool" > /dev/null || skip "'$tool' not found (see PACKAGES in the Makefile)"
 done
 ldd "$(command -v busybox)" > /dev/null 2>&1 &&
@@ -86,7 +86,7 @@ copy_exe() { # copy_exe FILE [DEST]
 }
 cp "$(command -v busybox)" "$stage/bin/busybox"
 copy_exe "$nvstim" /usr/local/bin/nvstim
-for t in v4l2-ctl canplayer cansend candump; do copy_exe "$(command -v "$t")"; done
+for t in v4l2-ctl canplayer cansend candump chrt; do copy_exe "$(command -v "$t")"; done
 cp "$kdir"/modules/*.ko "$stage/hil/modules/"
 cp "$kdir/modules.load" "$here/grey.toml" "$here/y16.toml" "$ref"/telemetry.log* "$stage/hil/"
 cp -r "$src/config" "$stage/hil/config"
@@ -98,6 +98,7 @@ FRAME_W=160
 FRAME_H=120
 KILL_AFTER=$KILL_AFTER
 KILL_TAIL=$KILL_TAIL
+V4L_VER=$(sed -n 's/^v4l2loopback-dkms=//p' "$kdir/packages")
 EOF
 key=$( (cd "$stage" && find . -type f -print0 | LC_ALL=C sort -z | xargs -0 sha256sum;
         cat "$kdir/version") | sha256sum | cut -c1-16)
@@ -118,7 +119,9 @@ rm -f "$disk"
 truncate -s 128M "$disk"
 echo "hil: booting (qemu-system-x86_64 -accel tcg) [$(elapsed) s]"
 t_vm=$(date +%s.%N)
-timeout "$VM_TIMEOUT_S" qemu-system-x86_64 -accel tcg -cpu max -smp 2 -m 1536 \
+# One virtual CPU: inside it the capture client's SCHED_FIFO priority (init.sh) decides who runs
+# when a frame is written, whatever the host's load does to the VM as a whole.
+timeout "$VM_TIMEOUT_S" qemu-system-x86_64 -accel tcg -cpu max -smp 1 -m 1536 \
     -nographic -no-reboot -monitor none -serial stdio \
     -kernel "$kdir/vmlinuz" -initrd "$image" \
     -append "console=ttyS0 quiet panic=-1 oops=panic" \
