@@ -39,8 +39,10 @@ run: .nvs-build
 	@echo "nvstim: to install (binary, config, scenarios; runs from any directory):"
 	@echo "  cmake --install $(BUILD) --prefix PREFIX"
 
+# A skipped test says why in its output; those reasons are printed after the summary.
 test: .nvs-build
-	ctest --preset $(PRESET)
+	ctest --preset $(PRESET); rc=$$?; \
+	  grep -h "SKIPPED:" $(BUILD)/Testing/Temporary/LastTest.log 2>/dev/null | sort -u; exit $$rc
 
 .PHONY: .nvs-deps .nvs-build
 .nvs-deps:

@@ -6,7 +6,9 @@
 #   hil.sh NVSTIM SOURCE_DIR WORK_DIR
 #
 # Exit 0 pass, 1 fail, 77 skipped (ctest SKIP_RETURN_CODE) with the reason on stdout: no QEMU
-# or a tool missing, or Debian's kernel packages cannot be fetched.
+# or a tool missing, or Debian's kernel packages cannot be fetched. Environment: NVS_HIL_CACHE
+# (kernel layer cache), NVS_HIL_QEMU (the emulator, default qemu-system-x86_64),
+# NVS_HIL_VM_TIMEOUT_S (default 420).
 #
 # Steps: (1) the kernel layer (tests/hil/make_kernel.sh, cached under NVS_HIL_CACHE, default
 # ~/.cache/nvstim/hil); (2) the host reference: the same nvstim, scenarios and candump log
@@ -30,10 +32,10 @@ t_start=$(date +%s.%N)
 elapsed() { awk -v a="$t_start" -v b="$(date +%s.%N)" 'BEGIN {printf "%.1f", b - a}'; }
 
 # ---- (0) can QEMU run here? -------------------------------------------------------------------
-command -v qemu-system-x86_64 > /dev/null ||
-    skip "qemu-system-x86_64 not found (Debian package qemu-system-x86; 'make test' installs it)"
-qemu-system-x86_64 -accel help 2> /dev/null | grep -qx tcg ||
-    skip "qemu-system-x86_64 has no TCG accelerator"
+qemu=${NVS_HIL_QEMU:-qemu-system-x86_64}
+command -v "$qemu" > /dev/null ||
+    skip "$qemu not found (Debian package qemu-system-x86; 'make test' installs it)"
+"$qemu" -accel help 2> /dev/null | grep -qx tcg || skip "$qemu has no TCG accelerator"
 for tool in busybox v4l2-ctl canplayer cansend chrt cpio depmod modprobe dpkg-deb apt-get python3 make; do
     command -v "$tool" > /dev/null || skip "'$tool' not found (see PACKAGES in the Makefile)"
 done
@@ -121,7 +123,7 @@ echo "hil: booting (qemu-system-x86_64 -accel tcg) [$(elapsed) s]"
 t_vm=$(date +%s.%N)
 # One virtual CPU: inside it the capture client's SCHED_FIFO priority (init.sh) decides who runs
 # when a frame is written, whatever the host's load does to the VM as a whole.
-timeout "$VM_TIMEOUT_S" qemu-system-x86_64 -accel tcg -cpu max -smp 1 -m 1536 \
+timeout "$VM_TIMEOUT_S" "$qemu" -accel tcg -cpu max -smp 1 -m 1536 \
     -nographic -no-reboot -monitor none -serial stdio \
     -kernel "$kdir/vmlinuz" -initrd "$image" \
     -append "console=ttyS0 quiet panic=-1 oops=panic" \
