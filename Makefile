@@ -9,7 +9,10 @@
 PACKAGES := build-essential cmake ninja-build pkg-config \
             libtomlplusplus-dev libcli11-dev libgtest-dev libgmock-dev libbenchmark-dev \
             librandom123-dev libgsl-dev liberfa-dev libembree-dev libopenexr-dev libfftw3-dev \
-            libgpiod-dev libtinyobjloader-dev libssl-dev libpng-dev python3 python3-ephem clang-format ffmpeg
+            libgpiod-dev libtinyobjloader-dev libssl-dev libpng-dev python3 python3-ephem clang-format ffmpeg \
+            qemu-system-x86 busybox-static can-utils v4l-utils kmod cpio
+# The last line is the HIL test's (tests/hil): a QEMU virtual machine with Debian's kernel,
+# busybox, can-utils and v4l2-ctl; the kernel packages themselves are fetched by the test.
 
 PRESET   ?= release
 BUILD    := build/$(PRESET)
@@ -36,8 +39,10 @@ run: .nvs-build
 	@echo "nvstim: to install (binary, config, scenarios; runs from any directory):"
 	@echo "  cmake --install $(BUILD) --prefix PREFIX"
 
+# A skipped test says why in its output; those reasons are printed after the summary.
 test: .nvs-build
-	ctest --preset $(PRESET)
+	ctest --preset $(PRESET); rc=$$?; \
+	  grep -h "SKIPPED:" $(BUILD)/Testing/Temporary/LastTest.log 2>/dev/null | sort -u; exit $$rc
 
 .PHONY: .nvs-deps .nvs-build
 .nvs-deps:

@@ -96,6 +96,10 @@ struct CanBusCounters {
     std::int64_t errors = 0;     // failed reads (other than "nothing to read")
     std::int64_t truncated = 0;  // reads shorter than a CAN frame
     std::int64_t reopens = 0;
+    // Frames the kernel dropped because this socket's receive queue was full (SO_RXQ_OVFL:
+    // the kernel's running count, as of the last frame read). Linux: Documentation/networking/
+    // can.rst; socket(7).
+    std::int64_t dropped = 0;
     int lastErrno = 0;
 };
 
@@ -111,6 +115,10 @@ class CanBus {
     // Non-blocking read: 1 and a frame with its receive time [s since the Unix epoch], 0 when
     // nothing is pending, -errno on failure.
     virtual int read(CanFrame* frame, double* rxRealtime_s) noexcept = 0;
+    // Waits up to `timeout_ms` for a frame to read: 1 when one is pending, 0 on timeout,
+    // -errno on failure. A reader that must wait for the bus (the sim clock's lockstep) calls it
+    // instead of spinning on read().
+    virtual int waitReadable(int timeout_ms) noexcept = 0;
     virtual int write(const CanFrame& frame) noexcept = 0;
     virtual CanBusState state() const noexcept = 0;
     virtual const CanBusCounters& counters() const noexcept = 0;
@@ -128,6 +136,7 @@ class SocketCanBus final : public CanBus {
     int open(const std::string& iface, bool fd, const std::vector<CanFilter>& filters) override;
     void close() noexcept override;
     int read(CanFrame* frame, double* rxRealtime_s) noexcept override;
+    int waitReadable(int timeout_ms) noexcept override;  // poll(2), POLLIN
     int write(const CanFrame& frame) noexcept override;
     CanBusState state() const noexcept override { return state_; }
     const CanBusCounters& counters() const noexcept override { return counters_; }

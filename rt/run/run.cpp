@@ -111,7 +111,8 @@ std::unique_ptr<PlatformSource> makePlatformSource(const std::optional<std::stri
                                                    const DataDirs& dirs) {
     if (!text) return std::make_unique<HeldPlatform>(sc.platform);
     Spec s = parseSpec(*text, "--telemetry");
-    auto src = makeTelemetrySource(s, sc, clock, "--telemetry " + *text, dirs.config);
+    auto src =
+        makeTelemetrySource(s, sc, clock, "--telemetry " + *text, dirs.config, &stopRequested());
     s.finish("--telemetry " + *text);
     return src;
 }
@@ -287,6 +288,12 @@ int runScenario(const RunRequest& req, std::FILE* status) {
     } else if (sc.trigger) {
         notes.push_back("[runtime] trigger is not used with --clock sim (nominal " +
                         std::to_string(sc.rate.hz()) + " Hz)");
+    }
+    // A live bus under the sim clock: the frames step with the telemetry's own time. The line
+    // says the bus is open and the loop waits, so a sender may start (tests/hil waits for it).
+    const std::optional<std::string>& tel = req.telemetry ? req.telemetry : sc.telemetry;
+    if (req.clock == ClockKind::Sim && tel && tel->rfind("can:", 0) == 0) {
+        notes.push_back("lockstep: frames follow the time signal of " + *tel);
     }
 
     std::string mainMsg;

@@ -185,8 +185,24 @@ std::int64_t ReplayInput::badInput() const noexcept {
 // ---- CanInput --------------------------------------------------------------------------------
 
 CanInput::CanInput(std::unique_ptr<drivers::CanBus> bus, std::string iface, bool fd,
-                   drivers::DbcDatabase db, const std::string& recordPath)
-    : bus_(std::move(bus)), iface_(std::move(iface)), fd_(fd), decoder_(std::move(db)) {
+                   drivers::DbcDatabase db, const std::string& recordPath, CanLockstep lockstep)
+    : bus_(std::move(bus)),
+      iface_(std::move(iface)),
+      fd_(fd),
+      decoder_(std::move(db)),
+      lock_(lockstep) {
+    if (lock_.enabled) {
+        bool timed = false;
+        for (const drivers::DbcMessage& m : decoder_.database().messages()) {
+            for (const drivers::DbcSignal& sig : m.signals)
+                timed = timed || sig.name == "UnixTime_s";
+        }
+        if (!timed) {
+            throw SetupError("can:" + iface_ +
+                             " with --clock sim: the DBC has no UnixTime_s signal, so the "
+                             "telemetry carries no time of its own to step the frames by");
+        }
+    }
     const int rc = bus_->open(iface_, fd_, {});
     if (rc != 0) {
         throw SetupError("can:" + iface_ + ": cannot open: " + std::strerror(-rc) +
@@ -204,7 +220,87 @@ CanInput::~CanInput() {
     if (recordFd_ >= 0) ::close(recordFd_);
 }
 
+void CanInput::record(const drivers::CanFrame& f, double rxReal_s) noexcept {
+    if (recordFd_ < 0) return;
+    char line[256];
+    const std::size_t n =
+        drivers::formatCandumpLine(rxReal_s, iface_.c_str(), f, line, sizeof line);
+    if (n == 0 || drivers::writeAll(recordFd_, line, n) != 0) ++recordErrors_;
+}
+
+bool CanInput::stampAndApply(const drivers::CanFrame& f, double now_s,
+                             PlatformTrack& track) noexcept {
+    TelemetryUpdate u;
+    if (!decoder_.decode(f, 0.0, &u)) return true;  // bad input: counted by the decoder
+    if ((u.fields & TelemetryUpdate::kUtc) != 0) {
+        ++marks_;
+        if (!haveEpoch_) {
+            haveEpoch_ = true;
+            epochUtc_s_ = u.utc_unix_s;
+        }
+        const double t_s = u.utc_unix_s - epochUtc_s_;
+        if (t_s > now_s) {
+            // The loop has not reached this mark: it and everything after it wait.
+            held_ = true;
+            heldUpdate_ = u;
+            heldStamp_s_ = t_s;
+            return false;
+        }
+        stamp_s_ = t_s;
+    }
+    u.rx_s = stamp_s_;
+    track.apply(u);
+    return true;
+}
+
+void CanInput::pollLockstep(double now_s, PlatformTrack& track) noexcept {
+    if (held_) {
+        if (heldStamp_s_ > now_s) return;
+        held_ = false;
+        stamp_s_ = heldStamp_s_;
+        heldUpdate_.rx_s = stamp_s_;
+        track.apply(heldUpdate_);
+    }
+    const std::int64_t idle_ns = static_cast<std::int64_t>(lock_.idle_s * 1e9);
+    std::int64_t lastFrame_ns = monotonicNow_ns();
+    drivers::CanFrame f;
+    double rxReal_s = 0.0;
+    for (;;) {
+        if (lock_.stop != nullptr && lock_.stop->load(std::memory_order_relaxed)) return;
+        const int rc =
+            bus_->state() == drivers::CanBusState::Open ? bus_->read(&f, &rxReal_s) : -ENETDOWN;
+        if (rc == 1) {
+            lastFrame_ns = monotonicNow_ns();
+            record(f, rxReal_s);
+            if (!stampAndApply(f, now_s, track)) return;
+            continue;
+        }
+        // Nothing to read (or a failed read, counted by the bus): wait for the bus, in slices
+        // so that the stop flag is seen, unless the stream has ended.
+        if (ended_) return;
+        const std::int64_t now_ns = monotonicNow_ns();
+        if (now_ns - lastFrame_ns >= idle_ns) {
+            ended_ = true;
+            return;
+        }
+        if (bus_->state() != drivers::CanBusState::Open) {
+            const double wall_s = static_cast<double>(now_ns) * 1e-9;
+            if (wall_s - lastReopen_s_ >= 1.0) {
+                lastReopen_s_ = wall_s;
+                bus_->open(iface_, fd_, {});
+            }
+            WallClock::sleepUntil(now_ns + 50'000'000);
+        } else {
+            bus_->waitReadable(50);
+        }
+    }
+}
+
 void CanInput::poll(double now_s, PlatformTrack& track) noexcept {
+    if (lock_.enabled) {
+        pollLockstep(now_s, track);
+        return;
+    }
     if (bus_->state() != drivers::CanBusState::Open) {
         // The interface went down: try again once a second, keep the last good state.
         if (now_s - lastReopen_s_ < 1.0) return;
@@ -221,19 +317,19 @@ void CanInput::poll(double now_s, PlatformTrack& track) noexcept {
         if (rc <= 0) break;
         // Kernel receive time (CLOCK_REALTIME) → run clock, by its age now.
         const double rx_s = now_s - (realtimeNow_s - rxReal_s);
-        if (recordFd_ >= 0) {
-            char line[256];
-            const std::size_t n =
-                drivers::formatCandumpLine(rxReal_s, iface_.c_str(), f, line, sizeof line);
-            if (n == 0 || drivers::writeAll(recordFd_, line, n) != 0) ++recordErrors_;
-        }
+        record(f, rxReal_s);
         if (decoder_.decode(f, rx_s, &u)) track.apply(u);
     }
 }
 
 std::string CanInput::status() const {
+    std::string lock;
+    if (lock_.enabled) {
+        lock = ", lockstep: time marks " + std::to_string(marks_) +
+               (ended_ ? ", stream ended (silent " + std::to_string(lock_.idle_s) + " s)" : "");
+    }
     return "can:" + iface_ + ": " + bus_->status() + ", " + canCounters(decoder_.counters()) +
-           (recordErrors_ > 0 ? ", record errors " + std::to_string(recordErrors_) : "");
+           (recordErrors_ > 0 ? ", record errors " + std::to_string(recordErrors_) : "") + lock;
 }
 
 std::int64_t CanInput::badInput() const noexcept {

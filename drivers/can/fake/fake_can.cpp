@@ -1,6 +1,8 @@
 #include "drivers/can/fake/fake_can.h"
 
 #include <cerrno>
+#include <chrono>
+#include <thread>
 
 namespace nvs::drivers {
 
@@ -33,6 +35,13 @@ int FakeCanBus::read(CanFrame* frame, double* rxRealtime_s) noexcept {
         ++counters_.frames;
         return 1;
     }
+    return 0;
+}
+
+int FakeCanBus::waitReadable(int timeout_ms) noexcept {
+    if (state_ != CanBusState::Open) return -EBADF;
+    if (!queue_.empty()) return 1;
+    std::this_thread::sleep_for(std::chrono::milliseconds(timeout_ms));
     return 0;
 }
 

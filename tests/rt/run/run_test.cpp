@@ -223,6 +223,21 @@ TEST_F(RunTest, BadArgumentsAreOneLineSetupErrors) {
     EXPECT_NE(r.out.find("bad.toml:3"), std::string::npos) << r.out;
 }
 
+// Telemetry and the sim clock: CAN steps in lockstep with its time signal (so it is accepted and
+// opens the bus), serial carries no time of its own (refused), idle_s belongs to the lockstep.
+TEST_F(RunTest, SimClockTakesCanInLockstepButNotSerial) {
+    const std::string run = std::string(NVSTIM_EXE) + " run " + (dir_ / "scenario.toml").string();
+    Result r = sh(run + " --clock sim --frames 2 --telemetry can:nvsnosuch0 2>&1");
+    EXPECT_EQ(r.status, 2);
+    EXPECT_NE(r.out.find("can:nvsnosuch0: cannot open"), std::string::npos) << r.out;
+    r = sh(run + " --clock sim --frames 2 --telemetry 'serial:/dev/null?proto=nmea' 2>&1");
+    EXPECT_EQ(r.status, 2);
+    EXPECT_NE(r.out.find("serial telemetry needs --clock wall"), std::string::npos) << r.out;
+    r = sh(run + " --clock wall --frames 2 --telemetry 'can:nvsnosuch0?idle_s=1' 2>&1");
+    EXPECT_EQ(r.status, 2);
+    EXPECT_NE(r.out.find("idle_s needs --clock sim"), std::string::npos) << r.out;
+}
+
 // Interlaced frame-rate output through nvstim run with the IICCD camera (field-scan NTSC
 // preset): 29.97 Hz frames, each woven from two 59.94 Hz fields; the metadata's t_sample_s is
 // each frame's second field, one NTSC frame period apart.
