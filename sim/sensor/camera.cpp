@@ -199,6 +199,17 @@ CameraParams readCamera(const ConfigDocument& doc, const Overrides& ov, const Fi
     require(c.mcp_noise_factor >= 1.0, mcp, "noise_factor", "F must be >= 1");
     c.mcp_noise = mcp.get<bool>("noise", c.mcp_noise);
 
+    const Reader halo = root.sub("halo");
+    c.halo_enabled = halo.get<bool>("enabled", c.halo_enabled);
+    c.halo_fraction = nonNegative(halo, "fraction", c.halo_fraction);
+    require(c.halo_fraction < 1.0, halo, "fraction", "must be below 1");
+    c.halo_gap_um = positive(halo, "gap_um", c.halo_gap_um);
+    c.halo_radius_um = nonNegative(halo, "radius_um", c.halo_radius_um);
+    const Reader sat = root.sub("mcp_saturation");
+    c.mcpsat_enabled = sat.get<bool>("enabled", c.mcpsat_enabled);
+    c.mcpsat_pixel_charge_e = positive(sat, "pixel_charge_e", c.mcpsat_pixel_charge_e);
+    c.mcpsat_recharge_s = positive(sat, "recharge_s", c.mcpsat_recharge_s);
+
     const Reader abc = root.sub("abc");
     c.abc_screen_limit_A = positive(abc, "screen_limit_A", c.abc_screen_limit_A);
     c.abc_time_constant_s = positive(abc, "time_constant_s", c.abc_time_constant_s);

@@ -81,6 +81,20 @@ struct CameraParams {
     double abc_screen_limit_A = 5e-9;  // [A] ABC screen-current limit
     double abc_time_constant_s = 0.1;  // [s]
 
+    // --- 3b. Halo: photoelectrons backscattered at the MCP input land on a disk ------------
+    bool halo_enabled = false;
+    double halo_fraction = 0.0;   // share of the photoelectrons that land displaced
+    double halo_gap_um = 150.0;   // cathode–MCP gap d; elastic backscatter lands within 2d
+    double halo_radius_um = 0.0;  // ring radius at the cathode; 0: 2·gap
+    double haloRadius_um() const {
+        return halo_radius_um > 0.0 ? halo_radius_um : 2.0 * halo_gap_um;
+    }
+
+    // --- 5b. MCP local saturation: the charge a channel can give, recharged through its wall -
+    bool mcpsat_enabled = false;
+    double mcpsat_pixel_charge_e = 2.4e4;  // output electrons available per CCD-pixel area
+    double mcpsat_recharge_s = 0.01;       // recharge time constant τ
+
     // --- 6. Phosphor ----------------------------------------------------------------------
     bool phosphor_enabled = true;
     std::string phosphor_type = "P20";

@@ -25,6 +25,8 @@ CameraParams linearCamera() {
                                              {"optics.cos4", "false"},
                                              {"ccd.read_noise_e", "0"},
                                              {"video.noise_dc", "0"},
+                                             {"halo.enabled", "false"},
+                                             {"mcp_saturation.enabled", "false"},
                                              {"ccd.full_well_e", "0"},
                                              {"video.scan", "frame"}});
 }
