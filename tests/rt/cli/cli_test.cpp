@@ -4,9 +4,12 @@
 
 #include <gtest/gtest.h>
 #include <sys/wait.h>
+#include <unistd.h>
 
 #include <array>
 #include <cstdio>
+#include <filesystem>
+#include <fstream>
 #include <string>
 
 namespace nvs {
@@ -83,6 +86,46 @@ TEST(Cli, VersionPrintsName) {
     const Result r = runNvstim("--version");
     EXPECT_EQ(r.status, 0);
     EXPECT_EQ(r.out.rfind("nvstim ", 0), 0u) << r.out;
+}
+
+// Both tube generations through every command that takes a camera: illum (with the per-lux
+// photoelectron yields), sensor (W/m2/sr input, which needs the response curve), render and run
+// (a scenario on the RIT scene with each preset, at a small size).
+TEST(Cli, GenIIAndGenIIIPresetsWorkInEveryCommand) {
+    namespace fs = std::filesystem;
+    const fs::path dir = fs::temp_directory_path() / ("nvs_cli_gen_" + std::to_string(::getpid()));
+    fs::create_directories(dir);
+    {  // a 16×8 PFM of 1e-5 W m⁻² sr⁻¹
+        std::ofstream pfm(dir / "in.pfm", std::ios::binary);
+        pfm << "Pf\n16 8\n-1.0\n";
+        const float v = 1e-5f;
+        for (int i = 0; i < 16 * 8; ++i)
+            pfm.write(reinterpret_cast<const char*>(&v), sizeof v);
+    }
+    const fs::path rit = fs::path(NVS_SOURCE_DIR) / "scenarios" / "rit" / "scene.toml";
+    for (const char* preset : {"pulnix-ag5745ef3", "gen2-s25-p20"}) {
+        Result r = runNvstim(std::string("illum --lat 43.17 --lon -77.62 --height-m 218 --utc "
+                                         "1998-09-02T01:00:00Z --camera ") +
+                             preset);
+        EXPECT_EQ(r.status, 0) << preset << ": " << r.out;
+        EXPECT_NE(r.out.find("\"pe_per_lux_s_m2\""), std::string::npos) << r.out;
+        r = runNvstim(std::string("sensor --camera ") + preset +
+                      " --set width=16 --set height=8 --unit W/m2/sr --in " +
+                      (dir / "in.pfm").string() + " --out " + (dir / "out.pgm").string());
+        EXPECT_EQ(r.status, 0) << preset << ": " << r.out;
+        std::ofstream(dir / "s.toml")
+            << "[scenario]\nname = \"gen\"\nwidth = 64\nheight = 48\nduration_s = 0.1\n"
+               "utc_start = \"1998-09-02T01:00:00Z\"\n[site]\nlat_deg = 43.16856\n"
+               "lon_deg = -77.61583\nheight_m = 218.0\n[camera]\npreset = \""
+            << preset << "\"\n[scene]\nfile = \"" << rit.string() << "\"\n";
+        r = runNvstim("render " + (dir / "s.toml").string() + " --frame 0 --out " +
+                      (dir / "r.exr").string());
+        EXPECT_EQ(r.status, 0) << preset << ": " << r.out;
+        r = runNvstim("run " + (dir / "s.toml").string() +
+                      " --clock sim --frames 2 --output y4m:" + (dir / "o.y4m").string());
+        EXPECT_EQ(r.status, 0) << preset << ": " << r.out;
+    }
+    fs::remove_all(dir);
 }
 
 }  // namespace
