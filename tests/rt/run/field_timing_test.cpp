@@ -176,6 +176,23 @@ TEST_F(FieldTiming, FfprobeReadsTheY4mAsInterlacedTopFieldFirst) {
     EXPECT_EQ(out.substr(0, 2), "tt") << out;
 }
 
+// The CCIR preset: 25 frames/s of two 50 Hz fields, by default, from the preset alone.
+TEST_F(FieldTiming, CcirPresetRunsAt25FramesOf50HzFields) {
+    std::string text = slurp(dir_ / "scenario.toml");
+    text.replace(text.find("pulnix-ag5745ef3"), 16, "pulnix-ag5745ef3-ccir");
+    std::ofstream(dir_ / "scenario.toml") << text;
+    std::string header;
+    (void)run(2, &header);
+    EXPECT_NE(header.find(" F25:1 "), std::string::npos) << header;
+    EXPECT_NE(header.find(" It "), std::string::npos) << header;
+    std::ifstream meta(dir_ / "out.jsonl");
+    std::string line;
+    ASSERT_TRUE(std::getline(meta, line));
+    const std::size_t a = line.find("\"t_sample_s\":", line.find("\"fields\":["));
+    const std::size_t b = line.find("\"t_sample_s\":", a + 1);
+    EXPECT_NEAR(std::stod(line.substr(b + 13)) - std::stod(line.substr(a + 13)), 1.0 / 50.0, 1e-9);
+}
+
 TEST_F(FieldTiming, ProgressiveFieldCameraAtAnotherRateIsRefused) {
     std::ofstream(dir_ / "scenario.toml", std::ios::app) << "";
     std::string text = slurp(dir_ / "scenario.toml");
