@@ -410,6 +410,10 @@ ContactSheetSink::ContactSheetSink(const std::string& path, int width, int heigh
     if (!parent.empty()) makeOutputDir(parent.string(), name_);
     // The sheet's temporary is created now: a path that cannot be written (a folder, no
     // permission, a read-only file system) fails the setup instead of the end of the run.
+    std::error_code ec;
+    if (std::filesystem::is_directory(path, ec)) {
+        throw SetupError(name_ + ": '" + path + "' is a directory, not a PNG file");
+    }
     const std::string temp = path_ + ".part";
     part_ = std::fopen(temp.c_str(), "wbx");
     if (part_ == nullptr && errno == EEXIST) {
