@@ -9,6 +9,9 @@
 //   ReplayInput     a candump log; frame times are shifted so the first is at run time 0
 //   CanInput        a CanBus (SocketCAN or fake); optional candump recording
 //   SerialInput     a SerialPort with NMEA 0183 or MAVLink framing (drivers/serial)
+// A live device that goes away (serial hang-up or EIO, CAN ENETDOWN/ENODEV) is counted once per
+// loss, its status says PORT LOST / BUS LOST until it is back, the last good state is held (and
+// goes stale), and it is reopened with backoff: 0.1 s, doubling, at most 5 s between tries.
 //   TelemetryPlatform  PlatformSource = one input + its PlatformTrack
 
 #include <cstdint>
@@ -20,6 +23,7 @@
 #include "drivers/serial/serial.h"
 #include "rt/loop/stages.h"
 #include "rt/telemetry/track.h"
+#include "sim/core/backoff.h"
 
 namespace nvs::rt {
 
@@ -114,7 +118,12 @@ class CanInput final : public TelemetryInput {
     CanDecoder decoder_;
     int recordFd_ = -1;
     std::int64_t recordErrors_ = 0;
-    double lastReopen_s_ = -1e9;
+    // Device loss: counted once per loss, reopened with backoff (sim/core/backoff.h).
+    Backoff backoff_{kReconnectFirst_s, kReconnectMax_s};
+    bool busUp_ = true;
+    std::int64_t busLosses_ = 0;
+    std::int64_t reopenAttempts_ = 0;
+    std::int64_t reopened_ = 0;
 };
 
 class SerialInput final : public TelemetryInput {
@@ -133,8 +142,13 @@ class SerialInput final : public TelemetryInput {
     Proto proto_;
     drivers::NmeaParser nmea_;
     drivers::MavlinkParser mavlink_;
+    // Device loss (a hang-up, EIO): counted once per loss, reopened with backoff. False while
+    // the port is still lost.
+    bool reconnect(double now_s) noexcept;
     std::int64_t disconnects_ = 0;
-    double lastReopen_s_ = -1e9;
+    std::int64_t reopenAttempts_ = 0;
+    std::int64_t reopened_ = 0;
+    Backoff backoff_{kReconnectFirst_s, kReconnectMax_s};
     bool wasOpen_ = true;
 };
 
