@@ -112,8 +112,8 @@ int ExrSequenceSink::writeImage(const msg::OutputFrame& frame, ImageView<const f
             Imf::OutputFile file(stream, header);
             Imf::FrameBuffer fb;
             fb.insert("Y",
-                      Imf::Slice(Imf::FLOAT, reinterpret_cast<char*>(buffer_.data()),
-                                 sizeof(float), sizeof(float) * static_cast<std::size_t>(width_)));
+                      Imf::Slice(Imf::FLOAT, reinterpret_cast<char*>(buffer_.data()), sizeof(float),
+                                 sizeof(float) * static_cast<std::size_t>(width_)));
             file.setFrameBuffer(fb);
             file.writePixels(height_);
         } catch (const std::exception&) {

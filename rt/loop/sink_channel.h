@@ -99,8 +99,8 @@ class SinkChannel {
     int depth_;
     std::vector<std::unique_ptr<Entry>> entries_;
     // Single producer (output thread), single consumer (sink thread).
-    std::atomic<std::uint64_t> head_{0};  // next entry to write (consumer)
-    std::atomic<std::uint64_t> tail_{0};  // next entry to fill (producer)
+    std::atomic<std::uint64_t> head_{0};       // next entry to write (consumer)
+    std::atomic<std::uint64_t> tail_{0};       // next entry to fill (producer)
     std::atomic<std::uint32_t> queuedSeq_{0};  // bumped on every push and at finish
     std::atomic<std::uint32_t> freeSeq_{0};    // bumped on every pop, failure and wake
     std::atomic<bool> finishing_{false};

@@ -2,8 +2,8 @@
 
 #include <fcntl.h>
 #include <gnu/libc-version.h>
-#include <signal.h>
 #include <openssl/evp.h>
+#include <signal.h>
 #include <spawn.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -11,9 +11,9 @@
 #include <algorithm>
 #include <cerrno>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
-#include <cstdio>
 #include <fstream>
 #include <regex>
 #include <sstream>
@@ -171,7 +171,8 @@ int runProcess(const std::vector<std::string>& args, const fs::path& log) {
     // for the child and fails with ECHILD, and its status is lost (wait(2), "NOTES"). The
     // default disposition is restored around the child's life, and waitpid() is retried only
     // on EINTR: any other failure is an error, never a spin.
-    struct sigaction dfl {}, old {};
+    struct sigaction dfl {
+    }, old{};
     dfl.sa_handler = SIG_DFL;
     sigemptyset(&dfl.sa_mask);
     sigaction(SIGCHLD, &dfl, &old);
@@ -340,8 +341,9 @@ fs::path expectedFolder(const fs::path& dir) {
     const fs::path exp = dir / "expected";
     const fs::file_status st = fs::symlink_status(exp);
     if (fs::is_symlink(st)) {
-        throw SetupError(exp.string() + ": is a symbolic link; --bless writes only a real folder "
-                                        "inside the scenario (replace the link by a folder)");
+        throw SetupError(exp.string() +
+                         ": is a symbolic link; --bless writes only a real folder "
+                         "inside the scenario (replace the link by a folder)");
     }
     if (fs::exists(st) && !fs::is_directory(st)) {
         throw SetupError(exp.string() + ": exists and is not a folder");
@@ -356,7 +358,8 @@ fs::path expectedFolder(const fs::path& dir) {
 // What --bless writes (and so may remove): digest.toml, stats.toml, wN_*.pfm.
 bool isBlessOutput(const fs::directory_entry& e) {
     if (!e.is_regular_file() || e.is_symlink()) return false;
-    static const std::regex names(R"((digest|stats)\.toml(\.tmp)?|w[0-9]+_(mean|meanvar|pixvar)\.pfm)");
+    static const std::regex names(
+        R"((digest|stats)\.toml(\.tmp)?|w[0-9]+_(mean|meanvar|pixvar)\.pfm)");
     return std::regex_match(e.path().filename().string(), names);
 }
 
@@ -522,9 +525,8 @@ ReplayResult checkScenario(const fs::path& dir, const fs::path& nvstimExe) {
             static_cast<std::int64_t>(files.size())) {
             // The replay came out short: the window cannot be compared, which is a failure.
             r.passed = false;
-            rep << "  window " << i << " (frames " << ref.first << "-"
-                << ref.first + ref.count - 1 << "): not in the replay's " << files.size()
-                << " frames\n";
+            rep << "  window " << i << " (frames " << ref.first << "-" << ref.first + ref.count - 1
+                << "): not in the replay's " << files.size() << " frames\n";
             continue;
         }
         const std::string stem = "w" + std::to_string(i);

@@ -248,8 +248,7 @@ void printSummary(std::FILE* status, const std::string& name, const FrameLoop& l
                  st.period.max_s() * 1e3, st.renderLatency.quantile_s(0.5) * 1e3,
                  st.renderLatency.quantile_s(0.99) * 1e3, st.renderLatency.max_s() * 1e3);
     if (st.latency.count() > 0) {
-        std::fprintf(status,
-                     "nvstim run: telemetry to emission p50 %.3f p99 %.3f max %.3f ms\n",
+        std::fprintf(status, "nvstim run: telemetry to emission p50 %.3f p99 %.3f max %.3f ms\n",
                      st.latency.quantile_s(0.5) * 1e3, st.latency.quantile_s(0.99) * 1e3,
                      st.latency.max_s() * 1e3);
     }
@@ -377,21 +376,20 @@ int runScenario(const RunRequest& req, std::FILE* status) {
             }
             // A miss is repeated or sends nothing; late and skipped say what became of the
             // frames that missed; queue drops are frames a stalled output could not take.
-            std::fprintf(status,
-                         "nvstim run: frame %lld  %.2f fps  misses %lld (repeated %lld, nothing "
-                         "sent %lld)  late %lld  skipped %lld  sink errors %lld  queue drops %lld"
-                         "%s  latency %s%.2f ms%s%s\n",
-                         static_cast<long long>(e), static_cast<double>(e - lastEmitted) / dt,
-                         static_cast<long long>(l.misses.load()),
-                         static_cast<long long>(l.repeats.load()),
-                         static_cast<long long>(l.dropped.load()),
-                         static_cast<long long>(l.late.load()),
-                         static_cast<long long>(l.skipped.load()),
-                         static_cast<long long>(l.sinkErrors.load()),
-                         static_cast<long long>(l.queueDrops.load()),
-                         l.outputsFailed.load() > 0 ? "  OUTPUT FAILED" : "", lat < 0 ? "n/a " : "",
-                         lat < 0 ? 0.0 : static_cast<double>(lat) * 1e-6,
-                         l.stale.load() ? "  TELEMETRY STALE" : "", trig);
+            std::fprintf(
+                status,
+                "nvstim run: frame %lld  %.2f fps  misses %lld (repeated %lld, nothing "
+                "sent %lld)  late %lld  skipped %lld  sink errors %lld  queue drops %lld"
+                "%s  latency %s%.2f ms%s%s\n",
+                static_cast<long long>(e), static_cast<double>(e - lastEmitted) / dt,
+                static_cast<long long>(l.misses.load()), static_cast<long long>(l.repeats.load()),
+                static_cast<long long>(l.dropped.load()), static_cast<long long>(l.late.load()),
+                static_cast<long long>(l.skipped.load()),
+                static_cast<long long>(l.sinkErrors.load()),
+                static_cast<long long>(l.queueDrops.load()),
+                l.outputsFailed.load() > 0 ? "  OUTPUT FAILED" : "", lat < 0 ? "n/a " : "",
+                lat < 0 ? 0.0 : static_cast<double>(lat) * 1e-6,
+                l.stale.load() ? "  TELEMETRY STALE" : "", trig);
             std::fflush(status);
             lastPrint = now;
             lastEmitted = e;

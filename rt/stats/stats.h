@@ -48,8 +48,9 @@ struct RunCounters {
     std::int64_t repeats = 0;         // missed ticks that re-sent the previous frame (repeat)
     std::int64_t deadlineMisses = 0;  // ticks whose frame was not ready, or woke > ½ period late
     std::int64_t skippedTicks = 0;    // whole periods lost because the output itself was late
-    std::int64_t droppedFrames = 0;   // missed ticks on which nothing was sent (drop, or no frame yet)
-    std::int64_t lateFrames = 0;      // frames rendered but discarded: their tick had passed
+    std::int64_t droppedFrames =
+        0;                        // missed ticks on which nothing was sent (drop, or no frame yet)
+    std::int64_t lateFrames = 0;  // frames rendered but discarded: their tick had passed
     std::int64_t skippedRenders = 0;  // frames never rendered: their tick had passed already
     std::int64_t sinkErrors = 0;      // failed sink writes (counted per sink in its status)
     std::int64_t sinkQueueDrops = 0;  // frames an output's full queue could not take (per sink)
@@ -59,12 +60,12 @@ struct RunCounters {
 
 struct RunStats {
     RunCounters counters;
-    DurationHistogram period;     // between consecutive emissions (wall clock)
-    DurationHistogram wakeLate;   // emission start − deadline (wall clock)
-    DurationHistogram frameTime;  // render + camera stage per frame
-    DurationHistogram overhead;   // loop's own work per frame (excludes stages and sinks)
-    DurationHistogram sinkTime;   // handing one frame to every sink (copy into each queue)
-    DurationHistogram latency;    // telemetry receive → frame emitted (handed to the sinks)
+    DurationHistogram period;         // between consecutive emissions (wall clock)
+    DurationHistogram wakeLate;       // emission start − deadline (wall clock)
+    DurationHistogram frameTime;      // render + camera stage per frame
+    DurationHistogram overhead;       // loop's own work per frame (excludes stages and sinks)
+    DurationHistogram sinkTime;       // handing one frame to every sink (copy into each queue)
+    DurationHistogram latency;        // telemetry receive → frame emitted (handed to the sinks)
     DurationHistogram renderLatency;  // render start → frame emitted (fresh frames)
     double elapsed_s = 0.0;
 };

@@ -69,7 +69,7 @@ class TriggerSource {
 // queue only what the sink reads; a `direct` sink (its write() never blocks and copies nothing
 // it keeps: the GPIO gate) is called on the output thread instead.
 struct SinkInputs {
-    bool counts = true;    // OutputFrame::counts
+    bool counts = true;     // OutputFrame::counts
     bool radiance = false;  // OutputFrame::radiance
     bool direct = false;
 };

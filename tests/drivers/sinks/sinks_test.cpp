@@ -2,7 +2,6 @@
 #include "drivers/sinks/sinks.h"
 
 #include <gtest/gtest.h>
-
 #include <signal.h>
 #include <sys/resource.h>
 #include <unistd.h>

@@ -4,7 +4,6 @@
 
 #include <gtest/gtest.h>
 #include <sys/wait.h>
-
 #include <unistd.h>
 
 #include <array>
@@ -95,7 +94,8 @@ TEST(Cli, VersionPrintsName) {
 // place, and a failed write left `.tmp` files). A file-size limit stands in for the full disk.
 TEST(Cli, SensorOnAFullDiskLeavesNoFileAndNoTemporary) {
     namespace fs = std::filesystem;
-    const fs::path dir = fs::temp_directory_path() / ("nvs_cli_sensor_" + std::to_string(::getpid()));
+    const fs::path dir =
+        fs::temp_directory_path() / ("nvs_cli_sensor_" + std::to_string(::getpid()));
     fs::remove_all(dir);
     fs::create_directories(dir);
     {
@@ -121,8 +121,7 @@ TEST(Cli, SensorOnAFullDiskLeavesNoFileAndNoTemporary) {
         const int st = pclose(p);
         EXPECT_TRUE(WIFEXITED(st) && WEXITSTATUS(st) != 0) << out << ": " << text;
         for (const auto& e : fs::directory_iterator(dir)) {
-            EXPECT_EQ(e.path().filename(), "in.pfm") << out << " left " << e.path() << "; "
-                                                     << text;
+            EXPECT_EQ(e.path().filename(), "in.pfm") << out << " left " << e.path() << "; " << text;
         }
     }
     fs::remove_all(dir);

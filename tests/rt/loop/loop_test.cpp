@@ -484,9 +484,9 @@ TEST(FrameLoop, AStalledOutputDelaysNeitherTheLoopNorAnotherOutput) {
     EXPECT_LE(c.deadlineMisses, 3);
     EXPECT_EQ(rec.n, 60);
     for (int i = 0; i < rec.n; ++i) {
-        const double late_s = static_cast<double>(rec.mono[i] - loop.wallClock().deadline_ns(0)) *
-                                  1e-9 -
-                              static_cast<double>(rec.tick[i]) * 0.01;
+        const double late_s =
+            static_cast<double>(rec.mono[i] - loop.wallClock().deadline_ns(0)) * 1e-9 -
+            static_cast<double>(rec.tick[i]) * 0.01;
         EXPECT_LT(late_s, 0.01) << i;
     }
     const SinkChannelCounters sc = loop.channel(0).counters();

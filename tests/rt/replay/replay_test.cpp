@@ -2,7 +2,6 @@
 #include "rt/replay/replay.h"
 
 #include <gtest/gtest.h>
-
 #include <signal.h>
 #include <stdlib.h>
 #include <unistd.h>
@@ -163,10 +162,10 @@ TEST(Replay, EmptyOrInconsistentDigestsFailClosed) {
     blessScenario(d, NVSTIM_EXE);
     const fs::path digest = d / "expected" / "digest.toml";
     const std::string good = readFile(digest);
-    std::string text = std::regex_replace(good, std::regex("frame_sha256 = \\[[^\\]]*\\]"),
-                                          "frame_sha256 = []");
-    std::ofstream(digest, std::ios::trunc) << std::regex_replace(text, std::regex("frames = 30"),
-                                                                 "frames = 0");
+    std::string text =
+        std::regex_replace(good, std::regex("frame_sha256 = \\[[^\\]]*\\]"), "frame_sha256 = []");
+    std::ofstream(digest, std::ios::trunc)
+        << std::regex_replace(text, std::regex("frames = 30"), "frames = 0");
     std::string e = checkError(d);
     EXPECT_NE(e.find("digest.toml:"), std::string::npos) << e;
     EXPECT_NE(e.find("at least 1"), std::string::npos) << e;
@@ -186,9 +185,12 @@ TEST(Replay, WindowsOutsideTheRunAreErrors) {
     blessScenario(d, NVSTIM_EXE);
     const fs::path stats = d / "expected" / "stats.toml";
     const std::string good = readFile(stats);
-    for (const auto& [key, value] : std::vector<std::pair<std::string, std::string>>{
-             {"first", "2147483600"}, {"first", "-5"}, {"count", "2147483647"}, {"count", "0"},
-             {"count", "31"}}) {
+    for (const auto& [key, value] :
+         std::vector<std::pair<std::string, std::string>>{{"first", "2147483600"},
+                                                          {"first", "-5"},
+                                                          {"count", "2147483647"},
+                                                          {"count", "0"},
+                                                          {"count", "31"}}) {
         std::ofstream(stats, std::ios::trunc) << good;
         setLine(stats, key, value);
         const std::string e = checkError(d);
@@ -249,7 +251,8 @@ TEST(Replay, BlessNeverDeletesThroughALinkOrWhatItDidNotWrite) {
 TEST(Replay, CheckWorksWhenSigchldIsIgnored) {
     const fs::path d = makeScenario("nvs_replay_sigchld", kScenario);
     blessScenario(d, NVSTIM_EXE);
-    struct sigaction ign {}, old {};
+    struct sigaction ign {
+    }, old{};
     ign.sa_handler = SIG_IGN;
     sigemptyset(&ign.sa_mask);
     sigaction(SIGCHLD, &ign, &old);

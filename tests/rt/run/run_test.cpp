@@ -213,9 +213,9 @@ TEST_F(RunTest, AFullDiskKeepsEveryWholeFrameWritten) {
 // The metadata stream on a full disk keeps whole lines only.
 TEST_F(RunTest, AFullDiskKeepsTheMetadataWholeLines) {
     const fs::path meta = dir_ / "m.jsonl";
-    const Result r = sh("ulimit -f 8; " + std::string(NVSTIM_EXE) + " run " +
-                        (dir_ / "scenario.toml").string() + " --clock sim --frames 60 --output meta:" +
-                        meta.string() + " 2>&1");
+    const Result r =
+        sh("ulimit -f 8; " + std::string(NVSTIM_EXE) + " run " + (dir_ / "scenario.toml").string() +
+           " --clock sim --frames 60 --output meta:" + meta.string() + " 2>&1");
     EXPECT_EQ(r.status, 1) << r.out;  // its only output failed: the run stopped
     EXPECT_NE(r.out.find("every output failed"), std::string::npos) << r.out;
     ASSERT_TRUE(fs::exists(meta));
@@ -237,11 +237,12 @@ TEST_F(RunTest, AFullDiskKeepsTheMetadataWholeLines) {
 TEST_F(RunTest, AStalledConsumerDelaysNeitherTheLoopNorAnotherOutput) {
     const fs::path stats = dir_ / "s.json";
     // The consumer: `sleep` holding the read end of a FIFO, never reading.
-    const Result r = sh("cd " + dir_.string() + " && mkfifo pipe && { sleep 30 < pipe > /dev/null " +
-                        "2>&1 & sp=$!; } && " + std::string(NVSTIM_EXE) +
-                        " run scenario.toml --clock wall --frames 150 --output y4m:- " +
-                        "--output meta:m.jsonl --stats " + stats.string() +
-                        " > pipe 2>/dev/null; echo rc=$?; kill $sp");
+    const Result r =
+        sh("cd " + dir_.string() + " && mkfifo pipe && { sleep 30 < pipe > /dev/null " +
+           "2>&1 & sp=$!; } && " + std::string(NVSTIM_EXE) +
+           " run scenario.toml --clock wall --frames 150 --output y4m:- " +
+           "--output meta:m.jsonl --stats " + stats.string() +
+           " > pipe 2>/dev/null; echo rc=$?; kill $sp");
     EXPECT_NE(r.out.find("rc=4"), std::string::npos) << r.out;  // y4m failed: cancelled
     const std::string s = slurp(stats);
     ASSERT_FALSE(s.empty());
@@ -290,9 +291,8 @@ TEST_F(RunTest, SigintDoesNotWaitForABlockedWrite) {
 // exits 4; when it was the only one, every output has failed and the run stops with 1.
 TEST_F(RunTest, AConsumerThatGoesAwayFailsItsOutput) {
     Result r = sh(std::string(NVSTIM_EXE) + " run " + (dir_ / "scenario.toml").string() +
-                  " --clock sim --frames 600 --output y4m:- --stats " +
-                  (dir_ / "s.json").string() + " 2>" + (dir_ / "err").string() +
-                  " | head -c 100000 > /dev/null");
+                  " --clock sim --frames 600 --output y4m:- --stats " + (dir_ / "s.json").string() +
+                  " 2>" + (dir_ / "err").string() + " | head -c 100000 > /dev/null");
     std::string s = slurp(dir_ / "s.json");
     EXPECT_NE(s.find("\"failure\":\"stopping: every output failed\""), std::string::npos) << s;
     EXPECT_NE(s.find("\"outputs_failed\":1"), std::string::npos) << s;
@@ -300,11 +300,10 @@ TEST_F(RunTest, AConsumerThatGoesAwayFailsItsOutput) {
     // The status of the first command of a pipeline, without bash: through a file.
     r = sh("(" + std::string(NVSTIM_EXE) + " run " + (dir_ / "scenario.toml").string() +
            " --clock sim --frames 600 --output y4m:- 2>/dev/null; echo $? > " +
-           (dir_ / "rc1").string() + ") | head -c 100000 > /dev/null; (" +
-           std::string(NVSTIM_EXE) + " run " + (dir_ / "scenario.toml").string() +
-           " --clock sim --frames 600 --output y4m:- --output meta:" +
-           (dir_ / "m.jsonl").string() + " 2>/dev/null; echo $? > " + (dir_ / "rc2").string() +
-           ") | head -c 100000 > /dev/null");
+           (dir_ / "rc1").string() + ") | head -c 100000 > /dev/null; (" + std::string(NVSTIM_EXE) +
+           " run " + (dir_ / "scenario.toml").string() +
+           " --clock sim --frames 600 --output y4m:- --output meta:" + (dir_ / "m.jsonl").string() +
+           " 2>/dev/null; echo $? > " + (dir_ / "rc2").string() + ") | head -c 100000 > /dev/null");
     EXPECT_EQ(std::stoi(slurp(dir_ / "rc1")), 1);
     EXPECT_EQ(std::stoi(slurp(dir_ / "rc2")), 4);
     std::istringstream meta(slurp(dir_ / "m.jsonl"));

@@ -204,8 +204,8 @@ TEST(SerialInput, AHangUpIsDetectedCountedAndThePortReopened) {
     fs::create_symlink(::ttyname(slave), link);
     ::close(slave);
     TelemetryPlatform platform(
-        std::make_unique<SerialInput>(std::make_unique<drivers::TermiosSerialPort>(),
-                                      link.string(), 9600, SerialInput::Proto::Nmea),
+        std::make_unique<SerialInput>(std::make_unique<drivers::TermiosSerialPort>(), link.string(),
+                                      9600, SerialInput::Proto::Nmea),
         PlatformState{}, 0.5, 0.1, false);
     const auto send = [](int fd, const std::string& s) {
         ASSERT_EQ(::write(fd, s.data(), s.size()), static_cast<ssize_t>(s.size()));
@@ -217,7 +217,7 @@ TEST(SerialInput, AHangUpIsDetectedCountedAndThePortReopened) {
         platform.sample(0.0, 0.0, s);
     }
     EXPECT_NEAR(s.yaw_rad * kDegPerRad, 90.0, 1e-9);
-    ::close(master);  // unplugged
+    ::close(master);               // unplugged
     platform.sample(0.1, 0.1, s);  // the hang-up is read
     platform.sample(0.15, 0.15, s);
     std::string st = platform.status();
