@@ -416,8 +416,12 @@ int runScenario(const RunRequest& req, std::FILE* status) {
     }
     if (platform->failed()) std::fprintf(status, "nvstim run: stopped: bad telemetry input\n");
     if (!loop.failure().empty() || platform->failed()) return kRunFailed;
-    const bool outputFailed = loop.stats().counters.outputsFailed > 0 || closeFailures > 0;
-    if (outputFailed) std::fprintf(status, "nvstim run: an output failed (exit status 4)\n");
+    // Bit 4: an output failed, or lost a frame to a write error (a frame file on a full disk);
+    // frames a slow consumer's queue could not take are counted (queue drops), not failures.
+    const RunCounters& rc = loop.stats().counters;
+    const bool outputFailed = rc.outputsFailed > 0 || rc.sinkErrors > 0 || closeFailures > 0;
+    if (outputFailed)
+        std::fprintf(status, "nvstim run: an output failed or had write errors (exit status 4)\n");
     return (outputFailed ? kRunOutputFailed : 0) | (interrupted ? kRunInterrupted : 0);
 }
 
