@@ -120,8 +120,9 @@ enum class SerialState { Closed, Open, Lost };
 
 struct SerialCounters {
     std::int64_t bytes = 0;
-    std::int64_t errors = 0;  // failed reads
-    std::int64_t lost = 0;    // times the device disappeared
+    std::int64_t errors = 0;   // failed reads
+    std::int64_t lost = 0;     // times the device disappeared
+    std::int64_t hangups = 0;  // of those, hang-ups (POLLHUP or end of file: USB unplug)
     int lastErrno = 0;
 };
 
@@ -131,8 +132,8 @@ class SerialPort {
     // Opens the device raw (8N1, no flow control) at `baud`. 0 or -errno.
     virtual int open(const std::string& device, int baud) = 0;
     virtual void close() noexcept = 0;
-    // Non-blocking: bytes read (0: nothing pending) or -errno (the port is then Lost for
-    // EIO/ENXIO/ENODEV/EBADF, to be reopened by the caller).
+    // Non-blocking: bytes read (0: nothing pending) or -errno (the port is then Lost for a
+    // hang-up — POLLHUP, end of file — or EIO/ENXIO/ENODEV/EBADF, to be reopened by the caller).
     virtual long read(std::uint8_t* buf, std::size_t size) noexcept = 0;
     virtual SerialState state() const noexcept = 0;
     virtual const SerialCounters& counters() const noexcept = 0;
@@ -152,6 +153,7 @@ class TermiosSerialPort final : public SerialPort {
     const SerialCounters& counters() const noexcept override { return counters_; }
 
   private:
+    int lost(int err) noexcept;
     int fd_ = -1;
     SerialState state_ = SerialState::Closed;
     SerialCounters counters_;

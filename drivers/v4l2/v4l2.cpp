@@ -448,9 +448,11 @@ V4l2Sink::V4l2Sink(std::unique_ptr<V4l2DeviceOps> ops, const std::string& path, 
     : ops_(std::move(ops)),
       out_(*ops_),
       name_("v4l2:" + path),
+      path_(path),
       width_(width),
       height_(height),
-      format_(format) {
+      format_(format),
+      io_(io) {
     if (bits < 1 || bits > 16) throw SetupError(name_ + ": bits must be in 1..16");
     int rc = out_.open(path);
     if (rc < 0) throw SetupError(name_ + ": " + out_.message());
@@ -499,7 +501,32 @@ void V4l2Sink::convertRow(const std::uint16_t* counts, int width, V4l2Format for
     }
 }
 
+bool V4l2Sink::recover(double now_s) noexcept {
+    if (out_.state() != V4l2State::Failed) return true;
+    if (up_) {
+        ++losses_;
+        up_ = false;
+        backoff_.lost(now_s);
+    }
+    if (!backoff_.due(now_s)) return false;
+    ++reopenAttempts_;
+    out_.close();
+    if (out_.open(path_) < 0 || out_.configure(width_, height_, format_, io_) < 0) {
+        out_.close();
+        backoff_.failed(now_s);
+        return false;
+    }
+    ++reopened_;
+    backoff_.succeeded();
+    up_ = true;
+    return true;
+}
+
 int V4l2Sink::write(const msg::OutputFrame& frame) noexcept {
+    if (!recover(frame.emit_s)) {
+        ++lostFrames_;
+        return -std::max(out_.counters().lastErrno, 1);
+    }
     std::uint8_t* dst = out_.acquire();
     if (dst == nullptr) {
         // No buffer free (consumer behind: counted as busy, not an error) or a failed device.
@@ -548,7 +575,10 @@ int V4l2Sink::close() noexcept {
 }
 
 std::string V4l2Sink::status() const {
-    return name_ + ": " + out_.status();
+    return name_ + ": " + out_.status() + ", device lost " + std::to_string(losses_) +
+           ", reopen attempts " + std::to_string(reopenAttempts_) + ", reopened " +
+           std::to_string(reopened_) + ", frames lost " + std::to_string(lostFrames_) +
+           (up_ ? "" : ", DEVICE LOST");
 }
 
 }  // namespace nvs::drivers

@@ -78,15 +78,23 @@ void writeOutput(const std::string& file, const sensor::IiccdChain& chain) {
     const std::string ext = lowerExt(file);
     const std::filesystem::path tmp = file + ".tmp" + ext;
     const int maxv = (1 << chain.camera().adc_bits) - 1;
-    if (ext == ".pgm")
-        sensor::writePgm(tmp, chain.video().cview(), maxv);
-    else if (ext == ".png")
-        sensor::writePng(tmp, chain.video().cview(), maxv);
-    else if (ext == ".exr")
-        sensor::writeExr(tmp, chain.counts().cview(), "DC", "");
-    else
+    if (ext != ".pgm" && ext != ".png" && ext != ".exr")
         throw SetupError("--out " + file + ": output must be .pgm, .png or .exr");
-    std::filesystem::rename(tmp, file);
+    // Written to a temporary whose every write, flush and close is checked (image_io), and
+    // renamed into place only then; on any failure the temporary is removed.
+    try {
+        if (ext == ".pgm")
+            sensor::writePgm(tmp, chain.video().cview(), maxv);
+        else if (ext == ".png")
+            sensor::writePng(tmp, chain.video().cview(), maxv);
+        else
+            sensor::writeExr(tmp, chain.counts().cview(), "DC", "");
+        std::filesystem::rename(tmp, file);
+    } catch (...) {
+        std::error_code ec;
+        std::filesystem::remove(tmp, ec);
+        throw;
+    }
 }
 
 }  // namespace

@@ -302,11 +302,22 @@ void CanInput::poll(double now_s, PlatformTrack& track) noexcept {
         return;
     }
     if (bus_->state() != drivers::CanBusState::Open) {
-        // The interface went down: try again once a second, keep the last good state.
-        if (now_s - lastReopen_s_ < 1.0) return;
-        lastReopen_s_ = now_s;
-        bus_->open(iface_, fd_, {});
-        return;
+        // The interface went down or away (ENETDOWN, ENODEV): counted once per loss, the last
+        // good state held, and the socket reopened with backoff.
+        if (busUp_) {
+            ++busLosses_;
+            busUp_ = false;
+            backoff_.lost(now_s);
+        }
+        if (!backoff_.due(now_s)) return;
+        ++reopenAttempts_;
+        if (bus_->open(iface_, fd_, {}) != 0) {
+            backoff_.failed(now_s);
+            return;
+        }
+        ++reopened_;
+        backoff_.succeeded();
+        busUp_ = true;
     }
     const double realtimeNow_s = static_cast<double>(realtimeNow_ns()) * 1e-9;
     drivers::CanFrame f;
@@ -329,6 +340,9 @@ std::string CanInput::status() const {
                (ended_ ? ", stream ended (silent " + std::to_string(lock_.idle_s) + " s)" : "");
     }
     return "can:" + iface_ + ": " + bus_->status() + ", " + canCounters(decoder_.counters()) +
+           ", bus lost " + std::to_string(busLosses_) + ", reopen attempts " +
+           std::to_string(reopenAttempts_) + ", reopened " + std::to_string(reopened_) +
+           (busUp_ ? "" : ", BUS LOST") +
            (recordErrors_ > 0 ? ", record errors " + std::to_string(recordErrors_) : "") + lock;
 }
 
@@ -347,16 +361,7 @@ SerialInput::SerialInput(std::unique_ptr<drivers::SerialPort> port, std::string 
 }
 
 void SerialInput::poll(double now_s, PlatformTrack& track) noexcept {
-    if (port_->state() != drivers::SerialState::Open) {
-        if (wasOpen_) {
-            ++disconnects_;
-            wasOpen_ = false;
-        }
-        if (now_s - lastReopen_s_ < 1.0) return;
-        lastReopen_s_ = now_s;
-        if (port_->open(device_, baud_) != 0) return;
-        wasOpen_ = true;
-    }
+    if (!reconnect(now_s)) return;
     std::uint8_t buf[512];
     for (int i = 0; i < 16; ++i) {
         const long n = port_->read(buf, sizeof buf);
@@ -407,6 +412,27 @@ void SerialInput::poll(double now_s, PlatformTrack& track) noexcept {
     }
 }
 
+bool SerialInput::reconnect(double now_s) noexcept {
+    if (port_->state() == drivers::SerialState::Open) return true;
+    // The device went away (a hang-up, EIO: a USB adapter unplugged): counted once per loss,
+    // the last good state held (the track goes stale), and the port reopened with backoff.
+    if (wasOpen_) {
+        ++disconnects_;
+        wasOpen_ = false;
+        backoff_.lost(now_s);
+    }
+    if (!backoff_.due(now_s)) return false;
+    ++reopenAttempts_;
+    if (port_->open(device_, baud_) != 0) {
+        backoff_.failed(now_s);
+        return false;
+    }
+    ++reopened_;
+    backoff_.succeeded();
+    wasOpen_ = true;
+    return true;
+}
+
 std::string SerialInput::status() const {
     const drivers::SerialCounters& c = port_->counters();
     char buf[512];
@@ -414,20 +440,26 @@ std::string SerialInput::status() const {
         const drivers::NmeaCounters& n = nmea_.counters();
         std::snprintf(buf, sizeof buf,
                       "serial:%s nmea: bytes %lld, sentences %lld, bad checksum %lld, malformed "
-                      "%lld, unsupported %lld, read errors %lld, disconnects %lld",
+                      "%lld, unsupported %lld, read errors %lld, disconnects %lld, hang-ups %lld, "
+                      "reopen attempts %lld, reopened %lld%s",
                       device_.c_str(), static_cast<long long>(c.bytes),
                       static_cast<long long>(n.sentences), static_cast<long long>(n.badChecksum),
                       static_cast<long long>(n.malformed), static_cast<long long>(n.unsupported),
-                      static_cast<long long>(c.errors), static_cast<long long>(disconnects_));
+                      static_cast<long long>(c.errors), static_cast<long long>(disconnects_),
+                      static_cast<long long>(c.hangups), static_cast<long long>(reopenAttempts_),
+                      static_cast<long long>(reopened_), wasOpen_ ? "" : ", PORT LOST");
     } else {
         const drivers::MavlinkCounters& m = mavlink_.counters();
         std::snprintf(buf, sizeof buf,
                       "serial:%s mavlink: bytes %lld, messages %lld, bad crc %lld, unknown id "
-                      "%lld, read errors %lld, disconnects %lld",
+                      "%lld, read errors %lld, disconnects %lld, hang-ups %lld, reopen attempts "
+                      "%lld, reopened %lld%s",
                       device_.c_str(), static_cast<long long>(c.bytes),
                       static_cast<long long>(m.messages), static_cast<long long>(m.badCrc),
                       static_cast<long long>(m.unknownId), static_cast<long long>(c.errors),
-                      static_cast<long long>(disconnects_));
+                      static_cast<long long>(disconnects_), static_cast<long long>(c.hangups),
+                      static_cast<long long>(reopenAttempts_), static_cast<long long>(reopened_),
+                      wasOpen_ ? "" : ", PORT LOST");
     }
     return buf;
 }

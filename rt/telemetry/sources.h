@@ -10,6 +10,9 @@
 //   CanInput        a CanBus (SocketCAN or fake); optional candump recording; under the sim
 //                   clock in lockstep with the telemetry's own time signal (below)
 //   SerialInput     a SerialPort with NMEA 0183 or MAVLink framing (drivers/serial)
+// A live device that goes away (serial hang-up or EIO, CAN ENETDOWN/ENODEV) is counted once per
+// loss, its status says PORT LOST / BUS LOST until it is back, the last good state is held (and
+// goes stale), and it is reopened with backoff: 0.1 s, doubling, at most 5 s between tries.
 //   TelemetryPlatform  PlatformSource = one input + its PlatformTrack
 
 #include <atomic>
@@ -22,6 +25,7 @@
 #include "drivers/serial/serial.h"
 #include "rt/loop/stages.h"
 #include "rt/telemetry/track.h"
+#include "sim/core/backoff.h"
 
 namespace nvs::rt {
 
@@ -150,6 +154,12 @@ class CanInput final : public TelemetryInput {
     double heldStamp_s_ = 0.0;
     bool ended_ = false;
     std::int64_t marks_ = 0;
+    // Device loss: counted once per loss, reopened with backoff (sim/core/backoff.h).
+    Backoff backoff_{kReconnectFirst_s, kReconnectMax_s};
+    bool busUp_ = true;
+    std::int64_t busLosses_ = 0;
+    std::int64_t reopenAttempts_ = 0;
+    std::int64_t reopened_ = 0;
 };
 
 class SerialInput final : public TelemetryInput {
@@ -168,8 +178,13 @@ class SerialInput final : public TelemetryInput {
     Proto proto_;
     drivers::NmeaParser nmea_;
     drivers::MavlinkParser mavlink_;
+    // Device loss (a hang-up, EIO): counted once per loss, reopened with backoff. False while
+    // the port is still lost.
+    bool reconnect(double now_s) noexcept;
     std::int64_t disconnects_ = 0;
-    double lastReopen_s_ = -1e9;
+    std::int64_t reopenAttempts_ = 0;
+    std::int64_t reopened_ = 0;
+    Backoff backoff_{kReconnectFirst_s, kReconnectMax_s};
     bool wasOpen_ = true;
 };
 

@@ -3,16 +3,21 @@
 #include <ImfChannelList.h>
 #include <ImfFrameBuffer.h>
 #include <ImfHeader.h>
+#include <ImfIO.h>
 #include <ImfInputFile.h>
 #include <ImfOutputFile.h>
 #include <ImfStringAttribute.h>
+#include <fcntl.h>
 #include <png.h>
+#include <unistd.h>
 
+#include <cerrno>
 #include <cstdio>
 #include <cstring>
 #include <fstream>
 #include <memory>
 #include <regex>
+#include <stdexcept>
 #include <vector>
 
 #include "sim/core/error.h"
@@ -160,14 +165,67 @@ RadianceFile readRadiance(const std::filesystem::path& path) {
     fail(path, "input must be .exr or .pfm");
 }
 
+namespace {
+
+// An Imf::OStream on a file descriptor that keeps its first error: ~OutputFile writes the line
+// offset table and swallows any exception (ImfOutputFile.cpp), so a failure there would
+// otherwise go unnoticed and leave a truncated file that looks written.
+class CheckedFdStream final : public Imf::OStream {
+  public:
+    CheckedFdStream(const char* name, int fd) : Imf::OStream(name), fd_(fd) {}
+    void write(const char c[], int n) override {
+        while (n > 0 && error_ == 0) {
+            const ssize_t k = ::write(fd_, c, static_cast<std::size_t>(n));
+            if (k < 0 && errno == EINTR) continue;
+            if (k <= 0) {
+                error_ = k < 0 ? errno : EIO;
+                break;
+            }
+            c += k;
+            n -= static_cast<int>(k);
+            pos_ += static_cast<std::uint64_t>(k);
+        }
+        if (error_ != 0) throw std::runtime_error(std::strerror(error_));
+    }
+    std::uint64_t tellp() override { return pos_; }
+    void seekp(std::uint64_t pos) override {
+        if (::lseek(fd_, static_cast<off_t>(pos), SEEK_SET) < 0) {
+            if (error_ == 0) error_ = errno;
+            throw std::runtime_error(std::strerror(error_));
+        }
+        pos_ = pos;
+    }
+    int error() const { return error_; }
+
+  private:
+    int fd_;
+    std::uint64_t pos_ = 0;
+    int error_ = 0;
+};
+
+// Flushes, syncs and closes a stdio file, then reports the first failure of all three.
+void closeChecked(const std::filesystem::path& path, std::FILE* fp) {
+    int err = 0;
+    if (std::fflush(fp) != 0 || std::ferror(fp) != 0) err = errno != 0 ? errno : EIO;
+    if (err == 0 && ::fsync(fileno(fp)) != 0) err = errno;
+    if (std::fclose(fp) != 0 && err == 0) err = errno;
+    if (err != 0) fail(path, std::string("write failed: ") + std::strerror(err));
+}
+
+}  // namespace
+
 void writeExr(const std::filesystem::path& path, ImageView<const float> img,
               const std::string& unit, const std::string& spectrum) {
+    const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+    if (fd < 0) fail(path, std::string("cannot create: ") + std::strerror(errno));
+    std::string error;
+    CheckedFdStream stream(path.c_str(), fd);
     try {
         Imf::Header hdr(img.width(), img.height());
         hdr.channels().insert("Y", Imf::Channel(Imf::FLOAT));
         if (!unit.empty()) hdr.insert("nvstim.unit", Imf::StringAttribute(unit));
         if (!spectrum.empty()) hdr.insert("nvstim.spectrum", Imf::StringAttribute(spectrum));
-        Imf::OutputFile file(path.c_str(), hdr);
+        Imf::OutputFile file(stream, hdr);
         Imf::FrameBuffer fb;
         fb.insert(
             "Y",
@@ -176,8 +234,13 @@ void writeExr(const std::filesystem::path& path, ImageView<const float> img,
         file.setFrameBuffer(fb);
         file.writePixels(img.height());
     } catch (const std::exception& e) {
-        fail(path, std::string("cannot write EXR: ") + e.what());
+        error = e.what();
     }
+    // ~OutputFile has run: the stream knows whether the offsets reached the file.
+    if (error.empty() && stream.error() != 0) error = std::strerror(stream.error());
+    if (error.empty() && ::fsync(fd) != 0) error = std::strerror(errno);
+    if (::close(fd) != 0 && error.empty()) error = std::strerror(errno);
+    if (!error.empty()) fail(path, "cannot write EXR: " + error);
 }
 
 void writePfm(const std::filesystem::path& path, ImageView<const float> img) {
@@ -187,6 +250,7 @@ void writePfm(const std::filesystem::path& path, ImageView<const float> img) {
     for (int y = img.height() - 1; y >= 0; --y)
         out.write(reinterpret_cast<const char*>(img.row(y)),
                   static_cast<std::streamsize>(sizeof(float)) * img.width());
+    out.close();  // a failed flush or close sets failbit
     if (!out) fail(path, "write failed");
 }
 
@@ -205,6 +269,7 @@ void writePgm(const std::filesystem::path& path, ImageView<const std::uint16_t> 
         }
         out.write(reinterpret_cast<const char*>(row.data()), static_cast<std::streamsize>(n));
     }
+    out.close();  // a failed flush or close sets failbit
     if (!out) fail(path, "write failed");
 }
 
@@ -263,6 +328,8 @@ void writePng(const std::filesystem::path& path, ImageView<const std::uint16_t> 
     }
     png_write_end(png, nullptr);
     png_destroy_write_struct(&png, &info);
+    // libpng buffers through stdio: the bytes are on disk only after a checked flush and close.
+    closeChecked(path, fp.release());
 }
 
 bool hasFramePattern(const std::string& pattern) {

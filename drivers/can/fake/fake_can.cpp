@@ -8,6 +8,11 @@ namespace nvs::drivers {
 
 int FakeCanBus::open(const std::string& /*iface*/, bool /*fd*/,
                      const std::vector<CanFilter>& filters) {
+    ++opens;
+    if (openError != 0) {
+        state_ = CanBusState::Failed;
+        return -openError;
+    }
     filters_ = filters;
     state_ = CanBusState::Open;
     return 0;

@@ -28,6 +28,8 @@ class FakeCanBus final : public CanBus {
     // A read that fails with -err (e.g. ENETDOWN: the interface went away).
     void pushError(int err) { queue_.push_back({CanFrame{}, 0.0, err}); }
     std::vector<CanFrame> written;
+    int openError = 0;  // open() fails with -openError while set (the interface is still down)
+    int opens = 0;
 
   private:
     struct Item {

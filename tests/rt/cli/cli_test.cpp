@@ -11,6 +11,7 @@
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <vector>
 
 namespace nvs {
 namespace {
@@ -124,6 +125,44 @@ TEST(Cli, GenIIAndGenIIIPresetsWorkInEveryCommand) {
         r = runNvstim("run " + (dir / "s.toml").string() +
                       " --clock sim --frames 2 --output y4m:" + (dir / "o.y4m").string());
         EXPECT_EQ(r.status, 0) << preset << ": " << r.out;
+    }
+    fs::remove_all(dir);
+}
+
+// `nvstim sensor` on a full disk: a non-zero exit, no truncated output renamed into place and
+// no temporary left (before: the PNG's fclose went unchecked, a truncated file was renamed into
+// place, and a failed write left `.tmp` files). A file-size limit stands in for the full disk.
+TEST(Cli, SensorOnAFullDiskLeavesNoFileAndNoTemporary) {
+    namespace fs = std::filesystem;
+    const fs::path dir =
+        fs::temp_directory_path() / ("nvs_cli_sensor_" + std::to_string(::getpid()));
+    fs::remove_all(dir);
+    fs::create_directories(dir);
+    {
+        // A uniform PFM of the preset's size (768 x 494), 1e-5 W m^-2 sr^-1.
+        std::ofstream in(dir / "in.pfm", std::ios::binary);
+        in << "Pf\n768 494\n-1.0\n";
+        const std::vector<float> row(768, 1e-5f);
+        for (int y = 0; y < 494; ++y)
+            in.write(reinterpret_cast<const char*>(row.data()), 768 * sizeof(float));
+    }
+    for (const char* out : {"out.png", "out.pgm", "out.exr"}) {
+        const std::string cmd = "sh -c 'ulimit -f 4; exec " + std::string(NVSTIM_EXE) +
+                                " sensor --in " + (dir / "in.pfm").string() +
+                                " --camera pulnix-ag5745ef3 --unit W/m2/sr --frames 1 --out " +
+                                (dir / out).string() + "' 2>&1";
+        FILE* p = popen(cmd.c_str(), "r");
+        ASSERT_NE(p, nullptr);
+        std::string text;
+        std::array<char, 4096> buf{};
+        std::size_t n = 0;
+        while ((n = fread(buf.data(), 1, buf.size(), p)) > 0)
+            text.append(buf.data(), n);
+        const int st = pclose(p);
+        EXPECT_TRUE(WIFEXITED(st) && WEXITSTATUS(st) != 0) << out << ": " << text;
+        for (const auto& e : fs::directory_iterator(dir)) {
+            EXPECT_EQ(e.path().filename(), "in.pfm") << out << " left " << e.path() << "; " << text;
+        }
     }
     fs::remove_all(dir);
 }
