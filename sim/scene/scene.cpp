@@ -230,7 +230,7 @@ Mesh parseObjMesh(const std::string& text, const std::string& name,
     Mesh mesh;
     mesh.vertices_m.reserve(attrib.vertices.size());
     for (std::size_t i = 0; i < attrib.vertices.size(); ++i) {
-        const double v = attrib.vertices[i];
+        const double v = static_cast<double>(attrib.vertices[i]);
         if (!std::isfinite(v)) {
             const int line = nthLineStartingWith(text, "v ", i / 3);
             throw SetupError(FileLoc{name, line},
