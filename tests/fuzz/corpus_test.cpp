@@ -13,12 +13,15 @@
 #include "tests/fuzz/fuzz_targets.h"
 
 namespace nvs::fuzz {
-namespace {
 
-// The target's name in test names and messages (not its bytes).
+// The target's name in test names and messages (not its bytes); found by GoogleTest through
+// argument-dependent lookup, so in Target's namespace.
+void PrintTo(const Target& t, std::ostream* os);
 void PrintTo(const Target& t, std::ostream* os) {
     *os << t.name;
 }
+
+namespace {
 
 class Corpus : public ::testing::TestWithParam<Target> {};
 

@@ -111,7 +111,7 @@ TEST(CanBoundary, DbcRangeAndNonFiniteValuesRejectTheFrame) {
     track.apply(u);
     EXPECT_FALSE(dec.decode(frame(272, 11.0, 120.0), 0.1, &u));  // pitch 120° > 90°
     drivers::CanFrame inf = frame(273, 0.0, 0.0);
-    inf.data[0] = 100;  // 100 · 1e306 = inf
+    inf.data[0] = 200;  // 200 · 1e306 = 2e308, beyond DBL_MAX: inf
     EXPECT_FALSE(dec.decode(inf, 0.2, &u));
     EXPECT_EQ(dec.counters().outOfRange, 2);
     PlatformState s;
