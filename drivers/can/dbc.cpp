@@ -48,11 +48,12 @@ bool decodeSignal(const DbcSignal& sig, const std::uint8_t* data, int len, doubl
     std::uint64_t raw = 0;
     if (!extractRaw(sig, data, len, &raw)) return false;
     double r = 0.0;
-    if (sig.isSigned && sig.length < 64 && ((raw >> (sig.length - 1)) & 1u)) {
-        // Two's complement: subtract 2^length.
-        r = static_cast<double>(static_cast<std::int64_t>(raw) -
-                                (static_cast<std::int64_t>(1) << sig.length));
-    } else if (sig.isSigned && sig.length == 64) {
+    if (sig.isSigned) {
+        // Two's complement of `length` bits: the sign bit set, every higher bit set too. In
+        // unsigned arithmetic, then converted (modular since C++20): 2^63 and the subtraction
+        // raw − 2^length overflowed int64 for lengths of 63 and 64.
+        if (sig.length < 64 && ((raw >> (sig.length - 1)) & 1u))
+            raw |= ~std::uint64_t{0} << sig.length;
         r = static_cast<double>(static_cast<std::int64_t>(raw));
     } else {
         r = static_cast<double>(raw);

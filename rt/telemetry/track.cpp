@@ -1,5 +1,6 @@
 #include "rt/telemetry/track.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include "sim/core/units.h"
@@ -7,6 +8,9 @@
 namespace nvs::rt {
 
 namespace {
+
+constexpr double kMinAlt_m = -12000.0;
+constexpr double kMaxAlt_m = 1.0e6;
 
 double wrapPi(double a) {
     a = std::fmod(a + kPi, kTwoPi);
@@ -72,7 +76,7 @@ bool updateInRange(const TelemetryUpdate& u) noexcept {
         !(in(u.lat_deg, -90.0, 90.0) && in(u.lon_deg, -180.0, 360.0))) {
         return false;
     }
-    if ((f & TelemetryUpdate::kAlt) && !in(u.alt_m, -12000.0, 1.0e6)) return false;
+    if ((f & TelemetryUpdate::kAlt) && !in(u.alt_m, kMinAlt_m, kMaxAlt_m)) return false;
     if ((f & TelemetryUpdate::kRollPitch) && !(in(u.roll_rad, -kMaxAngle_rad, kMaxAngle_rad) &&
                                                in(u.pitch_rad, -kMaxAngle_rad, kMaxAngle_rad))) {
         return false;
@@ -138,9 +142,11 @@ void PlatformTrack::sample(double t_s, PlatformState& out) const noexcept {
     out.roll_rad = initial_.roll_rad;
     Sample s{};
     if (at(pos_, t_s, false, &s)) {
-        out.lat_deg = s.a;
+        // Extrapolation can carry a position past the ranges apply() accepts (a track toward
+        // a pole): the state handed on stays within them.
+        out.lat_deg = std::clamp(s.a, -90.0, 90.0);
         out.lon_deg = s.b;
-        out.alt_m = s.c;
+        out.alt_m = std::clamp(s.c, kMinAlt_m, kMaxAlt_m);
     }
     if (at(att_, t_s, true, &s)) {
         out.yaw_rad = s.a;

@@ -1,6 +1,7 @@
 #include "tests/fuzz/fuzz_targets.h"
 
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <memory>
@@ -24,10 +25,13 @@ namespace nvs::fuzz {
 namespace {
 
 // A property the parsers promise; broken, the process ends (a finding for libFuzzer, a crash
-// of the corpus test).
-void require(bool ok) {
-    if (!ok) std::abort();
+// of the corpus test) after naming the property.
+void requireAt(bool ok, const char* what, int line) {
+    if (ok) return;
+    std::fprintf(stderr, "fuzz_targets.cpp:%d: property broken: %s\n", line, what);
+    std::abort();
 }
+#define require(cond) requireAt((cond), #cond, __LINE__)
 
 std::string text(const std::uint8_t* data, std::size_t size) {
     return std::string(reinterpret_cast<const char*>(data), size);

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <string>
 
@@ -89,6 +90,27 @@ TEST(DbcBadInput, EncodeClampsWithoutOverflow) {
     EXPECT_EQ(d[7], 0x80);
     encodeSignal(s64, std::numeric_limits<double>::quiet_NaN(), d, 8);
     EXPECT_EQ(d[7], 0x00);
+}
+
+TEST(DbcBadInput, SignedSignalsOf63And64BitsDecode) {
+    // Found by the dbc fuzz target: raw − 2^63 overflowed int64 (UBSan) for a 63-bit signal.
+    std::uint8_t d[8];
+    std::memset(d, 0xFF, sizeof d);
+    for (const int len : {63, 64}) {
+        DbcSignal s;
+        s.length = len;
+        s.isSigned = true;
+        double v = 0;
+        ASSERT_TRUE(decodeSignal(s, d, 8, &v));
+        EXPECT_EQ(v, -1.0) << len;  // all ones: −1
+    }
+    DbcSignal s63;
+    s63.length = 63;
+    s63.isSigned = true;
+    std::uint8_t minimum[8] = {0, 0, 0, 0, 0, 0, 0, 0x40};  // bit 62 alone: −2^62
+    double v = 0;
+    ASSERT_TRUE(decodeSignal(s63, minimum, 8, &v));
+    EXPECT_EQ(v, -std::ldexp(1.0, 62));
 }
 
 TEST(CandumpBadInput, TimesAreBounded) {

@@ -51,6 +51,23 @@ TEST(TrackBoundary, UpdatesOutsideTheRangesAreRejectedAndCounted) {
     EXPECT_DOUBLE_EQ(s.roll_rad, 0.1);
 }
 
+TEST(TrackBoundary, ExtrapolationStopsAtThePole) {
+    // Found by the candump and nmea fuzz targets: two fixes approaching the pole extrapolated
+    // to a latitude beyond 90°.
+    PlatformTrack track(PlatformState{}, 0.5, 0.1);
+    TelemetryUpdate u;
+    u.fields = TelemetryUpdate::kLatLon;
+    u.rx_s = 0.0;
+    u.lat_deg = 89.0;
+    track.apply(u);
+    u.rx_s = 0.01;
+    u.lat_deg = 90.0;
+    track.apply(u);
+    PlatformState s;
+    track.sample(0.1, s);  // 0.09 s ahead at 100°/s
+    EXPECT_EQ(s.lat_deg, 90.0);
+}
+
 // A CRC-valid MAVLink ATTITUDE with these angles.
 std::vector<std::uint8_t> attitude(float roll, float pitch, float yaw) {
     std::uint8_t att[28] = {};
