@@ -7,6 +7,7 @@
 #include <memory>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "drivers/can/can.h"
 #include "drivers/serial/fake/fake_serial.h"
@@ -79,6 +80,36 @@ void serialInput(const std::uint8_t* data, std::size_t size, rt::SerialInput::Pr
     }
 }
 
+// Serial bytes as the target sees them: the input itself (first byte even), or (first byte
+// odd) the rest re-framed with correct checksums, so that the fuzzer reaches what lies behind
+// a CRC or an XOR it cannot guess. NMEA: each line a sentence body, "*hh\r\n" appended.
+// MAVLink: records [flags][length][payload…], flags choosing v1/v2 and HEARTBEAT, ATTITUDE or
+// GLOBAL_POSITION_INT.
+std::string framed(const std::uint8_t* data, std::size_t size, rt::SerialInput::Proto proto) {
+    if (size == 0 || (data[0] & 1) == 0) return text(data, size);
+    std::string out;
+    if (proto == rt::SerialInput::Proto::Nmea) {
+        const std::string all = text(data + 1, size - 1);
+        for (std::size_t pos = 0; pos < all.size();) {
+            const std::size_t eol = std::min(all.find('\n', pos), all.size());
+            out += drivers::nmeaWithChecksum("$" + all.substr(pos, eol - pos));
+            pos = eol + 1;
+        }
+        return out;
+    }
+    static constexpr std::uint32_t kIds[3] = {drivers::kMavlinkHeartbeat, drivers::kMavlinkAttitude,
+                                              drivers::kMavlinkGlobalPositionInt};
+    for (std::size_t i = 1; i + 2 <= size;) {
+        const int version = (data[i] & 2) != 0 ? 2 : 1;
+        const std::uint32_t id = kIds[(data[i] >> 2) % 3];
+        const std::size_t n = std::min<std::size_t>(data[i + 1] % 40, size - i - 2);
+        const std::vector<std::uint8_t> f = drivers::mavlinkFrame(version, id, data + i + 2, n);
+        out.append(reinterpret_cast<const char*>(f.data()), f.size());
+        i += 2 + n;
+    }
+    return out;
+}
+
 }  // namespace
 
 int dbc(const std::uint8_t* data, std::size_t size) {
@@ -132,7 +163,10 @@ int candump(const std::uint8_t* data, std::size_t size) {
     return 0;
 }
 
-int nmea(const std::uint8_t* data, std::size_t size) {
+int nmea(const std::uint8_t* raw, std::size_t rawSize) {
+    const std::string bytes = framed(raw, rawSize, rt::SerialInput::Proto::Nmea);
+    const auto* data = reinterpret_cast<const std::uint8_t*>(bytes.data());
+    const std::size_t size = bytes.size();
     drivers::NmeaParser parser;
     for (std::size_t i = 0; i < size; ++i) {
         drivers::NmeaSentence s;
@@ -145,7 +179,10 @@ int nmea(const std::uint8_t* data, std::size_t size) {
     return 0;
 }
 
-int mavlink(const std::uint8_t* data, std::size_t size) {
+int mavlink(const std::uint8_t* raw, std::size_t rawSize) {
+    const std::string bytes = framed(raw, rawSize, rt::SerialInput::Proto::Mavlink);
+    const auto* data = reinterpret_cast<const std::uint8_t*>(bytes.data());
+    const std::size_t size = bytes.size();
     drivers::MavlinkParser parser;
     for (std::size_t i = 0; i < size; ++i) {
         drivers::MavlinkMessage m;
