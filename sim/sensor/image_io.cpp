@@ -150,6 +150,57 @@ class MemoryIStream final : public Imf::IStream {
     std::uint64_t pos_ = 0;
 };
 
+// The OpenEXR header walked before OpenEXR reads it (file layout: openexr.com, "OpenEXR File
+// Layout"): magic 20000630, a version word, then attributes "name\0type\0" int32 size, value,
+// up to an empty name. OpenEXR 3.1 allocates what an attribute's size and the data window
+// claim before it checks them against the file (a 360-byte file made it allocate 1.9 GB);
+// here each size must fit in the bytes that remain, and the data window within the limits,
+// first. Single-part scan-line files only (nvstim writes those): tiled, deep and multi-part
+// files, whose chunk tables grow with other fields, are refused.
+void checkExrHeader(std::string_view b, const std::string& name, const ImageLimits& limits) {
+    const auto bad = [&name](const std::string& why) {
+        throw SetupError(FileLoc{name}, "not a readable EXR file: " + why);
+    };
+    const auto u32 = [&b](std::size_t at) {
+        std::uint32_t v = 0;
+        for (int i = 3; i >= 0; --i)
+            v = (v << 8) | static_cast<unsigned char>(b[at + static_cast<std::size_t>(i)]);
+        return v;
+    };
+    if (b.size() < 8 || u32(0) != 20000630u) bad("no EXR magic number");
+    const std::uint32_t version = u32(4);
+    if ((version & 0xFFu) != 2u) bad("version " + std::to_string(version & 0xFFu));
+    if ((version & 0x1A00u) != 0) bad("tiled, deep or multi-part files are not supported");
+    const std::size_t maxName = (version & 0x400u) != 0 ? 255 : 31;
+    std::size_t at = 8;
+    const auto cstring = [&](const char* what) {
+        const std::size_t end = b.find('\0', at);
+        if (end == std::string_view::npos || end - at > maxName) bad(std::string("bad ") + what);
+        const std::string_view v = b.substr(at, end - at);
+        at = end + 1;
+        return v;
+    };
+    bool window = false;
+    for (;;) {
+        const std::string_view attr = cstring("attribute name");
+        if (attr.empty()) break;
+        const std::string_view type = cstring("attribute type");
+        if (b.size() - at < 4) bad("truncated header");
+        const std::uint32_t size = u32(at);
+        at += 4;
+        if (size > b.size() - at) bad("attribute '" + std::string(attr) + "' larger than the file");
+        if (attr == "dataWindow") {
+            if (type != "box2i" || size != 16) bad("bad dataWindow");
+            const auto i32 = [&](std::size_t k) { return static_cast<std::int32_t>(u32(at + k)); };
+            checkSize(std::int64_t{i32(8)} - i32(0) + 1, std::int64_t{i32(12)} - i32(4) + 1, limits,
+                      name);
+            window = true;
+        }
+        at += size;
+    }
+    if (!window) bad("no dataWindow");
+}
+
 }  // namespace
 
 ImageF parsePfm(std::string_view bytes, const std::string& name, const ImageLimits& limits) {
@@ -212,6 +263,7 @@ ImageU16 parsePgm(std::string_view bytes, const std::string& name, const ImageLi
 
 RadianceFile parseExr(std::string_view bytes, const std::string& name, const ImageLimits& limits) {
     RadianceFile r;
+    checkExrHeader(bytes, name, limits);
     try {
         MemoryIStream stream(name, bytes);
         Imf::InputFile file(stream);

@@ -9,6 +9,7 @@
 #include <cstring>
 #include <fstream>
 #include <functional>
+#include <iterator>
 #include <string>
 
 #include "sim/core/error.h"
@@ -74,6 +75,34 @@ TEST(ImageInput, HeaderNumbersAreBounded) {
               }).find("bad scale"),
               std::string::npos);
     EXPECT_NE(errorOf([] { parseExr("not an exr", "d.exr", ImageLimits{}); }).find("d.exr"),
+              std::string::npos);
+}
+
+std::string seed(const char* file) {
+    std::ifstream in(std::string(NVS_SOURCE_DIR) + "/tests/fuzz/image/corpus/" + file,
+                     std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
+
+TEST(ImageInput, ExrHeaderIsWalkedBeforeOpenExrAllocates) {
+    // Written by OpenEXR (uncompressed, ZIP, RLE with a data window off the origin): read.
+    const RadianceFile a = parseExr(seed("y_none_4x3.exr"), "a.exr", ImageLimits{});
+    EXPECT_EQ(a.image.width(), 4);
+    EXPECT_EQ(a.image.height(), 3);
+    EXPECT_EQ(a.image(3, 2), 0.25f * 11);
+    EXPECT_EQ(a.unit, "pe/s/m2/sr");
+    EXPECT_EQ(parseExr(seed("r_half_rle_5x2_offset.exr"), "b.exr", ImageLimits{}).image.width(), 5);
+    // Found by the image fuzz target: a 360-byte header whose string attribute claims 1.9 GB,
+    // which OpenEXR 3.1 allocated before reading it.
+    const std::string e =
+        errorOf([] { parseExr(seed("crash-exr-attribute-size-1.9GB"), "c.exr", ImageLimits{}); });
+    EXPECT_NE(e.find("larger than the file"), std::string::npos) << e;
+    // The data window against the limits, before OpenEXR sizes its line table from it.
+    EXPECT_NE(errorOf([] {
+                  ImageLimits l;
+                  l.maxWidth = l.maxHeight = 3;
+                  parseExr(seed("y_none_4x3.exr"), "d.exr", l);
+              }).find("limit of 3x3"),
               std::string::npos);
 }
 
