@@ -1,6 +1,7 @@
 # nvstim — the two user commands:
 #   make run    install missing Debian packages, build, run the default scenario
 #   make test   the same set-up, then the whole test suite through ctest
+#   make fuzz   the fuzz targets (tests/fuzz) under ASan+UBSan, FUZZ_SECONDS each (clang)
 # Everything else is CMake (CMakePresets.json): `cmake --preset debug-asan` etc.;
 # `cmake --install build/release --prefix PREFIX` installs nvstim with its config and scenarios.
 
@@ -22,7 +23,14 @@ NVSTIM   := $(BUILD)/rt/cli/nvstim
 SCENARIO ?= scenarios/thesis-nolight
 OUT      := out
 
-.PHONY: run test
+# `make fuzz` only: clang and libFuzzer (libclang-rt-14-dev) for the `fuzz` preset. `make test`
+# does not need them: it replays the seed corpora with the release compiler.
+FUZZ_PACKAGES := clang libclang-rt-14-dev
+FUZZ_SECONDS  ?= 60
+FUZZ_TARGETS  := dbc candump nmea mavlink scenario camera csv obj image frame_pattern
+FUZZ_BUILD    := build/fuzz
+
+.PHONY: run test fuzz
 run: .nvs-build
 	@mkdir -p $(OUT)
 	$(NVSTIM) run $(SCENARIO) --clock sim --output y4m:$(OUT)/$(notdir $(SCENARIO)).y4m \
@@ -44,7 +52,24 @@ test: .nvs-build
 	ctest --preset $(PRESET); rc=$$?; \
 	  grep -h "SKIPPED:" $(BUILD)/Testing/Temporary/LastTest.log 2>/dev/null | sort -u; exit $$rc
 
-.PHONY: .nvs-deps .nvs-build
+# Each target runs FUZZ_SECONDS on its seeds (tests/fuzz/NAME/corpus, read only) and a working
+# corpus in build/fuzz/corpus/NAME; a finding stops with the crashing input under
+# build/fuzz/artifacts/NAME/ (add it to the seeds once fixed).
+fuzz: .nvs-fuzz-deps
+	@[ -f $(FUZZ_BUILD)/CMakeCache.txt ] || cmake --preset fuzz
+	cmake --build --preset fuzz
+	@for t in $(FUZZ_TARGETS); do \
+	  mkdir -p $(FUZZ_BUILD)/corpus/$$t $(FUZZ_BUILD)/artifacts/$$t; \
+	  echo "nvstim: fuzzing $$t for $(FUZZ_SECONDS) s"; \
+	  $(FUZZ_BUILD)/tests/fuzz/nvs_fuzz_$$t -max_total_time=$(FUZZ_SECONDS) -print_final_stats=1 \
+	    -artifact_prefix=$(FUZZ_BUILD)/artifacts/$$t/ $(FUZZ_BUILD)/corpus/$$t tests/fuzz/$$t/corpus \
+	    || { echo "nvstim: fuzz target $$t found a crash: $(FUZZ_BUILD)/artifacts/$$t/" >&2; exit 1; }; \
+	done
+
+.PHONY: .nvs-deps .nvs-fuzz-deps .nvs-build
+.nvs-fuzz-deps:
+	@$(MAKE) --no-print-directory .nvs-deps PACKAGES="$(PACKAGES) $(FUZZ_PACKAGES)"
+
 .nvs-deps:
 	@missing=""; \
 	for p in $(PACKAGES); do \

@@ -48,10 +48,14 @@ struct DbcMessage {
     std::vector<DbcSignal> signals;
 };
 
+// Longest DBC line read; a longer one is an error naming its line.
+inline constexpr std::size_t kDbcMaxLineBytes = 65536;
+
 class DbcDatabase {
   public:
-    // Throws SetupError naming file:line for a malformed BO_/SG_ line or a signal that does
-    // not fit its message.
+    // Throws SetupError naming file:line for a malformed BO_/SG_ line, a line longer than
+    // kDbcMaxLineBytes, a signal that does not fit its message or whose [min|max] has
+    // min > max. load() reads a regular file of at most 16 MiB (sim/core/input_file.h).
     static DbcDatabase parse(std::string_view text, const std::string& fileName);
     static DbcDatabase load(const std::string& path);
 
@@ -69,6 +73,9 @@ bool extractRaw(const DbcSignal& sig, const std::uint8_t* data, int len,
                 std::uint64_t* raw) noexcept;
 // Physical value = (signed or unsigned raw) · factor + offset. False when the frame is short.
 bool decodeSignal(const DbcSignal& sig, const std::uint8_t* data, int len, double* value) noexcept;
+// True when a decoded value is finite and within the signal's declared [min|max] (with half
+// a raw step of slack for rounding); [0|0] declares no range.
+bool inDeclaredRange(const DbcSignal& sig, double value) noexcept;
 // Inverse of decodeSignal (rounded to the nearest raw step, clamped to the signal's range of
 // raw values); for recording, tests and fakes.
 void encodeSignal(const DbcSignal& sig, double value, std::uint8_t* data, int len) noexcept;
@@ -78,9 +85,12 @@ void encodeSignal(const DbcSignal& sig, double value, std::uint8_t* data, int le
 //   (1436509052.249713) vcan0 044#2A366C2BBA        classic, 3 hex digits: 11-bit id
 //   (1436509052.249713) can0 12345678#R             29-bit id (8 hex digits), remote request
 //   (1436509052.249713) can0 123##1112233           CAN FD: "##", one hex digit of flags
+// The time is "seconds.fraction", at most 11 digits before the point and 1..9 after it.
 // Returns false for a malformed line (counted by the caller, never fatal).
+inline constexpr double kMaxCandumpTime_s = 1e11;
 bool parseCandumpLine(std::string_view line, double* t_s, CanFrame* frame) noexcept;
-// Formats a frame as a candump line with '\n'; returns its length, or 0 if buf is too small.
+// Formats a frame as a candump line with '\n'; returns its length, or 0 if buf is too small or
+// t_s is outside [0, kMaxCandumpTime_s).
 std::size_t formatCandumpLine(double t_s, const char* iface, const CanFrame& frame, char* buf,
                               std::size_t size) noexcept;
 

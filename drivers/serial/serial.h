@@ -32,6 +32,10 @@ struct NmeaCounters {
     std::int64_t badChecksum = 0;
     std::int64_t malformed = 0;    // missing '*', bad fields, too long
     std::int64_t unsupported = 0;  // valid but not GGA/RMC/HDT
+    // Well formed, but a value outside the protocol's range: latitude beyond ±90°, longitude
+    // beyond ±180°, minutes ≥ 60, time of day outside 00:00:00–23:59:60, a date that does
+    // not exist (31 February), heading outside 0–360°.
+    std::int64_t outOfRange = 0;
 };
 
 class NmeaParser {
@@ -83,6 +87,9 @@ struct MavlinkCounters {
     std::int64_t badCrc = 0;
     std::int64_t unknownId = 0;  // no CRC_EXTRA known: cannot be checked, dropped
     std::int64_t signedFrames = 0;
+    // CRC-checked ATTITUDE / GLOBAL_POSITION_INT whose values are outside the message's range
+    // (non-finite or |angle| > π, |lat| > 90°, |lon| > 180°, heading > 359.99°): dropped.
+    std::int64_t outOfRange = 0;
 };
 
 inline constexpr std::uint32_t kMavlinkHeartbeat = 0;
@@ -107,6 +114,9 @@ class MavlinkParser {
 std::uint16_t mavlinkCrc(const std::uint8_t* data, std::size_t n, std::uint16_t crc = 0xFFFF);
 std::uint8_t mavlinkCrcExtra(std::uint32_t msgid, bool* known);
 bool decodeAttitude(const MavlinkMessage& m, MavlinkAttitude* out) noexcept;
+// True unless a known message holds a value outside its range (MavlinkCounters::outOfRange);
+// the parser drops such a message.
+bool payloadInRange(const MavlinkMessage& m) noexcept;
 bool decodeGlobalPosition(const MavlinkMessage& m, MavlinkGlobalPosition* out) noexcept;
 // Frames a payload (for tests and fakes): v1 or v2 (v2 trims trailing zero bytes).
 std::vector<std::uint8_t> mavlinkFrame(int version, std::uint32_t msgid,

@@ -411,7 +411,7 @@ ContactSheetSink::ContactSheetSink(const std::string& path, int width, int heigh
       frames_(frames),
       every_(every) {
     checkSize(width, height, name_);
-    // Each factor alone first: their product must not overflow.
+    // Each factor bounded before the product: cols · rows of two large ints overflows.
     if (cols < 1 || rows < 1 || cols > 64 || rows > 64 || cols * rows > 64)
         throw SetupError(name_ + ": cols x rows must be 1..64");
     if (shrink < 1 || shrink > 16) throw SetupError(name_ + ": shrink must be 1..16");

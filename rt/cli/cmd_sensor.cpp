@@ -36,7 +36,11 @@ std::string lowerExt(const std::string& path) {
 // Reads one input and turns it into Lpe [pe s⁻¹ m⁻² sr⁻¹], validating size and values.
 ImageF loadInput(const std::string& file, const sensor::CameraParams& cam,
                  const SensorOptions& opts, const DataDirs& dirs) {
-    sensor::RadianceFile r = sensor::readRadiance(file);
+    // The header's size is checked against the camera's before any pixel is allocated.
+    sensor::ImageLimits limits;
+    limits.maxWidth = cam.width;
+    limits.maxHeight = cam.height;
+    sensor::RadianceFile r = sensor::readRadiance(file, limits);
     if (r.image.width() != cam.width || r.image.height() != cam.height) {
         throw SetupError(file + ": image is " + std::to_string(r.image.width()) + "x" +
                          std::to_string(r.image.height()) + ", camera '" + cam.name + "' expects " +

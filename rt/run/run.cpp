@@ -2,6 +2,7 @@
 
 #include <signal.h>
 
+#include <cerrno>
 #include <chrono>
 #include <cmath>
 #include <cstring>
@@ -86,9 +87,10 @@ std::unique_ptr<FrameSink> makeSink(const std::string& text, const Scenario& sc,
             const auto v = s.take(key);
             if (!v) return def;
             char* end = nullptr;
+            errno = 0;
             const long n = std::strtol(v->c_str(), &end, 10);
-            if (end == v->c_str() || *end != '\0')
-                throw SetupError(what + ": " + key + " must be an integer");
+            if (end == v->c_str() || *end != '\0' || errno == ERANGE || n < 0 || n > 1'000'000)
+                throw SetupError(what + ": " + key + " must be an integer in [0, 1000000]");
             return static_cast<int>(n);
         };
         const int cols = num("cols", 4), rows = num("rows", 3), shrink = num("shrink", 2);

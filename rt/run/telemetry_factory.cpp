@@ -1,5 +1,6 @@
 #include "rt/run/telemetry_factory.h"
 
+#include <charconv>
 #include <cstdlib>
 #include <cstring>
 
@@ -106,7 +107,12 @@ std::unique_ptr<PlatformSource> makeTelemetrySource(Spec& spec, const Scenario& 
             }
             const auto baud = spec.take("baud");
             const auto proto = spec.take("proto");
-            const int b = baud ? std::atoi(baud->c_str()) : 115200;
+            // from_chars, not atoi: atoi of a number beyond int is undefined behaviour.
+            int b = 115200;
+            if (baud) {
+                const auto r = std::from_chars(baud->data(), baud->data() + baud->size(), b);
+                if (r.ec != std::errc() || r.ptr != baud->data() + baud->size()) b = 0;
+            }
             if (drivers::baudConstant(b) == 0) throw SetupError(what + ": unsupported baud rate");
             if (!proto || (*proto != "nmea" && *proto != "mavlink")) {
                 throw SetupError(what + ": proto must be nmea or mavlink");

@@ -3,15 +3,17 @@
 #include <fcntl.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
-#include <fstream>
+#include <string_view>
 
 #include "drivers/sinks/file_io.h"
 #include "rt/clock/clock.h"
 #include "sim/core/error.h"
+#include "sim/core/input_file.h"
 #include "sim/core/units.h"
 
 namespace nvs::rt {
@@ -59,6 +61,16 @@ bool CanDecoder::decode(const drivers::CanFrame& frame, double rx_s, TelemetryUp
         return false;
     }
     const std::size_t index = static_cast<std::size_t>(m - db_.messages().data());
+    // Every bound signal within its DBC [min|max] first: one value outside it rejects the
+    // whole frame, so that no half-updated state reaches the track.
+    for (const Binding& b : bindings_[index]) {
+        double v = 0.0;
+        if (drivers::decodeSignal(*b.signal, frame.data, frame.len, &v) &&
+            !drivers::inDeclaredRange(*b.signal, v)) {
+            ++counters_.outOfRange;
+            return false;
+        }
+    }
     *u = TelemetryUpdate{};
     u->rx_s = rx_s;
     double unixTime = -1.0, subSecond = 0.0;
@@ -132,10 +144,11 @@ namespace {
 std::string canCounters(const CanDecodeCounters& c) {
     char buf[256];
     std::snprintf(buf, sizeof buf,
-                  "frames %lld, decoded %lld, unknown id %lld, truncated %lld, bad lines %lld",
+                  "frames %lld, decoded %lld, unknown id %lld, truncated %lld, out of range "
+                  "%lld, bad lines %lld",
                   static_cast<long long>(c.frames), static_cast<long long>(c.decoded),
                   static_cast<long long>(c.unknownId), static_cast<long long>(c.truncated),
-                  static_cast<long long>(c.badLines));
+                  static_cast<long long>(c.outOfRange), static_cast<long long>(c.badLines));
     return buf;
 }
 
@@ -145,11 +158,13 @@ std::string canCounters(const CanDecodeCounters& c) {
 
 ReplayInput::ReplayInput(const std::string& logPath, drivers::DbcDatabase db)
     : path_(logPath), decoder_(std::move(db)) {
-    std::ifstream in(logPath);
-    if (!in) throw SetupError("replay log '" + logPath + "': cannot open");
-    std::string line;
+    // A regular file of at most 512 MiB (sim/core/input_file.h), read whole at setup.
+    const std::string text = readInputFile(logPath, kMaxLogFileBytes, "replay log");
     double t0 = 0.0;
-    while (std::getline(in, line)) {
+    for (std::size_t pos = 0; pos < text.size();) {
+        const std::size_t eol = std::min(text.find('\n', pos), text.size());
+        const std::string_view line(text.data() + pos, eol - pos);
+        pos = eol + 1;
         if (line.empty() || line[0] == '#') continue;
         Entry e{};
         if (!drivers::parseCandumpLine(line, &e.t_s, &e.frame)) {
@@ -179,7 +194,7 @@ std::string ReplayInput::status() const {
 
 std::int64_t ReplayInput::badInput() const noexcept {
     const CanDecodeCounters& c = decoder_.counters();
-    return c.unknownId + c.truncated + c.badLines;
+    return c.unknownId + c.truncated + c.outOfRange + c.badLines;
 }
 
 // ---- CanInput --------------------------------------------------------------------------------
@@ -348,7 +363,8 @@ std::string CanInput::status() const {
 
 std::int64_t CanInput::badInput() const noexcept {
     const CanDecodeCounters& c = decoder_.counters();
-    return c.unknownId + c.truncated + bus_->counters().truncated + bus_->counters().errors;
+    return c.unknownId + c.truncated + c.outOfRange + bus_->counters().truncated +
+           bus_->counters().errors;
 }
 
 // ---- SerialInput -----------------------------------------------------------------------------
@@ -438,37 +454,40 @@ std::string SerialInput::status() const {
     char buf[512];
     if (proto_ == Proto::Nmea) {
         const drivers::NmeaCounters& n = nmea_.counters();
-        std::snprintf(buf, sizeof buf,
-                      "serial:%s nmea: bytes %lld, sentences %lld, bad checksum %lld, malformed "
-                      "%lld, unsupported %lld, read errors %lld, disconnects %lld, hang-ups %lld, "
-                      "reopen attempts %lld, reopened %lld%s",
-                      device_.c_str(), static_cast<long long>(c.bytes),
-                      static_cast<long long>(n.sentences), static_cast<long long>(n.badChecksum),
-                      static_cast<long long>(n.malformed), static_cast<long long>(n.unsupported),
-                      static_cast<long long>(c.errors), static_cast<long long>(disconnects_),
-                      static_cast<long long>(c.hangups), static_cast<long long>(reopenAttempts_),
-                      static_cast<long long>(reopened_), wasOpen_ ? "" : ", PORT LOST");
+        std::snprintf(
+            buf, sizeof buf,
+            "serial:%s nmea: bytes %lld, sentences %lld, bad checksum %lld, malformed "
+            "%lld, out of range %lld, unsupported %lld, read errors %lld, disconnects %lld, "
+            "hang-ups %lld, reopen attempts %lld, reopened %lld%s",
+            device_.c_str(), static_cast<long long>(c.bytes), static_cast<long long>(n.sentences),
+            static_cast<long long>(n.badChecksum), static_cast<long long>(n.malformed),
+            static_cast<long long>(n.outOfRange), static_cast<long long>(n.unsupported),
+            static_cast<long long>(c.errors), static_cast<long long>(disconnects_),
+            static_cast<long long>(c.hangups), static_cast<long long>(reopenAttempts_),
+            static_cast<long long>(reopened_), wasOpen_ ? "" : ", PORT LOST");
     } else {
         const drivers::MavlinkCounters& m = mavlink_.counters();
         std::snprintf(buf, sizeof buf,
-                      "serial:%s mavlink: bytes %lld, messages %lld, bad crc %lld, unknown id "
-                      "%lld, read errors %lld, disconnects %lld, hang-ups %lld, reopen attempts "
+                      "serial:%s mavlink: bytes %lld, messages %lld, bad crc %lld, out of range "
+                      "%lld, unknown id %lld, read errors %lld, disconnects %lld, hang-ups %lld, "
+                      "reopen attempts "
                       "%lld, reopened %lld%s",
                       device_.c_str(), static_cast<long long>(c.bytes),
                       static_cast<long long>(m.messages), static_cast<long long>(m.badCrc),
-                      static_cast<long long>(m.unknownId), static_cast<long long>(c.errors),
-                      static_cast<long long>(disconnects_), static_cast<long long>(c.hangups),
-                      static_cast<long long>(reopenAttempts_), static_cast<long long>(reopened_),
-                      wasOpen_ ? "" : ", PORT LOST");
+                      static_cast<long long>(m.outOfRange), static_cast<long long>(m.unknownId),
+                      static_cast<long long>(c.errors), static_cast<long long>(disconnects_),
+                      static_cast<long long>(c.hangups), static_cast<long long>(reopenAttempts_),
+                      static_cast<long long>(reopened_), wasOpen_ ? "" : ", PORT LOST");
     }
     return buf;
 }
 
 std::int64_t SerialInput::badInput() const noexcept {
     if (proto_ == Proto::Nmea) {
-        return nmea_.counters().badChecksum + nmea_.counters().malformed + disconnects_;
+        return nmea_.counters().badChecksum + nmea_.counters().malformed +
+               nmea_.counters().outOfRange + disconnects_;
     }
-    return mavlink_.counters().badCrc + disconnects_;
+    return mavlink_.counters().badCrc + mavlink_.counters().outOfRange + disconnects_;
 }
 
 // ---- TelemetryPlatform -----------------------------------------------------------------------
@@ -486,11 +505,12 @@ void TelemetryPlatform::sample(double t_sample_s, double now_s, PlatformState& o
 }
 
 std::string TelemetryPlatform::status() const {
-    return input_->status() + ", updates " + std::to_string(track_.updates());
+    return input_->status() + ", updates " + std::to_string(track_.updates()) + ", rejected " +
+           std::to_string(track_.rejected());
 }
 
 bool TelemetryPlatform::failed() const noexcept {
-    return badInputFatal_ && input_->badInput() > 0;
+    return badInputFatal_ && (input_->badInput() > 0 || track_.rejected() > 0);
 }
 
 }  // namespace nvs::rt

@@ -34,7 +34,9 @@ struct CanDecodeCounters {
     std::int64_t decoded = 0;
     std::int64_t unknownId = 0;
     std::int64_t truncated = 0;  // shorter than the DBC message
-    std::int64_t badLines = 0;   // unreadable candump lines (replay)
+    // A bound signal outside its DBC [min|max], or not finite: the frame is rejected whole.
+    std::int64_t outOfRange = 0;
+    std::int64_t badLines = 0;  // unreadable candump lines (replay)
 };
 
 class CanDecoder {

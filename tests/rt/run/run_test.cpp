@@ -148,7 +148,9 @@ TEST_F(RunTest, ReplayDrivesThePoseAndSimRunsAreByteIdentical) {
     EXPECT_EQ(n, 150);
     // Bad input counted, not fatal; latency reported.
     const std::string stats = slurp(dir_ / "s0.json");
-    EXPECT_NE(stats.find("unknown id 1, truncated 1, bad lines 1"), std::string::npos) << stats;
+    EXPECT_NE(stats.find("unknown id 1, truncated 1, out of range 0, bad lines 1"),
+              std::string::npos)
+        << stats;
     EXPECT_NE(stats.find("\"latency\":{\"n\":150"), std::string::npos) << stats;
 }
 
