@@ -480,9 +480,12 @@ TEST(FrameLoop, AStalledOutputDelaysNeitherTheLoopNorAnotherOutput) {
     loop.join();
     const double join_s = static_cast<double>(monotonicNow_ns() - t0) * 1e-9;
     const RunCounters& c = loop.stats().counters;
-    EXPECT_EQ(c.framesEmitted, 60);
+    // A loaded machine may miss a tick or two (the threads' wake-ups); the stalled output must
+    // not add any. Every emission (fresh or repeated) reached the healthy output.
+    EXPECT_GE(c.framesEmitted, 57);
     EXPECT_LE(c.deadlineMisses, 3);
-    EXPECT_EQ(rec.n, 60);
+    const std::int64_t emissions = c.framesEmitted + c.repeats;
+    EXPECT_EQ(rec.n, emissions);
     for (int i = 0; i < rec.n; ++i) {
         const double late_s =
             static_cast<double>(rec.mono[i] - loop.wallClock().deadline_ns(0)) * 1e-9 -
@@ -491,7 +494,7 @@ TEST(FrameLoop, AStalledOutputDelaysNeitherTheLoopNorAnotherOutput) {
     }
     const SinkChannelCounters sc = loop.channel(0).counters();
     EXPECT_EQ(stalled.writes, 1);
-    EXPECT_EQ(sc.queueDrops, 60 - 4);  // four queued, the first of them in the blocked write
+    EXPECT_EQ(sc.queueDrops, emissions - 4);  // four queued, the first in the blocked write
     EXPECT_TRUE(sc.failed);
     EXPECT_EQ(loop.channel(1).counters().queueDrops, 0);
     EXPECT_EQ(c.sinkQueueDrops, sc.queueDrops);
