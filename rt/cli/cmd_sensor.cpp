@@ -18,6 +18,7 @@
 #include "rt/cli/commands.h"
 #include "rt/cli/data_dirs.h"
 #include "sim/core/error.h"
+#include "sim/core/input_file.h"
 #include "sim/sensor/camera.h"
 #include "sim/sensor/chain.h"
 #include "sim/sensor/image_io.h"
@@ -118,7 +119,7 @@ int runSensor(const SensorOptions& opts) {
         if (!inPattern)
             frames = 1;
         else
-            while (std::filesystem::exists(sensor::expandFramePattern(opts.in, frames)))
+            while (nvs::pathExists(sensor::expandFramePattern(opts.in, frames)))
                 ++frames;
     }
     if (frames <= 0) throw SetupError("--in " + opts.in + ": no input files (frame 0 missing)");
@@ -136,7 +137,7 @@ int runSensor(const SensorOptions& opts) {
     }
     const std::filesystem::path outDir =
         std::filesystem::path(sensor::expandFramePattern(opts.out, 0)).parent_path();
-    if (!outDir.empty() && !std::filesystem::is_directory(outDir)) {
+    if (!outDir.empty() && !nvs::isDirectory(outDir)) {
         throw SetupError("--out " + opts.out + ": no directory " + outDir.string());
     }
     GammaTableCache gammaTables;

@@ -6,6 +6,7 @@
 #include <ctime>
 
 #include "sim/core/config.h"
+#include "sim/core/input_file.h"
 #include "sim/core/units.h"
 
 namespace nvs::rt {
@@ -135,7 +136,7 @@ void readSceneTables(const ConfigTable& root, const std::filesystem::path& file,
     const ConfigTable scn = root.table("scene");
     const auto rel = scn.require<std::string>("file");
     out.sceneFile = std::filesystem::absolute(file.parent_path() / rel);
-    if (!std::filesystem::exists(out.sceneFile)) {
+    if (!pathExists(out.sceneFile)) {
         scn.fail("file", "scene file not found: " + out.sceneFile.string());
     }
     out.lampsOn = scn.optional<std::vector<std::string>>("lamps_on");
@@ -345,7 +346,7 @@ void readTelemetry(const ConfigTable& root, const std::string& file, Scenario& s
         std::filesystem::path log =
             spec.substr(colon + 1, q == std::string::npos ? q : q - colon - 1);
         if (log.is_relative()) log = std::filesystem::path(file).parent_path() / log;
-        if (!std::filesystem::exists(log)) {
+        if (!pathExists(log)) {
             tel->fail("source", "telemetry log not found: " + log.string());
         }
         spec = "replay:" + log.string() + (q == std::string::npos ? "" : spec.substr(q));
@@ -414,8 +415,8 @@ Scenario fromDocument(const ConfigDocument& doc, const std::string& file,
 
 Scenario loadScenario(const std::filesystem::path& path, const std::filesystem::path& configDir) {
     std::filesystem::path file = path;
-    if (std::filesystem::is_directory(path)) file = path / "scenario.toml";
-    if (!std::filesystem::exists(file)) {
+    if (isDirectory(path)) file = path / "scenario.toml";
+    if (!pathExists(file)) {
         throw SetupError("scenario '" + path.string() + "': no such file");
     }
     const ConfigDocument doc = ConfigDocument::parseFile(file);

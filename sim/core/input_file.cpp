@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cerrno>
 #include <cstring>
+#include <system_error>
 
 #include "sim/core/error.h"
 
@@ -81,6 +82,16 @@ std::string readInputFile(const std::filesystem::path& path, std::uintmax_t maxB
     }
     text.resize(have);
     return text;
+}
+
+bool pathExists(const std::filesystem::path& path) noexcept {
+    std::error_code ec;
+    return std::filesystem::exists(path, ec);
+}
+
+bool isDirectory(const std::filesystem::path& path) noexcept {
+    std::error_code ec;
+    return std::filesystem::is_directory(path, ec);
 }
 
 void requireRegularFile(const std::filesystem::path& path, const std::string& what) {

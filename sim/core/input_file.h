@@ -28,6 +28,12 @@ inline constexpr std::uintmax_t kMaxImageFileBytes = std::uintmax_t{1} << 30;
 std::string readInputFile(const std::filesystem::path& path, std::uintmax_t maxBytes,
                           const std::string& what);
 
+// std::filesystem::exists / is_directory without their exception: a name the system refuses
+// (a component longer than 255 bytes, ENAMETOOLONG) is simply not there, and the caller's
+// "not found" error names it.
+bool pathExists(const std::filesystem::path& path) noexcept;
+bool isDirectory(const std::filesystem::path& path) noexcept;
+
 // Throws the same SetupError as readInputFile unless `path` names a regular file (after
 // following symbolic links); for inputs a library opens by name.
 void requireRegularFile(const std::filesystem::path& path, const std::string& what);

@@ -207,7 +207,7 @@ void Scene::validate() const {
 Mesh loadObjMesh(const std::filesystem::path& path,
                  const std::vector<std::pair<std::string, int>>& layerMaterial, int defaultMaterial,
                  const FileLoc& from) {
-    if (!std::filesystem::exists(path)) {
+    if (!pathExists(path)) {
         throw SetupError(from, "mesh file not found: " + path.string());
     }
     return parseObjMesh(readInputFile(path, kMaxMeshFileBytes, "OBJ mesh"), path.string(),
@@ -277,7 +277,7 @@ Mesh parseObjMesh(const std::string& text, const std::string& name,
 }
 
 Scene loadScene(const std::filesystem::path& path) {
-    if (!std::filesystem::exists(path)) throw SetupError("scene file not found: " + path.string());
+    if (!pathExists(path)) throw SetupError("scene file not found: " + path.string());
     const ConfigDocument doc = ConfigDocument::parseFile(path);
     const ConfigTable root = doc.root();
     const std::filesystem::path dir = path.parent_path();
@@ -294,7 +294,7 @@ Scene loadScene(const std::filesystem::path& path) {
             const auto rel = t.require<std::string>("reflectance_file");
             const auto column = t.get<std::string>("column", "reflectance_rel");
             const std::filesystem::path f = dir / rel;
-            if (!std::filesystem::exists(f)) {
+            if (!pathExists(f)) {
                 t.fail("reflectance_file", "file not found: " + f.string());
             }
             const TabulatedSpectrum tab = loadSpectrumCsv(f, "wavelength_nm", column);

@@ -8,6 +8,7 @@
 
 #include "sim/core/config.h"
 #include "sim/core/csv.h"
+#include "sim/core/input_file.h"
 #include "sim/core/photometry.h"
 #include "sim/core/planck.h"
 #include "sim/core/units.h"
@@ -147,7 +148,7 @@ CameraParams readCamera(const ConfigDocument& doc, const Overrides& ov, const Fi
     if (!resp.empty()) {
         std::filesystem::path p = resp;
         if (p.is_relative()) p = baseDir / p;
-        if (!std::filesystem::exists(p)) spectral.fail("response_file", "no file " + p.string());
+        if (!pathExists(p)) spectral.fail("response_file", "no file " + p.string());
         c.response_file = p;
     }
     c.response_column = spectral.get<std::string>("response_column", c.response_column);
@@ -394,13 +395,13 @@ std::filesystem::path resolveCameraPath(const std::filesystem::path& configDir,
                                         const std::string& nameOrPath) {
     std::filesystem::path p = nameOrPath;
     if (p.extension() == ".toml" || nameOrPath.find('/') != std::string::npos) {
-        if (!std::filesystem::exists(p)) throw SetupError("--camera: no file " + p.string());
+        if (!pathExists(p)) throw SetupError("--camera: no file " + p.string());
         return p;
     }
     const std::filesystem::path q = configDir / "cameras" / (nameOrPath + ".toml");
-    if (!std::filesystem::exists(q)) {
+    if (!pathExists(q)) {
         std::string names;
-        if (std::filesystem::is_directory(configDir / "cameras")) {
+        if (isDirectory(configDir / "cameras")) {
             for (const auto& e : std::filesystem::directory_iterator(configDir / "cameras")) {
                 if (e.path().extension() == ".toml") names += " " + e.path().stem().string();
             }
@@ -417,7 +418,7 @@ CameraParams loadCamera(const std::filesystem::path& configDir, const std::strin
     const ConfigDocument doc = ConfigDocument::parseFile(p);
     // Data files named by a preset are relative to config/.
     std::filesystem::path base = p.parent_path().parent_path();
-    if (!std::filesystem::exists(base / "spectra")) base = configDir;
+    if (!pathExists(base / "spectra")) base = configDir;
     return readCamera(doc, overrides, FileLoc{p.string(), 0, 0}, base);
 }
 
@@ -474,7 +475,7 @@ Spectrum spectrumShape(const std::filesystem::path& configDir, const std::string
         // stand-ins: moonlight ≈ reflected sunlight (5800 K shape, lunar reddening ignored);
         // night sky (airglow + starlight) is red-rich, approximated by 2000 K.
         const std::filesystem::path p = configDir / "spectra" / (spec + "_shape.csv");
-        if (std::filesystem::exists(p)) {
+        if (pathExists(p)) {
             return loadSpectrumCsv(p, "wavelength_nm", "radiance_rel").resample();
         }
         return planckRadiance_W_m2_sr_nm(spec == "moon" ? 5800.0 : 2000.0);

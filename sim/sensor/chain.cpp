@@ -6,6 +6,7 @@
 #include <cmath>
 #include <filesystem>
 
+#include "sim/core/input_file.h"
 #include "sim/core/rng.h"
 #include "sim/core/units.h"
 #include "sim/sensor/mtf.h"
@@ -793,7 +794,7 @@ namespace {
 // replaced one. Not thread-safe, like FFTW's planner itself: chains are made on one thread.
 void importShippedWisdom(const std::filesystem::path& configDir) {
     const std::filesystem::path file = configDir / "fftw" / "wisdom-single.txt";
-    if (std::filesystem::exists(file)) fftwf_import_wisdom_from_filename(file.c_str());
+    if (pathExists(file)) fftwf_import_wisdom_from_filename(file.c_str());
 }
 }  // namespace
 

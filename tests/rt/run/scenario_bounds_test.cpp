@@ -73,6 +73,18 @@ TEST(ScenarioBounds, NonFiniteValuesNameTheirLine) {
     }
 }
 
+TEST(ScenarioBounds, OverlongPathsAreSetupErrors) {
+    // std::filesystem::exists threw filesystem_error (ENAMETOOLONG) for these.
+    const std::string longName(300, 'n');
+    for (const std::string& bad : {"[scene]\nfile = \"" + longName + "\"\n",
+                                   "[telemetry]\nsource = \"replay:" + longName + "\"\n"}) {
+        const std::string e =
+            errorOf(std::string(kHead) + "[camera]\npreset = \"pulnix-ag5745ef3\"\n" +
+                    (bad[1] == 's' ? "" : std::string(kSource)) + bad);
+        EXPECT_NE(e.find("s.toml:"), std::string::npos) << e;
+    }
+}
+
 TEST(ScenarioBounds, CameraPresetThatIsAFifoIsAnError) {
     const std::string fifo = ::testing::TempDir() + "nvs_preset_fifo.toml";
     ::unlink(fifo.c_str());
