@@ -267,15 +267,10 @@ void printSummary(std::FILE* status, const std::string& name, const FrameLoop& l
 
 }  // namespace
 
-int runScenario(const RunRequest& req, std::FILE* status) {
-    // SIGINT and SIGTERM stop the run from the start, setup included. A shell without job
-    // control starts background commands with SIGINT ignored; sigaction replaces that inherited
-    // SIG_IGN on purpose: a stimulator asked to stop must stop, whoever started it. A signal
-    // that arrives during setup (camera FFT plans, telemetry files) is kept and honoured as
-    // soon as the loop exists.
-    installStopSignals();
-    // Setup: everything that can fail fails here, before the first frame.
-    Scenario sc = loadScenario(req.scenario, req.dirs.config);
+namespace {
+
+// The loop's configuration from the scenario and the command line (setup errors thrown).
+LoopConfig loopConfigFor(const Scenario& sc, const RunRequest& req) {
     LoopConfig cfg;
     cfg.rate = sc.rate;
     cfg.clock = req.clock;
@@ -295,6 +290,53 @@ int runScenario(const RunRequest& req, std::FILE* status) {
     } else if (req.clock == ClockKind::Sim) {
         throw SetupError("--clock sim needs --frames N or [scenario] duration_s");
     }
+    return cfg;
+}
+
+// One live status line from the loop's atomic counters; returns the frames emitted so far.
+std::int64_t printLiveStatus(std::FILE* status, const FrameLoop& loop, double dt_s,
+                             std::int64_t lastEmitted) {
+    const LiveCounters& l = loop.live();
+    const std::int64_t e = l.emitted.load();
+    const std::int64_t lat = l.lastLatency_ns.load();
+    char trig[128] = "";
+    if (loop.config().clock == ClockKind::Trigger) {
+        std::snprintf(trig, sizeof trig, "  trigger missing %lld extra %lld%s",
+                      static_cast<long long>(l.triggerMissing.load()),
+                      static_cast<long long>(l.triggerExtra.load()),
+                      l.triggerStalled.load() ? "  TRIGGER STALLED" : "");
+    }
+    // A miss is repeated or sends nothing; late and skipped say what became of the frames that
+    // missed; queue drops are frames a stalled output could not take.
+    std::fprintf(status,
+                 "nvstim run: frame %lld  %.2f fps  misses %lld (repeated %lld, nothing "
+                 "sent %lld)  late %lld  skipped %lld  sink errors %lld  queue drops %lld"
+                 "%s  latency %s%.2f ms%s%s\n",
+                 static_cast<long long>(e), static_cast<double>(e - lastEmitted) / dt_s,
+                 static_cast<long long>(l.misses.load()), static_cast<long long>(l.repeats.load()),
+                 static_cast<long long>(l.dropped.load()), static_cast<long long>(l.late.load()),
+                 static_cast<long long>(l.skipped.load()),
+                 static_cast<long long>(l.sinkErrors.load()),
+                 static_cast<long long>(l.queueDrops.load()),
+                 l.outputsFailed.load() > 0 ? "  OUTPUT FAILED" : "", lat < 0 ? "n/a " : "",
+                 lat < 0 ? 0.0 : static_cast<double>(lat) * 1e-6,
+                 l.stale.load() ? "  TELEMETRY STALE" : "", trig);
+    std::fflush(status);
+    return e;
+}
+
+}  // namespace
+
+int runScenario(const RunRequest& req, std::FILE* status) {
+    // SIGINT and SIGTERM stop the run from the start, setup included. A shell without job
+    // control starts background commands with SIGINT ignored; sigaction replaces that inherited
+    // SIG_IGN on purpose: a stimulator asked to stop must stop, whoever started it. A signal
+    // that arrives during setup (camera FFT plans, telemetry files) is kept and honoured as
+    // soon as the loop exists.
+    installStopSignals();
+    // Setup: everything that can fail fails here, before the first frame.
+    Scenario sc = loadScenario(req.scenario, req.dirs.config);
+    LoopConfig cfg = loopConfigFor(sc, req);
     int toStdout = 0;
     std::vector<std::unique_ptr<FrameSink>> sinks;
     for (const std::string& o : req.outputs) {
@@ -375,35 +417,8 @@ int runScenario(const RunRequest& req, std::FILE* status) {
         const auto now = std::chrono::steady_clock::now();
         const double dt = std::chrono::duration<double>(now - lastPrint).count();
         if (dt >= 1.0) {
-            const LiveCounters& l = loop.live();
-            const std::int64_t e = l.emitted.load();
-            const std::int64_t lat = l.lastLatency_ns.load();
-            char trig[128] = "";
-            if (cfg.clock == ClockKind::Trigger) {
-                std::snprintf(trig, sizeof trig, "  trigger missing %lld extra %lld%s",
-                              static_cast<long long>(l.triggerMissing.load()),
-                              static_cast<long long>(l.triggerExtra.load()),
-                              l.triggerStalled.load() ? "  TRIGGER STALLED" : "");
-            }
-            // A miss is repeated or sends nothing; late and skipped say what became of the
-            // frames that missed; queue drops are frames a stalled output could not take.
-            std::fprintf(
-                status,
-                "nvstim run: frame %lld  %.2f fps  misses %lld (repeated %lld, nothing "
-                "sent %lld)  late %lld  skipped %lld  sink errors %lld  queue drops %lld"
-                "%s  latency %s%.2f ms%s%s\n",
-                static_cast<long long>(e), static_cast<double>(e - lastEmitted) / dt,
-                static_cast<long long>(l.misses.load()), static_cast<long long>(l.repeats.load()),
-                static_cast<long long>(l.dropped.load()), static_cast<long long>(l.late.load()),
-                static_cast<long long>(l.skipped.load()),
-                static_cast<long long>(l.sinkErrors.load()),
-                static_cast<long long>(l.queueDrops.load()),
-                l.outputsFailed.load() > 0 ? "  OUTPUT FAILED" : "", lat < 0 ? "n/a " : "",
-                lat < 0 ? 0.0 : static_cast<double>(lat) * 1e-6,
-                l.stale.load() ? "  TELEMETRY STALE" : "", trig);
-            std::fflush(status);
+            lastEmitted = printLiveStatus(status, loop, dt, lastEmitted);
             lastPrint = now;
-            lastEmitted = e;
         }
     }
     loop.join();
