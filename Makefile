@@ -1,6 +1,7 @@
 # nvstim — the two user commands:
 #   make run    install missing Debian packages, build, run the default scenario
 #   make test   the same set-up, then the whole test suite through ctest
+#   make fuzz   the fuzz targets (tests/fuzz) under ASan+UBSan, FUZZ_SECONDS each (clang)
 #   make validate  the hidden-effect sweep of `nvstim diagnose` (20 seeds per effect) and the
 #               thesis datasets; writes $(BUILD)/validate/diagnose.md (docs/validation.md)
 # Everything else is CMake (CMakePresets.json): `cmake --preset debug-asan` etc.;
@@ -11,7 +12,10 @@
 PACKAGES := build-essential cmake ninja-build pkg-config \
             libtomlplusplus-dev libcli11-dev libgtest-dev libgmock-dev libbenchmark-dev \
             librandom123-dev libgsl-dev liberfa-dev libembree-dev libopenexr-dev libfftw3-dev \
-            libgpiod-dev libtinyobjloader-dev libssl-dev libpng-dev python3 python3-ephem python3-matplotlib clang-format ffmpeg
+            libgpiod-dev libtinyobjloader-dev libssl-dev libpng-dev python3 python3-ephem python3-matplotlib clang-format ffmpeg \
+            qemu-system-x86 busybox-static can-utils v4l-utils kmod cpio
+# The last line is the HIL test's (tests/hil): a QEMU virtual machine with Debian's kernel,
+# busybox, can-utils and v4l2-ctl; the kernel packages themselves are fetched by the test.
 
 PRESET   ?= release
 BUILD    := build/$(PRESET)
@@ -21,7 +25,14 @@ NVSTIM   := $(BUILD)/rt/cli/nvstim
 SCENARIO ?= scenarios/thesis-nolight
 OUT      := out
 
-.PHONY: run test validate
+# `make fuzz` only: clang and libFuzzer (libclang-rt-14-dev) for the `fuzz` preset. `make test`
+# does not need them: it replays the seed corpora with the release compiler.
+FUZZ_PACKAGES := clang libclang-rt-14-dev
+FUZZ_SECONDS  ?= 60
+FUZZ_TARGETS  := dbc candump nmea mavlink scenario camera csv obj image frame_pattern
+FUZZ_BUILD    := build/fuzz
+
+.PHONY: run test fuzz validate
 run: .nvs-build
 	@mkdir -p $(OUT)
 	$(NVSTIM) run $(SCENARIO) --clock sim --output y4m:$(OUT)/$(notdir $(SCENARIO)).y4m \
@@ -38,8 +49,28 @@ run: .nvs-build
 	@echo "nvstim: to install (binary, config, scenarios; runs from any directory):"
 	@echo "  cmake --install $(BUILD) --prefix PREFIX"
 
+# A skipped test says why in its output; those reasons are printed after the summary.
 test: .nvs-build
-	ctest --preset $(PRESET)
+	ctest --preset $(PRESET); rc=$$?; \
+	  grep -h "SKIPPED:" $(BUILD)/Testing/Temporary/LastTest.log 2>/dev/null | sort -u; exit $$rc
+
+# Each target runs FUZZ_SECONDS on its seeds (tests/fuzz/NAME/corpus, read only) and a working
+# corpus in build/fuzz/corpus/NAME; a finding stops with the crashing input under
+# build/fuzz/artifacts/NAME/ (add it to the seeds once fixed).
+fuzz: .nvs-fuzz-deps
+	@[ -f $(FUZZ_BUILD)/CMakeCache.txt ] || cmake --preset fuzz
+	cmake --build --preset fuzz
+	@for t in $(FUZZ_TARGETS); do \
+	  mkdir -p $(FUZZ_BUILD)/corpus/$$t $(FUZZ_BUILD)/artifacts/$$t; \
+	  echo "nvstim: fuzzing $$t for $(FUZZ_SECONDS) s"; \
+	  $(FUZZ_BUILD)/tests/fuzz/nvs_fuzz_$$t -max_total_time=$(FUZZ_SECONDS) -print_final_stats=1 \
+	    -artifact_prefix=$(FUZZ_BUILD)/artifacts/$$t/ $(FUZZ_BUILD)/corpus/$$t tests/fuzz/$$t/corpus \
+	    || { echo "nvstim: fuzz target $$t found a crash: $(FUZZ_BUILD)/artifacts/$$t/" >&2; exit 1; }; \
+	done
+
+.PHONY: .nvs-deps .nvs-fuzz-deps .nvs-build
+.nvs-fuzz-deps:
+	@$(MAKE) --no-print-directory .nvs-deps PACKAGES="$(PACKAGES) $(FUZZ_PACKAGES)"
 
 VALIDATE := $(BUILD)/validate
 validate: .nvs-build
@@ -52,7 +83,6 @@ validate: .nvs-build
 	done
 	@echo "nvstim: sweep table $(VALIDATE)/diagnose.md; thesis findings $(VALIDATE)/thesis/*.json"
 
-.PHONY: .nvs-deps .nvs-build
 .nvs-deps:
 	@missing=""; \
 	for p in $(PACKAGES); do \

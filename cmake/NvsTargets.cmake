@@ -18,13 +18,24 @@ if(CMAKE_CXX_COMPILER_ID STREQUAL "GNU" AND CMAKE_CXX_COMPILER_VERSION VERSION_L
 endif()
 
 add_library(nvs_sanitizers INTERFACE)
-if(NVS_SANITIZE AND NVS_TSAN)
+if((NVS_SANITIZE OR NVS_FUZZ) AND NVS_TSAN)
   # The runtimes of ASan and TSan cannot be linked into one program.
   message(FATAL_ERROR "NVS_SANITIZE and NVS_TSAN are exclusive: configure two build folders")
 endif()
 if(NVS_SANITIZE)
   target_compile_options(nvs_sanitizers INTERFACE
     -fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=undefined)
+  target_link_options(nvs_sanitizers INTERFACE -fsanitize=address,undefined)
+endif()
+if(NVS_FUZZ)
+  # libFuzzer's coverage instrumentation with ASan and UBSan on every nvstim target; the
+  # fuzz executables add the fuzzer's main (tests/fuzz). Any UB report aborts the run.
+  if(NOT CMAKE_CXX_COMPILER_ID STREQUAL "Clang")
+    message(FATAL_ERROR "NVS_FUZZ needs clang (libFuzzer): use the `fuzz` preset")
+  endif()
+  target_compile_options(nvs_sanitizers INTERFACE
+    -fsanitize=fuzzer-no-link,address,undefined -fno-omit-frame-pointer
+    -fno-sanitize-recover=undefined)
   target_link_options(nvs_sanitizers INTERFACE -fsanitize=address,undefined)
 endif()
 if(NVS_TSAN)

@@ -48,10 +48,14 @@ struct DbcMessage {
     std::vector<DbcSignal> signals;
 };
 
+// Longest DBC line read; a longer one is an error naming its line.
+inline constexpr std::size_t kDbcMaxLineBytes = 65536;
+
 class DbcDatabase {
   public:
-    // Throws SetupError naming file:line for a malformed BO_/SG_ line or a signal that does
-    // not fit its message.
+    // Throws SetupError naming file:line for a malformed BO_/SG_ line, a line longer than
+    // kDbcMaxLineBytes, a signal that does not fit its message or whose [min|max] has
+    // min > max. load() reads a regular file of at most 16 MiB (sim/core/input_file.h).
     static DbcDatabase parse(std::string_view text, const std::string& fileName);
     static DbcDatabase load(const std::string& path);
 
@@ -69,6 +73,9 @@ bool extractRaw(const DbcSignal& sig, const std::uint8_t* data, int len,
                 std::uint64_t* raw) noexcept;
 // Physical value = (signed or unsigned raw) · factor + offset. False when the frame is short.
 bool decodeSignal(const DbcSignal& sig, const std::uint8_t* data, int len, double* value) noexcept;
+// True when a decoded value is finite and within the signal's declared [min|max] (with half
+// a raw step of slack for rounding); [0|0] declares no range.
+bool inDeclaredRange(const DbcSignal& sig, double value) noexcept;
 // Inverse of decodeSignal (rounded to the nearest raw step, clamped to the signal's range of
 // raw values); for recording, tests and fakes.
 void encodeSignal(const DbcSignal& sig, double value, std::uint8_t* data, int len) noexcept;
@@ -78,9 +85,12 @@ void encodeSignal(const DbcSignal& sig, double value, std::uint8_t* data, int le
 //   (1436509052.249713) vcan0 044#2A366C2BBA        classic, 3 hex digits: 11-bit id
 //   (1436509052.249713) can0 12345678#R             29-bit id (8 hex digits), remote request
 //   (1436509052.249713) can0 123##1112233           CAN FD: "##", one hex digit of flags
+// The time is "seconds.fraction", at most 11 digits before the point and 1..9 after it.
 // Returns false for a malformed line (counted by the caller, never fatal).
+inline constexpr double kMaxCandumpTime_s = 1e11;
 bool parseCandumpLine(std::string_view line, double* t_s, CanFrame* frame) noexcept;
-// Formats a frame as a candump line with '\n'; returns its length, or 0 if buf is too small.
+// Formats a frame as a candump line with '\n'; returns its length, or 0 if buf is too small or
+// t_s is outside [0, kMaxCandumpTime_s).
 std::size_t formatCandumpLine(double t_s, const char* iface, const CanFrame& frame, char* buf,
                               std::size_t size) noexcept;
 
@@ -96,6 +106,10 @@ struct CanBusCounters {
     std::int64_t errors = 0;     // failed reads (other than "nothing to read")
     std::int64_t truncated = 0;  // reads shorter than a CAN frame
     std::int64_t reopens = 0;
+    // Frames the kernel dropped because this socket's receive queue was full (SO_RXQ_OVFL:
+    // the kernel's running count, as of the last frame read). Linux: Documentation/networking/
+    // can.rst; socket(7).
+    std::int64_t dropped = 0;
     int lastErrno = 0;
 };
 
@@ -111,6 +125,10 @@ class CanBus {
     // Non-blocking read: 1 and a frame with its receive time [s since the Unix epoch], 0 when
     // nothing is pending, -errno on failure.
     virtual int read(CanFrame* frame, double* rxRealtime_s) noexcept = 0;
+    // Waits up to `timeout_ms` for a frame to read: 1 when one is pending, 0 on timeout,
+    // -errno on failure. A reader that must wait for the bus (the sim clock's lockstep) calls it
+    // instead of spinning on read().
+    virtual int waitReadable(int timeout_ms) noexcept = 0;
     virtual int write(const CanFrame& frame) noexcept = 0;
     virtual CanBusState state() const noexcept = 0;
     virtual const CanBusCounters& counters() const noexcept = 0;
@@ -128,6 +146,7 @@ class SocketCanBus final : public CanBus {
     int open(const std::string& iface, bool fd, const std::vector<CanFilter>& filters) override;
     void close() noexcept override;
     int read(CanFrame* frame, double* rxRealtime_s) noexcept override;
+    int waitReadable(int timeout_ms) noexcept override;  // poll(2), POLLIN
     int write(const CanFrame& frame) noexcept override;
     CanBusState state() const noexcept override { return state_; }
     const CanBusCounters& counters() const noexcept override { return counters_; }

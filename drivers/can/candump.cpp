@@ -14,6 +14,28 @@ int hexValue(char c) {
     return -1;
 }
 
+// "seconds.fraction" as candump writes it ("%ld.%06ld"): 1..kMaxSecondDigits digits, a point,
+// 1..9 digits. Bounded so that every accepted time converts to an integer count of seconds
+// without overflow (formatCandumpLine) and a garbage number of digits is refused.
+constexpr std::size_t kMaxSecondDigits = 11;  // < 10^11 s, about 3170 years
+
+bool parseCandumpTime(std::string_view s, double* t_s) {
+    const std::size_t dot = s.find('.');
+    if (dot == std::string_view::npos || dot == 0 || dot > kMaxSecondDigits ||
+        s.size() - dot - 1 < 1 || s.size() - dot - 1 > 9) {
+        return false;
+    }
+    char num[kMaxSecondDigits + 11];
+    for (std::size_t k = 0; k < s.size(); ++k) {
+        if (k != dot && (s[k] < '0' || s[k] > '9')) return false;
+        num[k] = s[k];
+    }
+    num[s.size()] = '\0';
+    // strtod of the checked digits: the nearest double, as candump logs were always read.
+    *t_s = std::strtod(num, nullptr);
+    return true;
+}
+
 }  // namespace
 
 bool parseCandumpLine(std::string_view line, double* t_s, CanFrame* frame) noexcept {
@@ -23,18 +45,9 @@ bool parseCandumpLine(std::string_view line, double* t_s, CanFrame* frame) noexc
         ++i;
     if (i >= line.size() || line[i] != '(') return false;
     const std::size_t close = line.find(')', i);
-    if (close == std::string_view::npos || close - i > 40) return false;
-    char num[48];
-    const std::size_t n = close - i - 1;
-    for (std::size_t k = 0; k < n; ++k) {
-        const char c = line[i + 1 + k];
-        if (!((c >= '0' && c <= '9') || c == '.')) return false;
-        num[k] = c;
-    }
-    num[n] = '\0';
-    char* end = nullptr;
-    const double t = std::strtod(num, &end);
-    if (end == num || *end != '\0') return false;
+    if (close == std::string_view::npos) return false;
+    double t = 0.0;
+    if (!parseCandumpTime(line.substr(i + 1, close - i - 1), &t)) return false;
     std::size_t p = close + 1;
     if (p >= line.size() || line[p] != ' ') return false;
     ++p;
@@ -98,6 +111,8 @@ bool parseCandumpLine(std::string_view line, double* t_s, CanFrame* frame) noexc
 
 std::size_t formatCandumpLine(double t_s, const char* iface, const CanFrame& frame, char* buf,
                               std::size_t size) noexcept {
+    // The same range parseCandumpLine accepts; outside it the conversion below would overflow.
+    if (!(t_s >= 0.0 && t_s < kMaxCandumpTime_s) || size == 0) return 0;
     const long long sec = static_cast<long long>(t_s);
     long long usec = static_cast<long long>((t_s - static_cast<double>(sec)) * 1e6 + 0.5);
     long long s = sec;

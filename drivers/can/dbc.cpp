@@ -1,11 +1,13 @@
 #include <algorithm>
+#include <cctype>
+#include <charconv>
+#include <climits>
 #include <cmath>
-#include <fstream>
-#include <regex>
-#include <sstream>
+#include <cstdint>
 
 #include "drivers/can/can.h"
 #include "sim/core/error.h"
+#include "sim/core/input_file.h"
 
 namespace nvs::drivers {
 
@@ -46,11 +48,12 @@ bool decodeSignal(const DbcSignal& sig, const std::uint8_t* data, int len, doubl
     std::uint64_t raw = 0;
     if (!extractRaw(sig, data, len, &raw)) return false;
     double r = 0.0;
-    if (sig.isSigned && sig.length < 64 && ((raw >> (sig.length - 1)) & 1u)) {
-        // Two's complement: subtract 2^length.
-        r = static_cast<double>(static_cast<std::int64_t>(raw) -
-                                (static_cast<std::int64_t>(1) << sig.length));
-    } else if (sig.isSigned && sig.length == 64) {
+    if (sig.isSigned) {
+        // Two's complement of `length` bits: the sign bit set, every higher bit set too. In
+        // unsigned arithmetic, then converted (modular since C++20): 2^63 and the subtraction
+        // raw − 2^length overflowed int64 for lengths of 63 and 64.
+        if (sig.length < 64 && ((raw >> (sig.length - 1)) & 1u))
+            raw |= ~std::uint64_t{0} << sig.length;
         r = static_cast<double>(static_cast<std::int64_t>(raw));
     } else {
         r = static_cast<double>(raw);
@@ -61,12 +64,23 @@ bool decodeSignal(const DbcSignal& sig, const std::uint8_t* data, int len, doubl
 
 void encodeSignal(const DbcSignal& sig, double value, std::uint8_t* data, int len) noexcept {
     double r = std::round((value - sig.offset) / sig.factor);
-    const double span = std::ldexp(1.0, sig.length);
-    const double lo = sig.isSigned ? -span / 2 : 0.0;
-    const double hi = sig.isSigned ? span / 2 - 1 : span - 1;
-    r = std::clamp(r, lo, hi);
-    std::uint64_t raw = static_cast<std::uint64_t>(static_cast<std::int64_t>(r));
-    if (sig.length < 64) raw &= (static_cast<std::uint64_t>(1) << sig.length) - 1;
+    if (std::isnan(r)) r = 0.0;
+    // Clamped to the raw range in integer arithmetic: 2^63 and 2^64 are not representable in
+    // the integer types, so a double at the limit must not be converted.
+    const int n = sig.length;
+    std::uint64_t raw = 0;
+    if (sig.isSigned) {
+        const double lim = std::ldexp(1.0, n - 1);
+        const std::int64_t hi = n == 64 ? INT64_MAX : (std::int64_t{1} << (n - 1)) - 1;
+        const std::int64_t lo = n == 64 ? INT64_MIN : -(std::int64_t{1} << (n - 1));
+        const std::int64_t v = r >= lim ? hi : (r < -lim ? lo : static_cast<std::int64_t>(r));
+        raw = static_cast<std::uint64_t>(v);
+    } else {
+        const double lim = std::ldexp(1.0, n);
+        const std::uint64_t hi = n == 64 ? UINT64_MAX : (std::uint64_t{1} << n) - 1;
+        raw = r <= 0.0 ? 0 : (r >= lim ? hi : static_cast<std::uint64_t>(r));
+    }
+    if (n < 64) raw &= (static_cast<std::uint64_t>(1) << n) - 1;
     if (sig.intel) {
         for (int i = 0; i < sig.length; ++i) {
             const int pos = sig.startBit + i;
@@ -87,58 +101,195 @@ void encodeSignal(const DbcSignal& sig, double value, std::uint8_t* data, int le
     }
 }
 
+bool inDeclaredRange(const DbcSignal& sig, double value) noexcept {
+    if (!std::isfinite(value)) return false;
+    if (sig.min == 0.0 && sig.max == 0.0) return true;  // [0|0]: no range declared
+    // Half a raw step of slack: raw·factor + offset is rounded, the DBC's limits are not.
+    const double slack = 0.5 * std::fabs(sig.factor);
+    return value >= sig.min - slack && value <= sig.max + slack;
+}
+
+// ---- DBC text ------------------------------------------------------------------------------
+// Hand-written and bounded: one pass over each line, no recursion, no backtracking (a
+// std::regex over a whole line recursed once per character and overflowed the stack on a
+// 40 KB line). Lines are at most kDbcMaxLineBytes; numbers at most 64 characters.
+
+namespace {
+
+constexpr std::size_t kMaxNumberChars = 64;
+
+// A cursor over one line; every method skips leading blanks and consumes only on success.
+class Cursor {
+  public:
+    explicit Cursor(std::string_view s) : s_(s) {}
+    void blanks() {
+        while (i_ < s_.size() && (s_[i_] == ' ' || s_[i_] == '\t'))
+            ++i_;
+    }
+    bool atEnd() {
+        blanks();
+        return i_ == s_.size();
+    }
+    bool lit(char c) {
+        blanks();
+        if (i_ < s_.size() && s_[i_] == c) {
+            ++i_;
+            return true;
+        }
+        return false;
+    }
+    // A name: letters, digits and '_' (the \w+ of the DBC grammar).
+    bool ident(std::string_view* out) {
+        blanks();
+        const std::size_t b = i_;
+        while (i_ < s_.size() &&
+               (std::isalnum(static_cast<unsigned char>(s_[i_])) != 0 || s_[i_] == '_'))
+            ++i_;
+        if (i_ == b) return false;
+        *out = s_.substr(b, i_ - b);
+        return true;
+    }
+    // Decimal digits only, at most `maxDigits`, value at most `max`.
+    bool unsignedInt(std::uint64_t max, std::uint64_t* out) {
+        blanks();
+        const std::size_t b = i_;
+        while (i_ < s_.size() && s_[i_] >= '0' && s_[i_] <= '9')
+            ++i_;
+        const auto r = std::from_chars(s_.data() + b, s_.data() + i_, *out);
+        if (i_ == b || r.ec != std::errc() || *out > max) {
+            i_ = b;
+            return false;
+        }
+        return true;
+    }
+    // A finite decimal floating-point number ("1E-07", "-90", "+0.5").
+    bool number(double* out) {
+        blanks();
+        const std::size_t b = i_;
+        while (i_ < s_.size() &&
+               (std::isdigit(static_cast<unsigned char>(s_[i_])) != 0 || s_[i_] == '.' ||
+                s_[i_] == 'e' || s_[i_] == 'E' || s_[i_] == '+' || s_[i_] == '-'))
+            ++i_;
+        std::size_t from = b;
+        if (from < i_ && s_[from] == '+') ++from;  // from_chars takes no '+'
+        const auto r = std::from_chars(s_.data() + from, s_.data() + i_, *out);
+        if (i_ - b > kMaxNumberChars || from == i_ || r.ec != std::errc() ||
+            r.ptr != s_.data() + i_ || !std::isfinite(*out)) {
+            i_ = b;
+            return false;
+        }
+        return true;
+    }
+    // "text" (no escapes in DBC unit strings).
+    bool quoted(std::string_view* out) {
+        if (!lit('"')) return false;
+        const std::size_t close = s_.find('"', i_);
+        if (close == std::string_view::npos) return false;
+        *out = s_.substr(i_, close - i_);
+        i_ = close + 1;
+        return true;
+    }
+
+  private:
+    std::string_view s_;
+    std::size_t i_ = 0;
+};
+
+// BO_ <id> <name> : <size> <transmitter>
+bool parseBo(std::string_view line, DbcMessage* msg) {
+    Cursor c(line.substr(3));
+    std::uint64_t rawId = 0, size = 0;
+    std::string_view name, tx;
+    if (!c.unsignedInt(0xFFFFFFFFu, &rawId) || !c.ident(&name) || !c.lit(':') ||
+        !c.unsignedInt(1000, &size) || !c.ident(&tx) || !c.atEnd()) {
+        return false;
+    }
+    msg->extended = (rawId & 0x80000000u) != 0;
+    msg->id = static_cast<std::uint32_t>(rawId & 0x1FFFFFFFu);
+    msg->name = std::string(name);
+    msg->size = static_cast<int>(size);
+    return true;
+}
+
+// SG_ <name> [M|mN[M]] : <start>|<length>@<order><sign> (<factor>,<offset>) [<min>|<max>]
+//     "<unit>" <receivers>
+bool parseSg(std::string_view line, DbcSignal* s) {
+    Cursor c(line.substr(3));  // after "SG_"
+    std::string_view name, mux, unit;
+    std::uint64_t start = 0, length = 0, order = 0;
+    if (!c.ident(&name)) return false;
+    if (c.ident(&mux)) {
+        // Multiplexor "M" or multiplexed "m<digits>" (optionally "M" after): accepted, unused.
+        const bool ok = mux == "M" || (mux.size() > 1 && mux[0] == 'm' &&
+                                       std::isdigit(static_cast<unsigned char>(mux[1])) != 0);
+        if (!ok) return false;
+    }
+    if (!c.lit(':') || !c.unsignedInt(511, &start) || !c.lit('|') || !c.unsignedInt(64, &length) ||
+        !c.lit('@') || !c.unsignedInt(1, &order)) {
+        return false;
+    }
+    const bool minus = c.lit('-');
+    if (!minus && !c.lit('+')) return false;
+    if (!c.lit('(') || !c.number(&s->factor) || !c.lit(',') || !c.number(&s->offset) ||
+        !c.lit(')') || !c.lit('[') || !c.number(&s->min) || !c.lit('|') || !c.number(&s->max) ||
+        !c.lit(']') || !c.quoted(&unit)) {
+        return false;
+    }
+    s->name = std::string(name);
+    s->startBit = static_cast<int>(start);
+    s->length = static_cast<int>(length);
+    s->intel = order == 1;
+    s->isSigned = minus;
+    s->unit = std::string(unit);
+    return true;  // the receivers that follow are not used
+}
+
+void checkSignal(const DbcSignal& s, const DbcMessage& msg, const FileLoc& loc) {
+    if (s.length < 1 || s.length > 64) throw SetupError(loc, "signal length must be 1..64");
+    if (s.factor == 0.0) throw SetupError(loc, "signal factor must not be 0");
+    if (s.min > s.max) throw SetupError(loc, "signal '" + s.name + "': [min|max] with min > max");
+    std::uint8_t probe[64] = {};
+    std::uint64_t raw = 0;
+    if (!extractRaw(s, probe, msg.size, &raw)) {
+        throw SetupError(loc, "signal '" + s.name + "' does not fit message '" + msg.name +
+                                  "' of " + std::to_string(msg.size) + " bytes");
+    }
+}
+
+}  // namespace
+
 DbcDatabase DbcDatabase::parse(std::string_view text, const std::string& fileName) {
-    static const std::regex kBo(R"(^BO_\s+(\d+)\s+(\w+)\s*:\s*(\d+)\s+(\w+)\s*$)");
-    static const std::regex kSg(
-        R"(^\s*SG_\s+(\w+)\s*(?:(M|m\d+M?)\s*)?:\s*(\d+)\|(\d+)@([01])([+-])\s*\(\s*([-+0-9.eE]+)\s*,\s*([-+0-9.eE]+)\s*\)\s*\[\s*([-+0-9.eE]+)\s*\|\s*([-+0-9.eE]+)\s*\]\s*"([^"]*)\"\s*(.*)$)");
     DbcDatabase db;
-    std::istringstream in{std::string(text)};
-    std::string line;
     int lineNo = 0;
-    DbcMessage* current = nullptr;
-    while (std::getline(in, line)) {
+    bool inMessage = false;  // the last BO_ still collects SG_ lines
+    std::size_t pos = 0;
+    while (pos < text.size()) {
+        const std::size_t eol = std::min(text.find('\n', pos), text.size());
+        std::string_view line = text.substr(pos, eol - pos);
+        pos = eol + 1;
         ++lineNo;
-        if (!line.empty() && line.back() == '\r') line.pop_back();
+        if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
         const FileLoc loc{fileName, lineNo, 1};
-        std::smatch m;
-        if (line.rfind("BO_ ", 0) == 0) {
-            if (!std::regex_match(line, m, kBo)) throw SetupError(loc, "malformed BO_ line");
+        if (line.size() > kDbcMaxLineBytes) {
+            throw SetupError(loc, "line of " + std::to_string(line.size()) +
+                                      " bytes, longer than the limit of " +
+                                      std::to_string(kDbcMaxLineBytes));
+        }
+        const std::size_t first = line.find_first_not_of(" \t");
+        if (line.substr(0, 4) == "BO_ ") {
             DbcMessage msg;
-            const std::uint64_t rawId = std::stoull(m[1].str());
-            msg.extended = (rawId & 0x80000000u) != 0;
-            msg.id = static_cast<std::uint32_t>(rawId & 0x1FFFFFFFu);
-            msg.name = m[2].str();
-            msg.size = std::stoi(m[3].str());
-            if (msg.size < 0 || msg.size > 64) throw SetupError(loc, "message size must be 0..64");
+            if (!parseBo(line, &msg)) throw SetupError(loc, "malformed BO_ line");
+            if (msg.size > 64) throw SetupError(loc, "message size must be 0..64");
             db.messages_.push_back(std::move(msg));
-            current = &db.messages_.back();
-        } else if (line.find("SG_ ") != std::string::npos &&
-                   line.find_first_not_of(" \t") == line.find("SG_ ")) {
-            if (current == nullptr) throw SetupError(loc, "SG_ outside a BO_ message");
-            if (!std::regex_match(line, m, kSg)) throw SetupError(loc, "malformed SG_ line");
+            inMessage = true;
+        } else if (first != std::string_view::npos && line.substr(first, 4) == "SG_ ") {
+            if (!inMessage) throw SetupError(loc, "SG_ outside a BO_ message");
             DbcSignal s;
-            s.name = m[1].str();
-            s.startBit = std::stoi(m[3].str());
-            s.length = std::stoi(m[4].str());
-            s.intel = m[5].str() == "1";
-            s.isSigned = m[6].str() == "-";
-            s.factor = std::stod(m[7].str());
-            s.offset = std::stod(m[8].str());
-            s.min = std::stod(m[9].str());
-            s.max = std::stod(m[10].str());
-            s.unit = m[11].str();
-            if (s.length < 1 || s.length > 64) throw SetupError(loc, "signal length must be 1..64");
-            if (s.factor == 0.0) throw SetupError(loc, "signal factor must not be 0");
-            std::uint8_t probe[64] = {};
-            std::uint64_t raw = 0;
-            if (!extractRaw(s, probe, current->size, &raw)) {
-                throw SetupError(loc, "signal '" + s.name + "' does not fit message '" +
-                                          current->name + "' of " + std::to_string(current->size) +
-                                          " bytes");
-            }
-            current->signals.push_back(std::move(s));
+            if (!parseSg(line.substr(first), &s)) throw SetupError(loc, "malformed SG_ line");
+            checkSignal(s, db.messages_.back(), loc);
+            db.messages_.back().signals.push_back(std::move(s));
         } else if (!line.empty() && line[0] != ' ' && line[0] != '\t') {
-            current = nullptr;  // another section
+            inMessage = false;  // another section
         }
     }
     std::sort(db.messages_.begin(), db.messages_.end(), [](const auto& a, const auto& b) {
@@ -155,11 +306,7 @@ DbcDatabase DbcDatabase::parse(std::string_view text, const std::string& fileNam
 }
 
 DbcDatabase DbcDatabase::load(const std::string& path) {
-    std::ifstream f(path);
-    if (!f) throw SetupError("DBC file '" + path + "': cannot open");
-    std::stringstream ss;
-    ss << f.rdbuf();
-    return parse(ss.str(), path);
+    return parse(readInputFile(path, kMaxConfigFileBytes, "DBC file"), path);
 }
 
 const DbcMessage* DbcDatabase::find(std::uint32_t id, bool extended) const noexcept {

@@ -1,6 +1,7 @@
 #include <linux/can.h>
 #include <linux/can/raw.h>
 #include <net/if.h>
+#include <poll.h>
 #include <sys/ioctl.h>
 #include <sys/socket.h>
 #include <sys/time.h>
@@ -21,12 +22,13 @@ std::string CanBus::status() const {
                      : state() == CanBusState::Failed ? "failed"
                                                       : "closed";
     char buf[256];
-    std::snprintf(buf, sizeof buf,
-                  "bus %s, frames %lld, errors %lld, truncated %lld, reopens %lld%s%s", st,
-                  static_cast<long long>(c.frames), static_cast<long long>(c.errors),
-                  static_cast<long long>(c.truncated), static_cast<long long>(c.reopens),
-                  c.lastErrno != 0 ? ", last error: " : "",
-                  c.lastErrno != 0 ? std::strerror(c.lastErrno) : "");
+    std::snprintf(
+        buf, sizeof buf,
+        "bus %s, frames %lld, errors %lld, truncated %lld, reopens %lld, dropped %lld%s%s", st,
+        static_cast<long long>(c.frames), static_cast<long long>(c.errors),
+        static_cast<long long>(c.truncated), static_cast<long long>(c.reopens),
+        static_cast<long long>(c.dropped), c.lastErrno != 0 ? ", last error: " : "",
+        c.lastErrno != 0 ? std::strerror(c.lastErrno) : "");
     return buf;
 }
 
@@ -51,6 +53,8 @@ int SocketCanBus::open(const std::string& iface, bool fd, const std::vector<CanF
     }
     const int on = 1;
     if (setsockopt(sock_, SOL_SOCKET, SO_TIMESTAMP, &on, sizeof on) != 0) return fail(errno);
+    // The kernel's count of frames dropped for a full receive queue, with every frame read.
+    if (setsockopt(sock_, SOL_SOCKET, SO_RXQ_OVFL, &on, sizeof on) != 0) return fail(errno);
     if (!filters.empty()) {
         std::vector<can_filter> kf(filters.size());
         for (std::size_t i = 0; i < filters.size(); ++i) {
@@ -84,7 +88,7 @@ int SocketCanBus::read(CanFrame* frame, double* rxRealtime_s) noexcept {
     if (sock_ < 0) return -EBADF;
     canfd_frame kf{};
     iovec iov{&kf, sizeof kf};
-    alignas(cmsghdr) char ctrl[CMSG_SPACE(sizeof(timeval))];
+    alignas(cmsghdr) char ctrl[CMSG_SPACE(sizeof(timeval)) + CMSG_SPACE(sizeof(std::uint32_t))];
     msghdr msg{};
     msg.msg_iov = &iov;
     msg.msg_iovlen = 1;
@@ -116,6 +120,10 @@ int SocketCanBus::read(CanFrame* frame, double* rxRealtime_s) noexcept {
             timeval tv{};
             std::memcpy(&tv, CMSG_DATA(c), sizeof tv);
             *rxRealtime_s = static_cast<double>(tv.tv_sec) + static_cast<double>(tv.tv_usec) * 1e-6;
+        } else if (c->cmsg_level == SOL_SOCKET && c->cmsg_type == SO_RXQ_OVFL) {
+            std::uint32_t drops = 0;
+            std::memcpy(&drops, CMSG_DATA(c), sizeof drops);
+            counters_.dropped = drops;
         }
     }
     if (*rxRealtime_s == 0.0) {
@@ -125,6 +133,15 @@ int SocketCanBus::read(CanFrame* frame, double* rxRealtime_s) noexcept {
     }
     ++counters_.frames;
     return 1;
+}
+
+int SocketCanBus::waitReadable(int timeout_ms) noexcept {
+    if (sock_ < 0) return -EBADF;
+    pollfd p{sock_, POLLIN, 0};
+    const int n = ::poll(&p, 1, timeout_ms);
+    if (n < 0) return errno == EINTR ? 0 : -errno;
+    if (n > 0 && (p.revents & (POLLERR | POLLNVAL)) != 0 && (p.revents & POLLIN) == 0) return -EIO;
+    return n > 0 ? 1 : 0;
 }
 
 int SocketCanBus::write(const CanFrame& frame) noexcept {

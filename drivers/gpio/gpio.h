@@ -109,6 +109,8 @@ class GpioGateSink final : public msg::FrameSink,
                  bool activeLow);
     ~GpioGateSink() override;
     const char* name() const noexcept override { return name_.c_str(); }
+    // Reads nothing of the frame and never blocks: called on the output thread, no queue.
+    msg::SinkInputs inputs() const noexcept override { return {false, false, true}; }
     // Emission: nothing to do (pulses follow exposures); reports line errors to the loop.
     int write(const msg::OutputFrame& frame) noexcept override;
     int close() noexcept override;

@@ -1,3 +1,4 @@
+#include <cmath>
 #include <cstring>
 
 #include "drivers/serial/serial.h"
@@ -111,7 +112,37 @@ bool MavlinkParser::push(std::uint8_t byte, MavlinkMessage* out) noexcept {
     out->compid = v2 ? frame_[6] : frame_[4];
     std::memset(out->payload, 0, sizeof out->payload);
     std::memcpy(out->payload, frame_ + header, len);
+    if (!payloadInRange(*out)) {
+        ++counters_.outOfRange;  // a valid frame whose values cannot be right: dropped whole
+        return false;
+    }
     ++counters_.messages;
+    return true;
+}
+
+bool payloadInRange(const MavlinkMessage& m) noexcept {
+    // Ranges from common.xml: ATTITUDE roll, pitch, yaw in −π..+π [rad] (compared in float, as
+    // sent: float(π) is the largest float angle allowed); GLOBAL_POSITION_INT lat ±90° and lon
+    // ±180° [degE7], hdg 0..35999 [cdeg] or UINT16_MAX (unknown).
+    constexpr float kPiF = 3.14159265358979323846f;
+    if (m.msgid == kMavlinkAttitude) {
+        MavlinkAttitude a;
+        decodeAttitude(m, &a);
+        for (const float angle : {a.roll_rad, a.pitch_rad, a.yaw_rad}) {
+            if (!(std::fabs(angle) <= kPiF)) return false;  // NaN fails too
+        }
+        for (const float rate : {a.rollspeed_rad_s, a.pitchspeed_rad_s, a.yawspeed_rad_s}) {
+            if (!std::isfinite(rate)) return false;
+        }
+    } else if (m.msgid == kMavlinkGlobalPositionInt) {
+        const std::int32_t lat = readLe<std::int32_t>(m.payload + 4);
+        const std::int32_t lon = readLe<std::int32_t>(m.payload + 8);
+        const std::uint16_t hdg = readLe<std::uint16_t>(m.payload + 26);
+        if (lat < -900000000 || lat > 900000000 || lon < -1800000000 || lon > 1800000000 ||
+            (hdg > 35999 && hdg != 0xFFFF)) {
+            return false;
+        }
+    }
     return true;
 }
 

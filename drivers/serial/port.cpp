@@ -1,4 +1,5 @@
 #include <fcntl.h>
+#include <poll.h>
 #include <termios.h>
 #include <unistd.h>
 
@@ -74,24 +75,48 @@ void TermiosSerialPort::close() noexcept {
     if (state_ == SerialState::Open) state_ = SerialState::Closed;
 }
 
+int TermiosSerialPort::lost(int err) noexcept {
+    // The device went away (USB adapter unplugged, the other end of a pty closed): close; the
+    // owner reopens it with backoff.
+    ++counters_.errors;
+    ++counters_.lost;
+    counters_.lastErrno = err;
+    ::close(fd_);
+    fd_ = -1;
+    state_ = SerialState::Lost;
+    return -err;
+}
+
 long TermiosSerialPort::read(std::uint8_t* buf, std::size_t size) noexcept {
     if (fd_ < 0) return -EBADF;
+    // With VMIN = VTIME = 0 a read returns 0 both when nothing is pending and at end of file,
+    // so a hang-up cannot be told from silence by read() alone. poll() can: a hung-up tty (USB
+    // serial disconnect, pty master closed: tty_vhangup) polls POLLHUP, and then reads 0 or
+    // fails with EIO (drivers/tty/tty_io.c hung_up_tty_poll, n_tty.c n_tty_poll).
+    pollfd p{fd_, POLLIN, 0};
+    const int pr = ::poll(&p, 1, 0);
+    if (pr < 0) return errno == EINTR ? 0 : lost(errno);
+    if (pr == 0) return 0;  // nothing pending
+    if ((p.revents & POLLNVAL) != 0) return lost(EBADF);
+    const bool hangup = (p.revents & (POLLHUP | POLLERR)) != 0;
     const ssize_t n = ::read(fd_, buf, size);
-    if (n >= 0) {
+    if (n > 0) {
         counters_.bytes += n;
-        return n;
+        return n;  // what arrived before a hang-up is still read
     }
-    if (errno == EAGAIN || errno == EINTR) return 0;
+    if (n == 0) {
+        // Readable, yet nothing to read: end of file, the line is hung up.
+        ++counters_.hangups;
+        return lost(EIO);
+    }
     const int e = errno;
+    if ((e == EAGAIN || e == EINTR) && !hangup) return 0;
+    if (e == EIO || e == ENXIO || e == ENODEV || e == EBADF || hangup) {
+        if (hangup) ++counters_.hangups;
+        return lost(e == EAGAIN || e == EINTR ? EIO : e);
+    }
     ++counters_.errors;
     counters_.lastErrno = e;
-    if (e == EIO || e == ENXIO || e == ENODEV || e == EBADF) {
-        // The device went away (USB adapter unplugged): close; the owner reopens later.
-        ++counters_.lost;
-        ::close(fd_);
-        fd_ = -1;
-        state_ = SerialState::Lost;
-    }
     return -e;
 }
 

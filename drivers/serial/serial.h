@@ -32,6 +32,10 @@ struct NmeaCounters {
     std::int64_t badChecksum = 0;
     std::int64_t malformed = 0;    // missing '*', bad fields, too long
     std::int64_t unsupported = 0;  // valid but not GGA/RMC/HDT
+    // Well formed, but a value outside the protocol's range: latitude beyond ±90°, longitude
+    // beyond ±180°, minutes ≥ 60, time of day outside 00:00:00–23:59:60, a date that does
+    // not exist (31 February), heading outside 0–360°.
+    std::int64_t outOfRange = 0;
 };
 
 class NmeaParser {
@@ -83,6 +87,9 @@ struct MavlinkCounters {
     std::int64_t badCrc = 0;
     std::int64_t unknownId = 0;  // no CRC_EXTRA known: cannot be checked, dropped
     std::int64_t signedFrames = 0;
+    // CRC-checked ATTITUDE / GLOBAL_POSITION_INT whose values are outside the message's range
+    // (non-finite or |angle| > π, |lat| > 90°, |lon| > 180°, heading > 359.99°): dropped.
+    std::int64_t outOfRange = 0;
 };
 
 inline constexpr std::uint32_t kMavlinkHeartbeat = 0;
@@ -107,6 +114,9 @@ class MavlinkParser {
 std::uint16_t mavlinkCrc(const std::uint8_t* data, std::size_t n, std::uint16_t crc = 0xFFFF);
 std::uint8_t mavlinkCrcExtra(std::uint32_t msgid, bool* known);
 bool decodeAttitude(const MavlinkMessage& m, MavlinkAttitude* out) noexcept;
+// True unless a known message holds a value outside its range (MavlinkCounters::outOfRange);
+// the parser drops such a message.
+bool payloadInRange(const MavlinkMessage& m) noexcept;
 bool decodeGlobalPosition(const MavlinkMessage& m, MavlinkGlobalPosition* out) noexcept;
 // Frames a payload (for tests and fakes): v1 or v2 (v2 trims trailing zero bytes).
 std::vector<std::uint8_t> mavlinkFrame(int version, std::uint32_t msgid,
@@ -120,8 +130,9 @@ enum class SerialState { Closed, Open, Lost };
 
 struct SerialCounters {
     std::int64_t bytes = 0;
-    std::int64_t errors = 0;  // failed reads
-    std::int64_t lost = 0;    // times the device disappeared
+    std::int64_t errors = 0;   // failed reads
+    std::int64_t lost = 0;     // times the device disappeared
+    std::int64_t hangups = 0;  // of those, hang-ups (POLLHUP or end of file: USB unplug)
     int lastErrno = 0;
 };
 
@@ -131,8 +142,8 @@ class SerialPort {
     // Opens the device raw (8N1, no flow control) at `baud`. 0 or -errno.
     virtual int open(const std::string& device, int baud) = 0;
     virtual void close() noexcept = 0;
-    // Non-blocking: bytes read (0: nothing pending) or -errno (the port is then Lost for
-    // EIO/ENXIO/ENODEV/EBADF, to be reopened by the caller).
+    // Non-blocking: bytes read (0: nothing pending) or -errno (the port is then Lost for a
+    // hang-up — POLLHUP, end of file — or EIO/ENXIO/ENODEV/EBADF, to be reopened by the caller).
     virtual long read(std::uint8_t* buf, std::size_t size) noexcept = 0;
     virtual SerialState state() const noexcept = 0;
     virtual const SerialCounters& counters() const noexcept = 0;
@@ -152,6 +163,7 @@ class TermiosSerialPort final : public SerialPort {
     const SerialCounters& counters() const noexcept override { return counters_; }
 
   private:
+    int lost(int err) noexcept;
     int fd_ = -1;
     SerialState state_ = SerialState::Closed;
     SerialCounters counters_;

@@ -1,9 +1,13 @@
 #include "drivers/sinks/file_io.h"
 
 #include <fcntl.h>
+#include <poll.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
+#include <climits>
 #include <cstdio>
 #include <cstring>
 
@@ -24,6 +28,49 @@ int writeAll(int fd, const void* data, std::size_t size) noexcept {
     return 0;
 }
 
+// ---- StreamWriter ------------------------------------------------------------------------------
+
+int StreamWriter::attach(int fd) noexcept {
+    struct stat st {};
+    if (::fstat(fd, &st) != 0) return -errno;
+    fd_ = fd;
+    mayBlock_ = !S_ISREG(st.st_mode) && !S_ISBLK(st.st_mode);
+    return 0;
+}
+
+int StreamWriter::write(const void* data, std::size_t size) noexcept {
+    if (fd_ < 0) return -EBADF;
+    if (!mayBlock_) return writeAll(fd_, data, size);
+    const auto* p = static_cast<const unsigned char*>(data);
+    while (size > 0) {
+        pollfd pfd{fd_, POLLOUT, 0};
+        // Cancelled: no more waiting, but what can be written without waiting still is.
+        const int rc = ::poll(&pfd, 1, cancelled() ? 0 : kSlice_ms);
+        if (rc < 0) {
+            if (errno == EINTR) continue;
+            return -errno;
+        }
+        if (rc == 0) {
+            if (cancelled()) return -ECANCELED;
+            continue;
+        }
+        // POLLERR on a pipe: the reader is gone; the write below reports EPIPE.
+        if ((pfd.revents & POLLNVAL) != 0) return -EBADF;
+        const std::size_t chunk = std::min<std::size_t>(size, PIPE_BUF);
+        const ssize_t n = ::write(fd_, p, chunk);
+        if (n < 0) {
+            if (errno == EINTR || errno == EAGAIN) continue;
+            return -errno;
+        }
+        if (n == 0) return -EIO;
+        p += n;
+        size -= static_cast<std::size_t>(n);
+    }
+    return 0;
+}
+
+// ---- AtomicFile --------------------------------------------------------------------------------
+
 int AtomicFile::open(const char* finalPath) noexcept {
     abort();
     const std::size_t len = std::strlen(finalPath);
@@ -39,14 +86,28 @@ int AtomicFile::write(const void* data, std::size_t size) noexcept {
     return writeAll(fd_, data, size);
 }
 
-int AtomicFile::commit(bool sync) noexcept {
+int AtomicFile::truncate(off_t size) noexcept {
+    if (fd_ < 0) return -EBADF;
+    if (::ftruncate(fd_, size) != 0) return -errno;
+    if (::lseek(fd_, size, SEEK_SET) < 0) return -errno;
+    return 0;
+}
+
+int AtomicFile::commit(bool sync, bool keepOnError) noexcept {
     if (fd_ < 0) return -EBADF;
     int rc = 0;
     if (sync && ::fsync(fd_) != 0) rc = -errno;
     if (::close(fd_) != 0 && rc == 0) rc = -errno;
     fd_ = -1;
-    if (rc == 0 && ::rename(temp_, final_) != 0) rc = -errno;
-    if (rc != 0) ::unlink(temp_);
+    if (rc != 0 && !keepOnError) {
+        ::unlink(temp_);
+        return rc;
+    }
+    if (::rename(temp_, final_) != 0) {
+        const int e = -errno;
+        ::unlink(temp_);
+        return rc != 0 ? rc : e;
+    }
     return rc;
 }
 

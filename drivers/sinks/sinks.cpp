@@ -1,5 +1,6 @@
 #include "drivers/sinks/sinks.h"
 
+#include <fcntl.h>
 #include <png.h>
 #include <unistd.h>
 
@@ -59,11 +60,39 @@ void makeOutputDir(const std::string& dir, const std::string& what) {
     if (ec || !std::filesystem::is_directory(dir)) {
         throw SetupError(what + ": cannot create directory '" + dir + "': " + ec.message());
     }
+    // A folder that exists but cannot take a file (read-only, no permission) fails here, at
+    // setup, not on the first frame.
+    char probe[AtomicFile::kMaxPath + 32];
+    std::snprintf(probe, sizeof probe, "%s/.nvstim-probe-%d", dir.c_str(),
+                  static_cast<int>(::getpid()));
+    const int fd = ::open(probe, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
+    if (fd < 0) {
+        throw SetupError(what + ": cannot write in '" + dir + "': " + std::strerror(errno));
+    }
+    ::close(fd);
+    ::unlink(probe);
 }
 
 // ---- y4m ---------------------------------------------------------------------------------------
 
-Y4mSink::Y4mSink(const std::string& path, int width, int height, int bits, msg::FrameRate rate)
+namespace {
+// The YUV4MPEG2 interlacing tag (mjpegtools yuv4mpeg(5): Ip progressive, It top field first,
+// Ib bottom field first).
+const char* y4mInterlace(msg::FieldOrder order) {
+    switch (order) {
+        case msg::FieldOrder::TopFirst:
+            return "It";
+        case msg::FieldOrder::BottomFirst:
+            return "Ib";
+        case msg::FieldOrder::Progressive:
+            break;
+    }
+    return "Ip";
+}
+}  // namespace
+
+Y4mSink::Y4mSink(const std::string& path, int width, int height, int bits, msg::FrameRate rate,
+                 msg::FieldOrder order)
     : name_("y4m:" + path),
       toStdout_(path == "-"),
       width_(width),
@@ -75,12 +104,11 @@ Y4mSink::Y4mSink(const std::string& path, int width, int height, int bits, msg::
     buffer_.resize(6 + px * (wide_ ? 2 : 1));
     std::memcpy(buffer_.data(), "FRAME\n", 6);
     header_ = "YUV4MPEG2 W" + std::to_string(width) + " H" + std::to_string(height) + " F" +
-              std::to_string(rate.num) + ":" + std::to_string(rate.den) + " Ip A1:1 " +
-              (wide_ ? "Cmono16" : "Cmono") + "\n";
-    if (!toStdout_) {
-        const int rc = file_.open(path.c_str());
-        if (rc != 0) throw SetupError(name_ + ": cannot open: " + std::strerror(-rc));
-    }
+              std::to_string(rate.num) + ":" + std::to_string(rate.den) + " " +
+              y4mInterlace(order) + " A1:1 " + (wide_ ? "Cmono16" : "Cmono") + "\n";
+    const int rc = toStdout_ ? 0 : file_.open(path.c_str());
+    if (rc != 0) throw SetupError(name_ + ": cannot open: " + std::strerror(-rc));
+    out_.attach(toStdout_ ? STDOUT_FILENO : file_.fd());
 }
 
 Y4mSink::~Y4mSink() {
@@ -90,9 +118,11 @@ Y4mSink::~Y4mSink() {
 int Y4mSink::fail(int rc) noexcept {
     ++counters_.errors;
     counters_.lastErrno = -rc;
-    // A file that lost a frame is abandoned: no truncated stream is left behind.
-    if (!toStdout_) file_.abort();
     state_ = SinkState::Failed;
+    if (toStdout_) return rc;
+    // Keep what was written: cut the file back to its last whole frame (a valid stream), or
+    // remove it when it holds none.
+    if (counters_.frames == 0 || file_.truncate(whole_) != 0) file_.abort();
     return rc;
 }
 
@@ -115,27 +145,28 @@ int Y4mSink::write(const msg::OutputFrame& frame) noexcept {
                 *dst++ = to8(row[x], bits_);
         }
     }
-    const auto out = [&](const void* p, std::size_t n) {
-        return toStdout_ ? writeAll(STDOUT_FILENO, p, n) : file_.write(p, n);
-    };
     if (!headerWritten_) {
-        const int rc = out(header_.data(), header_.size());
+        const int rc = out_.write(header_.data(), header_.size());
         if (rc != 0) return fail(rc);
         headerWritten_ = true;
         counters_.bytes += static_cast<std::int64_t>(header_.size());
+        whole_ += static_cast<off_t>(header_.size());
     }
-    const int rc = out(buffer_.data(), buffer_.size());
+    const int rc = out_.write(buffer_.data(), buffer_.size());
     if (rc != 0) return fail(rc);
     ++counters_.frames;
     counters_.bytes += static_cast<std::int64_t>(buffer_.size());
+    whole_ += static_cast<off_t>(buffer_.size());
     return 0;
 }
 
 int Y4mSink::close() noexcept {
-    if (state_ != SinkState::Open) return 0;
-    state_ = SinkState::Closed;
-    if (toStdout_) return 0;
-    const int rc = file_.commit(true);
+    if (state_ == SinkState::Closed) return 0;
+    const bool wasFailed = state_ == SinkState::Failed;
+    if (!wasFailed) state_ = SinkState::Closed;
+    if (toStdout_ || !file_.isOpen()) return 0;
+    // A failed stream is kept up to its last whole frame (fail() cut it there).
+    const int rc = file_.commit(true, true);
     if (rc != 0) {
         ++counters_.errors;
         counters_.lastErrno = -rc;
@@ -263,10 +294,9 @@ int PngSequenceSink::close() noexcept {
 
 MetaJsonlSink::MetaJsonlSink(const std::string& path)
     : name_("meta:" + path), toStdout_(path == "-"), line_(4096 + msg::kMaxTruthBoxes * 128) {
-    if (!toStdout_) {
-        const int rc = file_.open(path.c_str());
-        if (rc != 0) throw SetupError(name_ + ": cannot open: " + std::strerror(-rc));
-    }
+    const int rc = toStdout_ ? 0 : file_.open(path.c_str());
+    if (rc != 0) throw SetupError(name_ + ": cannot open: " + std::strerror(-rc));
+    out_.attach(toStdout_ ? STDOUT_FILENO : file_.fd());
 }
 
 MetaJsonlSink::~MetaJsonlSink() {
@@ -333,27 +363,26 @@ int MetaJsonlSink::write(const msg::OutputFrame& frame) noexcept {
     }
     const std::size_t len = format(frame, line_.data(), line_.size());
     int rc = len == 0 ? -EOVERFLOW : 0;
-    if (rc == 0) {
-        rc =
-            toStdout_ ? writeAll(STDOUT_FILENO, line_.data(), len) : file_.write(line_.data(), len);
-    }
+    if (rc == 0) rc = out_.write(line_.data(), len);
     if (rc != 0) {
         ++counters_.errors;
         counters_.lastErrno = -rc;
-        if (!toStdout_) file_.abort();
         state_ = SinkState::Failed;
+        // Whole lines only: cut a half-written line off (no line at all: remove the file).
+        if (!toStdout_ && (counters_.frames == 0 || file_.truncate(whole_) != 0)) file_.abort();
         return rc;
     }
     ++counters_.frames;
     counters_.bytes += static_cast<std::int64_t>(len);
+    whole_ += static_cast<off_t>(len);
     return 0;
 }
 
 int MetaJsonlSink::close() noexcept {
-    if (state_ != SinkState::Open) return 0;
-    state_ = SinkState::Closed;
-    if (toStdout_) return 0;
-    const int rc = file_.commit(true);
+    if (state_ == SinkState::Closed) return 0;
+    if (state_ == SinkState::Open) state_ = SinkState::Closed;
+    if (toStdout_ || !file_.isOpen()) return 0;
+    const int rc = file_.commit(true, true);
     if (rc != 0) {
         ++counters_.errors;
         counters_.lastErrno = -rc;
@@ -382,7 +411,8 @@ ContactSheetSink::ContactSheetSink(const std::string& path, int width, int heigh
       frames_(frames),
       every_(every) {
     checkSize(width, height, name_);
-    if (cols < 1 || rows < 1 || cols * rows > 64)
+    // Each factor bounded before the product: cols · rows of two large ints overflows.
+    if (cols < 1 || rows < 1 || cols > 64 || rows > 64 || cols * rows > 64)
         throw SetupError(name_ + ": cols x rows must be 1..64");
     if (shrink < 1 || shrink > 16) throw SetupError(name_ + ": shrink must be 1..16");
     if (frames_ <= 0 && every_ <= 0) {
@@ -395,6 +425,28 @@ ContactSheetSink::ContactSheetSink(const std::string& path, int width, int heigh
     sheet_.assign(static_cast<std::size_t>(sheetW_) * static_cast<std::size_t>(sheetH_), 255);
     const auto parent = std::filesystem::path(path).parent_path();
     if (!parent.empty()) makeOutputDir(parent.string(), name_);
+    // The sheet's temporary is created now: a path that cannot be written (a folder, no
+    // permission, a read-only file system) fails the setup instead of the end of the run.
+    std::error_code ec;
+    if (std::filesystem::is_directory(path, ec)) {
+        throw SetupError(name_ + ": '" + path + "' is a directory, not a PNG file");
+    }
+    const std::string temp = path_ + ".part";
+    part_ = std::fopen(temp.c_str(), "wbx");
+    if (part_ == nullptr && errno == EEXIST) {
+        std::remove(temp.c_str());  // a leftover of an interrupted run
+        part_ = std::fopen(temp.c_str(), "wbx");
+    }
+    if (part_ == nullptr) {
+        throw SetupError(name_ + ": cannot create '" + temp + "': " + std::strerror(errno));
+    }
+}
+
+ContactSheetSink::~ContactSheetSink() {
+    if (part_ != nullptr) {
+        std::fclose(part_);
+        std::remove((path_ + ".part").c_str());
+    }
 }
 
 std::int64_t ContactSheetSink::tickOfTile(int i) const noexcept {
@@ -433,7 +485,7 @@ int ContactSheetSink::write(const msg::OutputFrame& frame) noexcept {
 }
 
 int ContactSheetSink::close() noexcept {
-    if (state_ == SinkState::Closed) return 0;
+    if (state_ == SinkState::Closed || part_ == nullptr) return 0;
     state_ = SinkState::Closed;
     const std::string temp = path_ + ".part";
     png_image image;
@@ -442,11 +494,23 @@ int ContactSheetSink::close() noexcept {
     image.width = static_cast<png_uint_32>(sheetW_);
     image.height = static_cast<png_uint_32>(sheetH_);
     image.format = PNG_FORMAT_GRAY;
-    if (png_image_write_to_file(&image, temp.c_str(), 0, sheet_.data(), 0, nullptr) == 0 ||
-        std::rename(temp.c_str(), path_.c_str()) != 0) {
-        const int rc = errno != 0 ? -errno : -EIO;
+    // Every step checked: encoded, flushed, on disk, closed; only then renamed into place.
+    errno = 0;
+    int rc = 0;
+    if (png_image_write_to_stdio(&image, part_, 0, sheet_.data(), 0, nullptr) == 0) {
+        rc = errno != 0 ? -errno : -EIO;
+    } else if (std::fflush(part_) != 0 || std::ferror(part_) != 0 || ::fsync(fileno(part_)) != 0) {
+        rc = errno != 0 ? -errno : -EIO;
+    }
+    png_image_free(&image);
+    if (std::fclose(part_) != 0 && rc == 0) rc = errno != 0 ? -errno : -EIO;
+    part_ = nullptr;
+    if (rc == 0 && std::rename(temp.c_str(), path_.c_str()) != 0) rc = -errno;
+    if (rc != 0) {
         std::remove(temp.c_str());
         ++counters_.errors;
+        counters_.lastErrno = -rc;
+        state_ = SinkState::Failed;
         return rc;
     }
     counters_.bytes += static_cast<std::int64_t>(sheet_.size());

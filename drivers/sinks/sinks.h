@@ -5,18 +5,25 @@
 //
 //   Y4mSink          YUV4MPEG2, Cmono (8-bit) or Cmono16 (16-bit little-endian, counts scaled
 //                    to the full 16 bits), to a file (temporary + rename at close) or stdout.
-//                    A frame whose write fails is never half in a file: the file is abandoned
-//                    and removed. On stdout a vanished reader (EPIPE) closes the sink.
+//                    A write that fails (full disk, EFBIG, I/O error) fails the sink and the
+//                    file is cut back to its last whole frame, then renamed into place at
+//                    close: a valid stream of every frame written before the fault (none: the
+//                    file is removed). On stdout a vanished reader (EPIPE) fails the sink; a
+//                    reader that stops reading blocks only this sink's thread, and cancel()
+//                    ends such a wait (StreamWriter).
 //   PgmSequenceSink  DIR/NNNNNN.pgm, binary P5, maxval 2^bits − 1 (16-bit big-endian above 8
 //                    bits): the ADC counts exactly. Each file written whole, then renamed.
 //   PngSequenceSink  DIR/NNNNNN.png, 8-bit gray, or 16-bit with counts scaled to 16 bits.
-//   ExrSequenceSink  the frame's radiance as FLOAT channel "Y", each image labelled with its
+//   ExrSequenceSink  the frame's radiance as FLOAT channel "Y" (written through a checked
+//                    stream: a file any of whose writes, or whose close, failed is removed,
+//                    never renamed into place, and counted), each image labelled with its
 //                    unit as `nvstim render` labels its files (header attribute nvstim.unit,
 //                    read back by `nvstim sensor --in`): DIR/NNNNNN.exr the photoelectron
 //                    radiance ("pe/s/m2/sr") when the frame has it, else the band radiance
 //                    ("W/m2/sr"); DIR/NNNNNN.band.exr the band radiance when the frame has
 //                    both. Attributes nvs_frame, nvs_t_sample_s as well.
-//   MetaJsonlSink    one JSON object per emitted frame (file, temporary + rename, or stdout):
+//   MetaJsonlSink    one JSON object per emitted frame (file, temporary + rename, or stdout);
+//                    on a failed write, as Y4mSink, the file keeps its whole lines:
 //     {"frame","tick","repeat","t_sample_s","utc_unix_s","exposure_s",
 //      "pose":{"lat_deg","lon_deg","alt_m","yaw_deg","pitch_deg","roll_deg"},
 //      "gain_V","gate_s","gate_mode","agc","lamps","pose_from_telemetry","stale",
@@ -28,6 +35,7 @@
 // offline (sim clock) runs; the others allocate nothing per frame.
 
 #include <cstdint>
+#include <cstdio>
 #include <string>
 #include <vector>
 
@@ -51,10 +59,13 @@ std::string describe(const char* name, SinkState state, const SinkCounters& c);
 class Y4mSink final : public msg::FrameSink {
   public:
     // path "-" is stdout. `bits` is the camera's ADC depth.
-    Y4mSink(const std::string& path, int width, int height, int bits, msg::FrameRate rate);
+    Y4mSink(const std::string& path, int width, int height, int bits, msg::FrameRate rate,
+            msg::FieldOrder order = msg::FieldOrder::Progressive);
     ~Y4mSink() override;
     const char* name() const noexcept override { return name_.c_str(); }
     int write(const msg::OutputFrame& frame) noexcept override;
+    bool failed() const noexcept override { return state_ == SinkState::Failed; }
+    void cancel() noexcept override { out_.cancel(); }
     int close() noexcept override;
     std::string status() const override { return describe(name_.c_str(), state_, counters_); }
     const SinkCounters& counters() const { return counters_; }
@@ -64,6 +75,8 @@ class Y4mSink final : public msg::FrameSink {
     std::string name_;
     bool toStdout_ = false;
     AtomicFile file_;
+    StreamWriter out_;
+    off_t whole_ = 0;  // bytes of the header and the whole frames written
     int width_, height_, bits_;
     bool wide_;                          // 16-bit samples
     std::vector<unsigned char> buffer_;  // "FRAME\n" + one frame of samples
@@ -113,6 +126,7 @@ class ExrSequenceSink final : public msg::FrameSink {
   public:
     ExrSequenceSink(const std::string& dir, int width, int height);
     const char* name() const noexcept override { return name_.c_str(); }
+    msg::SinkInputs inputs() const noexcept override { return {false, true, false}; }
     int write(const msg::OutputFrame& frame) noexcept override;
     int close() noexcept override;
     std::string status() const override { return describe(name_.c_str(), state_, counters_); }
@@ -133,7 +147,10 @@ class MetaJsonlSink final : public msg::FrameSink {
     explicit MetaJsonlSink(const std::string& path);
     ~MetaJsonlSink() override;
     const char* name() const noexcept override { return name_.c_str(); }
+    msg::SinkInputs inputs() const noexcept override { return {false, false, false}; }
     int write(const msg::OutputFrame& frame) noexcept override;
+    bool failed() const noexcept override { return state_ == SinkState::Failed; }
+    void cancel() noexcept override { out_.cancel(); }
     int close() noexcept override;
     std::string status() const override { return describe(name_.c_str(), state_, counters_); }
     const SinkCounters& counters() const { return counters_; }
@@ -144,21 +161,29 @@ class MetaJsonlSink final : public msg::FrameSink {
     std::string name_;
     bool toStdout_ = false;
     AtomicFile file_;
+    StreamWriter out_;
+    off_t whole_ = 0;  // bytes of the whole lines written
     std::vector<char> line_;
     SinkState state_ = SinkState::Open;
     SinkCounters counters_;
 };
 
-// Creates DIR (and parents) at setup; throws SetupError naming `what` on failure.
+// Creates DIR (and parents) at setup and checks that a file can be created in it (a temporary
+// probe, removed at once); throws SetupError naming `what` on failure.
 void makeOutputDir(const std::string& dir, const std::string& what);
 
 // A contact sheet: `cols × rows` frames spread evenly over a run of `frames` frames (or every
 // `every`-th frame when the length is not known), each shrunk by `shrink` (box filter), 8-bit,
 // on a white grid, written as one PNG when the run closes. A glance at a run's content.
+// The sheet's file is created at setup (as FILE.part, renamed at close): an unwritable path
+// fails the setup, not the end of the run.
 class ContactSheetSink final : public msg::FrameSink {
   public:
     ContactSheetSink(const std::string& path, int width, int height, int bits, int cols, int rows,
                      int shrink, std::int64_t frames, std::int64_t every);
+    ~ContactSheetSink() override;
+    ContactSheetSink(const ContactSheetSink&) = delete;
+    ContactSheetSink& operator=(const ContactSheetSink&) = delete;
     const char* name() const noexcept override { return name_.c_str(); }
     int write(const msg::OutputFrame& frame) noexcept override;
     int close() noexcept override;
@@ -173,6 +198,7 @@ class ContactSheetSink final : public msg::FrameSink {
     std::int64_t frames_, every_;
     int next_ = 0;  // next tile to fill
     std::vector<unsigned char> sheet_;
+    std::FILE* part_ = nullptr;  // FILE.part, opened at setup
     SinkState state_ = SinkState::Open;
     SinkCounters counters_;
 };

@@ -207,7 +207,7 @@ int V4l2Output::configure(int width, int height, V4l2Format format, V4l2Io io, i
     req.fmt.pix.width = w;
     req.fmt.pix.height = h;
     req.fmt.pix.pixelformat = fourcc(format);
-    req.fmt.pix.field = V4L2_FIELD_NONE;
+    req.fmt.pix.field = field_;
     req.fmt.pix.bytesperline = w * bpp;
     req.fmt.pix.sizeimage = w * h * bpp;
     int rc = ops_.ioctl(fd_, VIDIOC_S_FMT, &req);
@@ -226,6 +226,8 @@ int V4l2Output::configure(int width, int height, V4l2Format format, V4l2Io io, i
         return rc;
     }
     active_ = got.fmt.pix;
+    // A driver that does not report the field keeps the one asked for.
+    if (active_.field == V4L2_FIELD_ANY) active_.field = field_;
     if (active_.width != w || active_.height != h || active_.pixelformat != fourcc(format)) {
         ++counters_.formatMismatches;
         message_ = path_ + ": asked for " + std::to_string(w) + "x" + std::to_string(h) + " " +
@@ -378,7 +380,7 @@ int V4l2Output::submit(std::uint32_t sequence, std::int64_t timestamp_ns) noexce
         b.memory = V4L2_MEMORY_MMAP;
         b.index = static_cast<std::uint32_t>(current_);
         b.bytesused = static_cast<std::uint32_t>(frameBytes_);
-        b.field = V4L2_FIELD_NONE;
+        b.field = active_.field;
         b.flags = V4L2_BUF_FLAG_TIMESTAMP_COPY;
         b.sequence = sequence;
         b.timestamp.tv_sec = static_cast<time_t>(timestamp_ns / 1000000000);
@@ -442,16 +444,21 @@ std::string V4l2Output::status() const {
 // ---- the sink ------------------------------------------------------------------------------
 
 V4l2Sink::V4l2Sink(std::unique_ptr<V4l2DeviceOps> ops, const std::string& path, int width,
-                   int height, int bits, V4l2Format format, V4l2Io io)
+                   int height, int bits, V4l2Format format, V4l2Io io, msg::FieldOrder order)
     : ops_(std::move(ops)),
       out_(*ops_),
       name_("v4l2:" + path),
+      path_(path),
       width_(width),
       height_(height),
-      format_(format) {
+      format_(format),
+      io_(io) {
     if (bits < 1 || bits > 16) throw SetupError(name_ + ": bits must be in 1..16");
     int rc = out_.open(path);
     if (rc < 0) throw SetupError(name_ + ": " + out_.message());
+    out_.setField(order == msg::FieldOrder::TopFirst      ? V4L2_FIELD_INTERLACED_TB
+                  : order == msg::FieldOrder::BottomFirst ? V4L2_FIELD_INTERLACED_BT
+                                                          : V4L2_FIELD_NONE);
     rc = out_.configure(width, height, format, io);
     if (rc < 0) throw SetupError(name_ + ": " + out_.message());
     // Count → sample table: v = v_min + round(c·(v_max − v_min)/(2^bits − 1)).
@@ -494,7 +501,32 @@ void V4l2Sink::convertRow(const std::uint16_t* counts, int width, V4l2Format for
     }
 }
 
+bool V4l2Sink::recover(double now_s) noexcept {
+    if (out_.state() != V4l2State::Failed) return true;
+    if (up_) {
+        ++losses_;
+        up_ = false;
+        backoff_.lost(now_s);
+    }
+    if (!backoff_.due(now_s)) return false;
+    ++reopenAttempts_;
+    out_.close();
+    if (out_.open(path_) < 0 || out_.configure(width_, height_, format_, io_) < 0) {
+        out_.close();
+        backoff_.failed(now_s);
+        return false;
+    }
+    ++reopened_;
+    backoff_.succeeded();
+    up_ = true;
+    return true;
+}
+
 int V4l2Sink::write(const msg::OutputFrame& frame) noexcept {
+    if (!recover(frame.emit_s)) {
+        ++lostFrames_;
+        return -std::max(out_.counters().lastErrno, 1);
+    }
     std::uint8_t* dst = out_.acquire();
     if (dst == nullptr) {
         // No buffer free (consumer behind: counted as busy, not an error) or a failed device.
@@ -543,7 +575,10 @@ int V4l2Sink::close() noexcept {
 }
 
 std::string V4l2Sink::status() const {
-    return name_ + ": " + out_.status();
+    return name_ + ": " + out_.status() + ", device lost " + std::to_string(losses_) +
+           ", reopen attempts " + std::to_string(reopenAttempts_) + ", reopened " +
+           std::to_string(reopened_) + ", frames lost " + std::to_string(lostFrames_) +
+           (up_ ? "" : ", DEVICE LOST");
 }
 
 }  // namespace nvs::drivers

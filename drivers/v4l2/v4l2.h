@@ -24,7 +24,10 @@
 //     one frame, so writes carry exactly width·height·bytes-per-pixel bytes, not sizeimage.
 //   * A reader that goes away does not disturb the writer; a device that vanishes (module
 //     unloaded, USB gadget gone) fails with ENODEV. Errors are counted; the sink reports them
-//     to the loop, which stops only when [runtime] sink_errors = "stop".
+//     to the loop, which stops only when [runtime] sink_errors = "stop". V4l2Sink then closes
+//     the node and reopens and reconfigures it with backoff (0.1 s doubling to 5 s, on the
+//     frames' emission clock), counting losses, attempts and reopens; the frames in between
+//     are lost (counted) and the run goes on.
 //
 // Formats: GREY (8-bit, full range 0–255), Y16 (16-bit little-endian, full range), YUYV (4:2:2
 // with Y in BT.601 studio range 16–235 and U = V = 128, what players assume for YUYV).
@@ -45,6 +48,7 @@
 #include <string_view>
 #include <vector>
 
+#include "sim/core/backoff.h"
 #include "sim/msg/output.h"
 
 namespace nvs::drivers {
@@ -140,6 +144,10 @@ class V4l2Output {
     // format), then the I/O method: write() needs V4L2_CAP_READWRITE; MMAP needs
     // V4L2_CAP_STREAMING and maps `buffers` buffers (REQBUFS may grant fewer, at least 2).
     int configure(int width, int height, V4l2Format format, V4l2Io io, int buffers = 4);
+    // The field order to ask for at configure() (V4L2_FIELD_NONE unless set): interlaced
+    // frames are V4L2_FIELD_INTERLACED_TB (top field first) or _BT. Every buffer carries the
+    // field the device accepted.
+    void setField(v4l2_field field) noexcept { field_ = field; }
 
     // Per frame, no allocation. acquire(): memory for the next frame (frameBytes() bytes), or
     // nullptr when none is free (the consumer is behind: counted in `busy`) or the device has
@@ -170,6 +178,7 @@ class V4l2Output {
     int fd_ = -1;
     std::string path_;
     V4l2State state_ = V4l2State::Closed;
+    v4l2_field field_ = V4L2_FIELD_NONE;  // asked for at configure()
     V4l2Io io_ = V4l2Io::Write;
     V4l2Capability cap_;
     v4l2_pix_format active_{};
@@ -194,7 +203,8 @@ class V4l2Sink final : public msg::FrameSink {
     // Opens and configures the device; throws SetupError (naming the spec) when it is absent,
     // not an output, refuses the format or keeps another one.
     V4l2Sink(std::unique_ptr<V4l2DeviceOps> ops, const std::string& path, int width, int height,
-             int bits, V4l2Format format, V4l2Io io);
+             int bits, V4l2Format format, V4l2Io io,
+             msg::FieldOrder order = msg::FieldOrder::Progressive);
     ~V4l2Sink() override { close(); }
     const char* name() const noexcept override { return name_.c_str(); }
     int write(const msg::OutputFrame& frame) noexcept override;
@@ -206,13 +216,28 @@ class V4l2Sink final : public msg::FrameSink {
     static void convertRow(const std::uint16_t* counts, int width, V4l2Format format,
                            const std::uint16_t* lut, std::uint8_t* dst) noexcept;
 
+    std::int64_t deviceLosses() const { return losses_; }
+    std::int64_t reopened() const { return reopened_; }
+
   private:
+    // The device failed (gone): reopen and reconfigure it when the backoff allows. True when
+    // it is usable again. Runs on the sink's own thread; a reopen builds messages (allocates),
+    // which only a lost device costs.
+    bool recover(double now_s) noexcept;
     std::unique_ptr<V4l2DeviceOps> ops_;
     V4l2Output out_;
     std::string name_;
+    std::string path_;
     int width_, height_;
     V4l2Format format_;
+    V4l2Io io_;
     std::vector<std::uint16_t> lut_;  // count → sample value (2^bits entries)
+    Backoff backoff_{kReconnectFirst_s, kReconnectMax_s};
+    bool up_ = true;
+    std::int64_t losses_ = 0;          // times the device was found gone
+    std::int64_t reopenAttempts_ = 0;  // reopen + configure tries
+    std::int64_t reopened_ = 0;        // of those, successful
+    std::int64_t lostFrames_ = 0;      // frames not sent while it was gone
 };
 
 }  // namespace nvs::drivers

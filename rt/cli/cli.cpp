@@ -23,17 +23,26 @@ int runCli(int argc, const char* const* argv) {
     app.set_version_flag("--version", std::string("nvstim ") + NVS_VERSION);
     app.require_subcommand(1);
     app.footer(
-        "Exit status: 0 ok, 1 run failed, 2 usage or setup error, 3 not implemented yet.\n"
+        "Exit status: 0 ok, 1 run failed, 2 usage or setup error, 3 not implemented yet;\n"
+        "`run` adds 4 when an output failed or had write errors and 8 when it was\n"
+        "interrupted by SIGINT/SIGTERM (outputs closed cleanly): 4, 8 or 12.\n"
         "Run `nvstim SUBCOMMAND --help` for the options of one subcommand.");
 
     // run ------------------------------------------------------------------------------------
     RunOptions run;
     auto* runCmd = app.add_subcommand(
         "run", "Run a scenario: render, simulate the camera and emit video (HIL or replay).");
+    runCmd->footer(
+        "Exit status: 0 every frame run and every output worked; 1 the run failed (every output\n"
+        "failed, sink_errors = \"stop\", bad telemetry under bad_input = \"stop\", --stats not\n"
+        "written); 2 usage or setup error; else the sum of 4 (an output failed or had write\n"
+        "errors, the others went on) and 8 (interrupted by SIGINT/SIGTERM; files closed and\n"
+        "renamed into place).");
     runCmd->add_option("scenario", run.scenario, "Scenario TOML file or folder")->required();
     runCmd->add_option("--output", run.outputs,
                        "Output, repeatable: v4l2:/dev/videoN[?format=GREY|Y16|YUYV], y4m:PATH|-, "
-                       "png:DIR, exr:DIR, meta:PATH");
+                       "pgm:DIR, png:DIR, exr:DIR, meta:PATH|-, contact:FILE.png, "
+                       "gpio:CHIP:LINE");
     runCmd
         ->add_option("--clock", run.clock,
                      "wall (real time, HIL) or sim (as fast as possible, "

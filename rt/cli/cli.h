@@ -12,7 +12,16 @@
 
 namespace nvs::cli {
 
-enum ExitCode : int { kExitOk = 0, kExitFailure = 1, kExitUsage = 2, kExitNotImplemented = 3 };
+// `run` adds two bits that combine: kExitOutputFailed (an output failed, the run went on) and
+// kExitInterrupted (stopped by SIGINT/SIGTERM, cleanly): 4, 8 or 12.
+enum ExitCode : int {
+    kExitOk = 0,
+    kExitFailure = 1,
+    kExitUsage = 2,
+    kExitNotImplemented = 3,
+    kExitOutputFailed = 4,
+    kExitInterrupted = 8
+};
 
 struct RunOptions {
     std::string scenario;

@@ -60,7 +60,17 @@ int runIllum(const IllumOptions& opts) {
     printTerms("illuminance_lux", lux);
     if (opts.camera) {
         std::printf(",");
-        printTerms("photoelectron_irradiance_pe_s_m2", model.horizontal(1, s.moon));
+        const sky::HorizontalTerms pe = model.horizontal(1, s.moon);
+        printTerms("photoelectron_irradiance_pe_s_m2", pe);
+        // Photoelectrons per lux of each light: how much more the camera sees of a lux of
+        // red-rich night sky than of a lux of moonlight (its response reaches past V(λ)).
+        const auto perLux = [](double a, double lx) { return lx > 0.0 ? a / lx : 0.0; };
+        const double moon = perLux(pe.moonDirect, lux.moonDirect);
+        const double night = perLux(pe.nightSky, lux.nightSky);
+        std::printf(
+            ",\"pe_per_lux_s_m2\":{\"moon_direct\":%.6g,\"night_sky\":%.6g,"
+            "\"night_sky_over_moon\":%.4g}",
+            moon, night, moon > 0.0 ? night / moon : 0.0);
         std::printf(",\"camera\":\"%s\"", cameraName.c_str());
     }
     std::printf(

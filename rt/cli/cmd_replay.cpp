@@ -26,8 +26,9 @@ int runReplay(const ReplayOptions& opts) {
         std::fputs(r.report.c_str(), stdout);
         return r.passed ? kExitOk : kExitFailure;
     }
-    // Plain replay: run it and say where the frames are.
-    const auto work = std::filesystem::temp_directory_path() / "nvstim-replay-out";
+    // Plain replay: run it into a private folder of its own (two replays never share one) and
+    // say where the frames are.
+    const auto work = rt::makeReplayTempDir();
     const auto frames = rt::replayScenario(dir, self, work);
     std::printf("replay %s: frames in %s, metadata in %s\n", dir.c_str(), frames.c_str(),
                 (work / "meta.jsonl").c_str());

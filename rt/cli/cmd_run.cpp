@@ -4,6 +4,9 @@
 
 namespace nvs::cli {
 
+static_assert(rt::kRunFailed == kExitFailure && rt::kRunOutputFailed == kExitOutputFailed &&
+              rt::kRunInterrupted == kExitInterrupted);
+
 int runRun(const RunOptions& opts) {
     rt::RunRequest req;
     req.scenario = opts.scenario;
@@ -13,7 +16,8 @@ int runRun(const RunOptions& opts) {
     req.telemetry = opts.telemetry;
     req.statsPath = opts.statsPath;
     req.dirs = resolveDataDirs();
-    return rt::runScenario(req, stderr) == 0 ? kExitOk : kExitFailure;
+    // 0, 1, or the bits 4 (an output failed) and 8 (interrupted): docs/contracts.md.
+    return rt::runScenario(req, stderr);
 }
 
 }  // namespace nvs::cli

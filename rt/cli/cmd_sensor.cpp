@@ -18,6 +18,7 @@
 #include "rt/cli/commands.h"
 #include "rt/cli/data_dirs.h"
 #include "sim/core/error.h"
+#include "sim/core/input_file.h"
 #include "sim/sensor/camera.h"
 #include "sim/sensor/chain.h"
 #include "sim/sensor/image_io.h"
@@ -36,7 +37,11 @@ std::string lowerExt(const std::string& path) {
 // Reads one input and turns it into Lpe [pe s⁻¹ m⁻² sr⁻¹], validating size and values.
 ImageF loadInput(const std::string& file, const sensor::CameraParams& cam,
                  const SensorOptions& opts, const DataDirs& dirs) {
-    sensor::RadianceFile r = sensor::readRadiance(file);
+    // The header's size is checked against the camera's before any pixel is allocated.
+    sensor::ImageLimits limits;
+    limits.maxWidth = cam.width;
+    limits.maxHeight = cam.height;
+    sensor::RadianceFile r = sensor::readRadiance(file, limits);
     if (r.image.width() != cam.width || r.image.height() != cam.height) {
         throw SetupError(file + ": image is " + std::to_string(r.image.width()) + "x" +
                          std::to_string(r.image.height()) + ", camera '" + cam.name + "' expects " +
@@ -78,15 +83,23 @@ void writeOutput(const std::string& file, const sensor::IiccdChain& chain) {
     const std::string ext = lowerExt(file);
     const std::filesystem::path tmp = file + ".tmp" + ext;
     const int maxv = (1 << chain.camera().adc_bits) - 1;
-    if (ext == ".pgm")
-        sensor::writePgm(tmp, chain.video().cview(), maxv);
-    else if (ext == ".png")
-        sensor::writePng(tmp, chain.video().cview(), maxv);
-    else if (ext == ".exr")
-        sensor::writeExr(tmp, chain.counts().cview(), "DC", "");
-    else
+    if (ext != ".pgm" && ext != ".png" && ext != ".exr")
         throw SetupError("--out " + file + ": output must be .pgm, .png or .exr");
-    std::filesystem::rename(tmp, file);
+    // Written to a temporary whose every write, flush and close is checked (image_io), and
+    // renamed into place only then; on any failure the temporary is removed.
+    try {
+        if (ext == ".pgm")
+            sensor::writePgm(tmp, chain.video().cview(), maxv);
+        else if (ext == ".png")
+            sensor::writePng(tmp, chain.video().cview(), maxv);
+        else
+            sensor::writeExr(tmp, chain.counts().cview(), "DC", "");
+        std::filesystem::rename(tmp, file);
+    } catch (...) {
+        std::error_code ec;
+        std::filesystem::remove(tmp, ec);
+        throw;
+    }
 }
 
 }  // namespace
@@ -106,7 +119,7 @@ int runSensor(const SensorOptions& opts) {
         if (!inPattern)
             frames = 1;
         else
-            while (std::filesystem::exists(sensor::expandFramePattern(opts.in, frames)))
+            while (nvs::pathExists(sensor::expandFramePattern(opts.in, frames)))
                 ++frames;
     }
     if (frames <= 0) throw SetupError("--in " + opts.in + ": no input files (frame 0 missing)");
@@ -124,7 +137,7 @@ int runSensor(const SensorOptions& opts) {
     }
     const std::filesystem::path outDir =
         std::filesystem::path(sensor::expandFramePattern(opts.out, 0)).parent_path();
-    if (!outDir.empty() && !std::filesystem::is_directory(outDir)) {
+    if (!outDir.empty() && !nvs::isDirectory(outDir)) {
         throw SetupError("--out " + opts.out + ": no directory " + outDir.string());
     }
     GammaTableCache gammaTables;

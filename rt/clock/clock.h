@@ -25,7 +25,8 @@ std::int64_t realtimeNow_ns() noexcept;
 
 class SimClock {
   public:
-    explicit SimClock(FrameRate rate) : rate_(rate) {}
+    // Throws SetupError for a rate that is not FrameRate::valid().
+    explicit SimClock(FrameRate rate) : rate_(rate.checked("sim clock")) {}
     FrameRate rate() const { return rate_; }
     // t_k = k·dt [s] on the run clock, computed from k alone.
     double tickTime_s(std::int64_t k) const {
@@ -39,7 +40,9 @@ class SimClock {
 
 class WallClock {
   public:
-    explicit WallClock(FrameRate rate) : rate_(rate) {}
+    // Throws SetupError for a rate that is not FrameRate::valid(): num ≥ 1 keeps the
+    // divisions below defined, num, den ≤ 10⁹ keep the 128-bit products from overflowing.
+    explicit WallClock(FrameRate rate) : rate_(rate.checked("wall clock")) {}
     FrameRate rate() const { return rate_; }
     // Fixes the run clock's origin (tick 0) at `start_ns` on CLOCK_MONOTONIC.
     void start(std::int64_t start_ns) noexcept { start_ns_ = start_ns; }

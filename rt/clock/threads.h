@@ -20,7 +20,8 @@ enum ThreadId : int {
     kThreadOutput = 2,
     kThreadGpio = 3,
     kThreadCamera = 4,
-    kThreadCount = 5
+    kThreadSink = 5,
+    kThreadCount = 6
 };
 
 inline constexpr ThreadSpec kThreadTable[kThreadCount] = {
@@ -41,6 +42,10 @@ inline constexpr ThreadSpec kThreadTable[kThreadCount] = {
      "frame k+1: camera stage per frame or field (state carried in order), weave, schedule "
      "the exposures",
      75, 1},
+    {"nvs-sink",
+     "one per output (not gpio:): takes frames from its bounded queue and writes them, so a "
+     "stalled or dead consumer holds up only itself",
+     78, -1},
 };
 
 // Names the calling thread after its table entry and, when `realtime`, applies its priority

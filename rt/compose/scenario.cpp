@@ -6,9 +6,16 @@
 #include <ctime>
 
 #include "sim/core/config.h"
+#include "sim/core/input_file.h"
 #include "sim/core/units.h"
 
 namespace nvs::rt {
+
+int daysInMonth(int year, int month) {
+    static constexpr int kDays[12] = {31, 28, 31, 30, 31, 30, 31, 31, 30, 31, 30, 31};
+    const bool leap = (year % 4 == 0 && year % 100 != 0) || year % 400 == 0;
+    return kDays[month - 1] + (month == 2 && leap ? 1 : 0);
+}
 
 bool parseIso8601Utc(const std::string& text, double* unix_s) {
     int Y = 0, M = 0, D = 0, h = 0, m = 0, consumed = 0;
@@ -17,8 +24,10 @@ bool parseIso8601Utc(const std::string& text, double* unix_s) {
         6) {
         return false;
     }
-    if (M < 1 || M > 12 || D < 1 || D > 31 || h > 23 || m > 59 || s < 0.0 || s >= 61.0)
-        return false;
+    if (Y < 1000 || M < 1 || M > 12 || D < 1 || D > daysInMonth(Y, M) || h < 0 || h > 23 || m < 0 ||
+        m > 59 || !(s >= 0.0 && s < 61.0)) {
+        return false;  // no 31 February: the day must exist in its month
+    }
     const std::string zone = text.substr(static_cast<std::size_t>(consumed));
     int offset_s = 0;
     if (zone == "Z" || zone.empty()) {
@@ -27,7 +36,7 @@ bool parseIso8601Utc(const std::string& text, double* unix_s) {
         int oh = 0, om = 0;
         char sign = 0;
         if (std::sscanf(zone.c_str(), "%c%2d:%2d", &sign, &oh, &om) != 3 ||
-            (sign != '+' && sign != '-')) {
+            (sign != '+' && sign != '-') || oh < 0 || oh > 14 || om < 0 || om > 59) {
             return false;
         }
         offset_s = (sign == '-' ? -1 : 1) * (oh * 3600 + om * 60);
@@ -127,7 +136,7 @@ void readSceneTables(const ConfigTable& root, const std::filesystem::path& file,
     const ConfigTable scn = root.table("scene");
     const auto rel = scn.require<std::string>("file");
     out.sceneFile = std::filesystem::absolute(file.parent_path() / rel);
-    if (!std::filesystem::exists(out.sceneFile)) {
+    if (!pathExists(out.sceneFile)) {
         scn.fail("file", "scene file not found: " + out.sceneFile.string());
     }
     out.lampsOn = scn.optional<std::vector<std::string>>("lamps_on");
@@ -136,6 +145,12 @@ void readSceneTables(const ConfigTable& root, const std::filesystem::path& file,
     } catch (const SetupError& e) {
         throw SetupError(root.location("atmosphere"), e.what());
     }
+}
+
+std::string hzText(double hz) {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%.6g", hz);
+    return buf;
 }
 
 // [scenario] and [camera]: names, seed, scan, rate, size, depth, exposure, start and duration.
@@ -157,7 +172,10 @@ void readScenarioTable(const ConfigTable& root, const std::filesystem::path& con
     const std::optional<ConfigTable> cam = root.optionalTable("camera");
     if (cam) readCamera(*cam, widthGiven, heightGiven, bitsGiven, sc.seed, configDir, sc.camera);
     const sensor::CameraParams& cp = sc.camera.params;
-    const std::string scan = s.get<std::string>("scan", "progressive");
+    // Scan follows the camera: a field-scan camera (RS-170, CCIR) delivers interlaced frames,
+    // two fields each, every field exposed at its own time; a frame-scan camera, progressive.
+    const bool fieldCamera = cam && cp.scan == sensor::ScanMode::Field;
+    const std::string scan = s.get<std::string>("scan", fieldCamera ? "interlaced" : "progressive");
     if (scan != "progressive" && scan != "interlaced") {
         s.fail("scan", "must be \"progressive\" or \"interlaced\"");
     }
@@ -168,15 +186,24 @@ void readScenarioTable(const ConfigTable& root, const std::filesystem::path& con
                "interlaced output needs a field-scan camera preset (the preset has "
                "scan = \"frame\")");
     }
-    // Default rate: the preset's field rate (progressive: one field per frame, woven by the
-    // camera) or frame rate (interlaced, and frame-scan presets).
-    const bool fieldPerFrame = cp.scan == sensor::ScanMode::Field && !interlaced;
+    // Default rate: the preset's frame rate (interlaced: half its field rate), or its field
+    // rate (progressive output of a field-scan camera: one frame per field, woven by the
+    // camera, so each frame is the latest two fields).
+    const bool fieldPerFrame = fieldCamera && !interlaced;
     const double camRate_hz = fieldPerFrame ? cp.field_rate_Hz : cp.field_rate_Hz / 2.0;
     const double hz = hzGiven ? *hzGiven : (cam ? camRate_hz : (interlaced ? 30.0 : 60.0));
     try {
         sc.rate = FrameRate::fromHz(hz);
     } catch (const SetupError& e) {
         s.fail("frame_rate_hz", e.what());
+    }
+    if (fieldPerFrame && std::abs(sc.rate.hz() - cp.field_rate_Hz) > 1e-3 * cp.field_rate_Hz) {
+        // Otherwise each field would last a frame period: a camera that does not exist.
+        s.fail("frame_rate_hz",
+               "a field-scan camera in progressive scan emits one frame per field: the rate "
+               "must be its field rate (" +
+                   hzText(cp.field_rate_Hz) + " Hz), or set scan = \"interlaced\" for " +
+                   hzText(cp.field_rate_Hz / 2.0) + " frames/s");
     }
     sc.width = widthGiven ? *widthGiven : (cam ? cp.width : 320);
     sc.height = heightGiven ? *heightGiven : (cam ? cp.height : 240);
@@ -187,14 +214,18 @@ void readScenarioTable(const ConfigTable& root, const std::filesystem::path& con
     // The camera runs at the loop's rate: one call per emitted frame (progressive), or one per
     // field, two per emitted frame (interlaced).
     if (cam) sc.camera.params.field_rate_Hz = fieldPerFrame ? sc.rate.hz() : 2.0 * sc.rate.hz();
-    sc.exposure_s = s.get<double>("exposure_s", 0.0);
-    if (sc.exposure_s < 0.0) s.fail("exposure_s", "must not be negative");
+    sc.exposure_s = finiteIn(s, "exposure_s", 0.0, 0.0, 1000.0);
     sc.utcStart = s.get<std::string>("utc_start", sc.utcStart);
     if (!parseIso8601Utc(sc.utcStart, &sc.utcStart_unix_s)) {
         s.fail("utc_start", "not an ISO 8601 UTC instant such as 2024-01-25T17:54:00Z");
     }
     if (const auto d = s.optional<double>("duration_s")) {
-        if (!(*d > 0.0)) s.fail("duration_s", "must be positive");
+        // Bounded so that the frame count ⌈d·rate⌉ is an exact 64-bit integer; a longer run
+        // leaves duration_s out (a wall-clock run then goes on until it is stopped).
+        if (!(*d > 0.0 && *d <= kMaxDuration_s)) {
+            s.fail("duration_s", "must be in (0, " + std::to_string(kMaxDuration_s) +
+                                     "] s (leave it out for a run that goes on until stopped)");
+        }
         sc.duration_s = *d;
     }
 }
@@ -202,21 +233,23 @@ void readScenarioTable(const ConfigTable& root, const std::filesystem::path& con
 // [platform]: the held pose and camera settings without telemetry.
 void readPlatform(const ConfigTable& root, Scenario& sc) {
     const std::optional<ConfigTable> p = root.optionalTable("platform");
-    sc.platform.lat_deg = getOr<double>(p, "lat_deg", 0.0);
-    sc.platform.lon_deg = getOr<double>(p, "lon_deg", 0.0);
-    sc.platform.alt_m = getOr<double>(p, "alt_m", 0.0);
-    sc.platform.yaw_rad = getOr<double>(p, "yaw_deg", 0.0) * kRadPerDeg;
-    sc.platform.pitch_rad = getOr<double>(p, "pitch_deg", 0.0) * kRadPerDeg;
-    sc.platform.roll_rad = getOr<double>(p, "roll_deg", 0.0) * kRadPerDeg;
-    sc.platform.gain_V = getOr<double>(p, "gain_V", 0.0);
-    sc.platform.gate_s = getOr<double>(p, "gate_s", 0.0);
+    // The same ranges as telemetry (rt/telemetry/track.h): a held pose is checked like one.
+    const auto num = [&p](std::string_view key, double lo, double hi) {
+        return p ? finiteIn(*p, key, 0.0, lo, hi) : 0.0;
+    };
+    sc.platform.lat_deg = num("lat_deg", -90.0, 90.0);
+    sc.platform.lon_deg = num("lon_deg", -180.0, 360.0);
+    sc.platform.alt_m = num("alt_m", -12000.0, 1.0e6);
+    sc.platform.yaw_rad = num("yaw_deg", -360.0, 360.0) * kRadPerDeg;
+    sc.platform.pitch_rad = num("pitch_deg", -360.0, 360.0) * kRadPerDeg;
+    sc.platform.roll_rad = num("roll_deg", -360.0, 360.0) * kRadPerDeg;
+    sc.platform.gain_V = num("gain_V", 0.0, 10000.0);
+    sc.platform.gate_s = num("gate_s", 0.0, 1.0);
     sc.platform.agc = getOr<bool>(p, "agc", true);
     sc.platform.gateMode = getOr<int>(p, "gate_mode", 0);
     if (sc.platform.gateMode < 0 || sc.platform.gateMode > 2) {
         p->fail("gate_mode", "must be 0 (continuous), 1 (gated) or 2 (auto-gated)");
     }
-    if (sc.platform.gain_V < 0.0) p->fail("gain_V", "must not be negative");
-    if (sc.platform.gate_s < 0.0) p->fail("gate_s", "must not be negative");
     sc.platform.utc_unix_s = sc.utcStart_unix_s;
 }
 
@@ -243,8 +276,12 @@ void readRuntime(const ConfigTable& root, Scenario& sc) {
     if (sc.renderCoarse < 1 || sc.renderCoarse > 8) r->fail("coarse_tiles", "must be in [1, 8]");
     sc.staleAfter_s = getOr<double>(r, "stale_after_s", 0.5);
     sc.maxExtrapolation_s = getOr<double>(r, "max_extrapolation_s", 0.1);
-    if (!(sc.staleAfter_s > 0.0)) r->fail("stale_after_s", "must be positive");
-    if (sc.maxExtrapolation_s < 0.0) r->fail("max_extrapolation_s", "must not be negative");
+    if (!(sc.staleAfter_s > 0.0 && sc.staleAfter_s <= kMaxDuration_s)) {
+        r->fail("stale_after_s", "must be positive and finite");
+    }
+    if (!(sc.maxExtrapolation_s >= 0.0 && sc.maxExtrapolation_s <= kMaxDuration_s)) {
+        r->fail("max_extrapolation_s", "must be finite and not negative");
+    }
     // External trigger: gpio:CHIP:LINE, used with --clock wall (rt/loop: trigger clock).
     if (const auto trig = r ? r->optional<std::string>("trigger") : std::nullopt) {
         const std::string target = trig->rfind("gpio:", 0) == 0 ? trig->substr(5) : "";
@@ -255,7 +292,9 @@ void readRuntime(const ConfigTable& root, Scenario& sc) {
         sc.trigger = *trig;
     }
     sc.triggerTimeout_s = getOr<double>(r, "trigger_timeout_s", 0.0);
-    if (sc.triggerTimeout_s < 0.0) r->fail("trigger_timeout_s", "must not be negative");
+    if (!(sc.triggerTimeout_s >= 0.0 && sc.triggerTimeout_s <= 3600.0)) {
+        r->fail("trigger_timeout_s", "must be in [0, 3600] s");
+    }
 }
 
 // The frames: rendered from a scene, or the test pattern of one [[source]].
@@ -283,8 +322,13 @@ void readFrames(const ConfigTable& root, const std::string& file, Scenario& sc) 
     tp.radianceMax_W_m2_sr = src.get<double>("radiance_max_W_m2_sr", 1e-4);
     tp.fullScale_W_m2_sr = src.get<double>("full_scale_W_m2_sr", tp.radianceMax_W_m2_sr);
     tp.targetSpeed_px_s = src.get<double>("target_speed_px_s", 40.0);
-    if (!(tp.radianceMax_W_m2_sr > 0.0)) src.fail("radiance_max_W_m2_sr", "must be positive");
-    if (!(tp.fullScale_W_m2_sr > 0.0)) src.fail("full_scale_W_m2_sr", "must be positive");
+    if (!(tp.radianceMax_W_m2_sr > 0.0 && std::isfinite(tp.radianceMax_W_m2_sr))) {
+        src.fail("radiance_max_W_m2_sr", "must be positive and finite");
+    }
+    if (!(tp.fullScale_W_m2_sr > 0.0 && std::isfinite(tp.fullScale_W_m2_sr))) {
+        src.fail("full_scale_W_m2_sr", "must be positive and finite");
+    }
+    if (!std::isfinite(tp.targetSpeed_px_s)) src.fail("target_speed_px_s", "must be finite");
 }
 
 // [telemetry]: recorded with the scenario; paths are relative to the scenario's folder.
@@ -302,7 +346,7 @@ void readTelemetry(const ConfigTable& root, const std::string& file, Scenario& s
         std::filesystem::path log =
             spec.substr(colon + 1, q == std::string::npos ? q : q - colon - 1);
         if (log.is_relative()) log = std::filesystem::path(file).parent_path() / log;
-        if (!std::filesystem::exists(log)) {
+        if (!pathExists(log)) {
             tel->fail("source", "telemetry log not found: " + log.string());
         }
         spec = "replay:" + log.string() + (q == std::string::npos ? "" : spec.substr(q));
@@ -316,7 +360,9 @@ void readEvents(const ConfigTable& root, Scenario& sc) {
         TimelineEvent ev;
         ev.loc = e.location("t_s");
         ev.t_s = e.require<double>("t_s");
-        if (ev.t_s < 0.0) e.fail("t_s", "must not be negative");
+        if (!(ev.t_s >= 0.0 && ev.t_s <= kMaxDuration_s)) {
+            e.fail("t_s", "must be in [0, " + std::to_string(kMaxDuration_s) + "] s");
+        }
         if (sc.duration_s && ev.t_s > *sc.duration_s) {
             e.fail("t_s", "the event at " + std::to_string(ev.t_s) +
                               " s is after the end of the scenario (duration_s = " +
@@ -330,10 +376,12 @@ void readEvents(const ConfigTable& root, Scenario& sc) {
             e.fail("on", "needs lamp = NAME");
         }
         ev.gain_V = e.optional<double>("gain_V");
-        if (ev.gain_V && *ev.gain_V < 0.0) e.fail("gain_V", "must not be negative");
+        if (ev.gain_V && !(*ev.gain_V >= 0.0 && *ev.gain_V <= 10000.0))
+            e.fail("gain_V", "must be in [0, 10000] V");
         ev.agc = e.optional<bool>("agc");
         ev.gate_s = e.optional<double>("gate_s");
-        if (ev.gate_s && *ev.gate_s < 0.0) e.fail("gate_s", "must not be negative");
+        if (ev.gate_s && !(*ev.gate_s >= 0.0 && *ev.gate_s <= 1.0))
+            e.fail("gate_s", "must be in [0, 1] s");
         ev.gateMode = e.optional<int>("gate_mode");
         if (ev.gateMode && (*ev.gateMode < 0 || *ev.gateMode > 2))
             e.fail("gate_mode", "must be 0, 1 or 2");
@@ -367,8 +415,8 @@ Scenario fromDocument(const ConfigDocument& doc, const std::string& file,
 
 Scenario loadScenario(const std::filesystem::path& path, const std::filesystem::path& configDir) {
     std::filesystem::path file = path;
-    if (std::filesystem::is_directory(path)) file = path / "scenario.toml";
-    if (!std::filesystem::exists(file)) {
+    if (isDirectory(path)) file = path / "scenario.toml";
+    if (!pathExists(file)) {
         throw SetupError("scenario '" + path.string() + "': no such file");
     }
     const ConfigDocument doc = ConfigDocument::parseFile(file);

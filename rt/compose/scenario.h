@@ -5,12 +5,14 @@
 //
 //   [scenario]                         name            string   required
 //                                      description     string   ""
-//                                      frame_rate_hz   Hz       60 (59.94, 29.97 exact NTSC)
+//                                      frame_rate_hz   Hz       60 (59.94, 29.97 exact NTSC);
+//                                                      0.001..10000
 //                                      width, height   px       320, 240
 //                                      bits            1..16    8 (ADC depth of the counts)
 //                                      exposure_s      s        one period
 //                                      utc_start       ISO 8601 "2000-01-01T00:00:00Z"
-//                                      duration_s      s        unbounded (frames = ⌈d·rate⌉)
+//                                      duration_s      s        unbounded (frames = ⌈d·rate⌉);
+//                                                      at most kMaxDuration_s (10⁷ s)
 //                                      scan            "progressive" | "interlaced" (progressive):
 //                                                      interlaced = frame_rate_hz frames woven
 //                                                      from two fields at their own times
@@ -74,6 +76,10 @@
 #include "sim/sky/atmosphere.h"
 
 namespace nvs::rt {
+
+// Longest duration_s (and latest event t_s), about 116 days: ⌈duration·rate⌉ frames stay
+// an exact 64-bit count at the highest rate (10⁷ s · 10⁴ Hz = 10¹¹).
+inline constexpr double kMaxDuration_s = 1.0e7;
 
 struct TestPatternSpec {
     double radianceMax_W_m2_sr = 1e-4;
@@ -151,6 +157,14 @@ struct Scenario {
     TestPatternSpec testPattern;
     CameraSpec camera;
     SceneSpec scene;  // rendered scenarios
+
+    // How the emitted frames' rows were exposed (interlaced: the camera's field order; top
+    // field first without a camera).
+    msg::FieldOrder fieldOrder() const {
+        if (scan != ScanKind::Interlaced) return msg::FieldOrder::Progressive;
+        return !camera.enabled || camera.params.topFieldFirst ? msg::FieldOrder::TopFirst
+                                                              : msg::FieldOrder::BottomFirst;
+    }
 };
 
 // Reads a scenario TOML file (or SCENARIO/scenario.toml for a folder); camera presets and

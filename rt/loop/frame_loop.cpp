@@ -46,6 +46,9 @@ FrameLoop::FrameLoop(const LoopConfig& config, PlatformSource& platform, RenderS
     for (FrameSink* sink : sinks_) {
         if (auto* o = dynamic_cast<ExposureObserver*>(sink)) observers_.push_back(o);
         if (auto* w = dynamic_cast<SinkWorker*>(sink)) workers_.push_back(w);
+        // Each output's own queue, holding copies of what it reads (allocated now).
+        channels_.push_back(std::make_unique<SinkChannel>(*sink, config.sinkQueueFrames,
+                                                          config.width, config.height, out));
     }
     // Stalled: no edge for the timeout (default three nominal periods).
     triggerTimeout_ns_ =
@@ -85,6 +88,8 @@ void FrameLoop::joinWorkers() {
 
 void FrameLoop::start(std::vector<std::string>& messages) {
     startWorkers();
+    for (auto& ch : channels_)
+        ch->start(config_.realtime);
     if (config_.realtime) {
         std::string msg;
         if (lockMemory(msg) != 0) messages.push_back(msg);
@@ -118,7 +123,10 @@ void FrameLoop::postMessage() noexcept {
 }
 
 void FrameLoop::requestStop() noexcept {
+    interrupted_.store(true, std::memory_order_release);
     stop_.store(true, std::memory_order_release);
+    for (auto& ch : channels_)
+        ch->wake();  // an output thread waiting for room (sim clock) sees the stop
     readySeq_.fetch_add(1, std::memory_order_release);
     readySeq_.notify_all();
     freeSeq_.fetch_add(1, std::memory_order_release);
@@ -131,12 +139,74 @@ void FrameLoop::join() {
     if (renderThread_.joinable()) renderThread_.join();
     if (cameraThread_.joinable()) cameraThread_.join();
     if (outputThread_.joinable()) outputThread_.join();
+    drainChannels();
     joinWorkers();
     stats_.frameTime = frameTime_;
     stats_.counters.framesRendered = framesRendered_;
-    stats_.counters.droppedFrames += renderDropped_;
-    renderDropped_ = 0;
+    stats_.counters.skippedRenders = renderSkipped_;
     stats_.counters.staleFrames = staleFrames_;
+    stats_.counters.sinkErrors = 0;
+    stats_.counters.sinkQueueDrops = 0;
+    stats_.counters.outputsFailed = 0;
+    for (const auto& ch : channels_) {
+        const SinkChannelCounters c = ch->counters();
+        stats_.counters.sinkErrors += c.errors;
+        stats_.counters.sinkQueueDrops += c.queueDrops;
+        stats_.counters.outputsFailed += c.failed ? 1 : 0;
+    }
+}
+
+void FrameLoop::drainChannels() {
+    // Each sink writes what is still queued. A write blocked on its consumer (a pipe nobody
+    // reads) is cancelled: at once when the run was interrupted, else once it has made no
+    // progress for kDrainStall_s, so that stopping never waits on a consumer.
+    for (auto& ch : channels_)
+        ch->finish();
+    const auto stall_ns = static_cast<std::int64_t>(kDrainStall_s * 1e9);
+    bool cancelled = false;
+    for (;;) {
+        bool all = true;
+        const std::int64_t now = monotonicNow_ns();
+        const bool stopNow = interrupted() && !cancelled;
+        for (auto& ch : channels_) {
+            if (ch->direct() || ch->done()) continue;
+            all = false;
+            const std::int64_t since = ch->writingSince_ns();
+            if (stopNow || (since != 0 && now - since > stall_ns)) ch->cancel();
+        }
+        cancelled = cancelled || stopNow;
+        if (all) break;
+        WallClock::sleepUntil(now + 5'000'000);
+    }
+    for (auto& ch : channels_)
+        ch->join();
+}
+
+void FrameLoop::checkChannels() noexcept {
+    std::int64_t errors = 0, drops = 0;
+    std::size_t failed = 0;
+    const SinkChannel* firstError = nullptr;
+    for (const auto& ch : channels_) {
+        const SinkChannelCounters c = ch->counters();
+        errors += c.errors;
+        drops += c.queueDrops;
+        failed += c.failed ? 1 : 0;
+        if (c.errors > 0 && firstError == nullptr) firstError = ch.get();
+    }
+    live_.sinkErrors.store(errors, std::memory_order_relaxed);
+    live_.queueDrops.store(drops, std::memory_order_relaxed);
+    live_.outputsFailed.store(static_cast<std::int64_t>(failed), std::memory_order_relaxed);
+    if (!failure_.empty()) return;
+    // The messages are built once, when the run stops.
+    if (config_.sinkErrorPolicy == SinkErrorPolicy::Stop && firstError != nullptr) {
+        failure_ = "stopping: output '";
+        failure_ += firstError->sink().name();
+        failure_ += "' failed (sink error policy is stop)";
+        stop_.store(true, std::memory_order_release);
+    } else if (!channels_.empty() && failed == channels_.size()) {
+        failure_ = "stopping: every output failed";
+        stop_.store(true, std::memory_order_release);
+    }
 }
 
 // ---- render thread ---------------------------------------------------------------------------
@@ -201,14 +271,14 @@ void FrameLoop::exposeFrame(Slot& s) noexcept {
         }
     }
     if (fields_ == 2) {
-        // Weave: the odd rows are field 1's. The frame is described by field 1, which
+        // Weave: field 1's rows (odd, top field first). The frame is described by field 1, which
         // completes it (messages.h); field[0] keeps the first field's own exposure.
         const std::size_t radBytes = static_cast<std::size_t>(config_.width) * sizeof(float);
         const std::size_t cntBytes =
             static_cast<std::size_t>(config_.width) * sizeof(std::uint16_t);
         const bool lpe = !s.lpe_pe_s_m2_sr.empty();
         const bool band = !s.band_W_m2_sr.empty();
-        for (int y = 1; y < config_.height; y += 2) {
+        for (int y = config_.topFieldFirst ? 1 : 0; y < config_.height; y += 2) {
             if (lpe) std::memcpy(s.lpe_pe_s_m2_sr.row(y), s.fieldLpe_pe_s_m2_sr.row(y), radBytes);
             if (band) std::memcpy(s.band_W_m2_sr.row(y), s.fieldBand_W_m2_sr.row(y), radBytes);
             std::memcpy(s.counts.view().row(y), fieldCounts_.cview().row(y), cntBytes);
@@ -327,8 +397,8 @@ void FrameLoop::renderThread(bool realtime) {
                 due = std::max(due, wall_.tickAt(monotonicNow_ns() + expected_ns) + 1);
             }
             if (r < due) {
-                renderDropped_ += due - r;
-                live_.dropped.fetch_add(due - r, std::memory_order_relaxed);
+                renderSkipped_ += due - r;
+                live_.skipped.fetch_add(due - r, std::memory_order_relaxed);
                 r = due;
                 if (config_.frames >= 0 && r >= config_.frames) break;
             }
@@ -449,20 +519,21 @@ void FrameLoop::emit(int slot, std::int64_t tick, bool repeat, std::int64_t now_
     of.emit_s = wall ? wall_.runTime_s(now_ns) : sim_.tickTime_s(tick);
     of.emitMonotonic_ns = wall ? now_ns : 0;
     const std::int64_t s0 = monotonicNow_ns();
-    for (FrameSink* sink : sinks_) {
-        if (sink->write(of) < 0) {
-            ++stats_.counters.sinkErrors;
-            live_.sinkErrors.fetch_add(1, std::memory_order_relaxed);
-            if (config_.sinkErrorPolicy == SinkErrorPolicy::Stop && failure_.empty()) {
-                failure_ = "stopping: output '";  // completed at join time
-                failure_ += sink->name();
-                failure_ += "' failed (sink error policy is stop)";
-                stop_.store(true, std::memory_order_release);
-            }
+    // Hand the frame to every output's queue. Under the sim clock every frame must reach every
+    // output: wait for room. Otherwise a full queue loses this frame for that output alone.
+    const bool waitForRoom = config_.clock == ClockKind::Sim;
+    for (auto& ch : channels_) {
+        if (waitForRoom) {
+            ch->offerWait(of, stop_);
+        } else {
+            ch->offer(of);
         }
     }
     const std::int64_t s1 = monotonicNow_ns();
     stats_.sinkTime.add(static_cast<double>(s1 - s0) * 1e-9);
+    checkChannels();
+    // Render start → emitted: the pipeline's own latency, with or without telemetry.
+    if (!repeat) stats_.renderLatency.add(static_cast<double>(s1 - s.start_ns) * 1e-9);
     if (wall) {
         if (lastEmit_ns_ != 0) stats_.period.add(static_cast<double>(now_ns - lastEmit_ns_) * 1e-9);
         lastEmit_ns_ = now_ns;
@@ -524,10 +595,11 @@ void FrameLoop::outputThread(bool realtime) {
         int slot = -1;
         while (ready_.peek(slot)) {
             if (slots_[slot].frame < k) {
+                // Rendered, but after its tick: never shown (its tick was a miss).
                 ready_.pop(slot);
                 free_.push(slot);
-                ++stats_.counters.droppedFrames;
-                live_.dropped.fetch_add(1, std::memory_order_relaxed);
+                ++stats_.counters.lateFrames;
+                live_.late.fetch_add(1, std::memory_order_relaxed);
                 continue;
             }
             if (slots_[slot].frame == k) {
@@ -556,6 +628,11 @@ void FrameLoop::outputThread(bool realtime) {
                 emit(held, k, true, now_ns);
                 ++stats_.counters.repeats;
                 live_.repeats.fetch_add(1, std::memory_order_relaxed);
+            } else {
+                // Nothing sent on this tick (drop policy, or no frame to repeat yet).
+                ++stats_.counters.droppedFrames;
+                live_.dropped.fetch_add(1, std::memory_order_relaxed);
+                checkChannels();
             }
         }
         // The loop's own work on this tick; the sinks' time is measured apart (sinkTime).

@@ -35,13 +35,14 @@
 //   Interlaced    frame-rate interlaced output: each frame is woven from two fields of period
 //                 T_f = dt/2, each rendered and exposed at its own time,
 //                     field f ∈ {0, 1}:  t_f = t_k − (1 − f)·T_f   (default e = T_f),
-//                 field 0 on the even rows, field 1 on the odd rows (as sim/sensor's video stage
-//                 numbers fields). The render and camera stages are called once per field, in
-//                 field order, in the same slot: field 0 straight into the slot, field 1 into
-//                 the slot's field buffer whose odd rows are then copied over. The loop
-//                 itself stays one tick per output frame, so pacing, repeats, statistics and
-//                 the output thread do not change. A frame is complete when its second field
-//                 is, so its t_sample_s is t_k, as in progressive scan.
+//                 field 0 on the even rows, field 1 on the odd rows (top field first, as
+//                 sim/sensor's video stage numbers fields; bottom first: the other way round). The
+//                 render and camera stages are called once per field, in field order, in the same
+//                 slot: field 0 straight into the slot, field 1 into the slot's field buffer whose
+//                 rows are then copied over. The loop itself stays one tick per output frame, so
+//                 pacing, repeats, statistics and the output thread do not change. A frame is
+//                 complete when its second field is, so its t_sample_s is t_k, as in progressive
+//                 scan.
 //
 // Trigger clock (ClockKind::Trigger): frames are locked to rising edges from the equipment
 // under test (LoopConfig::trigger, e.g. a GPIO input). Each good edge at time t_e (CLOCK_MONOTONIC,
@@ -60,15 +61,29 @@
 //
 // Sink workers. A sink that implements SinkWorker (the GPIO gate pulse) gets a thread of the
 // thread table (nvs-gpio) from start() to join(): drivers start no thread themselves.
+//
+// Outputs. Every sink has its own bounded queue and thread (rt/loop/sink_channel.h): at its tick
+// the output thread copies the frame into each sink's queue and goes on; a sink whose queue is
+// full loses that frame alone (counted as its queue drops). So a consumer that stalls or dies
+// delays neither the loop nor any other output. Under the sim clock, where every frame must
+// reach every output, the output thread waits for room instead. A sink that has failed (its
+// reader went away, its file was abandoned) is given nothing more; when every output has
+// failed the run stops with failure() "every output failed". Emission is this hand-off: the
+// period, latency and trigger statistics are taken there; each sink's hand-off → written time
+// is its write_latency. join() lets each sink write what is queued; a write blocked on its
+// consumer is cancelled at once when the run was stopped by requestStop() (SIGINT), else
+// after kDrainStall_s without progress.
 
 #include <array>
 #include <atomic>
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <thread>
 #include <vector>
 
 #include "rt/clock/clock.h"
+#include "rt/loop/sink_channel.h"
 #include "rt/loop/stages.h"
 #include "rt/stats/stats.h"
 #include "sim/core/image.h"
@@ -91,8 +106,10 @@ struct LoopConfig {
     int height = 240;
     bool realtime = false;  // SCHED_FIFO per the thread table, and mlockall
     ScanKind scan = ScanKind::Progressive;
+    bool topFieldFirst = true;  // interlaced: field 0 on the even rows (else on the odd rows)
     TriggerSource* trigger = nullptr;  // ClockKind::Trigger: the edges (outlives the loop)
     double triggerTimeout_s = 0.0;     // no edge for this long: stalled; 0: three periods
+    int sinkQueueFrames = 8;           // frames each output's queue holds (1..64)
 };
 
 // Trigger-clock counters (render thread) and edge → emission latency (output thread); read
@@ -143,8 +160,12 @@ struct LiveCounters {
     std::atomic<std::int64_t> emitted{0};
     std::atomic<std::int64_t> misses{0};
     std::atomic<std::int64_t> repeats{0};
-    std::atomic<std::int64_t> dropped{0};
+    std::atomic<std::int64_t> dropped{0};  // missed ticks on which nothing was sent
+    std::atomic<std::int64_t> late{0};     // frames rendered but discarded: their tick had passed
+    std::atomic<std::int64_t> skipped{0};  // frames not rendered: their tick had already passed
     std::atomic<std::int64_t> sinkErrors{0};
+    std::atomic<std::int64_t> queueDrops{0};     // frames a full output queue could not take
+    std::atomic<std::int64_t> outputsFailed{0};  // outputs that can write nothing more
     std::atomic<std::int64_t> lastLatency_ns{-1};
     std::atomic<bool> stale{false};
     // Trigger clock.
@@ -183,6 +204,14 @@ class FrameLoop {
     const TriggerStats& triggerStats() const { return trigger_; }
     // Exposure time of one frame (progressive) or field (interlaced) [s].
     double exposure_s() const { return exposure_s_; }
+    // Each sink's queue and thread, in the order of the sinks given (counters any time; the
+    // write latency after join()).
+    const SinkChannel& channel(std::size_t i) const { return *channels_[i]; }
+    std::size_t channelCount() const { return channels_.size(); }
+    // True when the loop was stopped by requestStop() (SIGINT, SIGTERM, a fatal input).
+    bool interrupted() const noexcept { return interrupted_.load(std::memory_order_acquire); }
+    // Drain at join(): a write that makes no progress for this long is cancelled.
+    static constexpr double kDrainStall_s = 1.0;
 
   private:
     struct Slot {
@@ -216,12 +245,15 @@ class FrameLoop {
     bool acceptEdge(std::int64_t t_ns) noexcept;  // classifies one edge; false: extra
     void startWorkers();                          // one thread per sink worker (start)
     void joinWorkers();                           // stops them and waits (join)
+    void drainChannels();                         // join: what is queued is written
+    void checkChannels() noexcept;                // output thread: errors, failures, policy
 
     LoopConfig config_;
     PlatformSource& platform_;
     RenderStage& render_;
     CameraStage& camera_;
     std::vector<FrameSink*> sinks_;
+    std::vector<std::unique_ptr<SinkChannel>> channels_;
     WallClock wall_;
     SimClock sim_;
     double exposure_s_;
@@ -246,6 +278,7 @@ class FrameLoop {
     std::atomic<std::uint32_t> freeSeq_{0};
     std::atomic<std::int64_t> outputTick_{0};
     std::atomic<bool> stop_{false};
+    std::atomic<bool> interrupted_{false};
     std::atomic<bool> renderFinished_{false};  // the render thread will hand over no more
     std::atomic<bool> framesDone_{false};      // the camera thread will hand over no more
     std::atomic<bool> outputDone_{false};
@@ -268,7 +301,7 @@ class FrameLoop {
     // Render- and camera-thread statistics, merged into stats_ at join().
     DurationHistogram frameTime_;
     std::int64_t framesRendered_ = 0;
-    std::int64_t renderDropped_ = 0;
+    std::int64_t renderSkipped_ = 0;
     // Wall clock: the last frame latencies (render start → camera done, camera thread), and
     // from them the latency the render thread expects, to aim each frame at a tick it can meet.
     static constexpr int kRecentFrames = 5;

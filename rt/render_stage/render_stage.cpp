@@ -38,6 +38,18 @@ std::unique_ptr<SceneRenderStage> SceneRenderStage::create(const Scenario& sc,
     return s;
 }
 
+bool SceneRenderStage::poseUsable(const scene::CameraPose& pose) noexcept {
+    // Finite, and within 10⁸ m of the scene origin: beyond that the ray arithmetic in single
+    // precision loses the scene entirely (and the telemetry bounds allow 10⁶ m of altitude).
+    constexpr double kMaxDistance_m = 1e8;
+    for (const Vec3& v : {pose.position_m, pose.target_m, pose.up}) {
+        for (const double c : {v.x, v.y, v.z}) {
+            if (!(std::fabs(c) <= kMaxDistance_m)) return false;
+        }
+    }
+    return true;
+}
+
 scene::CameraPose SceneRenderStage::poseFor(const PlatformState& p) const noexcept {
     scene::CameraPose pose;
     const double east = (p.lon_deg * kRadPerDeg - lon0_rad_) * (primeVerticalRadius_m_ + h0_m_) *
@@ -55,11 +67,28 @@ scene::CameraPose SceneRenderStage::poseFor(const PlatformState& p) const noexce
 void SceneRenderStage::render(const FrameRequest& req, RadianceTarget out,
                               FrameMeta& meta) noexcept {
     render::Renderer& r = sr_->renderer();
-    const double t_s =
+    double t_s =
         req.platform.utc_unix_s > 0.0 ? req.platform.utc_unix_s - epochUnix_s_ : req.t_sample_s;
+    // Last line of defence (the telemetry is checked at its boundary, rt/telemetry): a time or
+    // pose that is not finite never reaches Embree, whose ray queries assert on NaN. The last
+    // good time and camera are kept instead, and the frame is counted.
+    bool held = false;
+    if (!std::isfinite(t_s)) {
+        t_s = lastGoodT_s_;
+        held = true;
+    }
+    lastGoodT_s_ = t_s;
     for (int i = 0; i < lampCount_; ++i)
         r.setLampOn(i, ((req.platform.lampMask >> i) & 1u) != 0);
-    if (req.platform.poseFromTelemetry) r.setCamera(poseFor(req.platform));
+    if (req.platform.poseFromTelemetry) {
+        const scene::CameraPose pose = poseFor(req.platform);
+        if (poseUsable(pose)) {
+            r.setCamera(pose);
+        } else {
+            held = true;  // the renderer keeps its last camera
+        }
+    }
+    if (held) heldFrames_.fetch_add(1, std::memory_order_relaxed);
     const render::FrameSky sky = sr_->prepare(t_s);
     const ImageView<float> band = out.band_W_m2_sr.empty() ? band_.view() : out.band_W_m2_sr;
     r.render(sky, out.lpe_pe_s_m2_sr, band, *pool_);

@@ -18,6 +18,8 @@
 //   lamps    bit i of lampMask switches lamp i (scene order) on;
 // and it writes the truth boxes of the scene's tracked objects into the frame's metadata.
 
+#include <atomic>
+#include <cstdint>
 #include <filesystem>
 #include <memory>
 
@@ -45,6 +47,11 @@ class SceneRenderStage final : public RenderStage {
 
     // The scene-frame camera pose for a platform state (exposed for tests).
     scene::CameraPose poseFor(const PlatformState& p) const noexcept;
+    // A pose the renderer can take: every component finite and within 10⁸ m.
+    static bool poseUsable(const scene::CameraPose& pose) noexcept;
+    // Frames rendered with the last good time or camera because the request's platform state
+    // was not finite (never expected: telemetry is checked where it enters).
+    std::int64_t heldFrames() const noexcept { return heldFrames_.load(std::memory_order_relaxed); }
 
   private:
     SceneRenderStage() = default;
@@ -52,6 +59,8 @@ class SceneRenderStage final : public RenderStage {
     std::unique_ptr<RowPool> pool_;
     ImageF band_;  // scratch band image when the target has none
     double epochUnix_s_ = 0.0;
+    double lastGoodT_s_ = 0.0;
+    std::atomic<std::int64_t> heldFrames_{0};
     double lat0_rad_ = 0.0, lon0_rad_ = 0.0, h0_m_ = 0.0;
     double meridianRadius_m_ = 0.0, primeVerticalRadius_m_ = 0.0;
     std::uint32_t initialLamps_ = 0;

@@ -3,14 +3,19 @@
 #include <fcntl.h>
 #include <gnu/libc-version.h>
 #include <openssl/evp.h>
+#include <signal.h>
 #include <spawn.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
+#include <cstring>
 #include <fstream>
+#include <regex>
 #include <sstream>
 #include <vector>
 
@@ -162,14 +167,83 @@ int runProcess(const std::vector<std::string>& args, const fs::path& log) {
     posix_spawn_file_actions_init(&fa);
     posix_spawn_file_actions_addopen(&fa, 1, log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
     posix_spawn_file_actions_adddup2(&fa, 1, 2);
+    // A parent that ignores SIGCHLD makes the kernel reap children itself: waitpid() then waits
+    // for the child and fails with ECHILD, and its status is lost (wait(2), "NOTES"). The
+    // default disposition is restored around the child's life, and waitpid() is retried only
+    // on EINTR: any other failure is an error, never a spin.
+    struct sigaction dfl {
+    }, old{};
+    dfl.sa_handler = SIG_DFL;
+    sigemptyset(&dfl.sa_mask);
+    sigaction(SIGCHLD, &dfl, &old);
+    posix_spawnattr_t attr;
+    posix_spawnattr_init(&attr);
+    sigset_t defaults;
+    sigemptyset(&defaults);
+    sigaddset(&defaults, SIGCHLD);
+    sigaddset(&defaults, SIGPIPE);
+    posix_spawnattr_setsigdefault(&attr, &defaults);
+    posix_spawnattr_setflags(&attr, POSIX_SPAWN_SETSIGDEF);
     pid_t pid = 0;
-    const int rc = posix_spawn(&pid, argv[0], &fa, nullptr, argv.data(), environ);
+    const int rc = posix_spawn(&pid, argv[0], &fa, &attr, argv.data(), environ);
     posix_spawn_file_actions_destroy(&fa);
-    if (rc != 0) throw SetupError(std::string("cannot start ") + args[0]);
+    posix_spawnattr_destroy(&attr);
+    if (rc != 0) {
+        sigaction(SIGCHLD, &old, nullptr);
+        throw SetupError(std::string("cannot start ") + args[0] + ": " + std::strerror(rc));
+    }
     int status = 0;
-    while (waitpid(pid, &status, 0) < 0) {
+    pid_t got = 0;
+    do {
+        got = waitpid(pid, &status, 0);
+    } while (got < 0 && errno == EINTR);
+    const int waitErr = got < 0 ? errno : 0;
+    sigaction(SIGCHLD, &old, nullptr);
+    if (got < 0) {
+        throw SetupError(std::string("waiting for ") + args[0] + ": " + std::strerror(waitErr));
     }
     return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+}
+
+// A private working folder under $TMPDIR (mkdtemp: mode 0700, a name no other run can have),
+// removed when the object goes.
+class TempDir {
+  public:
+    TempDir() : path_(makeReplayTempDir()) {}
+    ~TempDir() {
+        if (keep_) return;
+        std::error_code ec;
+        fs::remove_all(path_, ec);
+    }
+    TempDir(const TempDir&) = delete;
+    TempDir& operator=(const TempDir&) = delete;
+    const fs::path& path() const { return path_; }
+    void keep() { keep_ = true; }
+
+  private:
+    fs::path path_;
+    bool keep_ = false;
+};
+
+bool isSha256Hex(const std::string& s) {
+    return s.size() == 64 && std::all_of(s.begin(), s.end(), [](char c) {
+               return (c >= '0' && c <= '9') || (c >= 'a' && c <= 'f');
+           });
+}
+
+// A reference image read back for the comparison: its size must be the window's block grid and
+// every value finite (a NaN would make every comparison with it false, i.e. pass).
+ImageF readReference(const fs::path& p) {
+    if (!fs::is_regular_file(p)) throw SetupError(FileLoc{p.string()}, "missing reference image");
+    ImageF img = sensor::readRadiance(p).image;
+    for (int y = 0; y < img.height(); ++y)
+        for (int x = 0; x < img.width(); ++x)
+            if (!std::isfinite(img(x, y))) {
+                throw SetupError(FileLoc{p.string()}, "reference value at block " +
+                                                          std::to_string(x) + "," +
+                                                          std::to_string(y) + " is not finite");
+            }
+    return img;
 }
 
 std::string lastLine(const fs::path& p) {
@@ -233,11 +307,19 @@ std::string buildFingerprint() {
     return fp;
 }
 
+fs::path makeReplayTempDir() {
+    std::string tmpl = (fs::temp_directory_path() / "nvstim-replay-XXXXXX").string();
+    if (::mkdtemp(tmpl.data()) == nullptr) {
+        throw SetupError("cannot create a temporary folder in " +
+                         fs::temp_directory_path().string() + ": " + std::strerror(errno));
+    }
+    return tmpl;
+}
+
 fs::path replayScenario(const fs::path& dir, const fs::path& nvstimExe, const fs::path& workDir) {
     const fs::path scenario = dir / "scenario.toml";
     if (!fs::is_directory(dir)) throw SetupError(dir.string() + ": not a scenario folder");
     if (!fs::exists(scenario)) throw SetupError(dir.string() + ": no scenario.toml");
-    fs::remove_all(workDir);
     fs::create_directories(workDir / "frames");
     const fs::path log = workDir / "run.log";
     const int rc = runProcess({nvstimExe.string(), "run", scenario.string(), "--clock", "sim",
@@ -251,16 +333,47 @@ fs::path replayScenario(const fs::path& dir, const fs::path& nvstimExe, const fs
     return workDir / "frames";
 }
 
+namespace {
+
+// The scenario's expected/ folder, safe to write and clear: a real folder inside the scenario
+// folder, never a symbolic link (clearing it would delete wherever the link points).
+fs::path expectedFolder(const fs::path& dir) {
+    const fs::path exp = dir / "expected";
+    const fs::file_status st = fs::symlink_status(exp);
+    if (fs::is_symlink(st)) {
+        throw SetupError(exp.string() +
+                         ": is a symbolic link; --bless writes only a real folder "
+                         "inside the scenario (replace the link by a folder)");
+    }
+    if (fs::exists(st) && !fs::is_directory(st)) {
+        throw SetupError(exp.string() + ": exists and is not a folder");
+    }
+    fs::create_directories(exp);
+    if (fs::canonical(exp).parent_path() != fs::canonical(dir)) {
+        throw SetupError(exp.string() + ": resolves outside the scenario folder");
+    }
+    return exp;
+}
+
+// What --bless writes (and so may remove): digest.toml, stats.toml, wN_*.pfm.
+bool isBlessOutput(const fs::directory_entry& e) {
+    if (!e.is_regular_file() || e.is_symlink()) return false;
+    static const std::regex names(
+        R"((digest|stats)\.toml(\.tmp)?|w[0-9]+_(mean|meanvar|pixvar)\.pfm)");
+    return std::regex_match(e.path().filename().string(), names);
+}
+
+}  // namespace
+
 void blessScenario(const fs::path& dir, const fs::path& nvstimExe) {
-    const fs::path work =
-        fs::temp_directory_path() / ("nvstim-replay-" + std::to_string(::getpid()));
+    const fs::path exp = expectedFolder(dir);
+    TempDir temp;
+    const fs::path work = temp.path();
     const fs::path frames = replayScenario(dir, nvstimExe, work);
     const auto files = framesIn(frames);
     if (files.empty()) throw SetupError(dir.string() + ": the replay produced no frames");
-    const fs::path exp = dir / "expected";
-    fs::create_directories(exp);
     for (const auto& e : fs::directory_iterator(exp))
-        fs::remove(e.path());
+        if (isBlessOutput(e)) fs::remove(e.path());
 
     std::ostringstream d;
     d << "# Written by nvstim replay --bless; compared by --check. Bit-exact for this build "
@@ -294,7 +407,6 @@ void blessScenario(const fs::path& dir, const fs::path& nvstimExe) {
         ++i;
     }
     writeText(exp / "stats.toml", s.str());
-    fs::remove_all(work);
 }
 
 ReplayResult checkScenario(const fs::path& dir, const fs::path& nvstimExe) {
@@ -311,6 +423,15 @@ ReplayResult checkScenario(const fs::path& dir, const fs::path& nvstimExe) {
     const std::string metaSha = dg.require<std::string>("meta_sha256");
     const auto frameSha = dg.require<std::vector<std::string>>("frame_sha256");
     digestDoc.finish();
+    // Fail closed: an expectation that could not tell a good replay from a bad one is an error.
+    if (expectedFrames < 1) dg.fail("frames", "must be at least 1");
+    if (static_cast<int>(frameSha.size()) != expectedFrames) {
+        dg.fail("frame_sha256", "lists " + std::to_string(frameSha.size()) + " digests for " +
+                                    std::to_string(expectedFrames) + " frames");
+    }
+    for (const std::string& d : frameSha)
+        if (!isSha256Hex(d)) dg.fail("frame_sha256", "'" + d + "' is not a SHA-256 in hex");
+    if (!isSha256Hex(metaSha)) dg.fail("meta_sha256", "not a SHA-256 in hex");
     const ConfigDocument statsDoc = ConfigDocument::parseFile(exp / "stats.toml");
     const ConfigTable st = statsDoc.root();
     if (st.require<int>("block_px") != kReplayBlock_px)
@@ -321,13 +442,38 @@ ReplayResult checkScenario(const fs::path& dir, const fs::path& nvstimExe) {
     };
     std::vector<Ref> refs;
     for (const ConfigTable& w : st.tableArray("window")) {
-        refs.push_back({w.require<int>("first"), w.require<int>("count"),
-                        w.require<double>("level_counts"), w.require<double>("noise_var_counts2")});
+        const Ref ref{w.require<int>("first"), w.require<int>("count"),
+                      w.require<double>("level_counts"), w.require<double>("noise_var_counts2")};
+        // Each window inside the run (64-bit sums: no overflow), finite levels.
+        if (ref.first < 0 || ref.first >= expectedFrames) {
+            w.fail("first", "frame " + std::to_string(ref.first) + " is outside the run's " +
+                                std::to_string(expectedFrames) + " frames");
+        }
+        if (ref.count < 1 || static_cast<std::int64_t>(ref.first) + ref.count > expectedFrames) {
+            w.fail("count", std::to_string(ref.count) + " frames from frame " +
+                                std::to_string(ref.first) + " do not fit in the run's " +
+                                std::to_string(expectedFrames));
+        }
+        if (!std::isfinite(ref.level)) w.fail("level_counts", "not a finite number");
+        if (!std::isfinite(ref.noise) || ref.noise < 0.0)
+            w.fail("noise_var_counts2", "not a finite, non-negative number");
+        refs.push_back(ref);
+    }
+    if (refs.empty()) {
+        throw SetupError(FileLoc{(exp / "stats.toml").string()},
+                         "no [[window]]: nothing to compare the statistics with");
     }
     statsDoc.finish();
+    std::vector<ImageF> refMean, refMeanVar, refPixVar;
+    for (std::size_t i = 0; i < refs.size(); ++i) {
+        const std::string stem = "w" + std::to_string(i);
+        refMean.push_back(readReference(exp / (stem + "_mean.pfm")));
+        refMeanVar.push_back(readReference(exp / (stem + "_meanvar.pfm")));
+        refPixVar.push_back(readReference(exp / (stem + "_pixvar.pfm")));
+    }
 
-    const fs::path work =
-        fs::temp_directory_path() / ("nvstim-replay-" + std::to_string(::getpid()));
+    TempDir temp;
+    const fs::path work = temp.path();
     const fs::path frames = replayScenario(dir, nvstimExe, work);
     const auto files = framesIn(frames);
 
@@ -375,13 +521,22 @@ ReplayResult checkScenario(const fs::path& dir, const fs::path& nvstimExe) {
     fs::remove_all(failDir);
     for (std::size_t i = 0; i < refs.size(); ++i) {
         const Ref& ref = refs[i];
-        if (ref.first + ref.count > static_cast<int>(files.size())) continue;
+        if (static_cast<std::int64_t>(ref.first) + ref.count >
+            static_cast<std::int64_t>(files.size())) {
+            // The replay came out short: the window cannot be compared, which is a failure.
+            r.passed = false;
+            rep << "  window " << i << " (frames " << ref.first << "-" << ref.first + ref.count - 1
+                << "): not in the replay's " << files.size() << " frames\n";
+            continue;
+        }
         const std::string stem = "w" + std::to_string(i);
-        const ImageF rMean = sensor::readRadiance(exp / (stem + "_mean.pfm")).image;
-        const ImageF rMeanVar = sensor::readRadiance(exp / (stem + "_meanvar.pfm")).image;
-        const ImageF rPixVar = sensor::readRadiance(exp / (stem + "_pixvar.pfm")).image;
+        const ImageF& rMean = refMean[i];
+        const ImageF& rMeanVar = refMeanVar[i];
+        const ImageF& rPixVar = refPixVar[i];
         const WindowStats w = computeWindow(files, ref.first, ref.count);
-        if (w.blocksX != rMean.width() || w.blocksY != rMean.height()) {
+        if (w.blocksX != rMean.width() || w.blocksY != rMean.height() ||
+            rMeanVar.width() != rMean.width() || rMeanVar.height() != rMean.height() ||
+            rPixVar.width() != rMean.width() || rPixVar.height() != rMean.height()) {
             r.passed = false;
             rep << "  window " << i << ": image size changed\n";
             continue;
@@ -458,7 +613,6 @@ ReplayResult checkScenario(const fs::path& dir, const fs::path& nvstimExe) {
     }
     if (fs::exists(failDir)) rep << "  error images: " << failDir.string() << "/\n";
     r.report = "replay " + name + ": " + (r.passed ? "PASS" : "FAIL") + "\n" + rep.str();
-    fs::remove_all(work);
     return r;
 }
 

@@ -39,13 +39,22 @@ inline constexpr int kReplayBlock_px = 8;
 // The fingerprint of this build: what must match for digests to be comparable.
 std::string buildFingerprint();
 
-// Runs the scenario in `dir` with `nvstimExe run --clock sim` into a temporary folder and
-// returns the frames' folder. Throws SetupError on a bad folder or a failed run.
+// A new private folder under $TMPDIR (mkdtemp: mode 0700, a name no other run can have): two
+// replays at once never share one. --check and --bless remove theirs; plain replay keeps it.
+std::filesystem::path makeReplayTempDir();
+
+// Runs the scenario in `dir` with `nvstimExe run --clock sim` into `workDir` (frames/,
+// meta.jsonl, run.log) and returns the frames' folder. Throws SetupError on a bad folder or a
+// failed run. The child runs with SIGCHLD and SIGPIPE at their defaults, and is waited for
+// even when this process ignores SIGCHLD.
 std::filesystem::path replayScenario(const std::filesystem::path& dir,
                                      const std::filesystem::path& nvstimExe,
                                      const std::filesystem::path& workDir);
 
-// Replays and writes expected/ (bless), or compares against it (check).
+// Replays and writes expected/ (bless), or compares against it (check). --bless writes only a
+// real expected/ folder inside `dir` (a symbolic link is an error) and removes only the files
+// it writes itself. --check fails closed: an empty or inconsistent digest list, a window outside
+// the run, a non-finite reference are errors naming file:line (SetupError), never a pass.
 void blessScenario(const std::filesystem::path& dir, const std::filesystem::path& nvstimExe);
 ReplayResult checkScenario(const std::filesystem::path& dir,
                            const std::filesystem::path& nvstimExe);

@@ -2,6 +2,7 @@
 
 #include <signal.h>
 
+#include <cerrno>
 #include <chrono>
 #include <cmath>
 #include <cstring>
@@ -71,7 +72,8 @@ std::unique_ptr<FrameSink> makeSink(const std::string& text, const Scenario& sc,
     const std::string what = "--output " + text;
     std::unique_ptr<FrameSink> sink;
     if (s.scheme == "y4m") {
-        sink = std::make_unique<drivers::Y4mSink>(s.target, sc.width, sc.height, sc.bits, sc.rate);
+        sink = std::make_unique<drivers::Y4mSink>(s.target, sc.width, sc.height, sc.bits, sc.rate,
+                                                  sc.fieldOrder());
     } else if (s.scheme == "pgm") {
         sink = std::make_unique<drivers::PgmSequenceSink>(s.target, sc.width, sc.height, sc.bits);
     } else if (s.scheme == "png") {
@@ -85,9 +87,10 @@ std::unique_ptr<FrameSink> makeSink(const std::string& text, const Scenario& sc,
             const auto v = s.take(key);
             if (!v) return def;
             char* end = nullptr;
+            errno = 0;
             const long n = std::strtol(v->c_str(), &end, 10);
-            if (end == v->c_str() || *end != '\0')
-                throw SetupError(what + ": " + key + " must be an integer");
+            if (end == v->c_str() || *end != '\0' || errno == ERANGE || n < 0 || n > 1'000'000)
+                throw SetupError(what + ": " + key + " must be an integer in [0, 1000000]");
             return static_cast<int>(n);
         };
         const int cols = num("cols", 4), rows = num("rows", 3), shrink = num("shrink", 2);
@@ -110,7 +113,8 @@ std::unique_ptr<PlatformSource> makePlatformSource(const std::optional<std::stri
                                                    const DataDirs& dirs) {
     if (!text) return std::make_unique<HeldPlatform>(sc.platform);
     Spec s = parseSpec(*text, "--telemetry");
-    auto src = makeTelemetrySource(s, sc, clock, "--telemetry " + *text, dirs.config);
+    auto src =
+        makeTelemetrySource(s, sc, clock, "--telemetry " + *text, dirs.config, &stopRequested());
     s.finish("--telemetry " + *text);
     return src;
 }
@@ -160,7 +164,7 @@ void installStopSignals() {
 }
 
 std::string statsJson(const FrameLoop& loop, const PlatformSource& platform,
-                      const std::vector<std::unique_ptr<FrameSink>>& sinks) {
+                      const std::vector<std::unique_ptr<FrameSink>>& sinks, bool interrupted) {
     const RunStats& st = loop.stats();
     const RunCounters& c = st.counters;
     const LoopConfig& cfg = loop.config();
@@ -170,7 +174,8 @@ std::string statsJson(const FrameLoop& loop, const PlatformSource& platform,
                   "\"clock\":\"%s\",\"frame_rate_hz\":%.6f,\"elapsed_s\":%.6f,\"ticks\":%lld,"
                   "\"frames_rendered\":%lld,\"frames_emitted\":%lld,\"deadline_misses\":%lld,"
                   "\"repeats\":%lld,\"dropped_frames\":%lld,\"skipped_ticks\":%lld,"
-                  "\"sink_errors\":%lld,\"stale_frames\":%lld,",
+                  "\"late_frames\":%lld,\"skipped_renders\":%lld,\"sink_errors\":%lld,"
+                  "\"sink_queue_drops\":%lld,\"outputs_failed\":%lld,\"stale_frames\":%lld,",
                   cfg.clock == ClockKind::Wall
                       ? "wall"
                       : (cfg.clock == ClockKind::Trigger ? "trigger" : "sim"),
@@ -178,11 +183,15 @@ std::string statsJson(const FrameLoop& loop, const PlatformSource& platform,
                   static_cast<long long>(c.framesRendered), static_cast<long long>(c.framesEmitted),
                   static_cast<long long>(c.deadlineMisses), static_cast<long long>(c.repeats),
                   static_cast<long long>(c.droppedFrames), static_cast<long long>(c.skippedTicks),
-                  static_cast<long long>(c.sinkErrors), static_cast<long long>(c.staleFrames));
+                  static_cast<long long>(c.lateFrames), static_cast<long long>(c.skippedRenders),
+                  static_cast<long long>(c.sinkErrors), static_cast<long long>(c.sinkQueueDrops),
+                  static_cast<long long>(c.outputsFailed), static_cast<long long>(c.staleFrames));
     j += buf;
     j += "\"period\":" + st.period.json() + ",\"wake_late\":" + st.wakeLate.json() +
          ",\"frame_time\":" + st.frameTime.json() + ",\"overhead\":" + st.overhead.json() +
-         ",\"sink_time\":" + st.sinkTime.json() + ",\"latency\":" + st.latency.json();
+         ",\"sink_time\":" + st.sinkTime.json() + ",\"latency\":" + st.latency.json() +
+         ",\"telemetry_latency\":" + st.latency.json() +
+         ",\"render_latency\":" + st.renderLatency.json();
     j += std::string(",\"scan\":\"") +
          (cfg.scan == ScanKind::Interlaced ? "interlaced" : "progressive") + "\"";
     if (cfg.clock == ClockKind::Trigger && cfg.trigger != nullptr) {
@@ -202,19 +211,66 @@ std::string statsJson(const FrameLoop& loop, const PlatformSource& platform,
     for (std::size_t i = 0; i < sinks.size(); ++i) {
         j += (i > 0 ? ",\"" : "\"") + jsonEscape(sinks[i]->status()) + "\"";
     }
-    j += "],\"failure\":\"" + jsonEscape(loop.failure()) + "\"}";
+    // Each output's queue: what it was handed, wrote, lost to a full queue, and how long a
+    // frame took from hand-off to written.
+    j += "],\"sinks\":[";
+    for (std::size_t i = 0; i < loop.channelCount(); ++i) {
+        const SinkChannel& ch = loop.channel(i);
+        const SinkChannelCounters sc = ch.counters();
+        std::snprintf(buf, sizeof buf,
+                      "%s{\"offered\":%lld,\"written\":%lld,\"queue_drops\":%lld,"
+                      "\"errors\":%lld,\"failed\":%s,\"write_latency\":",
+                      i > 0 ? "," : "", static_cast<long long>(sc.offered),
+                      static_cast<long long>(sc.written), static_cast<long long>(sc.queueDrops),
+                      static_cast<long long>(sc.errors), sc.failed ? "true" : "false");
+        j += std::string(buf) + ch.writeLatency().json() + ",\"name\":\"" +
+             jsonEscape(ch.sink().name()) + "\"}";
+    }
+    j += "],\"interrupted\":" + std::string(interrupted ? "true" : "false");
+    j += ",\"failure\":\"" + jsonEscape(loop.failure()) + "\"}";
     return j;
 }
 
-int runScenario(const RunRequest& req, std::FILE* status) {
-    // SIGINT and SIGTERM stop the run from the start, setup included. A shell without job
-    // control starts background commands with SIGINT ignored; sigaction replaces that inherited
-    // SIG_IGN on purpose: a stimulator asked to stop must stop, whoever started it. A signal
-    // that arrives during setup (camera FFT plans, telemetry files) is kept and honoured as
-    // soon as the loop exists.
-    installStopSignals();
-    // Setup: everything that can fail fails here, before the first frame.
-    Scenario sc = loadScenario(req.scenario, req.dirs.config);
+namespace {
+
+void printSummary(std::FILE* status, const std::string& name, const FrameLoop& loop,
+                  const PlatformSource& platform,
+                  const std::vector<std::unique_ptr<FrameSink>>& sinks) {
+    const RunCounters& c = loop.stats().counters;
+    const RunStats& st = loop.stats();
+    std::fprintf(status,
+                 "nvstim run: %s: %lld frames emitted in %.3f s; misses %lld (repeated %lld, "
+                 "nothing sent %lld, skipped ticks %lld), late frames %lld, skipped renders "
+                 "%lld, sink errors %lld, queue drops %lld; period p50 %.3f p99 %.3f max %.3f "
+                 "ms; render to emission p50 %.3f p99 %.3f max %.3f ms\n",
+                 name.c_str(), static_cast<long long>(c.framesEmitted), st.elapsed_s,
+                 static_cast<long long>(c.deadlineMisses), static_cast<long long>(c.repeats),
+                 static_cast<long long>(c.droppedFrames), static_cast<long long>(c.skippedTicks),
+                 static_cast<long long>(c.lateFrames), static_cast<long long>(c.skippedRenders),
+                 static_cast<long long>(c.sinkErrors), static_cast<long long>(c.sinkQueueDrops),
+                 st.period.quantile_s(0.5) * 1e3, st.period.quantile_s(0.99) * 1e3,
+                 st.period.max_s() * 1e3, st.renderLatency.quantile_s(0.5) * 1e3,
+                 st.renderLatency.quantile_s(0.99) * 1e3, st.renderLatency.max_s() * 1e3);
+    if (st.latency.count() > 0) {
+        std::fprintf(status, "nvstim run: telemetry to emission p50 %.3f p99 %.3f max %.3f ms\n",
+                     st.latency.quantile_s(0.5) * 1e3, st.latency.quantile_s(0.99) * 1e3,
+                     st.latency.max_s() * 1e3);
+    }
+    std::fprintf(status, "nvstim run: telemetry: %s\n", platform.status().c_str());
+    for (std::size_t i = 0; i < sinks.size(); ++i) {
+        const SinkChannelCounters q = loop.channel(i).counters();
+        std::fprintf(status, "nvstim run: output %s; queue drops %lld\n",
+                     sinks[i]->status().c_str(), static_cast<long long>(q.queueDrops));
+    }
+    if (!loop.failure().empty()) std::fprintf(status, "nvstim run: %s\n", loop.failure().c_str());
+}
+
+}  // namespace
+
+namespace {
+
+// The loop's configuration from the scenario and the command line (setup errors thrown).
+LoopConfig loopConfigFor(const Scenario& sc, const RunRequest& req) {
     LoopConfig cfg;
     cfg.rate = sc.rate;
     cfg.clock = req.clock;
@@ -225,6 +281,7 @@ int runScenario(const RunRequest& req, std::FILE* status) {
     cfg.height = sc.height;
     cfg.realtime = sc.realtime;
     cfg.scan = sc.scan;
+    cfg.topFieldFirst = sc.fieldOrder() != msg::FieldOrder::BottomFirst;
     cfg.triggerTimeout_s = sc.triggerTimeout_s;
     if (req.frames) {
         cfg.frames = *req.frames;
@@ -233,6 +290,53 @@ int runScenario(const RunRequest& req, std::FILE* status) {
     } else if (req.clock == ClockKind::Sim) {
         throw SetupError("--clock sim needs --frames N or [scenario] duration_s");
     }
+    return cfg;
+}
+
+// One live status line from the loop's atomic counters; returns the frames emitted so far.
+std::int64_t printLiveStatus(std::FILE* status, const FrameLoop& loop, double dt_s,
+                             std::int64_t lastEmitted) {
+    const LiveCounters& l = loop.live();
+    const std::int64_t e = l.emitted.load();
+    const std::int64_t lat = l.lastLatency_ns.load();
+    char trig[128] = "";
+    if (loop.config().clock == ClockKind::Trigger) {
+        std::snprintf(trig, sizeof trig, "  trigger missing %lld extra %lld%s",
+                      static_cast<long long>(l.triggerMissing.load()),
+                      static_cast<long long>(l.triggerExtra.load()),
+                      l.triggerStalled.load() ? "  TRIGGER STALLED" : "");
+    }
+    // A miss is repeated or sends nothing; late and skipped say what became of the frames that
+    // missed; queue drops are frames a stalled output could not take.
+    std::fprintf(status,
+                 "nvstim run: frame %lld  %.2f fps  misses %lld (repeated %lld, nothing "
+                 "sent %lld)  late %lld  skipped %lld  sink errors %lld  queue drops %lld"
+                 "%s  latency %s%.2f ms%s%s\n",
+                 static_cast<long long>(e), static_cast<double>(e - lastEmitted) / dt_s,
+                 static_cast<long long>(l.misses.load()), static_cast<long long>(l.repeats.load()),
+                 static_cast<long long>(l.dropped.load()), static_cast<long long>(l.late.load()),
+                 static_cast<long long>(l.skipped.load()),
+                 static_cast<long long>(l.sinkErrors.load()),
+                 static_cast<long long>(l.queueDrops.load()),
+                 l.outputsFailed.load() > 0 ? "  OUTPUT FAILED" : "", lat < 0 ? "n/a " : "",
+                 lat < 0 ? 0.0 : static_cast<double>(lat) * 1e-6,
+                 l.stale.load() ? "  TELEMETRY STALE" : "", trig);
+    std::fflush(status);
+    return e;
+}
+
+}  // namespace
+
+int runScenario(const RunRequest& req, std::FILE* status) {
+    // SIGINT and SIGTERM stop the run from the start, setup included. A shell without job
+    // control starts background commands with SIGINT ignored; sigaction replaces that inherited
+    // SIG_IGN on purpose: a stimulator asked to stop must stop, whoever started it. A signal
+    // that arrives during setup (camera FFT plans, telemetry files) is kept and honoured as
+    // soon as the loop exists.
+    installStopSignals();
+    // Setup: everything that can fail fails here, before the first frame.
+    Scenario sc = loadScenario(req.scenario, req.dirs.config);
+    LoopConfig cfg = loopConfigFor(sc, req);
     int toStdout = 0;
     std::vector<std::unique_ptr<FrameSink>> sinks;
     for (const std::string& o : req.outputs) {
@@ -286,6 +390,12 @@ int runScenario(const RunRequest& req, std::FILE* status) {
         notes.push_back("[runtime] trigger is not used with --clock sim (nominal " +
                         std::to_string(sc.rate.hz()) + " Hz)");
     }
+    // A live bus under the sim clock: the frames step with the telemetry's own time. The line
+    // says the bus is open and the loop waits, so a sender may start (tests/hil waits for it).
+    const std::optional<std::string>& tel = req.telemetry ? req.telemetry : sc.telemetry;
+    if (req.clock == ClockKind::Sim && tel && tel->rfind("can:", 0) == 0) {
+        notes.push_back("lockstep: frames follow the time signal of " + *tel);
+    }
 
     std::string mainMsg;
     applyThreadSpec(kThreadMain, false, mainMsg);
@@ -307,53 +417,19 @@ int runScenario(const RunRequest& req, std::FILE* status) {
         const auto now = std::chrono::steady_clock::now();
         const double dt = std::chrono::duration<double>(now - lastPrint).count();
         if (dt >= 1.0) {
-            const LiveCounters& l = loop.live();
-            const std::int64_t e = l.emitted.load();
-            const std::int64_t lat = l.lastLatency_ns.load();
-            char trig[128] = "";
-            if (cfg.clock == ClockKind::Trigger) {
-                std::snprintf(trig, sizeof trig, "  trigger missing %lld extra %lld%s",
-                              static_cast<long long>(l.triggerMissing.load()),
-                              static_cast<long long>(l.triggerExtra.load()),
-                              l.triggerStalled.load() ? "  TRIGGER STALLED" : "");
-            }
-            std::fprintf(status,
-                         "nvstim run: frame %lld  %.2f fps  misses %lld  repeats %lld  "
-                         "dropped %lld  sink errors %lld  latency %s%.2f ms%s%s\n",
-                         static_cast<long long>(e), static_cast<double>(e - lastEmitted) / dt,
-                         static_cast<long long>(l.misses.load()),
-                         static_cast<long long>(l.repeats.load()),
-                         static_cast<long long>(l.dropped.load()),
-                         static_cast<long long>(l.sinkErrors.load()), lat < 0 ? "n/a " : "",
-                         lat < 0 ? 0.0 : static_cast<double>(lat) * 1e-6,
-                         l.stale.load() ? "  TELEMETRY STALE" : "", trig);
-            std::fflush(status);
+            lastEmitted = printLiveStatus(status, loop, dt, lastEmitted);
             lastPrint = now;
-            lastEmitted = e;
         }
     }
     loop.join();
+    const bool interrupted = stopRequested().load(std::memory_order_relaxed);
     // Shutdown: close every device and file (renames temporaries into place).
+    int closeFailures = 0;
     for (auto& s : sinks)
-        s->close();
-    const RunCounters& c = loop.stats().counters;
-    const RunStats& st = loop.stats();
-    std::fprintf(status,
-                 "nvstim run: %s: %lld frames emitted in %.3f s; misses %lld, repeats %lld, "
-                 "dropped %lld, sink errors %lld; period p50 %.3f p99 %.3f max %.3f ms; latency "
-                 "p50 %.3f p99 %.3f ms\n",
-                 sc.name.c_str(), static_cast<long long>(c.framesEmitted), st.elapsed_s,
-                 static_cast<long long>(c.deadlineMisses), static_cast<long long>(c.repeats),
-                 static_cast<long long>(c.droppedFrames), static_cast<long long>(c.sinkErrors),
-                 st.period.quantile_s(0.5) * 1e3, st.period.quantile_s(0.99) * 1e3,
-                 st.period.max_s() * 1e3, st.latency.quantile_s(0.5) * 1e3,
-                 st.latency.quantile_s(0.99) * 1e3);
-    std::fprintf(status, "nvstim run: telemetry: %s\n", platform->status().c_str());
-    for (auto& s : sinks)
-        std::fprintf(status, "nvstim run: output %s\n", s->status().c_str());
-    if (!loop.failure().empty()) std::fprintf(status, "nvstim run: %s\n", loop.failure().c_str());
+        closeFailures += s->close() != 0 ? 1 : 0;
+    printSummary(status, sc.name, loop, *platform, sinks);
     if (req.statsPath) {
-        const std::string json = statsJson(loop, *platform, sinks) + "\n";
+        const std::string json = statsJson(loop, *platform, sinks, interrupted) + "\n";
         drivers::AtomicFile f;
         int rc = f.open(req.statsPath->c_str());
         if (rc == 0) rc = f.write(json.data(), json.size());
@@ -361,12 +437,18 @@ int runScenario(const RunRequest& req, std::FILE* status) {
         if (rc != 0) {
             std::fprintf(status, "nvstim run: --stats %s: %s\n", req.statsPath->c_str(),
                          std::strerror(-rc));
-            return 1;
+            return kRunFailed;
         }
     }
-    const bool failed = !loop.failure().empty() || platform->failed();
     if (platform->failed()) std::fprintf(status, "nvstim run: stopped: bad telemetry input\n");
-    return failed ? 1 : 0;
+    if (!loop.failure().empty() || platform->failed()) return kRunFailed;
+    // Bit 4: an output failed, or lost a frame to a write error (a frame file on a full disk);
+    // frames a slow consumer's queue could not take are counted (queue drops), not failures.
+    const RunCounters& rc = loop.stats().counters;
+    const bool outputFailed = rc.outputsFailed > 0 || rc.sinkErrors > 0 || closeFailures > 0;
+    if (outputFailed)
+        std::fprintf(status, "nvstim run: an output failed or had write errors (exit status 4)\n");
+    return (outputFailed ? kRunOutputFailed : 0) | (interrupted ? kRunInterrupted : 0);
 }
 
 }  // namespace nvs::rt

@@ -48,12 +48,18 @@ std::unique_ptr<PlatformSource> makePlatformSource(const std::optional<std::stri
                                                    const Scenario& sc, ClockKind clock,
                                                    const DataDirs& dirs);
 
-// Statistics as one JSON object.
+// Statistics as one JSON object; `interrupted`: stopped by SIGINT/SIGTERM.
 std::string statsJson(const FrameLoop& loop, const PlatformSource& platform,
-                      const std::vector<std::unique_ptr<FrameSink>>& sinks);
+                      const std::vector<std::unique_ptr<FrameSink>>& sinks, bool interrupted);
+
+// What runScenario returns (docs/contracts.md, "Exit statuses"): 0, kRunFailed, or the bits
+// kRunOutputFailed and kRunInterrupted (4, 8, 12).
+inline constexpr int kRunFailed = 1;        // stopped by a failure (every output failed, ...)
+inline constexpr int kRunOutputFailed = 4;  // at least one output failed; the run went on
+inline constexpr int kRunInterrupted = 8;   // stopped by SIGINT or SIGTERM (cleanly)
 
 // Runs to the end (frames, duration, SIGINT/SIGTERM or a fatal error). Live status lines go
-// to `status` at most once a second. Returns 0, or 1 when the run failed.
+// to `status` at most once a second.
 int runScenario(const RunRequest& req, std::FILE* status);
 
 // The stop flag SIGINT and SIGTERM set.

@@ -1,5 +1,6 @@
 #include "rt/run/telemetry_factory.h"
 
+#include <charconv>
 #include <cstdlib>
 #include <cstring>
 
@@ -39,7 +40,7 @@ std::unique_ptr<FrameSink> makeDeviceSink(Spec& spec, const Scenario& sc, const 
         }
         return std::make_unique<drivers::V4l2Sink>(std::make_unique<drivers::KernelV4l2Ops>(),
                                                    spec.target, sc.width, sc.height, sc.bits,
-                                                   format, io);
+                                                   format, io, sc.fieldOrder());
     }
     if (spec.scheme == "gpio") {
         // gpio:CHIP:LINE[?active=high|low]
@@ -73,24 +74,45 @@ std::unique_ptr<TriggerSource> makeTrigger(const std::string& text, const std::s
 
 std::unique_ptr<PlatformSource> makeTelemetrySource(Spec& spec, const Scenario& sc, ClockKind clock,
                                                     const std::string& what,
-                                                    const std::filesystem::path& configDir) {
+                                                    const std::filesystem::path& configDir,
+                                                    const std::atomic<bool>* stop) {
     std::unique_ptr<TelemetryInput> input;
     if (spec.scheme == "replay") {
         input = std::make_unique<ReplayInput>(spec.target, loadDbc(spec, configDir));
     } else if (spec.scheme == "can" || spec.scheme == "serial") {
-        if (clock == ClockKind::Sim) {
-            throw SetupError(what + ": live telemetry needs --clock wall (use replay: with sim)");
-        }
         if (spec.scheme == "can") {
             const auto fd = spec.take("fd");
             const auto record = spec.take("record");
-            input = std::make_unique<CanInput>(std::make_unique<drivers::SocketCanBus>(),
-                                               spec.target, fd && *fd == "1",
-                                               loadDbc(spec, configDir), record ? *record : "");
+            // Under the sim clock the loop steps in lockstep with the telemetry's own time
+            // signal (rt/telemetry/sources.h): frames wait for it, arrival times do not count.
+            CanLockstep lockstep;
+            lockstep.enabled = clock == ClockKind::Sim;
+            lockstep.stop = stop;
+            if (const auto idle = spec.take("idle_s")) {
+                char* end = nullptr;
+                lockstep.idle_s = std::strtod(idle->c_str(), &end);
+                if (end == idle->c_str() || *end != '\0' || !(lockstep.idle_s > 0.0)) {
+                    throw SetupError(what + ": idle_s must be a positive number of seconds");
+                }
+                if (!lockstep.enabled) throw SetupError(what + ": idle_s needs --clock sim");
+            }
+            input = std::make_unique<CanInput>(
+                std::make_unique<drivers::SocketCanBus>(), spec.target, fd && *fd == "1",
+                loadDbc(spec, configDir), record ? *record : "", lockstep);
         } else {
+            if (clock == ClockKind::Sim) {
+                throw SetupError(what +
+                                 ": serial telemetry needs --clock wall (it carries no time of "
+                                 "its own to step the sim clock by)");
+            }
             const auto baud = spec.take("baud");
             const auto proto = spec.take("proto");
-            const int b = baud ? std::atoi(baud->c_str()) : 115200;
+            // from_chars, not atoi: atoi of a number beyond int is undefined behaviour.
+            int b = 115200;
+            if (baud) {
+                const auto r = std::from_chars(baud->data(), baud->data() + baud->size(), b);
+                if (r.ec != std::errc() || r.ptr != baud->data() + baud->size()) b = 0;
+            }
             if (drivers::baudConstant(b) == 0) throw SetupError(what + ": unsupported baud rate");
             if (!proto || (*proto != "nmea" && *proto != "mavlink")) {
                 throw SetupError(what + ": proto must be nmea or mavlink");

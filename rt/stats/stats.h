@@ -36,26 +36,37 @@ class DurationHistogram {
     double min_s_ = 1e300;
 };
 
+// A deadline miss is a tick whose fresh frame was not ready; the late-frame policy then either
+// repeats the previous frame (`repeats`) or sends nothing (`droppedFrames`): every miss is one
+// or the other (or a skipped tick). A repeat is not a drop. What became of the frames that
+// missed is counted apart: rendered too late (`lateFrames`) or not rendered at all because
+// their tick had already passed when the render thread came to them (`skippedRenders`).
 struct RunCounters {
     std::int64_t ticks = 0;           // deadlines passed
     std::int64_t framesRendered = 0;  // frames through render + camera
-    std::int64_t framesEmitted = 0;   // fresh frames written to the sinks
-    std::int64_t repeats = 0;         // ticks that re-sent the previous frame (repeat policy)
+    std::int64_t framesEmitted = 0;   // fresh frames handed to the sinks
+    std::int64_t repeats = 0;         // missed ticks that re-sent the previous frame (repeat)
     std::int64_t deadlineMisses = 0;  // ticks whose frame was not ready, or woke > ½ period late
     std::int64_t skippedTicks = 0;    // whole periods lost because the output itself was late
-    std::int64_t droppedFrames = 0;   // rendered or due frames never emitted (stale)
+    std::int64_t droppedFrames =
+        0;                        // missed ticks on which nothing was sent (drop, or no frame yet)
+    std::int64_t lateFrames = 0;  // frames rendered but discarded: their tick had passed
+    std::int64_t skippedRenders = 0;  // frames never rendered: their tick had passed already
     std::int64_t sinkErrors = 0;      // failed sink writes (counted per sink in its status)
+    std::int64_t sinkQueueDrops = 0;  // frames an output's full queue could not take (per sink)
+    std::int64_t outputsFailed = 0;   // outputs that failed (can write nothing more)
     std::int64_t staleFrames = 0;     // frames rendered with stale telemetry
 };
 
 struct RunStats {
     RunCounters counters;
-    DurationHistogram period;     // between consecutive emissions (wall clock)
-    DurationHistogram wakeLate;   // emission start − deadline (wall clock)
-    DurationHistogram frameTime;  // render + camera stage per frame
-    DurationHistogram overhead;   // loop's own work per frame (excludes stages and sinks)
-    DurationHistogram sinkTime;   // writing one frame to every sink
-    DurationHistogram latency;    // telemetry receive → frame emitted
+    DurationHistogram period;         // between consecutive emissions (wall clock)
+    DurationHistogram wakeLate;       // emission start − deadline (wall clock)
+    DurationHistogram frameTime;      // render + camera stage per frame
+    DurationHistogram overhead;       // loop's own work per frame (excludes stages and sinks)
+    DurationHistogram sinkTime;       // handing one frame to every sink (copy into each queue)
+    DurationHistogram latency;        // telemetry receive → frame emitted (handed to the sinks)
+    DurationHistogram renderLatency;  // render start → frame emitted (fresh frames)
     double elapsed_s = 0.0;
 };
 

@@ -3,15 +3,17 @@
 #include <fcntl.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
-#include <fstream>
+#include <string_view>
 
 #include "drivers/sinks/file_io.h"
 #include "rt/clock/clock.h"
 #include "sim/core/error.h"
+#include "sim/core/input_file.h"
 #include "sim/core/units.h"
 
 namespace nvs::rt {
@@ -59,6 +61,16 @@ bool CanDecoder::decode(const drivers::CanFrame& frame, double rx_s, TelemetryUp
         return false;
     }
     const std::size_t index = static_cast<std::size_t>(m - db_.messages().data());
+    // Every bound signal within its DBC [min|max] first: one value outside it rejects the
+    // whole frame, so that no half-updated state reaches the track.
+    for (const Binding& b : bindings_[index]) {
+        double v = 0.0;
+        if (drivers::decodeSignal(*b.signal, frame.data, frame.len, &v) &&
+            !drivers::inDeclaredRange(*b.signal, v)) {
+            ++counters_.outOfRange;
+            return false;
+        }
+    }
     *u = TelemetryUpdate{};
     u->rx_s = rx_s;
     double unixTime = -1.0, subSecond = 0.0;
@@ -132,10 +144,11 @@ namespace {
 std::string canCounters(const CanDecodeCounters& c) {
     char buf[256];
     std::snprintf(buf, sizeof buf,
-                  "frames %lld, decoded %lld, unknown id %lld, truncated %lld, bad lines %lld",
+                  "frames %lld, decoded %lld, unknown id %lld, truncated %lld, out of range "
+                  "%lld, bad lines %lld",
                   static_cast<long long>(c.frames), static_cast<long long>(c.decoded),
                   static_cast<long long>(c.unknownId), static_cast<long long>(c.truncated),
-                  static_cast<long long>(c.badLines));
+                  static_cast<long long>(c.outOfRange), static_cast<long long>(c.badLines));
     return buf;
 }
 
@@ -145,11 +158,13 @@ std::string canCounters(const CanDecodeCounters& c) {
 
 ReplayInput::ReplayInput(const std::string& logPath, drivers::DbcDatabase db)
     : path_(logPath), decoder_(std::move(db)) {
-    std::ifstream in(logPath);
-    if (!in) throw SetupError("replay log '" + logPath + "': cannot open");
-    std::string line;
+    // A regular file of at most 512 MiB (sim/core/input_file.h), read whole at setup.
+    const std::string text = readInputFile(logPath, kMaxLogFileBytes, "replay log");
     double t0 = 0.0;
-    while (std::getline(in, line)) {
+    for (std::size_t pos = 0; pos < text.size();) {
+        const std::size_t eol = std::min(text.find('\n', pos), text.size());
+        const std::string_view line(text.data() + pos, eol - pos);
+        pos = eol + 1;
         if (line.empty() || line[0] == '#') continue;
         Entry e{};
         if (!drivers::parseCandumpLine(line, &e.t_s, &e.frame)) {
@@ -179,14 +194,30 @@ std::string ReplayInput::status() const {
 
 std::int64_t ReplayInput::badInput() const noexcept {
     const CanDecodeCounters& c = decoder_.counters();
-    return c.unknownId + c.truncated + c.badLines;
+    return c.unknownId + c.truncated + c.outOfRange + c.badLines;
 }
 
 // ---- CanInput --------------------------------------------------------------------------------
 
 CanInput::CanInput(std::unique_ptr<drivers::CanBus> bus, std::string iface, bool fd,
-                   drivers::DbcDatabase db, const std::string& recordPath)
-    : bus_(std::move(bus)), iface_(std::move(iface)), fd_(fd), decoder_(std::move(db)) {
+                   drivers::DbcDatabase db, const std::string& recordPath, CanLockstep lockstep)
+    : bus_(std::move(bus)),
+      iface_(std::move(iface)),
+      fd_(fd),
+      decoder_(std::move(db)),
+      lock_(lockstep) {
+    if (lock_.enabled) {
+        bool timed = false;
+        for (const drivers::DbcMessage& m : decoder_.database().messages()) {
+            for (const drivers::DbcSignal& sig : m.signals)
+                timed = timed || sig.name == "UnixTime_s";
+        }
+        if (!timed) {
+            throw SetupError("can:" + iface_ +
+                             " with --clock sim: the DBC has no UnixTime_s signal, so the "
+                             "telemetry carries no time of its own to step the frames by");
+        }
+    }
     const int rc = bus_->open(iface_, fd_, {});
     if (rc != 0) {
         throw SetupError("can:" + iface_ + ": cannot open: " + std::strerror(-rc) +
@@ -204,13 +235,104 @@ CanInput::~CanInput() {
     if (recordFd_ >= 0) ::close(recordFd_);
 }
 
+void CanInput::record(const drivers::CanFrame& f, double rxReal_s) noexcept {
+    if (recordFd_ < 0) return;
+    char line[256];
+    const std::size_t n =
+        drivers::formatCandumpLine(rxReal_s, iface_.c_str(), f, line, sizeof line);
+    if (n == 0 || drivers::writeAll(recordFd_, line, n) != 0) ++recordErrors_;
+}
+
+bool CanInput::stampAndApply(const drivers::CanFrame& f, double now_s,
+                             PlatformTrack& track) noexcept {
+    TelemetryUpdate u;
+    if (!decoder_.decode(f, 0.0, &u)) return true;  // bad input: counted by the decoder
+    if ((u.fields & TelemetryUpdate::kUtc) != 0) {
+        ++marks_;
+        if (!haveEpoch_) {
+            haveEpoch_ = true;
+            epochUtc_s_ = u.utc_unix_s;
+        }
+        const double t_s = u.utc_unix_s - epochUtc_s_;
+        if (t_s > now_s) {
+            // The loop has not reached this mark: it and everything after it wait.
+            held_ = true;
+            heldUpdate_ = u;
+            heldStamp_s_ = t_s;
+            return false;
+        }
+        stamp_s_ = t_s;
+    }
+    u.rx_s = stamp_s_;
+    track.apply(u);
+    return true;
+}
+
+void CanInput::pollLockstep(double now_s, PlatformTrack& track) noexcept {
+    if (held_) {
+        if (heldStamp_s_ > now_s) return;
+        held_ = false;
+        stamp_s_ = heldStamp_s_;
+        heldUpdate_.rx_s = stamp_s_;
+        track.apply(heldUpdate_);
+    }
+    const std::int64_t idle_ns = static_cast<std::int64_t>(lock_.idle_s * 1e9);
+    std::int64_t lastFrame_ns = monotonicNow_ns();
+    drivers::CanFrame f;
+    double rxReal_s = 0.0;
+    for (;;) {
+        if (lock_.stop != nullptr && lock_.stop->load(std::memory_order_relaxed)) return;
+        const int rc =
+            bus_->state() == drivers::CanBusState::Open ? bus_->read(&f, &rxReal_s) : -ENETDOWN;
+        if (rc == 1) {
+            lastFrame_ns = monotonicNow_ns();
+            record(f, rxReal_s);
+            if (!stampAndApply(f, now_s, track)) return;
+            continue;
+        }
+        // Nothing to read (or a failed read, counted by the bus): wait for the bus, in slices
+        // so that the stop flag is seen, unless the stream has ended.
+        if (ended_) return;
+        const std::int64_t now_ns = monotonicNow_ns();
+        if (now_ns - lastFrame_ns >= idle_ns) {
+            ended_ = true;
+            return;
+        }
+        if (bus_->state() != drivers::CanBusState::Open) {
+            const double wall_s = static_cast<double>(now_ns) * 1e-9;
+            if (wall_s - lastReopen_s_ >= 1.0) {
+                lastReopen_s_ = wall_s;
+                bus_->open(iface_, fd_, {});
+            }
+            WallClock::sleepUntil(now_ns + 50'000'000);
+        } else {
+            bus_->waitReadable(50);
+        }
+    }
+}
+
 void CanInput::poll(double now_s, PlatformTrack& track) noexcept {
-    if (bus_->state() != drivers::CanBusState::Open) {
-        // The interface went down: try again once a second, keep the last good state.
-        if (now_s - lastReopen_s_ < 1.0) return;
-        lastReopen_s_ = now_s;
-        bus_->open(iface_, fd_, {});
+    if (lock_.enabled) {
+        pollLockstep(now_s, track);
         return;
+    }
+    if (bus_->state() != drivers::CanBusState::Open) {
+        // The interface went down or away (ENETDOWN, ENODEV): counted once per loss, the last
+        // good state held, and the socket reopened with backoff.
+        if (busUp_) {
+            ++busLosses_;
+            busUp_ = false;
+            backoff_.lost(now_s);
+        }
+        if (!backoff_.due(now_s)) return;
+        ++reopenAttempts_;
+        if (bus_->open(iface_, fd_, {}) != 0) {
+            backoff_.failed(now_s);
+            return;
+        }
+        ++reopened_;
+        backoff_.succeeded();
+        busUp_ = true;
     }
     const double realtimeNow_s = static_cast<double>(realtimeNow_ns()) * 1e-9;
     drivers::CanFrame f;
@@ -221,24 +343,28 @@ void CanInput::poll(double now_s, PlatformTrack& track) noexcept {
         if (rc <= 0) break;
         // Kernel receive time (CLOCK_REALTIME) → run clock, by its age now.
         const double rx_s = now_s - (realtimeNow_s - rxReal_s);
-        if (recordFd_ >= 0) {
-            char line[256];
-            const std::size_t n =
-                drivers::formatCandumpLine(rxReal_s, iface_.c_str(), f, line, sizeof line);
-            if (n == 0 || drivers::writeAll(recordFd_, line, n) != 0) ++recordErrors_;
-        }
+        record(f, rxReal_s);
         if (decoder_.decode(f, rx_s, &u)) track.apply(u);
     }
 }
 
 std::string CanInput::status() const {
+    std::string lock;
+    if (lock_.enabled) {
+        lock = ", lockstep: time marks " + std::to_string(marks_) +
+               (ended_ ? ", stream ended (silent " + std::to_string(lock_.idle_s) + " s)" : "");
+    }
     return "can:" + iface_ + ": " + bus_->status() + ", " + canCounters(decoder_.counters()) +
-           (recordErrors_ > 0 ? ", record errors " + std::to_string(recordErrors_) : "");
+           ", bus lost " + std::to_string(busLosses_) + ", reopen attempts " +
+           std::to_string(reopenAttempts_) + ", reopened " + std::to_string(reopened_) +
+           (busUp_ ? "" : ", BUS LOST") +
+           (recordErrors_ > 0 ? ", record errors " + std::to_string(recordErrors_) : "") + lock;
 }
 
 std::int64_t CanInput::badInput() const noexcept {
     const CanDecodeCounters& c = decoder_.counters();
-    return c.unknownId + c.truncated + bus_->counters().truncated + bus_->counters().errors;
+    return c.unknownId + c.truncated + c.outOfRange + bus_->counters().truncated +
+           bus_->counters().errors;
 }
 
 // ---- SerialInput -----------------------------------------------------------------------------
@@ -251,16 +377,7 @@ SerialInput::SerialInput(std::unique_ptr<drivers::SerialPort> port, std::string 
 }
 
 void SerialInput::poll(double now_s, PlatformTrack& track) noexcept {
-    if (port_->state() != drivers::SerialState::Open) {
-        if (wasOpen_) {
-            ++disconnects_;
-            wasOpen_ = false;
-        }
-        if (now_s - lastReopen_s_ < 1.0) return;
-        lastReopen_s_ = now_s;
-        if (port_->open(device_, baud_) != 0) return;
-        wasOpen_ = true;
-    }
+    if (!reconnect(now_s)) return;
     std::uint8_t buf[512];
     for (int i = 0; i < 16; ++i) {
         const long n = port_->read(buf, sizeof buf);
@@ -311,36 +428,66 @@ void SerialInput::poll(double now_s, PlatformTrack& track) noexcept {
     }
 }
 
+bool SerialInput::reconnect(double now_s) noexcept {
+    if (port_->state() == drivers::SerialState::Open) return true;
+    // The device went away (a hang-up, EIO: a USB adapter unplugged): counted once per loss,
+    // the last good state held (the track goes stale), and the port reopened with backoff.
+    if (wasOpen_) {
+        ++disconnects_;
+        wasOpen_ = false;
+        backoff_.lost(now_s);
+    }
+    if (!backoff_.due(now_s)) return false;
+    ++reopenAttempts_;
+    if (port_->open(device_, baud_) != 0) {
+        backoff_.failed(now_s);
+        return false;
+    }
+    ++reopened_;
+    backoff_.succeeded();
+    wasOpen_ = true;
+    return true;
+}
+
 std::string SerialInput::status() const {
     const drivers::SerialCounters& c = port_->counters();
     char buf[512];
     if (proto_ == Proto::Nmea) {
         const drivers::NmeaCounters& n = nmea_.counters();
-        std::snprintf(buf, sizeof buf,
-                      "serial:%s nmea: bytes %lld, sentences %lld, bad checksum %lld, malformed "
-                      "%lld, unsupported %lld, read errors %lld, disconnects %lld",
-                      device_.c_str(), static_cast<long long>(c.bytes),
-                      static_cast<long long>(n.sentences), static_cast<long long>(n.badChecksum),
-                      static_cast<long long>(n.malformed), static_cast<long long>(n.unsupported),
-                      static_cast<long long>(c.errors), static_cast<long long>(disconnects_));
+        std::snprintf(
+            buf, sizeof buf,
+            "serial:%s nmea: bytes %lld, sentences %lld, bad checksum %lld, malformed "
+            "%lld, out of range %lld, unsupported %lld, read errors %lld, disconnects %lld, "
+            "hang-ups %lld, reopen attempts %lld, reopened %lld%s",
+            device_.c_str(), static_cast<long long>(c.bytes), static_cast<long long>(n.sentences),
+            static_cast<long long>(n.badChecksum), static_cast<long long>(n.malformed),
+            static_cast<long long>(n.outOfRange), static_cast<long long>(n.unsupported),
+            static_cast<long long>(c.errors), static_cast<long long>(disconnects_),
+            static_cast<long long>(c.hangups), static_cast<long long>(reopenAttempts_),
+            static_cast<long long>(reopened_), wasOpen_ ? "" : ", PORT LOST");
     } else {
         const drivers::MavlinkCounters& m = mavlink_.counters();
         std::snprintf(buf, sizeof buf,
-                      "serial:%s mavlink: bytes %lld, messages %lld, bad crc %lld, unknown id "
-                      "%lld, read errors %lld, disconnects %lld",
+                      "serial:%s mavlink: bytes %lld, messages %lld, bad crc %lld, out of range "
+                      "%lld, unknown id %lld, read errors %lld, disconnects %lld, hang-ups %lld, "
+                      "reopen attempts "
+                      "%lld, reopened %lld%s",
                       device_.c_str(), static_cast<long long>(c.bytes),
                       static_cast<long long>(m.messages), static_cast<long long>(m.badCrc),
-                      static_cast<long long>(m.unknownId), static_cast<long long>(c.errors),
-                      static_cast<long long>(disconnects_));
+                      static_cast<long long>(m.outOfRange), static_cast<long long>(m.unknownId),
+                      static_cast<long long>(c.errors), static_cast<long long>(disconnects_),
+                      static_cast<long long>(c.hangups), static_cast<long long>(reopenAttempts_),
+                      static_cast<long long>(reopened_), wasOpen_ ? "" : ", PORT LOST");
     }
     return buf;
 }
 
 std::int64_t SerialInput::badInput() const noexcept {
     if (proto_ == Proto::Nmea) {
-        return nmea_.counters().badChecksum + nmea_.counters().malformed + disconnects_;
+        return nmea_.counters().badChecksum + nmea_.counters().malformed +
+               nmea_.counters().outOfRange + disconnects_;
     }
-    return mavlink_.counters().badCrc + disconnects_;
+    return mavlink_.counters().badCrc + mavlink_.counters().outOfRange + disconnects_;
 }
 
 // ---- TelemetryPlatform -----------------------------------------------------------------------
@@ -358,11 +505,12 @@ void TelemetryPlatform::sample(double t_sample_s, double now_s, PlatformState& o
 }
 
 std::string TelemetryPlatform::status() const {
-    return input_->status() + ", updates " + std::to_string(track_.updates());
+    return input_->status() + ", updates " + std::to_string(track_.updates()) + ", rejected " +
+           std::to_string(track_.rejected());
 }
 
 bool TelemetryPlatform::failed() const noexcept {
-    return badInputFatal_ && input_->badInput() > 0;
+    return badInputFatal_ && (input_->badInput() > 0 || track_.rejected() > 0);
 }
 
 }  // namespace nvs::rt

@@ -7,10 +7,15 @@
 //                   Latitude_deg Longitude_deg Altitude_m Roll_deg Pitch_deg Yaw_deg
 //                   UnixTime_s SubSecond_s Gain_V Gate_s GateMode Agc Lamp0..Lamp7
 //   ReplayInput     a candump log; frame times are shifted so the first is at run time 0
-//   CanInput        a CanBus (SocketCAN or fake); optional candump recording
+//   CanInput        a CanBus (SocketCAN or fake); optional candump recording; under the sim
+//                   clock in lockstep with the telemetry's own time signal (below)
 //   SerialInput     a SerialPort with NMEA 0183 or MAVLink framing (drivers/serial)
+// A live device that goes away (serial hang-up or EIO, CAN ENETDOWN/ENODEV) is counted once per
+// loss, its status says PORT LOST / BUS LOST until it is back, the last good state is held (and
+// goes stale), and it is reopened with backoff: 0.1 s, doubling, at most 5 s between tries.
 //   TelemetryPlatform  PlatformSource = one input + its PlatformTrack
 
+#include <atomic>
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -20,6 +25,7 @@
 #include "drivers/serial/serial.h"
 #include "rt/loop/stages.h"
 #include "rt/telemetry/track.h"
+#include "sim/core/backoff.h"
 
 namespace nvs::rt {
 
@@ -28,7 +34,9 @@ struct CanDecodeCounters {
     std::int64_t decoded = 0;
     std::int64_t unknownId = 0;
     std::int64_t truncated = 0;  // shorter than the DBC message
-    std::int64_t badLines = 0;   // unreadable candump lines (replay)
+    // A bound signal outside its DBC [min|max], or not finite: the frame is rejected whole.
+    std::int64_t outOfRange = 0;
+    std::int64_t badLines = 0;  // unreadable candump lines (replay)
 };
 
 class CanDecoder {
@@ -96,11 +104,29 @@ class ReplayInput final : public TelemetryInput {
     CanDecoder decoder_;
 };
 
+// Lockstep (the sim clock on a live bus): the loop runs on the telemetry's own time, so arrival
+// jitter cannot change a frame. Every decoded message with a time signal (UnixTime_s
+// [+ SubSecond_s]) is a time mark; its sample time on the run clock is its UTC minus that of the
+// first mark (the first mark is run time 0, as a replayed log's first frame is), and every other
+// message takes the sample time of the last mark before it: a sender puts the time mark first,
+// then the messages valid at that time. poll(now_s) applies every message with sample time
+// ≤ now_s and none later: it reads the bus, waiting when nothing is pending, until a mark later
+// than now_s arrives (held back for a later poll), the stop flag is set, or the bus has been
+// silent for `idle_s` of wall time, which ends the stream (the loop then runs on with the pose
+// held/extrapolated; frames that still arrive are applied, without waiting). A candump log
+// written so, played with canplayer, thus gives the same states as `replay:` of the log.
+struct CanLockstep {
+    bool enabled = false;
+    double idle_s = 5.0;                      // wall seconds of silence that end the stream
+    const std::atomic<bool>* stop = nullptr;  // set: stop waiting (SIGINT, SIGTERM)
+};
+
 class CanInput final : public TelemetryInput {
   public:
     // `recordPath`: when not empty, every received frame is appended as a candump line.
+    // Lockstep needs a DBC with a UnixTime_s signal (SetupError otherwise).
     CanInput(std::unique_ptr<drivers::CanBus> bus, std::string iface, bool fd,
-             drivers::DbcDatabase db, const std::string& recordPath);
+             drivers::DbcDatabase db, const std::string& recordPath, CanLockstep lockstep = {});
     ~CanInput() override;
     void poll(double now_s, PlatformTrack& track) noexcept override;
     std::string status() const override;
@@ -108,6 +134,11 @@ class CanInput final : public TelemetryInput {
     drivers::CanBus& bus() { return *bus_; }
 
   private:
+    void pollLockstep(double now_s, PlatformTrack& track) noexcept;
+    void record(const drivers::CanFrame& f, double rxReal_s) noexcept;
+    // Lockstep: one frame read → stamped and applied, or held back; false when held back.
+    bool stampAndApply(const drivers::CanFrame& f, double now_s, PlatformTrack& track) noexcept;
+
     std::unique_ptr<drivers::CanBus> bus_;
     std::string iface_;
     bool fd_;
@@ -115,6 +146,22 @@ class CanInput final : public TelemetryInput {
     int recordFd_ = -1;
     std::int64_t recordErrors_ = 0;
     double lastReopen_s_ = -1e9;
+    // Lockstep state.
+    CanLockstep lock_;
+    bool haveEpoch_ = false;
+    double epochUtc_s_ = 0.0;  // the first time mark's UTC [s since the Unix epoch]
+    double stamp_s_ = 0.0;     // sample time of the messages since the last mark [run clock]
+    bool held_ = false;        // a mark later than the loop's now, not applied yet
+    TelemetryUpdate heldUpdate_;
+    double heldStamp_s_ = 0.0;
+    bool ended_ = false;
+    std::int64_t marks_ = 0;
+    // Device loss: counted once per loss, reopened with backoff (sim/core/backoff.h).
+    Backoff backoff_{kReconnectFirst_s, kReconnectMax_s};
+    bool busUp_ = true;
+    std::int64_t busLosses_ = 0;
+    std::int64_t reopenAttempts_ = 0;
+    std::int64_t reopened_ = 0;
 };
 
 class SerialInput final : public TelemetryInput {
@@ -133,8 +180,13 @@ class SerialInput final : public TelemetryInput {
     Proto proto_;
     drivers::NmeaParser nmea_;
     drivers::MavlinkParser mavlink_;
+    // Device loss (a hang-up, EIO): counted once per loss, reopened with backoff. False while
+    // the port is still lost.
+    bool reconnect(double now_s) noexcept;
     std::int64_t disconnects_ = 0;
-    double lastReopen_s_ = -1e9;
+    std::int64_t reopenAttempts_ = 0;
+    std::int64_t reopened_ = 0;
+    Backoff backoff_{kReconnectFirst_s, kReconnectMax_s};
     bool wasOpen_ = true;
 };
 

@@ -1,5 +1,6 @@
 #include "rt/telemetry/track.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include "sim/core/units.h"
@@ -7,6 +8,9 @@
 namespace nvs::rt {
 
 namespace {
+
+constexpr double kMinAlt_m = -12000.0;
+constexpr double kMaxAlt_m = 1.0e6;
 
 double wrapPi(double a) {
     a = std::fmod(a + kPi, kTwoPi);
@@ -62,7 +66,34 @@ bool PlatformTrack::at(const Ring& r, double t, bool angles, Sample* out) const 
     return true;
 }
 
-void PlatformTrack::apply(const TelemetryUpdate& u) noexcept {
+bool updateInRange(const TelemetryUpdate& u) noexcept {
+    // `!(lo <= v && v <= hi)` is also true for NaN.
+    const auto in = [](double v, double lo, double hi) { return lo <= v && v <= hi; };
+    constexpr double kMaxAngle_rad = 2.0 * kPi + 1e-9;
+    const std::uint32_t f = u.fields;
+    if (!std::isfinite(u.rx_s)) return false;
+    if ((f & TelemetryUpdate::kLatLon) &&
+        !(in(u.lat_deg, -90.0, 90.0) && in(u.lon_deg, -180.0, 360.0))) {
+        return false;
+    }
+    if ((f & TelemetryUpdate::kAlt) && !in(u.alt_m, kMinAlt_m, kMaxAlt_m)) return false;
+    if ((f & TelemetryUpdate::kRollPitch) && !(in(u.roll_rad, -kMaxAngle_rad, kMaxAngle_rad) &&
+                                               in(u.pitch_rad, -kMaxAngle_rad, kMaxAngle_rad))) {
+        return false;
+    }
+    if ((f & TelemetryUpdate::kYaw) && !in(u.yaw_rad, -kMaxAngle_rad, kMaxAngle_rad)) return false;
+    if ((f & TelemetryUpdate::kUtc) && !in(u.utc_unix_s, 0.0, 4294967296.0)) return false;
+    if ((f & TelemetryUpdate::kGain) && !in(u.gain_V, 0.0, 10000.0)) return false;
+    if ((f & TelemetryUpdate::kGate) && !in(u.gate_s, 0.0, 1.0)) return false;
+    if ((f & TelemetryUpdate::kGateMode) && !(u.gateMode >= 0 && u.gateMode <= 2)) return false;
+    return true;
+}
+
+bool PlatformTrack::apply(const TelemetryUpdate& u) noexcept {
+    if (!updateInRange(u)) {
+        ++rejected_;  // the last good state is kept
+        return false;
+    }
     ++updates_;
     if (u.rx_s > lastRx_s_) lastRx_s_ = u.rx_s;
     if (u.fields & TelemetryUpdate::kAlt) {
@@ -97,6 +128,7 @@ void PlatformTrack::apply(const TelemetryUpdate& u) noexcept {
     if (u.fields & TelemetryUpdate::kLamps) {
         controls_.lampMask = (controls_.lampMask & ~u.lampBits) | (u.lampMask & u.lampBits);
     }
+    return true;
 }
 
 void PlatformTrack::sample(double t_s, PlatformState& out) const noexcept {
@@ -110,9 +142,11 @@ void PlatformTrack::sample(double t_s, PlatformState& out) const noexcept {
     out.roll_rad = initial_.roll_rad;
     Sample s{};
     if (at(pos_, t_s, false, &s)) {
-        out.lat_deg = s.a;
+        // Extrapolation can carry a position past the ranges apply() accepts (a track toward
+        // a pole): the state handed on stays within them.
+        out.lat_deg = std::clamp(s.a, -90.0, 90.0);
         out.lon_deg = s.b;
-        out.alt_m = s.c;
+        out.alt_m = std::clamp(s.c, kMinAlt_m, kMaxAlt_m);
     }
     if (at(att_, t_s, true, &s)) {
         out.yaw_rad = s.a;

@@ -11,6 +11,13 @@
 //                          scenario start + t without any.
 //   stale                  t − (newest receive time) > stale_after_s, or nothing received yet.
 // Fixed-capacity rings: apply() and sample() allocate nothing.
+//
+// Boundary check (docs/reliability-inputs.md): apply() refuses an update with any named field
+// not finite or outside its range, and counts it (rejected()); the track keeps its last good
+// state. The ranges are wide, protocol-independent limits, checked after each parser's own:
+//   lat_deg [−90, 90]   lon_deg [−180, 360]   alt_m [−12 000, 1 000 000]
+//   roll, pitch, yaw  |angle| ≤ 2π rad        utc_unix_s [0, 2³²]
+//   gain_V [0, 10 000]   gate_s [0, 1]   gateMode 0..2   rx_s finite
 
 #include <cstdint>
 
@@ -50,9 +57,11 @@ class PlatformTrack {
           staleAfter_s_(staleAfter_s),
           maxExtrapolation_s_(maxExtrapolation_s),
           controls_(initial) {}
-    void apply(const TelemetryUpdate& u) noexcept;
+    // False (and counted in rejected()) when the update fails the boundary check.
+    bool apply(const TelemetryUpdate& u) noexcept;
     void sample(double t_s, PlatformState& out) const noexcept;
     std::int64_t updates() const { return updates_; }
+    std::int64_t rejected() const { return rejected_; }
 
   private:
     static constexpr int kCap = 64;
@@ -82,6 +91,11 @@ class PlatformTrack {
     double utc_unix_s_ = 0.0, utcAt_s_ = 0.0;
     double lastRx_s_ = -1.0;
     std::int64_t updates_ = 0;
+    std::int64_t rejected_ = 0;
 };
+
+// The boundary check of PlatformTrack::apply: every field the update names is finite and in
+// range (the table above).
+bool updateInRange(const TelemetryUpdate& u) noexcept;
 
 }  // namespace nvs::rt

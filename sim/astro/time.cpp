@@ -4,6 +4,7 @@
 
 #include <charconv>
 #include <cmath>
+#include <cstdlib>
 #include <string>
 
 #include "sim/core/error.h"
@@ -68,8 +69,11 @@ CalendarInstant parseIsoUtc(std::string_view text, const std::string& what) {
             while (end < text.size() && text[end] >= '0' && text[end] <= '9')
                 ++end;
             if (end == pos + 1) bad(what, text, "no digits after the decimal point");
+            // strtod, not std::stod: a long run of zeros underflows (ERANGE), which std::stod
+            // reports by throwing std::out_of_range instead of a SetupError. Digits only here,
+            // so the result is in [0, 1].
             const std::string digits = "0" + std::string(text.substr(pos, end - pos));
-            frac = std::stod(digits);
+            frac = std::strtod(digits.c_str(), nullptr);
             pos = end;
         }
         c.second = whole + frac;

@@ -12,6 +12,8 @@
 #include <unordered_map>
 #include <unordered_set>
 
+#include "sim/core/input_file.h"
+
 namespace nvs {
 
 struct ConfigState {
@@ -347,11 +349,8 @@ ConfigDocument ConfigDocument::parseString(std::string_view text, const std::str
 }
 
 ConfigDocument ConfigDocument::parseFile(const std::filesystem::path& path) {
-    std::ifstream in(path, std::ios::binary);
-    if (!in) throw SetupError(FileLoc{path.string()}, "cannot open configuration file");
-    std::ostringstream ss;
-    ss << in.rdbuf();
-    return parseString(ss.str(), path.string());
+    return parseString(readInputFile(path, kMaxConfigFileBytes, "configuration file"),
+                       path.string());
 }
 
 ConfigTable ConfigDocument::root() const {

@@ -5,6 +5,8 @@
 #include <fstream>
 #include <sstream>
 
+#include "sim/core/input_file.h"
+
 namespace nvs {
 namespace {
 
@@ -54,11 +56,7 @@ std::vector<std::string> splitRecord(std::string_view line, const FileLoc& loc) 
 }  // namespace
 
 CsvTable CsvTable::load(const std::filesystem::path& path) {
-    std::ifstream in(path, std::ios::binary);
-    if (!in) throw SetupError(FileLoc{path.string()}, "cannot open CSV file");
-    std::ostringstream ss;
-    ss << in.rdbuf();
-    return parse(ss.str(), path.string());
+    return parse(readInputFile(path, kMaxTableFileBytes, "CSV file"), path.string());
 }
 
 CsvTable CsvTable::parse(std::string_view text, const std::string& name) {

@@ -205,6 +205,17 @@ double unitFactorFromColumnName(std::string_view column, std::string* unit, cons
 TabulatedSpectrum loadSpectrumCsv(const std::filesystem::path& path,
                                   std::string_view wavelengthColumn, std::string_view valueColumn) {
     const CsvTable csv = CsvTable::load(path);
+    // "wavelength_*": the first column named wavelength_<unit>, in whichever length unit.
+    if (wavelengthColumn.size() > 1 &&
+        wavelengthColumn.substr(wavelengthColumn.size() - 2) == "_*") {
+        const std::string_view prefix = wavelengthColumn.substr(0, wavelengthColumn.size() - 1);
+        for (const std::string& h : csv.header()) {
+            if (h.size() > prefix.size() && h.compare(0, prefix.size(), prefix) == 0) {
+                wavelengthColumn = h;
+                break;
+            }
+        }
+    }
     const std::size_t wc = csv.column(wavelengthColumn);
     const std::size_t vc = csv.column(valueColumn);
 

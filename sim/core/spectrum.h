@@ -98,10 +98,10 @@ struct TabulatedSpectrum {
 
 // Loads columns of a CSV file whose names carry their units (the convention of
 // tests/data/thesis: "wavelength_um", "radiance_W_cm-2_sr-1_um-1", "response_rel").
-// The wavelength column ends in _nm, _um or _m. The value column's unit tokens are converted:
-// a length to the power −1 is per-wavelength (→ nm⁻¹), to the power −2 per-area (→ m⁻²);
-// "rel" is dimensionless and "pct" is divided by 100. Unknown tokens are errors naming the
-// header line. Wavelengths must increase strictly.
+// The wavelength column ends in _nm, _um or _m ("wavelength_*": whichever the file has). The value
+// column's unit tokens are converted: a length to the power −1 is per-wavelength (→ nm⁻¹), to the
+// power −2 per-area (→ m⁻²); "rel" is dimensionless and "pct" is divided by 100. Unknown tokens are
+// errors naming the header line. Wavelengths must increase strictly.
 TabulatedSpectrum loadSpectrumCsv(const std::filesystem::path& path,
                                   std::string_view wavelengthColumn, std::string_view valueColumn);
 

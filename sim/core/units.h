@@ -11,6 +11,7 @@ inline constexpr double kRadPerDeg = kPi / 180.0;
 
 inline constexpr double kPlanck_J_s = 6.62607015e-34;
 inline constexpr double kSpeedOfLight_m_s = 299792458.0;
+inline constexpr double kElectronCharge_C = 1.602176634e-19;  // exact (SI 2019)
 inline constexpr double kBoltzmann_J_K = 1.380649e-23;
 
 // Derived constants, quoted (not computed) so tests can hold the code against them.

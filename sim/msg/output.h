@@ -18,6 +18,11 @@
 
 namespace nvs::msg {
 
+// How the rows of an emitted frame were exposed: all at once, or as two fields, the field on
+// the top (even) rows first or the one on the bottom (odd) rows first. Sinks that can say so
+// (y4m "Ip"/"It"/"Ib", V4L2 field NONE/INTERLACED_TB/INTERLACED_BT) do.
+enum class FieldOrder : std::uint8_t { Progressive, TopFirst, BottomFirst };
+
 // One frame as the output thread hands it to every sink.
 struct OutputFrame {
     const FrameMeta* meta = nullptr;
@@ -64,12 +69,30 @@ class TriggerSource {
     virtual std::string status() const = 0;
 };
 
+// What a sink reads of an OutputFrame, fixed at setup. The runtime gives every sink a bounded
+// queue of its own and a thread that calls write() (rt/loop/sink_channel.h), copying into the
+// queue only what the sink reads; a `direct` sink (its write() never blocks and copies nothing
+// it keeps: the GPIO gate) is called on the output thread instead.
+struct SinkInputs {
+    bool counts = true;     // OutputFrame::counts
+    bool radiance = false;  // OutputFrame::radiance
+    bool direct = false;
+};
+
 class FrameSink {
   public:
     virtual ~FrameSink() = default;
     virtual const char* name() const noexcept = 0;
+    virtual SinkInputs inputs() const noexcept { return {}; }
     // 0, or -errno. A failing sink counts the error and stays usable or closed, as it says.
+    // Called from one thread only (the sink's own, or the output thread for a direct sink).
     virtual int write(const OutputFrame& frame) noexcept = 0;
+    // True once the sink can write nothing more (a stream whose reader went away, a file
+    // abandoned after an I/O error). Asked on the thread that calls write(), after each write.
+    virtual bool failed() const noexcept { return false; }
+    // Any thread: abandon a write that is blocked on a consumer (a pipe nobody reads), now and
+    // from now on; writes that do not block still complete. Used when a run is stopped.
+    virtual void cancel() noexcept {}
     // Finishes the output (renames a temporary file into place). 0 or -errno. Called after
     // the runtime has stopped and joined the sink's worker, if it has one.
     virtual int close() noexcept = 0;

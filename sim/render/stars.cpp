@@ -4,6 +4,7 @@
 
 #include "sim/core/csv.h"
 #include "sim/core/error.h"
+#include "sim/core/input_file.h"
 #include "sim/core/planck.h"
 
 namespace nvs::render {
@@ -17,7 +18,7 @@ std::filesystem::path starCatalogPath(const std::filesystem::path& configDir) {
 }
 
 StarCatalog loadStarCatalog(const std::filesystem::path& path) {
-    if (!std::filesystem::exists(path)) {
+    if (!pathExists(path)) {
         throw SetupError(path.string() + ": star catalogue not found");
     }
     const CsvTable t = CsvTable::load(path);

@@ -10,6 +10,7 @@
 #include <sstream>
 
 #include "sim/core/config.h"
+#include "sim/core/input_file.h"
 #include "sim/core/planck.h"
 
 namespace nvs::scene {
@@ -38,42 +39,70 @@ double positive(const ConfigTable& t, std::string_view key, double fallback) {
     return v;
 }
 
-// Line (1-based) of the n-th (0-based) line starting with `prefix` in a text file; 0 if absent.
-int nthLineStartingWith(const std::filesystem::path& path, const std::string& prefix,
-                        std::size_t n) {
-    std::ifstream in(path);
-    std::string line;
+// Calls f(line, lineNo) for every line of text (1-based), without the '\r' of a CRLF.
+template <typename F>
+void forEachLine(std::string_view text, F f) {
     int lineNo = 0;
-    std::size_t seen = 0;
-    while (std::getline(in, line)) {
-        ++lineNo;
-        const auto first = line.find_first_not_of(" \t");
-        if (first == std::string::npos) continue;
-        if (line.compare(first, prefix.size(), prefix) == 0) {
-            if (seen == n) return lineNo;
-            ++seen;
-        }
+    for (std::size_t pos = 0; pos < text.size();) {
+        const std::size_t eol = std::min(text.find('\n', pos), text.size());
+        std::string_view line = text.substr(pos, eol - pos);
+        pos = eol + 1;
+        if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
+        if (!f(line, ++lineNo)) return;
     }
-    return 0;
+}
+
+// Line (1-based) of the n-th (0-based) line starting with `prefix`; 0 if absent.
+int nthLineStartingWith(std::string_view text, std::string_view prefix, std::size_t n) {
+    int found = 0;
+    std::size_t seen = 0;
+    forEachLine(text, [&](std::string_view line, int lineNo) {
+        const auto first = line.find_first_not_of(" \t");
+        if (first == std::string_view::npos || line.substr(first, prefix.size()) != prefix)
+            return true;
+        if (seen++ == n) found = lineNo;
+        return found == 0;
+    });
+    return found;
 }
 
 // Line of the `g NAME` or `o NAME` statement that opens a group.
-int groupLine(const std::filesystem::path& path, const std::string& name) {
-    std::ifstream in(path);
-    std::string line;
-    int lineNo = 0;
-    while (std::getline(in, line)) {
-        ++lineNo;
-        std::istringstream ss(line);
-        std::string tag, rest;
-        ss >> tag;
-        if (tag != "g" && tag != "o") continue;
-        std::getline(ss, rest);
-        const auto b = rest.find_first_not_of(" \t");
-        const auto e = rest.find_last_not_of(" \t\r");
-        if (b != std::string::npos && rest.substr(b, e - b + 1) == name) return lineNo;
-    }
-    return 0;
+int groupLine(std::string_view text, const std::string& name) {
+    int found = 0;
+    forEachLine(text, [&](std::string_view line, int lineNo) {
+        const auto b = line.find_first_not_of(" \t");
+        if (b == std::string_view::npos || b + 1 >= line.size() ||
+            (line[b] != 'g' && line[b] != 'o') || (line[b + 1] != ' ' && line[b + 1] != '\t'))
+            return true;
+        std::string_view rest = line.substr(b + 2);
+        const auto rb = rest.find_first_not_of(" \t");
+        const auto re = rest.find_last_not_of(" \t");
+        if (rb != std::string_view::npos && rest.substr(rb, re - rb + 1) == name) found = lineNo;
+        return found == 0;
+    });
+    return found;
+}
+
+// tinyobjloader reads "nan" and garbage as numbers without complaint; every vertex statement
+// is checked first so that a bad one is reported with its line.
+void checkVertexLines(std::string_view text, const std::string& name) {
+    forEachLine(text, [&](std::string_view line, int lineNo) {
+        if (line.size() < 2 || line[0] != 'v' || (line[1] != ' ' && line[1] != '\t')) return true;
+        std::istringstream ss{std::string(line.substr(2))};
+        std::string tok;
+        int count = 0;
+        while (count < 3 && ss >> tok) {
+            char* end = nullptr;
+            const double v = std::strtod(tok.c_str(), &end);
+            if (end == tok.c_str() || *end != '\0' || !std::isfinite(v)) {
+                throw SetupError(FileLoc{name, lineNo}, "vertex coordinate '" + tok.substr(0, 40) +
+                                                            "' is not a finite number");
+            }
+            ++count;
+        }
+        if (count < 3) throw SetupError(FileLoc{name, lineNo}, "vertex needs 3 coordinates");
+        return true;
+    });
 }
 
 }  // namespace
@@ -178,51 +207,33 @@ void Scene::validate() const {
 Mesh loadObjMesh(const std::filesystem::path& path,
                  const std::vector<std::pair<std::string, int>>& layerMaterial, int defaultMaterial,
                  const FileLoc& from) {
-    if (!std::filesystem::exists(path)) {
+    if (!pathExists(path)) {
         throw SetupError(from, "mesh file not found: " + path.string());
     }
-    // tinyobjloader reads "nan" and garbage as numbers without complaint; check every vertex
-    // statement first so that a bad one is reported with its line.
-    {
-        std::ifstream in(path);
-        std::string line;
-        int lineNo = 0;
-        while (std::getline(in, line)) {
-            ++lineNo;
-            if (line.size() < 2 || line[0] != 'v' || (line[1] != ' ' && line[1] != '\t')) continue;
-            std::istringstream ss(line.substr(2));
-            std::string tok;
-            int count = 0;
-            while (ss >> tok && count < 3) {
-                char* end = nullptr;
-                const double v = std::strtod(tok.c_str(), &end);
-                if (end == tok.c_str() || *end != '\0' || !std::isfinite(v)) {
-                    throw SetupError(FileLoc{path.string(), lineNo},
-                                     "vertex coordinate '" + tok + "' is not a finite number");
-                }
-                ++count;
-            }
-            if (count < 3) {
-                throw SetupError(FileLoc{path.string(), lineNo}, "vertex needs 3 coordinates");
-            }
-        }
-    }
+    return parseObjMesh(readInputFile(path, kMaxMeshFileBytes, "OBJ mesh"), path.string(),
+                        layerMaterial, defaultMaterial);
+}
+
+Mesh parseObjMesh(const std::string& text, const std::string& name,
+                  const std::vector<std::pair<std::string, int>>& layerMaterial,
+                  int defaultMaterial) {
+    checkVertexLines(text, name);
     tinyobj::ObjReaderConfig cfg;
     cfg.triangulate = true;
     cfg.vertex_color = false;
     cfg.mtl_search_path = "";
     tinyobj::ObjReader reader;
-    if (!reader.ParseFromFile(path.string(), cfg)) {
-        throw SetupError(FileLoc{path.string()}, "cannot parse OBJ: " + reader.Error());
+    if (!reader.ParseFromString(text, "", cfg)) {
+        throw SetupError(FileLoc{name}, "cannot parse OBJ: " + reader.Error());
     }
     const auto& attrib = reader.GetAttrib();
     Mesh mesh;
     mesh.vertices_m.reserve(attrib.vertices.size());
     for (std::size_t i = 0; i < attrib.vertices.size(); ++i) {
-        const double v = attrib.vertices[i];
+        const double v = static_cast<double>(attrib.vertices[i]);
         if (!std::isfinite(v)) {
-            const int line = nthLineStartingWith(path, "v ", i / 3);
-            throw SetupError(FileLoc{path.string(), line},
+            const int line = nthLineStartingWith(text, "v ", i / 3);
+            throw SetupError(FileLoc{name, line},
                              "vertex " + std::to_string(i / 3 + 1) + " is not a finite number");
         }
         mesh.vertices_m.push_back(static_cast<float>(v));
@@ -233,18 +244,28 @@ Mesh loadObjMesh(const std::filesystem::path& path,
             if (layer == shape.name) mat = idx;
         }
         if (mat < 0) {
-            const int line = shape.name.empty() ? 0 : groupLine(path, shape.name);
-            throw SetupError(FileLoc{path.string(), line},
+            const int line = shape.name.empty() ? 0 : groupLine(text, shape.name);
+            throw SetupError(FileLoc{name, line},
                              "group '" + shape.name +
                                  "' has no material (map it in [layers] or give the object a "
                                  "material)");
         }
         std::size_t offset = 0;
+        const std::size_t vertexCount = attrib.vertices.size() / 3;
         for (std::size_t f = 0; f < shape.mesh.num_face_vertices.size(); ++f) {
             const std::size_t n = shape.mesh.num_face_vertices[f];
+            if (offset + n > shape.mesh.indices.size()) {
+                throw SetupError(FileLoc{name}, "group '" + shape.name + "': inconsistent faces");
+            }
             if (n == 3) {
                 for (std::size_t k = 0; k < 3; ++k) {
                     const int vi = shape.mesh.indices[offset + k].vertex_index;
+                    if (vi < 0 || static_cast<std::size_t>(vi) >= vertexCount) {
+                        throw SetupError(FileLoc{name}, "group '" + shape.name +
+                                                            "': a face refers to vertex " +
+                                                            std::to_string(vi + 1) + " of " +
+                                                            std::to_string(vertexCount));
+                    }
                     mesh.triangles.push_back(static_cast<std::uint32_t>(vi));
                 }
                 mesh.materials.push_back(static_cast<std::uint16_t>(mat));
@@ -256,7 +277,7 @@ Mesh loadObjMesh(const std::filesystem::path& path,
 }
 
 Scene loadScene(const std::filesystem::path& path) {
-    if (!std::filesystem::exists(path)) throw SetupError("scene file not found: " + path.string());
+    if (!pathExists(path)) throw SetupError("scene file not found: " + path.string());
     const ConfigDocument doc = ConfigDocument::parseFile(path);
     const ConfigTable root = doc.root();
     const std::filesystem::path dir = path.parent_path();
@@ -273,7 +294,7 @@ Scene loadScene(const std::filesystem::path& path) {
             const auto rel = t.require<std::string>("reflectance_file");
             const auto column = t.get<std::string>("column", "reflectance_rel");
             const std::filesystem::path f = dir / rel;
-            if (!std::filesystem::exists(f)) {
+            if (!pathExists(f)) {
                 t.fail("reflectance_file", "file not found: " + f.string());
             }
             const TabulatedSpectrum tab = loadSpectrumCsv(f, "wavelength_nm", column);

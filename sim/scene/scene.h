@@ -116,6 +116,11 @@ Scene loadScene(const std::filesystem::path& path);
 Mesh loadObjMesh(const std::filesystem::path& path,
                  const std::vector<std::pair<std::string, int>>& layerMaterial, int defaultMaterial,
                  const FileLoc& referencedFrom);
+// The same from the text of an OBJ file; `name` names it in errors. loadObjMesh reads a
+// regular file of at most 512 MiB (sim/core/input_file.h).
+Mesh parseObjMesh(const std::string& text, const std::string& name,
+                  const std::vector<std::pair<std::string, int>>& layerMaterial,
+                  int defaultMaterial);
 
 // A flat reflectance curve (grey), for tests and materials given by one number.
 Spectrum greyReflectance(double rho);

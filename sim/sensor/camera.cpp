@@ -8,6 +8,8 @@
 
 #include "sim/core/config.h"
 #include "sim/core/csv.h"
+#include "sim/core/input_file.h"
+#include "sim/core/photometry.h"
 #include "sim/core/planck.h"
 #include "sim/core/units.h"
 
@@ -42,6 +44,10 @@ class Reader {
         used_->insert(full);
         return parse<T>(full, it->second);
     }
+
+    // Whether the preset file gives the key, and whether an override does.
+    bool inFile(const std::string& key) const { return t_ && t_->contains(key); }
+    bool overridden(const std::string& key) const { return ov_->count(prefix_ + key) != 0; }
 
     [[noreturn]] void fail(const std::string& key, const std::string& msg) const {
         const std::string full = prefix_ + key;
@@ -142,10 +148,11 @@ CameraParams readCamera(const ConfigDocument& doc, const Overrides& ov, const Fi
     if (!resp.empty()) {
         std::filesystem::path p = resp;
         if (p.is_relative()) p = baseDir / p;
-        if (!std::filesystem::exists(p)) spectral.fail("response_file", "no file " + p.string());
+        if (!pathExists(p)) spectral.fail("response_file", "no file " + p.string());
         c.response_file = p;
     }
     c.response_column = spectral.get<std::string>("response_column", c.response_column);
+    const bool qeFile = spectral.inFile("qe_peak"), qeSet = spectral.overridden("qe_peak");
     c.qe_peak = positive(spectral, "qe_peak", c.qe_peak);
     require(c.qe_peak <= 1.0, spectral, "qe_peak", "must be <= 1");
     c.monochromatic_nm = nonNegative(spectral, "monochromatic_nm", c.monochromatic_nm);
@@ -157,8 +164,18 @@ CameraParams readCamera(const ConfigDocument& doc, const Overrides& ov, const Fi
     const Reader pc = root.sub("photocathode");
     c.shot_noise = pc.get<bool>("shot_noise", c.shot_noise);
     c.ebi_lm_cm2 = nonNegative(pc, "ebi_lm_cm2", c.ebi_lm_cm2);
+    const bool skFile = pc.inFile("luminous_sensitivity_uA_lm");
+    const bool skSet = pc.overridden("luminous_sensitivity_uA_lm");
     c.cathode_sensitivity_uA_lm =
         nonNegative(pc, "luminous_sensitivity_uA_lm", c.cathode_sensitivity_uA_lm);
+    // One of the two is the datasheet's; the other follows from it through the response.
+    if (qeFile && skFile && !c.response_file.empty()) {
+        pc.fail("luminous_sensitivity_uA_lm",
+                "give either [spectral] qe_peak or the luminous sensitivity, not both: each "
+                "follows from the other through the spectral response");
+    }
+    // The one given (an override wins over the file) is the source of the other.
+    const bool qeIsSource = qeSet || (qeFile && !skSet);
     c.taper_magnification = positive(pc, "taper_magnification", c.taper_magnification);
 
     const Reader bsp = root.sub("bsp");
@@ -167,13 +184,32 @@ CameraParams readCamera(const ConfigDocument& doc, const Overrides& ov, const Fi
 
     const Reader mcp = root.sub("mcp");
     c.mcp_enabled = mcp.get<bool>("enabled", c.mcp_enabled);
+    const bool vcFile = mcp.inFile("crossover_V"), vcSet = mcp.overridden("crossover_V");
     c.mcp_crossover_V = positive(mcp, "crossover_V", c.mcp_crossover_V);
+    c.luminous_gain_fL_fc = nonNegative(mcp, "luminous_gain_fL_fc", c.luminous_gain_fL_fc);
+    c.luminous_gain_control_V =
+        nonNegative(mcp, "luminous_gain_control_V", c.luminous_gain_control_V);
+    if (vcFile && mcp.inFile("luminous_gain_fL_fc")) {
+        mcp.fail("luminous_gain_fL_fc", "give either crossover_V or the luminous gain, not both");
+    }
+    if (vcSet && !mcp.overridden("luminous_gain_fL_fc")) c.luminous_gain_fL_fc = 0.0;  // Vc wins
     c.mcp_exponent = positive(mcp, "exponent", c.mcp_exponent);
     c.mcp_offset_V = mcp.get<double>("offset_V", c.mcp_offset_V);
     c.mcp_V_per_control_V = positive(mcp, "V_per_control_V", c.mcp_V_per_control_V);
     c.mcp_noise_factor = mcp.get<double>("noise_factor", c.mcp_noise_factor);
     require(c.mcp_noise_factor >= 1.0, mcp, "noise_factor", "F must be >= 1");
     c.mcp_noise = mcp.get<bool>("noise", c.mcp_noise);
+
+    const Reader halo = root.sub("halo");
+    c.halo_enabled = halo.get<bool>("enabled", c.halo_enabled);
+    c.halo_fraction = nonNegative(halo, "fraction", c.halo_fraction);
+    require(c.halo_fraction < 1.0, halo, "fraction", "must be below 1");
+    c.halo_gap_um = positive(halo, "gap_um", c.halo_gap_um);
+    c.halo_radius_um = nonNegative(halo, "radius_um", c.halo_radius_um);
+    const Reader sat = root.sub("mcp_saturation");
+    c.mcpsat_enabled = sat.get<bool>("enabled", c.mcpsat_enabled);
+    c.mcpsat_pixel_charge_e = positive(sat, "pixel_charge_e", c.mcpsat_pixel_charge_e);
+    c.mcpsat_recharge_s = positive(sat, "recharge_s", c.mcpsat_recharge_s);
 
     const Reader abc = root.sub("abc");
     c.abc_screen_limit_A = positive(abc, "screen_limit_A", c.abc_screen_limit_A);
@@ -199,6 +235,8 @@ CameraParams readCamera(const ConfigDocument& doc, const Overrides& ov, const Fi
     require(c.screen_dead_voltage_V < c.screen_voltage_V, ph, "dead_voltage_V",
             "must be below screen_voltage_V");
     c.phosphor_photons_per_eV = positive(ph, "photons_per_eV", c.phosphor_photons_per_eV);
+    c.phosphor_peak_nm = positive(ph, "peak_nm", c.phosphor_peak_nm);
+    c.phosphor_efficacy_lm_W = positive(ph, "efficacy_lm_W", c.phosphor_efficacy_lm_W);
     c.taper_transmission = positive(ph, "taper_transmission", c.taper_transmission);
     c.ccd_window_transmission = positive(ph, "ccd_window_transmission", c.ccd_window_transmission);
     c.ccd_qe = positive(ph, "ccd_qe", c.ccd_qe);
@@ -246,6 +284,9 @@ CameraParams readCamera(const ConfigDocument& doc, const Overrides& ov, const Fi
         c.scan = ScanMode::Frame;
     else
         video.fail("scan", "must be field or frame");
+    const std::string order = video.get<std::string>("field_order", "top");
+    if (order != "top" && order != "bottom") video.fail("field_order", "must be top or bottom");
+    c.topFieldFirst = order == "top";
 
     const Reader loop = root.sub("agc_loop");
     c.agc_target_dc = positive(loop, "target_dc", c.agc_target_dc);
@@ -255,6 +296,28 @@ CameraParams readCamera(const ConfigDocument& doc, const Overrides& ov, const Fi
     c.agc_min_gain_V = nonNegative(loop, "min_gain_V", c.agc_min_gain_V);
     c.agc_max_gain_V = positive(loop, "max_gain_V", c.agc_max_gain_V);
     require(c.agc_min_gain_V < c.agc_max_gain_V, loop, "max_gain_V", "must exceed min_gain_V");
+
+    // Datasheet quantities → the model's: QE ↔ luminous sensitivity, and the MCP law's Vc from
+    // the luminous gain at a control voltage.
+    if (!c.response_file.empty() && c.monochromatic_nm <= 0.0) {
+        const double perQe_uA_lm = luminousSensitivityPerQe_uA_lm(c, baseDir);
+        if (qeIsSource) {
+            c.cathode_sensitivity_uA_lm = c.qe_peak * perQe_uA_lm;
+        } else {
+            c.qe_peak = c.cathode_sensitivity_uA_lm / perQe_uA_lm;
+            require(c.qe_peak > 0.0 && c.qe_peak <= 1.0, pc, "luminous_sensitivity_uA_lm",
+                    "implies a peak QE of " + std::to_string(c.qe_peak) + ", outside (0, 1]");
+        }
+    }
+    if (c.luminous_gain_fL_fc > 0.0 && c.mcp_enabled) {
+        const double perMcpGain = c.luminousGain_fL_fc(-1.0);  // fL/fc per unit MCP gain
+        require(perMcpGain > 0.0, mcp, "luminous_gain_fL_fc",
+                "needs the cathode's luminous sensitivity and the screen's efficiency");
+        const double gainRef = c.luminous_gain_fL_fc / perMcpGain;
+        const double vmRef = c.mcp_offset_V + c.mcp_V_per_control_V * c.luminous_gain_control_V;
+        require(vmRef > 0.0, mcp, "luminous_gain_control_V", "gives no MCP voltage");
+        c.mcp_crossover_V = vmRef / std::pow(gainRef, 1.0 / c.mcp_exponent);
+    }
 
     doc.finish();
     for (const auto& [key, value] : ov) {
@@ -279,6 +342,32 @@ double CameraParams::controlVoltageForGain(double gain) const {
     if (!(gain > 0.0)) return 0.0;
     const double vm = mcp_crossover_V * std::pow(gain, 1.0 / mcp_exponent);
     return (vm - mcp_offset_V) / mcp_V_per_control_V;
+}
+
+double CameraParams::screenLumensPerBeamWatt() const {
+    // P photons per eV of beam, each of energy hc/λ: the radiant efficiency P·hc/(λ·e).
+    const double photon_J = kPlanck_J_s * kSpeedOfLight_m_s / (phosphor_peak_nm * 1e-9);
+    return phosphor_photons_per_eV * photon_J / kElectronCharge_C * phosphor_efficacy_lm_W;
+}
+
+double CameraParams::luminousGain_fL_fc(double gainControl_V) const {
+    // Per lumen on the cathode: S_k amperes of photocurrent, G·S_k out of the MCP, each electron
+    // landing with (Va − Vd) eV of useful energy; gainControl_V < 0: per unit MCP gain.
+    const double g = gainControl_V < 0.0 ? 1.0 : mcpGain(gainControl_V);
+    return cathode_sensitivity_uA_lm * 1e-6 * g * (screen_voltage_V - screen_dead_voltage_V) *
+           screenLumensPerBeamWatt();
+}
+
+double luminousSensitivityPerQe_uA_lm(const CameraParams& cam,
+                                      const std::filesystem::path& configDir) {
+    // A 2856 K (CIE illuminant A) source, as photocathodes are specified: the photocurrent per
+    // lumen, q·∫QE(λ)·λ/(hc)·P(λ)dλ / (K_m∫V(λ)P(λ)dλ), for a QE of peak 1.
+    const Spectrum a = planckRadiance_W_m2_sr_nm(2856.0);
+    const Spectrum photonsPerJ = Spectrum::fromFunction(
+        [](double nm) { return nm * 1e-9 / (kPlanck_J_s * kSpeedOfLight_m_s); });
+    const double pe = integrateProduct_nm(a * cameraResponse(cam), photonsPerJ);
+    const double lm = Photometry(configDir).photometricIntegral(a);
+    return kElectronCharge_C * pe / lm * 1e6;
 }
 
 double CameraParams::ccdElectronsPerMcpElectron() const {
@@ -306,13 +395,13 @@ std::filesystem::path resolveCameraPath(const std::filesystem::path& configDir,
                                         const std::string& nameOrPath) {
     std::filesystem::path p = nameOrPath;
     if (p.extension() == ".toml" || nameOrPath.find('/') != std::string::npos) {
-        if (!std::filesystem::exists(p)) throw SetupError("--camera: no file " + p.string());
+        if (!pathExists(p)) throw SetupError("--camera: no file " + p.string());
         return p;
     }
     const std::filesystem::path q = configDir / "cameras" / (nameOrPath + ".toml");
-    if (!std::filesystem::exists(q)) {
+    if (!pathExists(q)) {
         std::string names;
-        if (std::filesystem::is_directory(configDir / "cameras")) {
+        if (isDirectory(configDir / "cameras")) {
             for (const auto& e : std::filesystem::directory_iterator(configDir / "cameras")) {
                 if (e.path().extension() == ".toml") names += " " + e.path().stem().string();
             }
@@ -329,7 +418,7 @@ CameraParams loadCamera(const std::filesystem::path& configDir, const std::strin
     const ConfigDocument doc = ConfigDocument::parseFile(p);
     // Data files named by a preset are relative to config/.
     std::filesystem::path base = p.parent_path().parent_path();
-    if (!std::filesystem::exists(base / "spectra")) base = configDir;
+    if (!pathExists(base / "spectra")) base = configDir;
     return readCamera(doc, overrides, FileLoc{p.string(), 0, 0}, base);
 }
 
@@ -363,7 +452,7 @@ Spectrum cameraResponse(const CameraParams& cam) {
     if (cam.response_file.empty()) {
         throw SetupError(cam.loc, "camera has no spectral.response_file; W/m2/sr input needs one");
     }
-    TabulatedSpectrum t = loadSpectrumCsv(cam.response_file, "wavelength_um", cam.response_column);
+    TabulatedSpectrum t = loadSpectrumCsv(cam.response_file, "wavelength_*", cam.response_column);
     Spectrum s = t.resample(Extrapolation::Zero);
     const double peak = s.max();
     if (!(peak > 0.0)) throw SetupError(t.loc, "response curve is zero everywhere");
@@ -386,7 +475,7 @@ Spectrum spectrumShape(const std::filesystem::path& configDir, const std::string
         // stand-ins: moonlight ≈ reflected sunlight (5800 K shape, lunar reddening ignored);
         // night sky (airglow + starlight) is red-rich, approximated by 2000 K.
         const std::filesystem::path p = configDir / "spectra" / (spec + "_shape.csv");
-        if (std::filesystem::exists(p)) {
+        if (pathExists(p)) {
             return loadSpectrumCsv(p, "wavelength_nm", "radiance_rel").resample();
         }
         return planckRadiance_W_m2_sr_nm(spec == "moon" ? 5800.0 : 2000.0);

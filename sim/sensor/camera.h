@@ -6,6 +6,7 @@
 // Defaults live here, in code. Each field states its unit in its name or comment and the source
 // of its default; a preset file repeats the parameters it relies on with their sources.
 
+#include <cstdint>
 #include <filesystem>
 #include <map>
 #include <string>
@@ -29,6 +30,9 @@ struct CameraParams {
     int height = 494;              // [px] 493 active lines (Table 11-2), even for two fields
     double field_rate_Hz = 59.94;  // [Hz] 525 lines 60 Hz 2:1 interlace (Table 11-2)
     ScanMode scan = ScanMode::Field;
+    // Field scan: which field comes first in time. Top: field 0 (and every even field) holds
+    // rows 0, 2, 4, …; bottom: rows 1, 3, 5, … (y4m "It" / "Ib", V4L2_FIELD_INTERLACED_TB/BT).
+    bool topFieldFirst = true;
 
     // --- Controls other tools rely on -----------------------------------------------------
     double gain_V = 6.0;  // [V] tube gain control, 0-8 V with AGC off (thesis §4.3.1)
@@ -63,15 +67,33 @@ struct CameraParams {
     double bsp_exponent = 1.0;
 
     // --- 5. MCP ---------------------------------------------------------------------------
-    double mcp_crossover_V = 520.0;  // [V] Vc, eq. 6.1 (typical 350-530 V)
-    double mcp_exponent = 10.0;      // g, eq. 6.1 (typical 8.5-13)
-    double mcp_offset_V = 40.0;      // [V] Vm = offset + slope·gain_V
+    // Absolute gain: Vc directly, or (anchor) the tube's luminous gain at a control voltage,
+    // from which Vc follows (luminousGain_fL_fc).
+    double mcp_crossover_V = 520.0;        // [V] Vc, eq. 6.1 (typical 350-530 V)
+    double luminous_gain_fL_fc = 0.0;      // [fL/fc] anchor; 0: crossover_V as given
+    double luminous_gain_control_V = 0.0;  // [V] control voltage of that figure
+    double mcp_exponent = 10.0;            // g, eq. 6.1 (typical 8.5-13)
+    double mcp_offset_V = 40.0;            // [V] Vm = offset + slope·gain_V
     double mcp_V_per_control_V = 190.0;
     double mcp_noise_factor = 1.6;  // F, excess noise factor
     bool mcp_noise = true;
     bool mcp_enabled = true;
     double abc_screen_limit_A = 5e-9;  // [A] ABC screen-current limit
     double abc_time_constant_s = 0.1;  // [s]
+
+    // --- 3b. Halo: photoelectrons backscattered at the MCP input land on a disk ------------
+    bool halo_enabled = false;
+    double halo_fraction = 0.0;   // share of the photoelectrons that land displaced
+    double halo_gap_um = 150.0;   // cathode–MCP gap d; elastic backscatter lands within 2d
+    double halo_radius_um = 0.0;  // ring radius at the cathode; 0: 2·gap
+    double haloRadius_um() const {
+        return halo_radius_um > 0.0 ? halo_radius_um : 2.0 * halo_gap_um;
+    }
+
+    // --- 5b. MCP local saturation: the charge a channel can give, recharged through its wall -
+    bool mcpsat_enabled = false;
+    double mcpsat_pixel_charge_e = 2.4e4;  // output electrons available per CCD-pixel area
+    double mcpsat_recharge_s = 0.01;       // recharge time constant τ
 
     // --- 6. Phosphor ----------------------------------------------------------------------
     bool phosphor_enabled = true;
@@ -81,6 +103,8 @@ struct CameraParams {
     double screen_voltage_V = 6000.0;        // Va, thesis §6.2
     double screen_dead_voltage_V = 1500.0;   // Vd, eq. 6.2
     double phosphor_photons_per_eV = 0.065;  // P, eq. 6.2
+    double phosphor_peak_nm = 545.0;         // emission peak (P20)
+    double phosphor_efficacy_lm_W = 500.0;   // luminous efficacy of the screen's emission
     double taper_transmission = 0.3;         // T_fot, eq. 6.2
     double ccd_window_transmission = 1.0;    // T_CCD, eq. 6.2
     double ccd_qe = 0.35;                    // QE_CCD at the P20 peak, eq. 6.2
@@ -121,6 +145,10 @@ struct CameraParams {
 
     // Derived
     double fieldPeriod_s() const { return 1.0 / field_rate_Hz; }
+    // Field scan: the parity of the rows field k reads out (0: even rows).
+    int fieldRowParity(std::uint64_t field) const {
+        return static_cast<int>(field & 1u) ^ (topFieldFirst ? 0 : 1);
+    }
     // The time one output image integrates: a field, or a frame (two fields).
     double integrationPeriod_s() const {
         return scan == ScanMode::Field ? fieldPeriod_s() : 2.0 * fieldPeriod_s();
@@ -134,6 +162,18 @@ struct CameraParams {
     double controlVoltageForGain(double gain) const;
     // CCD electrons per MCP output electron, eq. 6.2/6.3.
     double ccdElectronsPerMcpElectron() const;
+    // Luminous flux out of the screen per watt of electron beam reaching it [lm/W]:
+    // P·(hc/λ_peak)/e photons' energy per eV of beam, times the emission's efficacy.
+    double screenLumensPerBeamWatt() const;
+    // Luminous gain of the tube at a control voltage [fL/fc = lm out per lm in]: cathode
+    // sensitivity · MCP gain · (Va − Vd) · screen lm/W (2856 K input, as tubes are specified).
+    double luminousGain_fL_fc(double gainControl_V) const;
+    // Mean output [DC above the offset] per photoelectron at a control voltage: the MCP gain,
+    // screen, fibre and CCD conversion and the video gain (photon transfer's K; the MCP's
+    // excess noise factor F = mcp_noise_factor comes on top for the variance).
+    double dcPerPhotoelectron(double gainControl_V) const {
+        return mcpGain(gainControl_V) * ccdElectronsPerMcpElectron() * video_gain_dc_per_e;
+    }
     // Photoelectrons per second per pixel per unit Lpe [pe s⁻¹ m⁻² sr⁻¹] on axis (step 1).
     double peRatePerLpe_on_axis() const;
 };
@@ -159,6 +199,11 @@ Overrides parseOverrides(const std::vector<std::string>& args);
 
 // Input unit conversion for band-integrated radiance images (DESIGN §3, §7).
 // Lpe = Lband · ∫ s(λ) QE(λ) λ/(hc) dλ / ∫ s(λ) β(λ) dλ, with s the source spectrum shape,
+// Luminous sensitivity [µA/lm, 2856 K] of the camera's photocathode for a peak QE of 1: the
+// factor between the datasheet's sensitivity and qe_peak (V(λ) from configDir/spectra).
+double luminousSensitivityPerQe_uA_lm(const CameraParams& cam,
+                                      const std::filesystem::path& configDir);
+
 // QE = qe_peak·β (the relative response of the camera), β the same response used to
 // integrate the band radiance. Spectrum spec: flat | blackbody:T | moon | night_sky (the last
 // two from <configDir>/spectra).

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <filesystem>
 
+#include "sim/core/input_file.h"
 #include "sim/core/rng.h"
 #include "sim/core/units.h"
 #include "sim/sensor/mtf.h"
@@ -13,8 +14,6 @@
 namespace nvs::sensor {
 
 namespace {
-
-constexpr double kElectronCharge_C = 1.602176634e-19;
 
 // Photometric → photoelectron rate: lm/m² × A/lm ÷ e.
 double ebiRatePerPixel_pe_s(const CameraParams& c) {
@@ -379,6 +378,88 @@ void PhotocathodeStage::applyRow(const float* rate, float* pe, int w, int y) noe
 
 // ---- 4. BSP ---------------------------------------------------------------------------------
 
+// ---- 3b. Halo ------------------------------------------------------------------------------
+
+HaloStage::HaloStage(const CameraParams& c)
+    : enabled_(c.halo_enabled && c.halo_fraction > 0.0), w_(c.width), h_(c.height) {
+    if (!enabled_) return;
+    fraction_ = static_cast<float>(c.halo_fraction);
+    cw_ = (w_ + kBlock - 1) / kBlock;
+    ch_ = (h_ + kBlock - 1) / kBlock;
+    // Cell size at the cathode [µm] (the CCD pitch seen through the taper).
+    const double cx_um = kBlock * c.pitch_x_um * c.taper_magnification;
+    const double cy_um = kBlock * c.pitch_y_um * c.taper_magnification;
+    const double r_um = c.haloRadius_um();
+    kr_ = static_cast<int>(std::ceil(r_um / std::min(cx_um, cy_um)));
+    const int n = 2 * kr_ + 1;
+    kernel_.assign(static_cast<std::size_t>(n) * n, 0.0f);
+    // Each cell's weight: the ring density integrated over the cell, 8×8 samples a cell; the
+    // density's integrable rim singularity is held at r/R ≤ 0.999.
+    constexpr int kSub = 8;
+    double total = 0.0;
+    std::vector<double> wsum(kernel_.size(), 0.0);
+    for (int j = -kr_; j <= kr_; ++j)
+        for (int i = -kr_; i <= kr_; ++i) {
+            double acc = 0.0;
+            for (int b = 0; b < kSub; ++b)
+                for (int a = 0; a < kSub; ++a) {
+                    const double x = (i + (a + 0.5) / kSub - 0.5) * cx_um;
+                    const double y = (j + (b + 0.5) / kSub - 0.5) * cy_um;
+                    const double u = std::hypot(x, y) / r_um;
+                    if (u >= 1.0) continue;
+                    // p(r) dr ∝ dr/√(1 − u²); per area: divide by 2πr.
+                    acc += 1.0 / (std::sqrt(1.0 - std::min(u, 0.999) * std::min(u, 0.999)) *
+                                  std::max(u, 0.5 / kSub));
+                }
+            wsum[static_cast<std::size_t>((j + kr_) * n + (i + kr_))] = acc;
+            total += acc;
+        }
+    for (std::size_t k = 0; k < kernel_.size(); ++k)
+        kernel_[k] = static_cast<float>(wsum[k] / total);
+    cells_ = ImageF(cw_, ch_);
+    spread_ = ImageF(cw_, ch_);
+}
+
+void HaloStage::apply(ImageView<float> rate) noexcept {
+    if (!enabled_) return;
+    // 1. Sum the rate over each cell.
+    cells_.fill(0.0f);
+    for (int y = 0; y < h_; ++y) {
+        const float* r = rate.row(y);
+        float* c = cells_.row(y / kBlock);
+        for (int x = 0; x < w_; ++x)
+            c[x / kBlock] += r[x];
+    }
+    // 2. Spread each cell over the disk (cells off the image are lost: the halo's share of
+    // light near the border leaves the frame, as on the tube).
+    const int n = 2 * kr_ + 1;
+    for (int cy = 0; cy < ch_; ++cy) {
+        float* out = spread_.row(cy);
+        for (int cx = 0; cx < cw_; ++cx) {
+            float acc = 0.0f;
+            for (int j = -kr_; j <= kr_; ++j) {
+                const int sy = cy + j;
+                if (sy < 0 || sy >= ch_) continue;
+                const float* src = cells_.row(sy);
+                const float* k = kernel_.data() + static_cast<std::size_t>((kr_ - j) * n + kr_);
+                const int i0 = std::max(-kr_, -cx), i1 = std::min(kr_, cw_ - 1 - cx);
+                for (int i = i0; i <= i1; ++i)
+                    acc += src[cx + i] * k[-i];
+            }
+            out[cx] = acc;
+        }
+    }
+    // 3. Back onto the pixels: a cell's halo share evenly over its pixels.
+    const float keep = 1.0f - fraction_;
+    const float share = fraction_ / static_cast<float>(kBlock * kBlock);
+    for (int y = 0; y < h_; ++y) {
+        float* r = rate.row(y);
+        const float* s = spread_.row(y / kBlock);
+        for (int x = 0; x < w_; ++x)
+            r[x] = keep * r[x] + share * s[x / kBlock];
+    }
+}
+
 BspStage::BspStage(const CameraParams& c)
     : enabled_(c.agc == AgcMode::Bsp), knee_A_(c.bsp_knee_A), exponent_(c.bsp_exponent) {}
 
@@ -521,15 +602,52 @@ double McpStage::applyRow(float* __restrict v, int w, int y) noexcept {
     return rowSumOf(e, m);
 }
 
+// ---- 5b. MCP local saturation ----------------------------------------------------------------
+
+McpSaturationStage::McpSaturationStage(const CameraParams& c)
+    : enabled_(c.mcpsat_enabled), tau_s_(c.mcpsat_recharge_s) {
+    if (!enabled_) return;
+    qMax_ = static_cast<float>(c.mcpsat_pixel_charge_e);
+    q_ = ImageF(c.width, c.height);
+    reset();
+}
+
+void McpSaturationStage::reset() noexcept {
+    if (!q_.empty()) q_.fill(qMax_);
+}
+
+void McpSaturationStage::begin(const FieldContext& ctx) noexcept {
+    if (!enabled_) return;
+    keep_ = static_cast<float>(std::exp(-ctx.period_s / tau_s_));
+}
+
+double McpSaturationStage::applyRow(float* __restrict e, int w, int y) noexcept {
+    float* __restrict q = q_.row(y);
+    const float qMax = qMax_, keep = keep_;
+    double sum = 0.0;
+    for (int x = 0; x < w; ++x) {
+        const float d = e[x];
+        const float avail = q[x];
+        // Q·(1 − e^(−D/Q)); below D/Q = 1e-3 that is D to 5e-4 relative: no exp.
+        const float u = avail > 0.0f ? d / avail : 1e30f;
+        const float out = u < 1e-3f ? d : avail * -std::expm1(-u);
+        e[x] = out;
+        sum += static_cast<double>(out);
+        q[x] = qMax - (qMax - avail + out) * keep;
+    }
+    return sum;
+}
+
 // ---- 6. Phosphor ----------------------------------------------------------------------------
 
 double PhosphorStage::inPeriodFraction(double tau_s, double gate_s, double period_s) {
     // An impulse at t0 is emitted as exp(−(t − t0)/τ)/τ; by the period's end T it has given
     // 1 − exp(−(T − t0)/τ). Averaged over t0 uniform in [0, g]:
-    //   f = 1 − exp(−T/τ)·(exp(g/τ) − 1)/(g/τ).
+    //   f = 1 − exp(−T/τ)·(exp(g/τ) − 1)/(g/τ) = 1 − exp(−(T − g)/τ)·(1 − exp(−g/τ))/(g/τ),
+    // the second form finite for τ ≪ g (the first is 0·∞ there).
     const double x = gate_s / tau_s;
-    const double ratio = x < 1e-12 ? 1.0 : std::expm1(x) / x;
-    const double tail = std::exp(-period_s / tau_s) * ratio;
+    const double ratio = x < 1e-12 ? 1.0 : -std::expm1(-x) / x;
+    const double tail = std::exp(-(period_s - (x < 1e-12 ? 0.0 : gate_s)) / tau_s) * ratio;
     return std::clamp(1.0 - tail, 0.0, 1.0);
 }
 
@@ -676,7 +794,7 @@ namespace {
 // replaced one. Not thread-safe, like FFTW's planner itself: chains are made on one thread.
 void importShippedWisdom(const std::filesystem::path& configDir) {
     const std::filesystem::path file = configDir / "fftw" / "wisdom-single.txt";
-    if (std::filesystem::exists(file)) fftwf_import_wisdom_from_filename(file.c_str());
+    if (pathExists(file)) fftwf_import_wisdom_from_filename(file.c_str());
 }
 }  // namespace
 
@@ -947,7 +1065,7 @@ void CcdStage::begin(const FieldContext& ctx) noexcept {
     const double darkVar = static_cast<double>(dark_e_);
     sigma_e_ = static_cast<float>(std::sqrt(noiseSigma_e_ * noiseSigma_e_ + darkVar));
     // Read noise belongs to the rows read out: in field mode only this field's lines.
-    readY0_ = c.scan == ScanMode::Field ? static_cast<int>(ctx.field & 1u) : 0;
+    readY0_ = c.scan == ScanMode::Field ? c.fieldRowParity(ctx.field) : 0;
     readDy_ = c.scan == ScanMode::Field ? 2 : 1;
     const int w = c.width;
     std::fill(colMax_.get(), colMax_.get() + w, 0.0f);
@@ -1101,7 +1219,7 @@ double VideoStage::apply(ImageView<const float> e, std::uint64_t field, ImageVie
 }
 
 bool VideoStage::readsRow(std::uint64_t field, int y) const noexcept {
-    return cam_->scan != ScanMode::Field || (y & 1) == static_cast<int>(field & 1u);
+    return cam_->scan != ScanMode::Field || (y & 1) == cam_->fieldRowParity(field);
 }
 
 std::int64_t VideoStage::applyRow(const float* s, float* o, std::uint16_t* v,
@@ -1141,11 +1259,15 @@ AgcLoop::AgcLoop(const CameraParams& c) : cam_(&c) {
 }
 
 void AgcLoop::reset() noexcept {
+    start(cam_->gain_V);
+}
+
+void AgcLoop::start(double gain_V) noexcept {
     for (int i = 0; i < kRing; ++i) {
-        gainRing_[i] = cam_->gain_V;
+        gainRing_[i] = gain_V;
         gateRing_[i] = 1.0;
     }
-    gainCmd_V_ = cam_->gain_V;
+    gainCmd_V_ = gain_V;
     gateCmd_ = 1.0;
 }
 
@@ -1214,8 +1336,10 @@ IiccdChain::IiccdChain(const CameraParams& cam, std::uint64_t seed,
       optics_(cam_),
       gate_(cam_),
       cathode_(cam_, seed),
+      halo_(cam_),
       bsp_(cam_),
       mcp_(cam_, seed, gammaTables),
+      mcpSat_(cam_),
       phosphor_(cam_),
       blur_(cam_, opt, configDir),
       ccd_(cam_, seed),
@@ -1259,6 +1383,13 @@ IiccdChain::Controls IiccdChain::controlsFor(const CameraCommand& cmd, double pe
         const bool gainLoop = cmd.agc && (m == AgcMode::Agc || m == AgcMode::Abc);
         autogate = m == AgcMode::Autogate && (cmd.agc || cmd.gateMode == 2);
         if (gainLoop) {
+            // Switched on now (or at the first field): the loop starts from the gain in
+            // effect — the last field's, or at the first field the commanded one.
+            if (!autoRunning_) {
+                agcAuto_.start(field_ == 0 ? std::clamp(cmd.gain_V, camAuto_.agc_min_gain_V,
+                                                        camAuto_.agc_max_gain_V)
+                                           : lastGain_V_);
+            }
             c.gain_V = agcAuto_.gain_V(field_);
         } else if (cmd.agc) {
             c.gain_V = cam_.gain_V;  // bsp / autogate: the tube gain stays at the preset's
@@ -1266,6 +1397,8 @@ IiccdChain::Controls IiccdChain::controlsFor(const CameraCommand& cmd, double pe
             c.gain_V = std::clamp(cmd.gain_V, 0.0, cam_.agc_max_gain_V);
         }
         if (gainLoop || autogate) c.loop = &agcAuto_;
+        autoRunning_ = gainLoop;
+        lastGain_V_ = c.gain_V;
     }
     // 2. gate
     if (autogate) {
@@ -1311,11 +1444,13 @@ void IiccdChain::run(ImageView<const float> lpe, FieldContext& ctx) noexcept {
     const int w = cam_.width;
     const int h = cam_.height;
     // 1. optics: the whole image first only where the gain depends on it (BSP: the cathode
-    // current); otherwise row by row below. Both give the same sums in the same order.
-    const bool opticsFirst = bsp_.enabled();
+    // current) or the halo spreads it; otherwise row by row below. Both give the same sums in
+    // the same order.
+    const bool opticsFirst = bsp_.enabled() || halo_.enabled();
     double opticsTotal = 0.0;
     if (opticsFirst) {
         info_.bad_input_px = optics_.apply(lpe, rate_.view(), ctx);
+        halo_.apply(rate_.view());  // 3b: a share of the photoelectrons lands on the halo disk
         cathode_.begin(ctx, w, h);
     }
     // 4. bright-source protection (the gain for this field), 5. MCP gain
@@ -1327,6 +1462,7 @@ void IiccdChain::run(ImageView<const float> lpe, FieldContext& ctx) noexcept {
     FieldContext rowCtx = ctx;  // photocathode constants for the row-by-row case
     if (!opticsFirst) cathode_.begin(rowCtx, w, h);
     mcp_.begin(ctx);
+    mcpSat_.begin(ctx);
     phosphor_.begin(ctx);
     // 1, 3, 5, 6 row by row: optics → photocathode → MCP → phosphor, written straight into
     // the blur's FFT input (or the signal image when the MTF is off).
@@ -1343,7 +1479,10 @@ void IiccdChain::run(ImageView<const float> lpe, FieldContext& ctx) noexcept {
             r = rate;
         }
         cathode_.applyRow(r, sig, w, y);
-        if (mcp_.enabled()) mcpTotal += mcp_.applyRow(sig, w, y);
+        if (mcp_.enabled()) {
+            const double rowOut = mcp_.applyRow(sig, w, y);
+            mcpTotal += mcpSat_.enabled() ? mcpSat_.applyRow(sig, w, y) : rowOut;
+        }
         float* dst = blur_.enabled() ? blur_.inputRow(y) : sig_.row(y);
         if (phosphor_.enabled())
             phosphor_.applyRow(sig, dst, w, y);

@@ -118,6 +118,34 @@ class PhotocathodeStage {
     std::unique_ptr<std::uint32_t[]> words_;  // one row of words
 };
 
+// ---- 3b. Halo ------------------------------------------------------------------------------
+// Photoelectrons that strike the MCP's web between channels scatter back elastically, with the
+// energy e·V the cathode–MCP field gave them, and the same field turns them round: launched at
+// θ from the normal they land r = 2d·sin 2θ away (d the gap), whatever V is. So a share f of the
+// photoelectrons land on a disk of radius R = 2d, densest at its rim (r = R·sin 2θ over
+// cosine-law launches: p(r) ∝ 1/√(1 − (r/R)²)). Applied to the expected photocathode rate
+// (displacing a Poisson process's points keeps it Poisson), on a grid of kBlock-pixel cells:
+// the disk spans tens of pixels and its sum is smooth at that scale.
+class HaloStage {
+  public:
+    static constexpr int kBlock = 4;
+    explicit HaloStage(const CameraParams& cam);
+    bool enabled() const { return enabled_; }
+    // rate ← (1 − f)·rate + f·(rate ⊛ disk), in place; conserves the total.
+    void apply(ImageView<float> rate) noexcept;
+    // The kernel on the cell grid (odd size, sums to 1), for tests.
+    const std::vector<float>& kernel() const { return kernel_; }
+    int kernelRadiusCells() const { return kr_; }
+
+  private:
+    bool enabled_;
+    float fraction_ = 0.0f;
+    int w_ = 0, h_ = 0, cw_ = 0, ch_ = 0, kr_ = 0;
+    std::vector<float> kernel_;  // (2kr+1)² weights
+    ImageF cells_;               // rate summed over each cell
+    ImageF spread_;              // cells convolved with the disk, per pixel of a cell
+};
+
 // ---- 4. Bright-source protection ------------------------------------------------------------
 class BspStage {
   public:
@@ -164,6 +192,32 @@ class McpStage {
     std::unique_ptr<std::uint32_t[]> heads_;   // their stream heads (or listed row blocks)
     std::unique_ptr<float[]> z_;               // normals of their first head words
     std::unique_ptr<double[]> g_;              // their first Marsaglia–Tsang attempts
+};
+
+// ---- 5b. MCP local saturation ----------------------------------------------------------------
+// A channel gives its charge from the wall and recharges through the plate's resistance: the
+// electrons an area can put out in a field are bounded by the charge it holds, Q ≤ Q_max
+// (pixel_charge_e per CCD pixel area), and what it gave returns with the time constant τ. Per
+// pixel: asked for D electrons (the MCP's linear output), it gives Q·(1 − e^(−D/Q)) — D when
+// D ≪ Q, Q at most — and then holds Q_max − (Q_max − Q + out)·e^(−T/τ) for the next field. So a
+// lamp saturates a disk of the size of its image (its halo included), and the depletion it
+// leaves fades over τ, across fields.
+class McpSaturationStage {
+  public:
+    explicit McpSaturationStage(const CameraParams& cam);
+    bool enabled() const { return enabled_; }
+    void begin(const FieldContext& ctx) noexcept;  // this period's recharge factor
+    // Row y of MCP output electrons, in place; returns the row's sum after saturation.
+    double applyRow(float* e, int w, int y) noexcept;
+    void reset() noexcept;
+    const ImageF& charge() const { return q_; }  // available charge per pixel [e]
+
+  private:
+    bool enabled_;
+    double tau_s_;
+    float qMax_ = 0.0f;
+    float keep_ = 0.0f;  // e^(−T/τ)
+    ImageF q_;
 };
 
 // ---- 6. Phosphor ----------------------------------------------------------------------------
@@ -310,6 +364,8 @@ class AgcLoop {
     // After field k: measure and command field k + lag.
     void update(const FieldContext& ctx, double level_dc) noexcept;
     void reset() noexcept;
+    // Starts the loop from a tube gain (the one in effect when it is switched on).
+    void start(double gain_V) noexcept;
 
   private:
     static constexpr int kRing = 8;
@@ -394,13 +450,19 @@ class IiccdChain {
 
     CameraParams cam_;
     CameraParams camAuto_;  // cam_ with its automatic loop switched on (ControlSource::Command)
+    // Command: the gain applied to the last field, and whether agcAuto_ ran for it (a loop
+    // switched on starts from the gain in effect, not from the preset's).
+    double lastGain_V_ = 0.0;
+    bool autoRunning_ = false;
     ControlSource source_;
     std::uint64_t field_ = 0;
     OpticsStage optics_;
     GateStage gate_;
     PhotocathodeStage cathode_;
+    HaloStage halo_;
     BspStage bsp_;
     McpStage mcp_;
+    McpSaturationStage mcpSat_;
     PhosphorStage phosphor_;
     BlurStage blur_;
     CcdStage ccd_;

@@ -6,6 +6,7 @@
 
 #include <filesystem>
 #include <string>
+#include <string_view>
 
 #include "sim/core/image.h"
 
@@ -17,8 +18,23 @@ struct RadianceFile {
     std::string spectrum;  // likewise
 };
 
-// Reads .exr (channel Y, else R, else the first) or .pfm (Pf grey, or PF colour → channel 0).
-RadianceFile readRadiance(const std::filesystem::path& path);
+// What an image input may be (docs/reliability-inputs.md): its header's size is checked
+// against these before any pixel memory is allocated, and against the bytes the file holds.
+struct ImageLimits {
+    int maxWidth = 16384;
+    int maxHeight = 16384;
+    // When > 0: the size the image must have (the camera's), checked from the header.
+    int width = 0;
+    int height = 0;
+};
+
+// Reads .exr (channel Y, else R, else the first) or .pfm (Pf grey, or PF colour → channel 0)
+// from a regular file of at most 1 GiB (sim/core/input_file.h).
+RadianceFile readRadiance(const std::filesystem::path& path, const ImageLimits& limits = {});
+// The same from bytes in memory; `name` names the input in errors (fuzz targets, tests).
+ImageF parsePfm(std::string_view bytes, const std::string& name, const ImageLimits& limits);
+RadianceFile parseExr(std::string_view bytes, const std::string& name, const ImageLimits& limits);
+ImageU16 parsePgm(std::string_view bytes, const std::string& name, const ImageLimits& limits);
 // Writes a float image as single-channel EXR (channel Y, float), with nvstim header strings.
 void writeExr(const std::filesystem::path& path, ImageView<const float> img,
               const std::string& unit, const std::string& spectrum);
@@ -27,9 +43,10 @@ void writePfm(const std::filesystem::path& path, ImageView<const float> img);
 void writePgm(const std::filesystem::path& path, ImageView<const std::uint16_t> img, int maxValue);
 void writePng(const std::filesystem::path& path, ImageView<const std::uint16_t> img, int maxValue);
 // Reads a P5 PGM (8 or 16 bit) into uint16.
-ImageU16 readPgm(const std::filesystem::path& path);
+ImageU16 readPgm(const std::filesystem::path& path, const ImageLimits& limits = {});
 
-// Expands "{frame:06d}" (or "{frame}") in a pattern; a name without a field is returned as is.
+// Expands "{frame:06d}" (or "{frame}"; widths up to 20) in a pattern; a name without a
+// well-formed field is returned as is.
 std::string expandFramePattern(const std::string& pattern, long long frame);
 bool hasFramePattern(const std::string& pattern);
 

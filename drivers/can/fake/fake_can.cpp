@@ -1,11 +1,18 @@
 #include "drivers/can/fake/fake_can.h"
 
 #include <cerrno>
+#include <chrono>
+#include <thread>
 
 namespace nvs::drivers {
 
 int FakeCanBus::open(const std::string& /*iface*/, bool /*fd*/,
                      const std::vector<CanFilter>& filters) {
+    ++opens;
+    if (openError != 0) {
+        state_ = CanBusState::Failed;
+        return -openError;
+    }
     filters_ = filters;
     state_ = CanBusState::Open;
     return 0;
@@ -33,6 +40,13 @@ int FakeCanBus::read(CanFrame* frame, double* rxRealtime_s) noexcept {
         ++counters_.frames;
         return 1;
     }
+    return 0;
+}
+
+int FakeCanBus::waitReadable(int timeout_ms) noexcept {
+    if (state_ != CanBusState::Open) return -EBADF;
+    if (!queue_.empty()) return 1;
+    std::this_thread::sleep_for(std::chrono::milliseconds(timeout_ms));
     return 0;
 }
 

@@ -16,6 +16,8 @@ class FakeCanBus final : public CanBus {
     int open(const std::string& iface, bool fd, const std::vector<CanFilter>& filters) override;
     void close() noexcept override { state_ = CanBusState::Closed; }
     int read(CanFrame* frame, double* rxRealtime_s) noexcept override;
+    // Pending frames: 1 at once. None: sleeps for the timeout (as poll(2) would) and says 0.
+    int waitReadable(int timeout_ms) noexcept override;
     int write(const CanFrame& frame) noexcept override;
     CanBusState state() const noexcept override { return state_; }
     const CanBusCounters& counters() const noexcept override { return counters_; }
@@ -26,6 +28,8 @@ class FakeCanBus final : public CanBus {
     // A read that fails with -err (e.g. ENETDOWN: the interface went away).
     void pushError(int err) { queue_.push_back({CanFrame{}, 0.0, err}); }
     std::vector<CanFrame> written;
+    int openError = 0;  // open() fails with -openError while set (the interface is still down)
+    int opens = 0;
 
   private:
     struct Item {

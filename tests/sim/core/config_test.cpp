@@ -131,7 +131,7 @@ TEST(Config, CompleteFileFinishesCleanly) {
 
 TEST(Config, MissingFileNamesThePath) {
     EXPECT_EQ(errorOf([] { ConfigDocument::parseFile("/nonexistent/x.toml"); }),
-              "/nonexistent/x.toml: cannot open configuration file");
+              "/nonexistent/x.toml: cannot open configuration file: No such file or directory");
 }
 
 TEST(Config, EditDistance) {

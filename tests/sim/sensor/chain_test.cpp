@@ -76,7 +76,9 @@ SfrResult measureSfr(const CameraParams& cam) {
 TEST(Mtf, SlantedEdgeEqualsConfiguredProductUpToNyquist) {
     // The physical presets. (eq. 7.7's n = 0.8 has a PSF too heavy-tailed for a 320 px ROI.)
     for (const char* name : {"pulnix-ag5745ef3", "gen2-s25-p20"}) {
-        const CameraParams cam = preset(name, noiseFree());
+        Overrides ov = noiseFree();
+        ov["video.noise_dc"] = "0";
+        const CameraParams cam = preset(name, ov);
         const SfrResult r = measureSfr(cam);
         const double c = std::cos(r.edgeAngle_rad), s = std::sin(r.edgeAngle_rad);
         double worst = 0.0;
@@ -97,7 +99,7 @@ TEST(Mtf, SlantedEdgeEqualsConfiguredProductUpToNyquist) {
 }
 
 TEST(Mtf, ReproducesThesisTable18_2) {
-    const CameraParams cam = preset("pulnix-ag5745ef3", noiseFree());
+    const CameraParams cam = test::calibrationTube(noiseFree());
     const SfrResult r = measureSfr(cam);
     CsvTable t = CsvTable::load(test::thesisData("table18-2_electronic_mtf.csv"));
     const std::size_t cf = t.column("image_frequency_cyc_per_mm"), cm = t.column("mtf_rel");
@@ -142,10 +144,10 @@ TEST(Calibration, Table18_6GainAndBias) {
         const double v = t.number(i, t.column("camera_gain_V"));
         if (v < 5.4) continue;  // the 5.0 V row is the thesis's estimate, not a measurement
         // 16-bit ADC so the mean is not clipped by the 8-bit range (docs/sensor.md).
-        const CameraParams cam = preset("pulnix-ag5745ef3", {{"gain_V", std::to_string(v)},
-                                                             {"f_number", "11"},
-                                                             {"optics.cos4", "false"},
-                                                             {"video.adc_bits", "16"}});
+        const CameraParams cam = test::calibrationTube({{"gain_V", std::to_string(v)},
+                                                        {"f_number", "11"},
+                                                        {"optics.cos4", "false"},
+                                                        {"video.adc_bits", "16"}});
         const double L1 = 2e-6, L2 = 8e-6;
         const double c0 = meanCounts(cam, 0.0), c1 = meanCounts(cam, L1), c2 = meanCounts(cam, L2);
         const double gain = (c2 - c1) / (L2 - L1);
@@ -161,10 +163,10 @@ TEST(Calibration, Table18_6GainAndBias) {
 
 TEST(Calibration, Table18_5PointsWithinScatter) {
     CsvTable t = CsvTable::load(test::thesisData("table18-5_radiometric_calibration_gain5p5V.csv"));
-    const CameraParams cam = preset("pulnix-ag5745ef3", {{"gain_V", "5.5"},
-                                                         {"f_number", "11"},
-                                                         {"optics.cos4", "false"},
-                                                         {"video.adc_bits", "16"}});
+    const CameraParams cam = test::calibrationTube({{"gain_V", "5.5"},
+                                                    {"f_number", "11"},
+                                                    {"optics.cos4", "false"},
+                                                    {"video.adc_bits", "16"}});
     // Scatter: frames at one filter setting differ by up to 25 DC (frames 17-20), and the
     // thesis's own calibration line (4e6, 29.8) misses frames 15-16 by 13 % and frame 17 by
     // 14 %. Each point within 25 %, the rms within 8 DC.
@@ -187,7 +189,7 @@ TEST(Temporal, PhosphorDecayAcrossFields) {
     ov["width"] = "64";
     ov["height"] = "48";
     ov["mtf.enabled"] = "false";
-    const CameraParams cam = preset("pulnix-ag5745ef3", ov);
+    const CameraParams cam = test::calibrationTube(ov);
     IiccdChain chain(cam, 1, test::configDir(), test::gammaTables());
     const ImageF on = test::uniform(64, 48, 1e11f), off = test::uniform(64, 48, 0.0f);
     std::vector<double> out;
@@ -242,7 +244,7 @@ LampRun lampRun(const Overrides& extra) {
     ov["phosphor.enabled"] = "false";
     for (const auto& [k, v] : extra)
         ov[k] = v;
-    const CameraParams cam = preset("pulnix-ag5745ef3", ov);
+    const CameraParams cam = test::calibrationTube(ov);
     IiccdChain chain(cam, 1, test::configDir(), test::gammaTables());
     ImageF scene = test::uniform(128, 96, 3e12f);
     ImageF lamp = scene;
@@ -306,7 +308,7 @@ TEST(Temporal, AbcBspAndAutogate) {
 // Optics: the camera equation's off-axis fall-off cos⁴θ, cos θ = f/√(f² + r²) with r the
 // distance from the axis on the cathode, computed here in double; bad pixels count and give 0.
 TEST(Optics, Cos4FalloffEqualsTheCameraEquation) {
-    const CameraParams cam = preset("pulnix-ag5745ef3", {});
+    const CameraParams cam = test::calibrationTube();
     OpticsStage optics(cam);
     ImageF in = test::uniform(cam.width, cam.height, 1e10f);
     in(3, 4) = std::nanf("");
@@ -359,7 +361,7 @@ TEST(Ccd, BloomingConservesChargeAndStreaks) {
 // Vertical blooming in the chain (all columns swept together, row by row) equals
 // bloomLine applied column by column, and conserves charge.
 TEST(Ccd, VerticalBloomingOfTheImageEqualsBloomLinePerColumn) {
-    CameraParams cam = preset("pulnix-ag5745ef3", {{"width", "40"}, {"height", "30"}});
+    CameraParams cam = test::calibrationTube({{"width", "40"}, {"height", "30"}});
     cam.read_noise_e = 0.0;
     cam.full_well_e = 100.0;
     CcdStage ccd(cam, 1);
@@ -393,7 +395,7 @@ TEST(Ccd, VerticalBloomingOfTheImageEqualsBloomLinePerColumn) {
 // 1e-4 DC of a rounding boundary may go either way: float signal).
 TEST(Video, GammaTableEqualsTheFormula) {
     for (double gamma : {0.8, 0.45, 1.6}) {
-        CameraParams cam = preset("pulnix-ag5745ef3", {{"width", "1000"}, {"height", "2"}});
+        CameraParams cam = test::calibrationTube({{"width", "1000"}, {"height", "2"}});
         cam.gamma = gamma;
         cam.scan = ScanMode::Frame;
         VideoStage video(cam);
@@ -426,7 +428,7 @@ TEST(Video, GammaTableEqualsTheFormula) {
 }
 
 TEST(BadInput, ClearErrors) {
-    EXPECT_THROW(preset("pulnix-ag5745ef3", {{"mcp.bogus", "1"}}), SetupError);
+    EXPECT_THROW(test::calibrationTube({{"mcp.bogus", "1"}}), SetupError);
     try {
         (void)parseCamera(test::configDir(), "width = 64\nheight = 48\nf_numbr = 2\n", "cam.toml");
         FAIL();
@@ -434,7 +436,7 @@ TEST(BadInput, ClearErrors) {
         EXPECT_NE(std::string(e.what()).find("cam.toml:3"), std::string::npos) << e.what();
         EXPECT_NE(std::string(e.what()).find("f_number"), std::string::npos) << e.what();
     }
-    CameraParams cam = preset("pulnix-ag5745ef3", {{"width", "32"}, {"height", "16"}});
+    CameraParams cam = test::calibrationTube({{"width", "32"}, {"height", "16"}});
     IiccdChain chain(cam, 1, test::configDir(), test::gammaTables());
     ImageF wrong(31, 16);
     EXPECT_TRUE(chain.process(wrong.cview()).size_mismatch);
@@ -443,7 +445,7 @@ TEST(BadInput, ClearErrors) {
     bad(5, 6) = -1.0f;
     EXPECT_EQ(IiccdChain::countBadPixels(bad.cview()), 2);
     EXPECT_EQ(chain.process(bad.cview()).bad_input_px, 2);
-    EXPECT_THROW(preset("pulnix-ag5745ef3", {{"agc", "sometimes"}}), SetupError);
+    EXPECT_THROW(test::calibrationTube({{"agc", "sometimes"}}), SetupError);
 }
 
 }  // namespace

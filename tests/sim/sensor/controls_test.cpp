@@ -24,6 +24,9 @@ CameraParams linearCamera() {
                                              {"mtf.enabled", "false"},
                                              {"optics.cos4", "false"},
                                              {"ccd.read_noise_e", "0"},
+                                             {"video.noise_dc", "0"},
+                                             {"halo.enabled", "false"},
+                                             {"mcp_saturation.enabled", "false"},
                                              {"ccd.full_well_e", "0"},
                                              {"video.scan", "frame"}});
 }
@@ -118,6 +121,29 @@ TEST(CommandedControls, AgcSwitchSettlesTheVideoLevelAtTheTarget) {
         (void)chain.process(in.cview(), cmd, k / 59.94);
     EXPECT_NEAR(chain.lastInfo().level_dc, cam.agc_target_dc, 3.0);
     EXPECT_GT(chain.lastInfo().gain_V, firstGain);
+}
+
+// The loop starts from the configured state: at the first field the commanded gain, later the
+// gain in effect when the switch is turned on (not the preset's 6 V).
+TEST(CommandedControls, AgcStartsFromTheGainInEffect) {
+    CameraParams cam = linearCamera();
+    cam.field_rate_Hz = 59.94;
+    const ImageF in = uniformFor(cam, 40.0);
+    IiccdChain first(cam, 1, test::configDir(), test::gammaTables(), {}, ControlSource::Command);
+    CameraCommand cmd = manual(4.5);
+    cmd.agc = true;
+    EXPECT_DOUBLE_EQ(first.process(in.cview(), cmd, 0.0).gain_V, 4.5);
+
+    IiccdChain later(cam, 1, test::configDir(), test::gammaTables(), {}, ControlSource::Command);
+    for (int k = 0; k < 5; ++k)
+        EXPECT_DOUBLE_EQ(later.process(in.cview(), manual(3.0), k / 59.94).gain_V, 3.0);
+    CameraCommand on = manual(7.0);  // the manual knob's setting no longer counts
+    on.agc = true;
+    EXPECT_DOUBLE_EQ(later.process(in.cview(), on, 5 / 59.94).gain_V, 3.0);
+    // … and the loop then moves it (the scene is dim at 3 V: up).
+    for (int k = 6; k < 40; ++k)
+        (void)later.process(in.cview(), on, k / 59.94);
+    EXPECT_GT(later.lastInfo().gain_V, 3.0);
 }
 
 TEST(CommandedControls, PresetSourceIgnoresCommands) {

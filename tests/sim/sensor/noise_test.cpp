@@ -20,16 +20,16 @@ using test::roiStats;
 // A chain whose electrons() are the MCP output of independent pixels: no blur, phosphor,
 // full well or fixed pattern, so photon transfer can be read per pixel.
 CameraParams transferCamera(double readNoise_e, double F) {
-    CameraParams c = preset("pulnix-ag5745ef3", {{"width", "256"},
-                                                 {"height", "128"},
-                                                 {"mtf.enabled", "false"},
-                                                 {"phosphor.enabled", "false"},
-                                                 {"ccd.full_well_e", "0"},
-                                                 {"optics.cos4", "false"},
-                                                 {"photocathode.ebi_lm_cm2", "0"},
-                                                 {"video.adc_bits", "16"},
-                                                 // every row read out each call
-                                                 {"video.scan", "frame"}});
+    CameraParams c = test::calibrationTube({{"width", "256"},
+                                            {"height", "128"},
+                                            {"mtf.enabled", "false"},
+                                            {"phosphor.enabled", "false"},
+                                            {"ccd.full_well_e", "0"},
+                                            {"optics.cos4", "false"},
+                                            {"photocathode.ebi_lm_cm2", "0"},
+                                            {"video.adc_bits", "16"},
+                                            // every row read out each call
+                                            {"video.scan", "frame"}});
     c.read_noise_e = readNoise_e;
     c.mcp_noise_factor = F;
     return c;
@@ -125,11 +125,11 @@ TEST(Section4_5, FixedPatternNoiseExplainsTheTwoFrameAverage) {
     const double mean = t.number(2, t.column("mean_DC"));
     auto run = [&](double prnu, double* sdSingle, double* sdAvg, double* m) {
         // Gain 4.17 V puts the temporal noise near the measured 13.7 DC at this level.
-        CameraParams c = preset("pulnix-ag5745ef3", {{"width", "192"},
-                                                     {"height", "128"},
-                                                     {"gain_V", "4.17"},
-                                                     {"video.scan", "frame"},
-                                                     {"optics.cos4", "false"}});
+        CameraParams c = test::calibrationTube({{"width", "192"},
+                                                {"height", "128"},
+                                                {"gain_V", "4.17"},
+                                                {"video.scan", "frame"},
+                                                {"optics.cos4", "false"}});
         c.prnu_rel = prnu;
         // Input radiance for a mean of 129.8 DC, from the noise-free response (linear).
         auto probe = [&](float lpe) {
@@ -184,7 +184,7 @@ TEST(Section4_5, FixedPatternNoiseExplainsTheTwoFrameAverage) {
 // Philox blocks), one where most draw the dense path (the whole row's words). Whole N inside
 // the quantile table, N past it (Marsaglia–Tsang from the pixel's stream) and a fractional N.
 TEST(McpStage, PixelDrawIsTheSameWhateverItsRowDraws) {
-    const CameraParams cam = preset("pulnix-ag5745ef3", {});
+    const CameraParams cam = test::calibrationTube();
     McpStage mcp(cam, 42, test::gammaTables());
     FieldContext ctx;
     ctx.field = 7;

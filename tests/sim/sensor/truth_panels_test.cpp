@@ -1,7 +1,7 @@
 // Thesis §9.2, Tables 9-3 … 9-7: the "nolight" truth-panel statistics (white panel, light grey
 // panel, asphalt, grass) of the SIG image after each of the thesis's processing stages,
 // reproduced by the `thesis-eq7.1` preset from the listed means; then the physical
-// `pulnix-ag5745ef3` preset's prediction for the same panels (docs/sensor.md discusses both).
+// `pulnix-ag5745ef3` preset on the truth panels (docs/sensor.md, docs/validation.md).
 //
 // Each panel is a uniform image whose radiance gives the table's stage-1 SIG mean through the
 // thesis's gain and bias: DC = G·L + B, G = 40e6 DC per W m⁻² sr⁻¹, B = 36, so
@@ -161,25 +161,30 @@ TEST(TruthPanels, ThesisEq71ReproducesTables9_3To9_7StageByStage) {
     }
 }
 
-// The physical camera on the same panels. The thesis's G = 40e6 came from its laboratory
-// calibration (Table 18-6 at 6 V, f/5.6: 2856 K sphere, radiance integrated over 480–940 nm),
-// so the panel radiances are converted to photoelectrons the same way. The PULNiX preset is
-// calibrated to Table 18-6, so its means must follow G·L + bias (within Table 18-6's ±12 % on
-// the gain, with its own bias at 6 V: 36.4 DC ± 1.5); its σ is what the physics predicts.
-TEST(TruthPanels, PulnixPresetOnTheSamePanels) {
+// The physical camera on the truth panels (Table 9-3's truth columns: the camera's own frames at
+// 6 V, single frames). Each panel is fed the uniform photoelectron input that gives its measured
+// mean; the preset's σ, with its gain anchored to Table 18-5's noise, must come within 30 % of the
+// measured σ. (The measured σ also holds the panels' texture and the digitiser: it bounds the
+// camera's own noise from above, so the model may be lower, not far higher.) The radiances
+// the thesis's G = 40e6 would assign to the panels are not used: that calibration implies ~5×
+// fewer photoelectrons per DC than the noise does (docs/validation.md, "Tube gain").
+TEST(TruthPanels, PulnixPresetNoiseOnTheTruthPanels) {
     const CsvTable t = CsvTable::load(test::thesisData("table9-3_to_9-7_roi_truth_vs_sig.csv"));
-    const std::vector<Row> stage1 = tableStage(t, "1_gain_bias");
-    const std::vector<Row> stage5 = tableStage(t, "5_plus_downsample");
-    const Spectrum box =
-        Spectrum::fromFunction([](double nm) { return nm >= 480.0 && nm <= 940.0 ? 1.0 : 0.0; });
-    // The camera as it is (8-bit ADC); its CCD full well (60000 e = 224 DC above the offset)
-    // caps the output at 251 DC before the ADC does.
-    const CameraParams cam = preset("pulnix-ag5745ef3", {{"optics.cos4", "false"}});
-    const double k = peRadiancePerBandRadiance(cam, planckRadiance_W_m2_sr_nm(2856.0), box);
-    for (std::size_t p = 0; p < stage1.size(); ++p) {
-        const double L = (stage1[p].sigMean - kThesisBias) / kThesisGain;
-        IiccdChain chain(cam, 200 + p, test::configDir(), test::gammaTables());
-        const ImageF in = test::uniform(cam.width, cam.height, static_cast<float>(L * k));
+    CameraParams cam = preset("pulnix-ag5745ef3", {{"optics.cos4", "false"}});
+    cam.gain_V = 6.0;  // Table 9-3's truth frames
+    const double k = cam.dcPerPhotoelectron(cam.gain_V);
+    const double t_s = cam.integrationPeriod_s();
+    std::size_t p = 0;
+    for (std::size_t r = 0; r < t.rowCount(); ++r) {
+        if (t.row(r)[t.column("stage")] != "1_gain_bias") continue;
+        const std::string region = t.row(r)[t.column("region")];
+        if (region == "TOTAL") continue;
+        const double truthMean = t.number(r, t.column("truth_mean_DC"));
+        const double truthSd = t.number(r, t.column("truth_stddev_DC"));
+        const double s = truthMean - cam.video_offset_dc;
+        const float lpe = static_cast<float>(s / k / (cam.peRatePerLpe_on_axis() * t_s));
+        IiccdChain chain(cam, 200 + p++, test::configDir(), test::gammaTables());
+        const ImageF in = test::uniform(cam.width, cam.height, lpe);
         double m = 0.0, v = 0.0, pe = 0.0;
         const int n = 8;
         for (int f = 0; f < 12 + n; ++f) {
@@ -190,16 +195,12 @@ TEST(TruthPanels, PulnixPresetOnTheSamePanels) {
             v += st.var / n;
             pe += info.mean_pe / n;
         }
-        std::printf(
-            "pulnix %-16s %.3f pe/px/field: mean %6.1f sd %5.1f | eq.7.1 %6.1f sd %5.1f "
-            "(Table 9-7)\n",
-            stage1[p].region.c_str(), pe, m, std::sqrt(v), stage5[p].sigMean, stage5[p].sigSd);
-        const double signal = stage1[p].sigMean - kThesisBias;
-        EXPECT_NEAR(m - 36.4, signal, 0.12 * signal + 1.5) << stage1[p].region;
-        // Photon-limited: σ² ≈ (DC per photoelectron)·(mean above bias)·Σh², far above
-        // eq. 7.1's (docs/sensor.md); at least 3× its σ on every panel.
-        EXPECT_GT(std::sqrt(v), 3.0 * stage5[p].sigSd) << stage1[p].region;
+        std::printf("pulnix %-16s %.2f pe/px/field: mean %6.1f sd %5.1f | truth %6.1f sd %5.1f\n",
+                    region.c_str(), pe, m, std::sqrt(v), truthMean, truthSd);
+        EXPECT_NEAR(m, truthMean, 0.03 * s + 1.0) << region;
+        EXPECT_NEAR(std::sqrt(v) / truthSd, 1.0, 0.30) << region;
     }
+    EXPECT_EQ(p, 4u);
 }
 
 }  // namespace

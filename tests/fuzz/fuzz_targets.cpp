@@ -1,0 +1,281 @@
+#include "tests/fuzz/fuzz_targets.h"
+
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <memory>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "drivers/can/can.h"
+#include "drivers/serial/fake/fake_serial.h"
+#include "drivers/serial/serial.h"
+#include "rt/compose/scenario.h"
+#include "rt/telemetry/sources.h"
+#include "rt/telemetry/track.h"
+#include "sim/core/csv.h"
+#include "sim/core/error.h"
+#include "sim/scene/scene.h"
+#include "sim/sensor/camera.h"
+#include "sim/sensor/image_io.h"
+
+namespace nvs::fuzz {
+
+namespace {
+
+// A property the parsers promise; broken, the process ends (a finding for libFuzzer, a crash
+// of the corpus test) after naming the property.
+void requireAt(bool ok, const char* what, int line) {
+    if (ok) return;
+    std::fprintf(stderr, "fuzz_targets.cpp:%d: property broken: %s\n", line, what);
+    std::abort();
+}
+#define require(cond) requireAt((cond), #cond, __LINE__)
+
+std::string text(const std::uint8_t* data, std::size_t size) {
+    return std::string(reinterpret_cast<const char*>(data), size);
+}
+
+const std::filesystem::path& configDir() {
+    static const std::filesystem::path dir = std::filesystem::path(NVS_SOURCE_DIR) / "config";
+    return dir;
+}
+
+// Runs f, letting the one expected exception go: a SetupError for bad input.
+template <typename F>
+int expectSetupError(F f) {
+    try {
+        f();
+    } catch (const SetupError&) {
+    }
+    return 0;
+}
+
+// The platform state handed on is finite: the telemetry boundary let nothing else through.
+void requireFinite(const msg::PlatformState& p) {
+    for (const double v : {p.lat_deg, p.lon_deg, p.alt_m, p.yaw_rad, p.pitch_rad, p.roll_rad,
+                           p.utc_unix_s, p.gain_V, p.gate_s}) {
+        require(std::isfinite(v));
+    }
+    require(p.lat_deg >= -90.0 && p.lat_deg <= 90.0);
+}
+
+// Serial bytes through the input the program uses (SerialInput over an in-memory port) and
+// the platform track, sampled after each chunk.
+void serialInput(const std::uint8_t* data, std::size_t size, rt::SerialInput::Proto proto) {
+    auto port = std::make_unique<drivers::FakeSerialPort>();
+    drivers::FakeSerialPort* fake = port.get();
+    msg::PlatformState initial;
+    rt::TelemetryPlatform platform(
+        std::make_unique<rt::SerialInput>(std::move(port), "fuzz", 115200, proto), initial, 0.5,
+        0.1, false);
+    msg::PlatformState out;
+    double t_s = 0.0;
+    for (std::size_t at = 0; at < size; at += 64, t_s += 0.01) {
+        fake->pushBytes(data + at, std::min<std::size_t>(64, size - at));
+        platform.sample(t_s, t_s, out);
+        requireFinite(out);
+    }
+}
+
+// Serial bytes as the target sees them: the input itself (first byte even), or (first byte
+// odd) the rest re-framed with correct checksums, so that the fuzzer reaches what lies behind
+// a CRC or an XOR it cannot guess. NMEA: each line a sentence body, "*hh\r\n" appended.
+// MAVLink: records [flags][length][payload…], flags choosing v1/v2 and HEARTBEAT, ATTITUDE or
+// GLOBAL_POSITION_INT.
+std::string framed(const std::uint8_t* data, std::size_t size, rt::SerialInput::Proto proto) {
+    if (size == 0 || (data[0] & 1) == 0) return text(data, size);
+    std::string out;
+    if (proto == rt::SerialInput::Proto::Nmea) {
+        const std::string all = text(data + 1, size - 1);
+        for (std::size_t pos = 0; pos < all.size();) {
+            const std::size_t eol = std::min(all.find('\n', pos), all.size());
+            out += drivers::nmeaWithChecksum("$" + all.substr(pos, eol - pos));
+            pos = eol + 1;
+        }
+        return out;
+    }
+    static constexpr std::uint32_t kIds[3] = {drivers::kMavlinkHeartbeat, drivers::kMavlinkAttitude,
+                                              drivers::kMavlinkGlobalPositionInt};
+    for (std::size_t i = 1; i + 2 <= size;) {
+        const int version = (data[i] & 2) != 0 ? 2 : 1;
+        const std::uint32_t id = kIds[(data[i] >> 2) % 3];
+        const std::size_t n = std::min<std::size_t>(data[i + 1] % 40, size - i - 2);
+        const std::vector<std::uint8_t> f = drivers::mavlinkFrame(version, id, data + i + 2, n);
+        out.append(reinterpret_cast<const char*>(f.data()), f.size());
+        i += 2 + n;
+    }
+    return out;
+}
+
+}  // namespace
+
+int dbc(const std::uint8_t* data, std::size_t size) {
+    return expectSetupError([&] {
+        const drivers::DbcDatabase db = drivers::DbcDatabase::parse(text(data, size), "fuzz.dbc");
+        std::uint8_t frame[64];
+        for (std::size_t i = 0; i < sizeof frame; ++i)
+            frame[i] = data[size == 0 ? 0 : i % size];
+        for (const drivers::DbcMessage& m : db.messages()) {
+            for (const drivers::DbcSignal& s : m.signals) {
+                double v = 0.0;
+                if (!drivers::decodeSignal(s, frame, m.size, &v)) continue;
+                (void)drivers::inDeclaredRange(s, v);
+                std::uint8_t enc[64] = {};
+                drivers::encodeSignal(s, v, enc, m.size);
+            }
+        }
+    });
+}
+
+int candump(const std::uint8_t* data, std::size_t size) {
+    // Every line through the candump parser; a parsed frame formats back to a line that parses
+    // to the same frame, and decoded frames (the shipped DBC) keep the track finite.
+    static const drivers::DbcDatabase db =
+        drivers::DbcDatabase::load((configDir() / "can" / "nvstim.dbc").string());
+    rt::CanDecoder decoder{db};
+    msg::PlatformState initial;
+    rt::PlatformTrack track(initial, 0.5, 0.1);
+    const std::string_view all(reinterpret_cast<const char*>(data), size);
+    for (std::size_t pos = 0; pos < all.size();) {
+        const std::size_t eol = std::min(all.find('\n', pos), all.size());
+        const std::string_view line = all.substr(pos, eol - pos);
+        pos = eol + 1;
+        double t_s = 0.0;
+        drivers::CanFrame f;
+        if (!drivers::parseCandumpLine(line, &t_s, &f)) continue;
+        require(std::isfinite(t_s) && t_s >= 0.0);
+        char buf[256];
+        const std::size_t n = drivers::formatCandumpLine(t_s, "can0", f, buf, sizeof buf);
+        require(n > 0);
+        double t2 = 0.0;
+        drivers::CanFrame g;
+        require(drivers::parseCandumpLine(std::string_view(buf, n), &t2, &g));
+        require(g.id == f.id && g.extended == f.extended && g.fd == f.fd && g.rtr == f.rtr);
+        rt::TelemetryUpdate u;
+        if (decoder.decode(f, t_s, &u)) track.apply(u);
+        msg::PlatformState out;
+        track.sample(t_s, out);
+        requireFinite(out);
+    }
+    return 0;
+}
+
+int nmea(const std::uint8_t* raw, std::size_t rawSize) {
+    const std::string bytes = framed(raw, rawSize, rt::SerialInput::Proto::Nmea);
+    const auto* data = reinterpret_cast<const std::uint8_t*>(bytes.data());
+    const std::size_t size = bytes.size();
+    drivers::NmeaParser parser;
+    for (std::size_t i = 0; i < size; ++i) {
+        drivers::NmeaSentence s;
+        if (!parser.push(data[i], &s)) continue;
+        require(s.timeOfDay_s == -1.0 || (s.timeOfDay_s >= 0.0 && s.timeOfDay_s < 86401.0));
+        require(std::fabs(s.lat_deg) <= 90.0 && std::fabs(s.lon_deg) <= 180.0);
+        require(std::isfinite(s.alt_m) && s.heading_deg >= 0.0 && s.heading_deg <= 360.0);
+    }
+    serialInput(data, size, rt::SerialInput::Proto::Nmea);
+    return 0;
+}
+
+int mavlink(const std::uint8_t* raw, std::size_t rawSize) {
+    const std::string bytes = framed(raw, rawSize, rt::SerialInput::Proto::Mavlink);
+    const auto* data = reinterpret_cast<const std::uint8_t*>(bytes.data());
+    const std::size_t size = bytes.size();
+    drivers::MavlinkParser parser;
+    for (std::size_t i = 0; i < size; ++i) {
+        drivers::MavlinkMessage m;
+        if (!parser.push(data[i], &m)) continue;
+        drivers::MavlinkAttitude a;
+        if (drivers::decodeAttitude(m, &a)) {
+            require(std::fabs(a.roll_rad) <= 3.1416f && std::fabs(a.pitch_rad) <= 3.1416f &&
+                    std::fabs(a.yaw_rad) <= 3.1416f);
+        }
+        drivers::MavlinkGlobalPosition g;
+        if (drivers::decodeGlobalPosition(m, &g)) {
+            require(std::fabs(g.lat_deg) <= 90.0 && std::fabs(g.lon_deg) <= 180.0);
+        }
+    }
+    serialInput(data, size, rt::SerialInput::Proto::Mavlink);
+    return 0;
+}
+
+int scenario(const std::uint8_t* data, std::size_t size) {
+    return expectSetupError([&] {
+        // Named as a scenario folder beside the shipped ones, so that "../rit/scene.toml" and
+        // "../airborne-pass/flight.candump" in a seed resolve.
+        static const std::string name =
+            (std::filesystem::path(NVS_SOURCE_DIR) / "scenarios" / "fuzz" / "scenario.toml")
+                .string();
+        const rt::Scenario sc = rt::parseScenario(text(data, size), name, configDir());
+        require(sc.rate.valid());
+        require(!sc.duration_s || (*sc.duration_s > 0.0 && *sc.duration_s <= rt::kMaxDuration_s));
+        requireFinite(sc.platform);
+    });
+}
+
+int camera(const std::uint8_t* data, std::size_t size) {
+    return expectSetupError(
+        [&] { (void)sensor::parseCamera(configDir(), text(data, size), "fuzz/camera.toml"); });
+}
+
+int csv(const std::uint8_t* data, std::size_t size) {
+    return expectSetupError([&] {
+        const CsvTable t = CsvTable::parse(text(data, size), "fuzz.csv");
+        for (std::size_t r = 0; r < t.rowCount(); ++r) {
+            for (std::size_t c = 0; c < t.header().size(); ++c) {
+                try {
+                    (void)t.number(r, c);
+                } catch (const SetupError&) {
+                }
+            }
+        }
+        (void)t.commentValue("source");
+    });
+}
+
+int obj(const std::uint8_t* data, std::size_t size) {
+    return expectSetupError([&] {
+        const scene::Mesh m = scene::parseObjMesh(text(data, size), "fuzz.obj", {}, 0);
+        for (const std::uint32_t i : m.triangles)
+            require(i < m.vertexCount());
+        for (const float v : m.vertices_m)
+            require(std::isfinite(v));
+    });
+}
+
+int image(const std::uint8_t* data, std::size_t size) {
+    // The format by its magic, as a file's extension would choose it; small limits keep each
+    // run fast (the limits themselves are checked before any pixel is allocated).
+    sensor::ImageLimits limits;
+    limits.maxWidth = 512;
+    limits.maxHeight = 512;
+    const std::string_view bytes(reinterpret_cast<const char*>(data), size);
+    return expectSetupError([&] {
+        if (bytes.substr(0, 2) == "P5") {
+            const ImageU16 img = sensor::parsePgm(bytes, "fuzz.pgm", limits);
+            require(img.width() <= 512 && img.height() <= 512);
+        } else if (bytes.substr(0, 2) == "Pf" || bytes.substr(0, 2) == "PF") {
+            const ImageF img = sensor::parsePfm(bytes, "fuzz.pfm", limits);
+            require(img.width() <= 512 && img.height() <= 512);
+        } else {
+            const sensor::RadianceFile r = sensor::parseExr(bytes, "fuzz.exr", limits);
+            require(r.image.width() <= 512 && r.image.height() <= 512);
+        }
+    });
+}
+
+int framePattern(const std::uint8_t* data, std::size_t size) {
+    long long frame = 0;
+    for (std::size_t i = 0; i < size && i < 8; ++i)
+        frame = static_cast<long long>(static_cast<unsigned long long>(frame) << 8 | data[i]);
+    const std::string pattern =
+        text(data + std::min<std::size_t>(size, 8), size - std::min<std::size_t>(size, 8));
+    const std::string name = sensor::expandFramePattern(pattern, frame);
+    if (!sensor::hasFramePattern(pattern)) require(name == pattern);
+    require(name.size() <= pattern.size() + 32);
+    return 0;
+}
+
+}  // namespace nvs::fuzz

@@ -1,0 +1,145 @@
+#!/bin/bash
+# Hardware-in-the-loop test against real kernel drivers (v4l2loopback, vcan) in a virtual
+# machine: Debian 12's kernel under qemu-system-x86_64 (TCG: no KVM needed) with a busybox
+# initramfs that holds this build's nvstim, can-utils and v4l2-ctl. What it checks: docs/hil.md.
+#
+#   hil.sh NVSTIM SOURCE_DIR WORK_DIR
+#
+# Exit 0 pass, 1 fail, 77 skipped (ctest SKIP_RETURN_CODE) with the reason on stdout: no QEMU
+# or a tool missing, or Debian's kernel packages cannot be fetched. Environment: NVS_HIL_CACHE
+# (kernel layer cache), NVS_HIL_QEMU (the emulator, default qemu-system-x86_64),
+# NVS_HIL_VM_TIMEOUT_S (default 420).
+#
+# Steps: (1) the kernel layer (tests/hil/make_kernel.sh, cached under NVS_HIL_CACHE, default
+# ~/.cache/nvstim/hil); (2) the host reference: the same nvstim, scenarios and candump log
+# replayed (`--telemetry replay:`) to y4m files; (3) the initramfs, cached in WORK_DIR by a hash
+# of everything in it; (4) the VM runs tests/hil/init.sh and leaves a tar on its second disk;
+# (5) tests/hil/check.py compares.
+set -uo pipefail
+
+nvstim=$(realpath "${1:?usage: hil.sh NVSTIM SOURCE_DIR WORK_DIR}")
+src=$(realpath "${2:?}")
+work=${3:?}
+here="$src/tests/hil"
+FRAMES=90          # 3 s at 30 Hz
+KILL_AFTER=20      # frames the first client takes before it is killed
+KILL_TAIL=20       # frames the second client then takes
+VM_TIMEOUT_S=${NVS_HIL_VM_TIMEOUT_S:-420}
+
+skip() { echo "hil: SKIPPED: $*"; exit 77; }
+fail() { echo "hil: FAILED: $*"; exit 1; }
+t_start=$(date +%s.%N)
+elapsed() { awk -v a="$t_start" -v b="$(date +%s.%N)" 'BEGIN {printf "%.1f", b - a}'; }
+
+# ---- (0) can QEMU run here? -------------------------------------------------------------------
+qemu=${NVS_HIL_QEMU:-qemu-system-x86_64}
+command -v "$qemu" > /dev/null ||
+    skip "$qemu not found (Debian package qemu-system-x86; 'make test' installs it)"
+"$qemu" -accel help 2> /dev/null | grep -qx tcg || skip "$qemu has no TCG accelerator"
+for tool in busybox v4l2-ctl canplayer cansend chrt cpio depmod modprobe dpkg-deb apt-get python3 make; do
+    command -v "$tool" > /dev/null || skip "'$tool' not found (see PACKAGES in the Makefile)"
+done
+ldd "$(command -v busybox)" > /dev/null 2>&1 &&
+    skip "busybox is dynamically linked: the VM needs busybox-static"
+
+mkdir -p "$work"
+work=$(realpath "$work")
+cache=${NVS_HIL_CACHE:-${XDG_CACHE_HOME:-$HOME/.cache}/nvstim/hil}
+
+# ---- (1) kernel layer ---------------------------------------------------------------------------
+if ! kdir=$("$here/make_kernel.sh" "$cache" 2> "$work/kernel.log"); then
+    cat "$work/kernel.log"
+    if grep -qE "Failed to fetch|Unable to locate|Temporary failure|Could not resolve|cannot resolve" \
+        "$work/kernel.log"; then
+        skip "Debian's kernel packages cannot be fetched here (see above)"
+    fi
+    fail "building the kernel layer (see above)"
+fi
+grep -h "^hil:" "$work/kernel.log"
+echo "hil: kernel $(cat "$kdir/version") [$(elapsed) s]"
+
+# ---- (2) telemetry and host reference ------------------------------------------------------------
+ref="$work/ref"
+rm -rf "$ref" "$work/out"
+mkdir -p "$ref"
+python3 "$here/make_log.py" "$ref/telemetry.log" 0.02 || fail "make_log.py"
+for c in grey y16; do
+    NVS_CONFIG_DIR="$src/config" NVS_CACHE_DIR="$work/cache" "$nvstim" run "$here/$c.toml" \
+        --clock sim --frames "$FRAMES" --telemetry "replay:$ref/telemetry.log" \
+        --output "y4m:$ref/$c.y4m" --output "meta:$ref/$c.jsonl" > "$ref/$c.log" 2>&1 ||
+        { cat "$ref/$c.log"; fail "host reference run ($c)"; }
+done
+echo "hil: host reference written (replay of the same log to y4m) [$(elapsed) s]"
+
+# ---- (3) initramfs ----------------------------------------------------------------------------------
+# Executables with every shared library ldd names (and the loader), at their own paths.
+stage="$work/initramfs.d"
+rm -rf "$stage"
+mkdir -p "$stage"/{bin,dev,proc,sys,tmp,usr/local/bin,hil/modules}
+copy_exe() { # copy_exe FILE [DEST]
+    local f=$1 d=${2:-$1}
+    mkdir -p "$stage$(dirname "$d")"
+    cp -L "$f" "$stage$d"
+    ldd "$f" | awk '/=>/ && $3 ~ /^\// {print $3} /^\t\/[^ ]+ \(/ {print $1}' | while read -r lib; do
+        [ -e "$stage$lib" ] && continue
+        mkdir -p "$stage$(dirname "$lib")"
+        cp -L "$lib" "$stage$lib"
+    done
+}
+cp "$(command -v busybox)" "$stage/bin/busybox"
+copy_exe "$nvstim" /usr/local/bin/nvstim
+for t in v4l2-ctl canplayer cansend candump chrt; do copy_exe "$(command -v "$t")"; done
+cp "$kdir"/modules/*.ko "$stage/hil/modules/"
+cp "$kdir/modules.load" "$here/grey.toml" "$here/y16.toml" "$ref"/telemetry.log* "$stage/hil/"
+cp -r "$src/config" "$stage/hil/config"
+cp "$here/init.sh" "$stage/init"
+chmod +x "$stage/init"
+cat > "$stage/hil/env" << EOF
+FRAMES=$FRAMES
+FRAME_W=160
+FRAME_H=120
+KILL_AFTER=$KILL_AFTER
+KILL_TAIL=$KILL_TAIL
+V4L_VER=$(sed -n 's/^v4l2loopback-dkms=//p' "$kdir/packages")
+EOF
+key=$( (cd "$stage" && find . -type f -print0 | LC_ALL=C sort -z | xargs -0 sha256sum;
+        cat "$kdir/version") | sha256sum | cut -c1-16)
+image="$work/initramfs-$key.cpio"
+if [ -f "$image" ]; then
+    echo "hil: initramfs cached: $image"
+else
+    rm -f "$work"/initramfs-*.cpio
+    (cd "$stage" && find . | LC_ALL=C sort | cpio -o -H newc --quiet > "$image.part") &&
+        mv "$image.part" "$image" || fail "writing the initramfs"
+    echo "hil: initramfs written: $image ($(($(stat -c %s "$image") / 1048576)) MiB)"
+fi
+rm -rf "$stage"
+
+# ---- (4) the virtual machine ----------------------------------------------------------------------
+disk="$work/out.img"
+rm -f "$disk"
+truncate -s 128M "$disk"
+echo "hil: booting (qemu-system-x86_64 -accel tcg) [$(elapsed) s]"
+t_vm=$(date +%s.%N)
+# One virtual CPU: inside it the capture client's SCHED_FIFO priority (init.sh) decides who runs
+# when a frame is written, whatever the host's load does to the VM as a whole.
+timeout "$VM_TIMEOUT_S" "$qemu" -accel tcg -cpu max -smp 1 -m 1536 \
+    -nographic -no-reboot -monitor none -serial stdio \
+    -kernel "$kdir/vmlinuz" -initrd "$image" \
+    -append "console=ttyS0 quiet panic=-1 oops=panic" \
+    -drive "file=$disk,format=raw,if=virtio" < /dev/null > "$work/console.log" 2>&1
+vm_rc=$?
+vm_s=$(awk -v a="$t_vm" -v b="$(date +%s.%N)" 'BEGIN {printf "%.1f", b - a}')
+echo "hil: VM finished in $vm_s s (status $vm_rc)"
+grep "hil-vm:" "$work/console.log" | tr -d '\r'
+[ "$vm_rc" -eq 124 ] && { tail -30 "$work/console.log"; fail "the VM ran past ${VM_TIMEOUT_S} s"; }
+mkdir -p "$work/out"
+tar -xf "$disk" -C "$work/out" 2> /dev/null || { tail -30 "$work/console.log"; fail "no results on the VM's disk"; }
+[ "$(cat "$work/out/result" 2> /dev/null)" = ok ] ||
+    { tail -30 "$work/console.log"; fail "inside the VM: $(cat "$work/out/result" 2> /dev/null)"; }
+
+# ---- (5) checks -----------------------------------------------------------------------------------
+python3 "$here/check.py" --out "$work/out" --ref "$ref" --frames "$FRAMES" --width 160 --height 120 \
+    --kill-after "$KILL_AFTER" --kill-tail "$KILL_TAIL" --nvstim "$nvstim" ||
+    fail "checks (above); VM output kept in $work/out"
+echo "hil: passed in $(elapsed) s (VM $vm_s s)"
