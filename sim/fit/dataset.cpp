@@ -195,6 +195,19 @@ std::string cutTable(std::string& text, const std::string& name) {
     return body;
 }
 
+// The chain's halo and MCP saturation (sim/sensor stages 3b, 5b), as the preset sets them, are
+// modelled by diagnose's own forward models (effects.h), like every effect it fits: their
+// parameters move into `extra` and the chain runs without them, so a preset's effect is applied
+// once, and a fitted one replaces it.
+void absorbChainEffects(sensor::CameraParams& cam, FitEffects& extra) {
+    extra.haloFraction = cam.halo_enabled ? cam.halo_fraction : 0.0;
+    extra.haloRadius_um = cam.haloRadius_um();
+    extra.satCharge_e = cam.mcpsat_enabled ? cam.mcpsat_pixel_charge_e : 0.0;
+    extra.satRecharge_s = cam.mcpsat_recharge_s;
+    cam.halo_enabled = false;
+    cam.mcpsat_enabled = false;
+}
+
 }  // namespace
 
 sensor::CameraParams loadModelCamera(const fs::path& configDir, const std::string& nameOrPath,
@@ -206,12 +219,16 @@ sensor::CameraParams loadModelCamera(const fs::path& configDir, const std::strin
     std::string text = ss.str();
     std::string err;
     try {
-        return sensor::loadCamera(configDir, file.string(), overrides);
+        sensor::CameraParams cam = sensor::loadCamera(configDir, file.string(), overrides);
+        absorbChainEffects(cam, extra);
+        return cam;
     } catch (const SetupError& e) {
         err = e.what();
     }
     bool cut = false;
-    for (const char* t : {"halo", "mcp_saturation", "veiling_glare"}) {
+    // The chain reads [halo] and [mcp_saturation] itself (absorbed below); [veiling_glare] is
+    // diagnose's alone.
+    for (const char* t : {"veiling_glare"}) {
         if (err.find(std::string("'") + t) == std::string::npos &&
             text.find(std::string("[") + t + "]") == std::string::npos)
             continue;
@@ -238,7 +255,9 @@ sensor::CameraParams loadModelCamera(const fs::path& configDir, const std::strin
     // Data files of the preset stay relative to its config folder.
     fs::path base = file.parent_path().parent_path();
     if (!fs::exists(base / "spectra")) base = configDir;
-    return sensor::parseCamera(base, text, file.string(), overrides);
+    sensor::CameraParams cam = sensor::parseCamera(base, text, file.string(), overrides);
+    absorbChainEffects(cam, extra);
+    return cam;
 }
 
 Plane readFrame(const fs::path& path, int& width, int& height, int& maxValue) {

@@ -52,7 +52,15 @@ sensor::Overrides baseOverrides(const GenSpec& s) {
             {"photocathode.ebi_lm_cm2", "0.0"},
             {"agc", "\"off\""},
             {"gain_V", "4.0"},
-            {"ccd.full_well_e", "0.0"}};
+            {"ccd.full_well_e", "0.0"},
+            // The chain's own halo and MCP saturation off: the model without the effects the
+            // sweep hides. The tube as Table 18-6's radiance calibration has it (peak QE 0.25,
+            // Vc 520 V, no video noise), on which the sweep's ranges were set.
+            {"halo.enabled", "false"},
+            {"mcp_saturation.enabled", "false"},
+            {"mcp.crossover_V", "520.0"},
+            {"spectral.qe_peak", "0.25"},
+            {"video.noise_dc", "0.0"}};
 }
 
 // DC above offset per unit Lpe on the axis, from the mean chain.
