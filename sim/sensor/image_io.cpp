@@ -292,11 +292,12 @@ RadianceFile parseExr(std::string_view bytes, const std::string& name, const Ima
         }
         r.image = ImageF(static_cast<int>(w), static_cast<int>(h));
         Imf::FrameBuffer fb;
-        // The slice's base is the address of pixel (0, 0) of the data window's coordinates,
-        // computed in integers: the data window may lie far from the origin.
+        // The slice's base is the address of pixel (0, 0) of the data window's coordinates
+        // (OpenEXR's Slice convention), computed in integers: the data window may lie far from
+        // the origin, and pointer arithmetic that far outside the image is undefined.
         const std::ptrdiff_t offset_px =
             static_cast<std::ptrdiff_t>(dw.min.y) * r.image.stride_px() + dw.min.x;
-        char* base =
+        char* base =  // NOLINT(performance-no-int-to-ptr): see above
             reinterpret_cast<char*>(reinterpret_cast<std::uintptr_t>(r.image.row(0)) -
                                     static_cast<std::uintptr_t>(offset_px) * sizeof(float));
         fb.insert(channel,
