@@ -27,6 +27,8 @@
 //                                      stale_after_s   s                      0.5
 //                                      max_extrapolation_s s                  0.1
 //                                      render_threads  1..16 (2), coarse_tiles 1..8 (1)
+//                                      field_rows      "own" | "all": an interlaced
+//                                                      field renders only its own rows "own"
 //                                      trigger         "gpio:CHIP:LINE": with --clock wall,
 //                                                      frames follow its rising edges
 //                                      trigger_timeout_s s: no edge → stalled (3 periods)
@@ -134,9 +136,10 @@ struct Scenario {
     // folder; --telemetry on the command line takes precedence.
     std::optional<std::string> telemetry;
     std::vector<TimelineEvent> events;  // sorted by t_s
-    int renderThreads = 2;  // [runtime] render_threads: rows split over this many threads
-    int renderCoarse = 1;   // [runtime] coarse_tiles: lighting every N-th pixel (1 = full rate)
-    FrameRate rate;         // of the emitted frames
+    int renderThreads = 2;     // [runtime] render_threads: rows split over this many threads
+    int renderCoarse = 1;      // [runtime] coarse_tiles: lighting every N-th pixel (1 = full rate)
+    bool fieldRowsOwn = true;  // [runtime] field_rows = "own" (FrameLoopConfig::fieldRowsOnly)
+    FrameRate rate;            // of the emitted frames
     ScanKind scan = ScanKind::Progressive;
     std::optional<std::string> trigger;  // [runtime] trigger, "gpio:CHIP:LINE"
     double triggerTimeout_s = 0.0;       // 0: three periods
