@@ -6,6 +6,7 @@
 #include <cmath>
 #include <filesystem>
 
+#include "sim/core/fast_math.h"
 #include "sim/core/input_file.h"
 #include "sim/core/rng.h"
 #include "sim/core/units.h"
@@ -422,31 +423,41 @@ HaloStage::HaloStage(const CameraParams& c)
 
 void HaloStage::apply(ImageView<float> rate) noexcept {
     if (!enabled_) return;
+    // The loops run along rows with the column index innermost and no division, so that they
+    // vectorise (this stage is on every field's path).
+    const int fullCells = w_ / kBlock;  // cells of kBlock whole pixels; the last may be partial
     // 1. Sum the rate over each cell.
     cells_.fill(0.0f);
     for (int y = 0; y < h_; ++y) {
         const float* r = rate.row(y);
         float* c = cells_.row(y / kBlock);
-        for (int x = 0; x < w_; ++x)
-            c[x / kBlock] += r[x];
+        for (int cx = 0; cx < fullCells; ++cx) {
+            float acc = 0.0f;
+            for (int k = 0; k < kBlock; ++k)
+                acc += r[cx * kBlock + k];
+            c[cx] += acc;
+        }
+        for (int x = fullCells * kBlock; x < w_; ++x)
+            c[fullCells] += r[x];
     }
     // 2. Spread each cell over the disk (cells off the image are lost: the halo's share of
-    // light near the border leaves the frame, as on the tube).
+    // light near the border leaves the frame, as on the tube): out(cx, cy) = Σ_ij
+    // K(i, j)·cells(cx − i, cy − j), one kernel tap at a time over a whole row of cells.
     const int n = 2 * kr_ + 1;
+    spread_.fill(0.0f);
     for (int cy = 0; cy < ch_; ++cy) {
         float* out = spread_.row(cy);
-        for (int cx = 0; cx < cw_; ++cx) {
-            float acc = 0.0f;
-            for (int j = -kr_; j <= kr_; ++j) {
-                const int sy = cy + j;
-                if (sy < 0 || sy >= ch_) continue;
-                const float* src = cells_.row(sy);
-                const float* k = kernel_.data() + static_cast<std::size_t>((kr_ - j) * n + kr_);
-                const int i0 = std::max(-kr_, -cx), i1 = std::min(kr_, cw_ - 1 - cx);
-                for (int i = i0; i <= i1; ++i)
-                    acc += src[cx + i] * k[-i];
+        for (int j = -kr_; j <= kr_; ++j) {
+            const int sy = cy - j;
+            if (sy < 0 || sy >= ch_) continue;
+            const float* src = cells_.row(sy);
+            for (int i = -kr_; i <= kr_; ++i) {
+                const float k = kernel_[static_cast<std::size_t>((j + kr_) * n + (i + kr_))];
+                if (k == 0.0f) continue;
+                const int x0 = std::max(0, i), x1 = std::min(cw_, cw_ + i);
+                for (int cx = x0; cx < x1; ++cx)
+                    out[cx] += k * src[cx - i];
             }
-            out[cx] = acc;
         }
     }
     // 3. Back onto the pixels: a cell's halo share evenly over its pixels.
@@ -454,9 +465,14 @@ void HaloStage::apply(ImageView<float> rate) noexcept {
     const float share = fraction_ / static_cast<float>(kBlock * kBlock);
     for (int y = 0; y < h_; ++y) {
         float* r = rate.row(y);
-        const float* s = spread_.row(y / kBlock);
-        for (int x = 0; x < w_; ++x)
-            r[x] = keep * r[x] + share * s[x / kBlock];
+        const float* sp = spread_.row(y / kBlock);
+        for (int cx = 0; cx < fullCells; ++cx) {
+            const float add = share * sp[cx];
+            for (int k = 0; k < kBlock; ++k)
+                r[cx * kBlock + k] = keep * r[cx * kBlock + k] + add;
+        }
+        for (int x = fullCells * kBlock; x < w_; ++x)
+            r[x] = keep * r[x] + share * sp[fullCells];
     }
 }
 
@@ -602,6 +618,40 @@ double McpStage::applyRow(float* __restrict v, int w, int y) noexcept {
     return rowSumOf(e, m);
 }
 
+namespace {
+
+// MCP saturation of one row (stage 5b): out = Q·(1 − e^(−D/Q)), Q → Q_max − (Q_max − Q +
+// out)·keep.
+// One channel: out = Q·(1 − e^(−D/Q)); a drained one (Q = 0) gives nothing (u held at 87
+// gives Q·1 = 0, with no branch).
+__attribute__((always_inline)) inline float mcpSaturationPixel(float& d, float& q, float qMax,
+                                                               float keep) noexcept {
+    const float avail = q;
+    const float u = std::min(d / std::max(avail, 1e-30f), 87.0f);
+    const float out = avail * oneMinusExpNeg(u);
+    d = out;
+    q = qMax - (qMax - avail + out) * keep;
+    return out;
+}
+
+NVS_ROW_CLONES double mcpSaturationKernel(float* __restrict e, float* __restrict q, int w,
+                                          float qMax, float keep) noexcept {
+    constexpr int kL = 16;
+    float acc[kL] = {};
+    int x = 0;
+    for (; x + kL <= w; x += kL)
+        for (int j = 0; j < kL; ++j)
+            acc[j] += mcpSaturationPixel(e[x + j], q[x + j], qMax, keep);
+    for (; x < w; ++x)
+        acc[x % kL] += mcpSaturationPixel(e[x], q[x], qMax, keep);
+    double sum = 0.0;
+    for (int j = 0; j < kL; ++j)
+        sum += static_cast<double>(acc[j]);
+    return sum;
+}
+
+}  // namespace
+
 // ---- 5b. MCP local saturation ----------------------------------------------------------------
 
 McpSaturationStage::McpSaturationStage(const CameraParams& c)
@@ -622,20 +672,7 @@ void McpSaturationStage::begin(const FieldContext& ctx) noexcept {
 }
 
 double McpSaturationStage::applyRow(float* __restrict e, int w, int y) noexcept {
-    float* __restrict q = q_.row(y);
-    const float qMax = qMax_, keep = keep_;
-    double sum = 0.0;
-    for (int x = 0; x < w; ++x) {
-        const float d = e[x];
-        const float avail = q[x];
-        // Q·(1 − e^(−D/Q)); below D/Q = 1e-3 that is D to 5e-4 relative: no exp.
-        const float u = avail > 0.0f ? d / avail : 1e30f;
-        const float out = u < 1e-3f ? d : avail * -std::expm1(-u);
-        e[x] = out;
-        sum += static_cast<double>(out);
-        q[x] = qMax - (qMax - avail + out) * keep;
-    }
-    return sum;
+    return mcpSaturationKernel(e, q_.row(y), w, qMax_, keep_);
 }
 
 // ---- 6. Phosphor ----------------------------------------------------------------------------
