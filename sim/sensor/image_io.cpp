@@ -68,7 +68,7 @@ class HeaderReader {
             ++i_;
         const std::string_view t = b_.substr(from, i_ - from);
         if (t.empty() || t.size() > 32) bad("truncated or overlong header field");
-        ++i_;  // the single whitespace byte after the field
+        if (i_ < b_.size()) ++i_;  // the single whitespace byte after the field, if any
         return t;
     }
     int positive(const char* what) {
