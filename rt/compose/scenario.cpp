@@ -274,6 +274,10 @@ void readRuntime(const ConfigTable& root, Scenario& sc) {
         r->fail("render_threads", "must be in [1, 16]");
     sc.renderCoarse = getOr<int>(r, "coarse_tiles", 1);
     if (sc.renderCoarse < 1 || sc.renderCoarse > 8) r->fail("coarse_tiles", "must be in [1, 8]");
+    const std::string vis = getOr<std::string>(r, "primary_visibility", "embree");
+    if (!render::parsePrimaryVisibility(vis, &sc.primaryVisibility)) {
+        r->fail("primary_visibility", "must be \"embree\", \"gl\" or \"auto\"");
+    }
     sc.staleAfter_s = getOr<double>(r, "stale_after_s", 0.5);
     sc.maxExtrapolation_s = getOr<double>(r, "max_extrapolation_s", 0.1);
     if (!(sc.staleAfter_s > 0.0 && sc.staleAfter_s <= kMaxDuration_s)) {

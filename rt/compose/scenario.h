@@ -27,6 +27,9 @@
 //                                      stale_after_s   s                      0.5
 //                                      max_extrapolation_s s                  0.1
 //                                      render_threads  1..16 (2), coarse_tiles 1..8 (1)
+//                                      primary_visibility "embree" | "gl" | "auto" ("embree"):
+//                                                      how the primary hits are found
+//                                                      (docs/render.md)
 //                                      trigger         "gpio:CHIP:LINE": with --clock wall,
 //                                                      frames follow its rising edges
 //                                      trigger_timeout_s s: no edge → stalled (3 periods)
@@ -72,6 +75,7 @@
 #include "rt/loop/frame_loop.h"
 #include "rt/loop/stages.h"
 #include "sim/astro/ephemeris.h"
+#include "sim/render/renderer.h"
 #include "sim/sensor/camera.h"
 #include "sim/sky/atmosphere.h"
 
@@ -136,7 +140,10 @@ struct Scenario {
     std::vector<TimelineEvent> events;  // sorted by t_s
     int renderThreads = 2;  // [runtime] render_threads: rows split over this many threads
     int renderCoarse = 1;   // [runtime] coarse_tiles: lighting every N-th pixel (1 = full rate)
-    FrameRate rate;         // of the emitted frames
+    // [runtime] primary_visibility: Embree's primary rays, OpenGL rasterisation, or the faster
+    // of the two present (Renderer::choosePrimaryVisibility).
+    render::PrimaryVisibility primaryVisibility = render::PrimaryVisibility::kEmbree;
+    FrameRate rate;  // of the emitted frames
     ScanKind scan = ScanKind::Progressive;
     std::optional<std::string> trigger;  // [runtime] trigger, "gpio:CHIP:LINE"
     double triggerTimeout_s = 0.0;       // 0: three periods

@@ -92,6 +92,10 @@ class GlVisibility {
     GlStatus render(const GlView& view, int x0, int y0, int x1, int y1) noexcept;
     GlStatus render(const GlView& view) noexcept { return render(view, 0, 0, width_, height_); }
 
+    // Releases the context from the calling thread, so that another thread can render (setup
+    // work done on one thread before the frame loop's thread takes over).
+    void releaseContext() noexcept { ctx_->release(); }
+
     // Results of the last render, row-major, row 0 at the top.
     GlHit hit(int x, int y) const noexcept;
     // Raw: 4 words per pixel (u bits, v bits, geomId + 1 or 0, primId) and t per pixel.
