@@ -274,6 +274,10 @@ void readRuntime(const ConfigTable& root, Scenario& sc) {
         r->fail("render_threads", "must be in [1, 16]");
     sc.renderCoarse = getOr<int>(r, "coarse_tiles", 1);
     if (sc.renderCoarse < 1 || sc.renderCoarse > 8) r->fail("coarse_tiles", "must be in [1, 8]");
+    const std::string fieldRows = getOr<std::string>(r, "field_rows", "own");
+    if (fieldRows != "all" && fieldRows != "own")
+        r->fail("field_rows", "must be \"all\" or \"own\"");
+    sc.fieldRowsOwn = fieldRows == "own";
     const std::string vis = getOr<std::string>(r, "primary_visibility", "embree");
     if (!render::parsePrimaryVisibility(vis, &sc.primaryVisibility)) {
         r->fail("primary_visibility", "must be \"embree\", \"gl\" or \"auto\"");

@@ -27,6 +27,8 @@
 //                                      stale_after_s   s                      0.5
 //                                      max_extrapolation_s s                  0.1
 //                                      render_threads  1..16 (2), coarse_tiles 1..8 (1)
+//                                      field_rows      "own" | "all": an interlaced
+//                                                      field renders only its own rows "own"
 //                                      primary_visibility "embree" | "gl" | "auto" ("embree"):
 //                                                      how the primary hits are found
 //                                                      (docs/render.md)
@@ -138,8 +140,9 @@ struct Scenario {
     // folder; --telemetry on the command line takes precedence.
     std::optional<std::string> telemetry;
     std::vector<TimelineEvent> events;  // sorted by t_s
-    int renderThreads = 2;  // [runtime] render_threads: rows split over this many threads
-    int renderCoarse = 1;   // [runtime] coarse_tiles: lighting every N-th pixel (1 = full rate)
+    int renderThreads = 2;     // [runtime] render_threads: rows split over this many threads
+    int renderCoarse = 1;      // [runtime] coarse_tiles: lighting every N-th pixel (1 = full rate)
+    bool fieldRowsOwn = true;  // [runtime] field_rows = "own" (FrameLoopConfig::fieldRowsOnly)
     // [runtime] primary_visibility: Embree's primary rays, OpenGL rasterisation, or the faster
     // of the two present (Renderer::choosePrimaryVisibility).
     render::PrimaryVisibility primaryVisibility = render::PrimaryVisibility::kEmbree;

@@ -225,11 +225,18 @@ void FrameLoop::renderFrame(Slot& s, std::int64_t r, double t_k, double now_s) n
         req.frame = r;
         req.t_sample_s = t_f;
         req.exposure_s = exposure_s_;
+        // A field's own rows when the one before it was rendered just before (its rows hold
+        // the other parity one field ago); every row at the start and after a skipped frame.
+        const bool follows = f == 1 || r == lastRendered_ + 1;
+        req.rowParity = fields_ == 2 && config_.fieldRowsOnly && follows
+                            ? f ^ (config_.topFieldFirst ? 0 : 1)
+                            : -1;
         platform_.sample(t_f, now_s, req.platform);
         m.truthCount = 0;
         render_.render(req, out, m);
     }
     s.frame = r;
+    lastRendered_ = r;
 }
 
 void FrameLoop::exposeFrame(Slot& s) noexcept {

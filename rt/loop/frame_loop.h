@@ -107,6 +107,9 @@ struct LoopConfig {
     bool realtime = false;  // SCHED_FIFO per the thread table, and mlockall
     ScanKind scan = ScanKind::Progressive;
     bool topFieldFirst = true;  // interlaced: field 0 on the even rows (else on the odd rows)
+    // Interlaced: each field's render fills only the rows its camera reads out, the other rows
+    // holding the previous field's radiance (FrameRequest::rowParity); every row after a gap.
+    bool fieldRowsOnly = false;
     TriggerSource* trigger = nullptr;  // ClockKind::Trigger: the edges (outlives the loop)
     double triggerTimeout_s = 0.0;     // no edge for this long: stalled; 0: three periods
     int sinkQueueFrames = 8;           // frames each output's queue holds (1..64)
@@ -302,6 +305,7 @@ class FrameLoop {
     DurationHistogram frameTime_;
     std::int64_t framesRendered_ = 0;
     std::int64_t renderSkipped_ = 0;
+    std::int64_t lastRendered_ = -2;  // frame index last rendered (render thread)
     // Wall clock: the last frame latencies (render start → camera done, camera thread), and
     // from them the latency the render thread expects, to aim each frame at a tick it can meet.
     static constexpr int kRecentFrames = 5;

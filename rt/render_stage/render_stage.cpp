@@ -1,6 +1,7 @@
 #include "rt/render_stage/render_stage.h"
 
 #include <cmath>
+#include <cstring>
 
 #include "sim/core/error.h"
 #include "sim/core/geometry.h"
@@ -13,6 +14,12 @@ namespace {
 constexpr double kWgs84A_m = 6378137.0;
 constexpr double kWgs84E2 = 6.69437999014e-3;
 
+void copyImage(ImageView<const float> from, ImageView<float> to) noexcept {
+    const std::size_t rowBytes = static_cast<std::size_t>(from.width()) * sizeof(float);
+    for (int y = 0; y < from.height(); ++y)
+        std::memcpy(to.row(y), from.row(y), rowBytes);
+}
+
 }  // namespace
 
 std::unique_ptr<SceneRenderStage> SceneRenderStage::create(const Scenario& sc,
@@ -24,6 +31,11 @@ std::unique_ptr<SceneRenderStage> SceneRenderStage::create(const Scenario& sc,
     // "auto" times both primary passes here, on the first view with the loop's row pool.
     s->visibilityNote_ = s->sr_->renderer().choosePrimaryVisibility(*s->pool_);
     s->band_ = ImageF(sc.width, sc.height);
+    s->holdRows_ = sc.fieldRowsOwn && sc.scan == ScanKind::Interlaced;
+    if (s->holdRows_) {
+        s->heldLpe_ = ImageF(sc.width, sc.height);
+        s->heldBand_ = ImageF(sc.width, sc.height);
+    }
     s->epochUnix_s_ = sc.utcStart_unix_s;
     s->lat0_rad_ = rs.site.lat_deg * kRadPerDeg;
     s->lon0_rad_ = rs.site.lon_deg * kRadPerDeg;
@@ -92,8 +104,16 @@ void SceneRenderStage::render(const FrameRequest& req, RadianceTarget out,
     }
     if (held) heldFrames_.fetch_add(1, std::memory_order_relaxed);
     const render::FrameSky sky = sr_->prepare(t_s);
-    const ImageView<float> band = out.band_W_m2_sr.empty() ? band_.view() : out.band_W_m2_sr;
-    r.render(sky, out.lpe_pe_s_m2_sr, band, *pool_);
+    if (holdRows_) {
+        const int parity = heldValid_ ? req.rowParity : -1;
+        r.render(sky, heldLpe_.view(), heldBand_.view(), *pool_, parity);
+        heldValid_ = true;
+        copyImage(heldLpe_.cview(), out.lpe_pe_s_m2_sr);
+        if (!out.band_W_m2_sr.empty()) copyImage(heldBand_.cview(), out.band_W_m2_sr);
+    } else {
+        const ImageView<float> band = out.band_W_m2_sr.empty() ? band_.view() : out.band_W_m2_sr;
+        r.render(sky, out.lpe_pe_s_m2_sr, band, *pool_);
+    }
     const int n = r.truthBoxes(ids_, boxes_, kMaxTruthBoxes);
     meta.truthCount = n;
     for (int i = 0; i < n; ++i) {

@@ -16,6 +16,8 @@
 //            within 0.1 m of the exact transformation over ±1 km. Without telemetry the
 //            scene's own camera is used (a fixed camera such as the RIT roof);
 //   lamps    bit i of lampMask switches lamp i (scene order) on;
+//   rows     rowParity ≥ 0 (field_rows = "own"): only that parity's rows are rendered, into the
+//            stage's own images, whose other rows keep the previous field's radiance;
 // and it writes the truth boxes of the scene's tracked objects into the frame's metadata.
 
 #include <atomic>
@@ -62,6 +64,10 @@ class SceneRenderStage final : public RenderStage {
     std::unique_ptr<RowPool> pool_;
     std::string visibilityNote_;
     ImageF band_;  // scratch band image when the target has none
+    // field_rows = "own": the images the renderer fills a field's rows of, in place (the other
+    // rows hold the previous field's), copied out whole; valid once every row was rendered.
+    ImageF heldLpe_, heldBand_;
+    bool holdRows_ = false, heldValid_ = false;
     double epochUnix_s_ = 0.0;
     double lastGoodT_s_ = 0.0;
     std::atomic<std::int64_t> heldFrames_{0};

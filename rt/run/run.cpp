@@ -282,6 +282,7 @@ LoopConfig loopConfigFor(const Scenario& sc, const RunRequest& req) {
     cfg.realtime = sc.realtime;
     cfg.scan = sc.scan;
     cfg.topFieldFirst = sc.fieldOrder() != msg::FieldOrder::BottomFirst;
+    cfg.fieldRowsOnly = sc.fieldRowsOwn && sc.scan == ScanKind::Interlaced;
     cfg.triggerTimeout_s = sc.triggerTimeout_s;
     if (req.frames) {
         cfg.frames = *req.frames;

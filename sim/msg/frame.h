@@ -24,6 +24,9 @@ struct FrameRequest {
     double t_sample_s = 0.0;  // exposure mid-time [s]
     double exposure_s = 0.0;  // integration time [s]
     PlatformState platform;   // pose and camera commands at t_sample_s
+    // Rows the render must fill: −1 every row; 0 or 1 only the rows y with y mod 2 = rowParity
+    // (an interlaced field's own rows; the others may hold the previous field's radiance).
+    int rowParity = -1;
 };
 
 // The radiance at the lens of one frame, each image in its own unit. Either may be empty: a

@@ -147,7 +147,9 @@ struct Renderer::Impl {
     // (night sky + E_toa × lunar sky radiance at this frame's Moon zenith).
     std::vector<float> skyTab;
     std::atomic<std::uint64_t> primary{0}, shadow{0}, secondary{0};
-    bool gValid = false;  // G-buffer matches the current camera and geometry
+    // Rows of the G-buffer that match the current camera and geometry: bit 0 the even rows,
+    // bit 1 the odd ones (a field renders only its own rows, Renderer::render).
+    unsigned gValidRows = 0;
     // Objects that moved since the last render while the camera stayed: each leaves a box (the
     // union of its bounds before and after) through which every ray whose result may have
     // changed passes. The next render redoes only the primary rays of the pixels the boxes
@@ -479,13 +481,13 @@ void Renderer::setTime(double t_s) noexcept {
     }
     if (changed) {
         rtcCommitScene(im.scene);
-        if (firstPlacement) im.gValid = false;
+        if (firstPlacement) im.gValidRows = 0;
     }
 }
 
 void Renderer::setCamera(const scene::CameraPose& p) noexcept {
     Impl& im = *impl_;
-    im.gValid = false;
+    im.gValidRows = 0;
     im.camPos = p.position_m;
     im.camFwd = normalized(p.target_m - p.position_m);
     Vec3 right = cross(im.camFwd, p.up);
@@ -553,9 +555,13 @@ struct Ctx {
     bool moonOn;                             // Moon up and its term asked for
     bool buildWeights;                       // the upsampling pass (re)builds its weights
     int rowStepImage = 1, rowStepNodes = 1;  // rowStep(H), rowStep(nodeH)
-    // The primary pass covers rows [rowLo, rowLo + rowCount) (rows spread by rowStepRect) and
-    // columns [colLo, colHi); weights are rebuilt on rows [weightsLo, weightsHi).
-    int rowLo = 0, rowCount = 0, rowStepRect = 1, colLo = 0, colHi = 0;
+    // The primary pass covers rows rowLo + rowStride·i, 0 ≤ i < rowCount (spread by
+    // rowStepRect) and columns [colLo, colHi); weights are rebuilt on rows [weightsLo,
+    // weightsHi).
+    int rowLo = 0, rowCount = 0, rowStride = 1, rowStepRect = 1, colLo = 0, colHi = 0;
+    // The shading passes cover the rows of parity rowParity (shadeCount of them, spread by
+    // rowStepShade), or every row when rowParity < 0.
+    int rowParity = -1, shadeCount = 0, rowStepShade = 1;
     int weightsLo = 0, weightsHi = 0;
     // Sky in view: the Moon's azimuth, its disk (cos of its angular radius, radiance E☾/Ω☾).
     float moonAz_rad = 0.0f;
@@ -576,6 +582,11 @@ inline int rowStep(int n) noexcept {
 }
 inline int rowAt(int r, int step, int n) noexcept {
     return static_cast<int>((static_cast<long long>(r) * step) % n);
+}
+// Image row of the shading passes' logical row r (all rows, or those of one parity).
+inline int shadeRowAt(const Ctx& c, int r) noexcept {
+    return c.rowParity < 0 ? rowAt(r, c.rowStepImage, c.im->H)
+                           : c.rowParity + 2 * rowAt(r, c.rowStepShade, c.shadeCount);
 }
 
 struct Counts {
@@ -962,7 +973,7 @@ void primaryRows(void* vctx, int y0, int y1) {
     const PinholeCamera& cam = c.cfg->camera;
     std::uint64_t prim = 0;
     for (int yr = y0; yr < y1; ++yr) {
-        const int y = c.rowLo + rowAt(yr, c.rowStepRect, c.rowCount);
+        const int y = c.rowLo + c.rowStride * rowAt(yr, c.rowStepRect, c.rowCount);
         for (int x0 = c.colLo; x0 < c.colHi; x0 += kPacket) {
             const int count = std::min(kPacket, c.colHi - x0);
             alignas(64) int valid[kPacket];  // Embree: a packet's valid mask is 64-byte aligned
@@ -1018,7 +1029,7 @@ void glPrimaryRows(void* vctx, int y0, int y1) {
     const std::uint32_t* ids = im.gl->ids();
     const float* dist_m = im.gl->distances_m();
     for (int yr = y0; yr < y1; ++yr) {
-        const int y = c.rowLo + rowAt(yr, c.rowStepRect, c.rowCount);
+        const int y = c.rowLo + c.rowStride * rowAt(yr, c.rowStepRect, c.rowCount);
         for (int x = c.colLo; x < c.colHi; ++x) {
             const std::size_t i = static_cast<std::size_t>(y) * im.W + x;
             im.sValid[i] = 0;
@@ -1079,7 +1090,10 @@ void primaryPass(Ctx& c, RowExecutor& exec) noexcept {
         view.right = im.camRight;
         view.up = im.camUp;
         if (st == GlStatus::kOk) {
-            st = im.gl->render(view, c.colLo, c.rowLo, c.colHi, c.rowLo + c.rowCount);
+            // The rows rowLo + rowStride·i lie in [rowLo, rowLo + rowStride (rowCount − 1)]; with
+            // a stride of 2 the other field's rows in between are drawn too and not read.
+            st = im.gl->render(view, c.colLo, c.rowLo, c.colHi,
+                               c.rowLo + c.rowStride * (c.rowCount - 1) + 1);
         }
         if (st == GlStatus::kOk) {
             exec.run(c.rowCount, &glPrimaryRows, &c);
@@ -1114,7 +1128,7 @@ double timePrimaryPass(Renderer::Impl& im, const RenderConfig& cfg, bool useGl, 
         primaryPass(c, exec);
     const double dt = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     im.useGl = was;
-    im.gValid = false;
+    im.gValidRows = 0;
     return 1e3 * dt / std::max(1, reps);
 }
 
@@ -1205,7 +1219,7 @@ void shadeRows(void* vctx, int y0, int y1) {
     Renderer::Impl& im = *c.im;
     Counts n;
     for (int yr = y0; yr < y1; ++yr) {
-        const int y = rowAt(yr, c.rowStepImage, im.H);
+        const int y = shadeRowAt(c, yr);
         float* pe = c.pe.row(y);
         float* bw = c.bw.row(y);
         std::size_t qi[kPacket];
@@ -1333,7 +1347,7 @@ void upsampleRows(void* vctx, int y0, int y1) {
     const std::size_t nw = static_cast<std::size_t>(im.nodeW);
     Counts n;
     for (int yr = y0; yr < y1; ++yr) {
-        const int y = rowAt(yr, c.rowStepImage, im.H);
+        const int y = shadeRowAt(c, yr);
         if (c.buildWeights && y >= c.weightsLo && y < c.weightsHi) buildWeightsRow(c, y);
         float* pe = c.pe.row(y);
         float* bw = c.bw.row(y);
@@ -1374,7 +1388,7 @@ void upsampleRows(void* vctx, int y0, int y1) {
 }  // namespace
 
 void Renderer::render(const FrameSky& sky, ImageView<float> pe, ImageView<float> bandW,
-                      RowExecutor& exec) noexcept {
+                      RowExecutor& exec, int rowParity) noexcept {
     Impl& im = *impl_;
     if (pe.width() != im.W || pe.height() != im.H || bandW.width() != im.W ||
         bandW.height() != im.H) {
@@ -1454,17 +1468,28 @@ void Renderer::render(const FrameSky& sky, ImageView<float> pe, ImageView<float>
             c.moonDisk[b] = static_cast<float>(sky.moonNormal[b] / omega);
     }
     // The primary rays depend only on the camera and the geometry: with neither changed since
-    // the last frame (a fixed camera over a static scene), the G-buffer is reused.
+    // the last frame (a fixed camera over a static scene), the G-buffer is reused. A field
+    // (rowParity ≥ 0, full-rate lighting) needs only its own rows; the others keep what the
+    // last render of their parity left in the images.
+    const int parity = rowParity >= 0 && coarse_ == 1 ? (rowParity & 1) : -1;
+    const unsigned want = parity < 0 ? 3u : 1u << parity;
+    unsigned missing = want & ~im.gValidRows;
+    if (missing != 0 && im.nDirty > 0) {
+        im.gValidRows = 0;  // objects moved: rows not cast again now are stale
+        missing = want;
+    }
     c.weightsLo = 0;
     c.weightsHi = im.H;
-    if (!im.gValid) {
-        c.rowLo = 0;
-        c.rowCount = im.H;
-        c.rowStepRect = c.rowStepImage;
+    if (missing != 0) {
+        const int p = missing == 3u ? -1 : (missing == 2u ? 1 : 0);
+        c.rowLo = p < 0 ? 0 : p;
+        c.rowStride = p < 0 ? 1 : 2;
+        c.rowCount = p < 0 ? im.H : (im.H - p + 1) / 2;
+        c.rowStepRect = rowStep(c.rowCount);
         c.colLo = 0;
         c.colHi = im.W;
         primaryPass(c, exec);
-        im.gValid = true;
+        im.gValidRows |= missing;
         im.uFactor = 0;
         c.buildWeights = coarse_ > 1;
     } else if (im.nDirty > 0) {
@@ -1512,13 +1537,18 @@ void Renderer::render(const FrameSky& sky, ImageView<float> pe, ImageView<float>
         }
     }
     im.nDirty = 0;
+    c.rowParity = parity;
+    c.shadeCount = parity < 0 ? im.H : (im.H - parity + 1) / 2;
+    c.rowStepShade = rowStep(c.shadeCount);
     if (coarse_ > 1) {
         exec.run(im.nodeH, &nodeRows, &c);
         exec.run(im.H, &upsampleRows, &c);
         im.uFactor = coarse_;
     } else {
-        exec.run(im.H, &shadeRows, &c);
+        exec.run(c.shadeCount, &shadeRows, &c);
     }
+    // Sources in view land on one pixel each, drawn only in the rows this render fills.
+    const auto ownRow = [parity](int py) { return parity < 0 || (py & 1) == parity; };
     // Lamps in view: each lamp's light reaching the lens, spread over the pixel it falls in
     // (I / r² / Ω_pixel: the pixel-mean radiance of a source smaller than a pixel).
     const PinholeCamera& cam = config_.camera;
@@ -1542,8 +1572,9 @@ void Renderer::render(const FrameSky& sky, ImageView<float> pe, ImageView<float>
             if (ce < ld.cosCutoff) continue;
             intensityScale = 1.0;
         }
-        if (im.occluded(im.camPos, dn, static_cast<float>(r - ld.radius_m - 1e-3))) continue;
         const int px = static_cast<int>(u), py = static_cast<int>(v);
+        if (!ownRow(py)) continue;
+        if (im.occluded(im.camPos, dn, static_cast<float>(r - ld.radius_m - 1e-3))) continue;
         const double toPixel = intensityScale / (r * r) / omegaPixel;
         pe(px, py) += static_cast<float>(ld.emitted[kBandPe] * toPixel);
         bandW(px, py) += static_cast<float>(ld.emitted[kBandW] * toPixel);
@@ -1556,8 +1587,9 @@ void Renderer::render(const FrameSky& sky, ImageView<float> pe, ImageView<float>
         double u, v;
         if (!im.project(im.camPos + st.dir_enu, cam, &u, &v)) continue;
         if (u < 0 || v < 0 || u >= cam.width || v >= cam.height) continue;
-        if (im.occluded(im.camPos, st.dir_enu, kInf)) continue;
         const int px = static_cast<int>(u), py = static_cast<int>(v);
+        if (!ownRow(py)) continue;
+        if (im.occluded(im.camPos, st.dir_enu, kInf)) continue;
         pe(px, py) += static_cast<float>(st.irradiance[kBandPe] / omegaPixel);
         bandW(px, py) += static_cast<float>(st.irradiance[kBandW] / omegaPixel);
     }
@@ -1657,7 +1689,7 @@ void Renderer::setObjectEnabled(int object, bool enabled) noexcept {
     }
     rtcCommitScene(im.scene);
     if (im.gl) im.gl->setEnabled(object, enabled);
-    im.gValid = false;
+    im.gValidRows = 0;
 }
 
 bool Renderer::pixelSurface(int x, int y, Vec3* normal, double* skyViewFactor) const noexcept {

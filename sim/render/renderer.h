@@ -124,9 +124,12 @@ class Renderer {
     // Takes an object out of the scene (primary and shadow rays pass through it) or puts it
     // back (for tests of what an object's shadow is). Recommits the Embree scene.
     void setObjectEnabled(int object, bool enabled) noexcept;
-    // Renders both bands. Images must be camera.width × camera.height.
-    void render(const FrameSky& sky, ImageView<float> pe, ImageView<float> bandW,
-                RowExecutor& exec) noexcept;
+    // Renders both bands. Images must be camera.width × camera.height. With rowParity 0 or 1
+    // (full-rate lighting only; ignored with coarse tiles) only the rows y with y mod 2 =
+    // rowParity are written, and only their primary rays are cast when the camera moved: an
+    // interlaced field's own rows. The other rows keep what the images held.
+    void render(const FrameSky& sky, ImageView<float> pe, ImageView<float> bandW, RowExecutor& exec,
+                int rowParity = -1) noexcept;
 
     const RenderStats& lastStats() const { return stats_; }
     const PinholeCamera& camera() const { return config_.camera; }

@@ -208,5 +208,64 @@ TEST_F(FieldTiming, ProgressiveFieldCameraAtAnotherRateIsRefused) {
     EXPECT_NE(out.find("field rate"), std::string::npos) << out;
 }
 
+// field_rows = "own" (the default): each field renders only the rows its camera reads out, the
+// other rows holding the previous field's radiance, which reach the field's output only through
+// the tube's blur, halo and afterglow. On the airborne pass (the camera moving ~7 px per field)
+// the output must differ from rendering every row by far less than the camera's own noise: the
+// RMS difference is measured against the RMS difference of two noise seeds (2σ²).
+TEST(FieldRows, OwnRowsDifferFromAllRowsByAFractionOfTheNoise) {
+    const fs::path dir =
+        fs::temp_directory_path() / ("nvs_field_rows_" + std::to_string(::getpid()));
+    fs::remove_all(dir);
+    fs::create_directories(dir);
+    const fs::path air = test::sourceDir() / "scenarios" / "airborne-pass";
+    std::string toml = slurp(air / "scenario.toml");
+    const auto replace = [&](const std::string& from, const std::string& to) {
+        const std::size_t at = toml.find(from);
+        ASSERT_NE(at, std::string::npos) << from;
+        toml.replace(at, from.size(), to);
+    };
+    replace("\"../rit/", "\"" + (air.parent_path() / "rit").string() + "/");
+    replace("replay:flight.candump", "replay:" + (air / "flight.candump").string());
+    constexpr int kFrames = 8;
+    const auto frames = [&](const std::string& name, const std::string& extra) {
+        const fs::path sc = dir / (name + ".toml");
+        std::ofstream(sc) << toml << extra;
+        const fs::path out = dir / (name + ".y4m");
+        const std::string cmd = std::string(NVSTIM_EXE) + " run " + sc.string() +
+                                " --clock sim --frames " + std::to_string(kFrames) +
+                                " --output y4m:" + out.string() + " 2>/dev/null";
+        EXPECT_EQ(sh(cmd), 0) << cmd;
+        return slurp(out);
+    };
+    const std::string own = frames("own", "\n[runtime]\nfield_rows = \"own\"\n");
+    const std::string all = frames("all", "\n[runtime]\nfield_rows = \"all\"\n");
+    // The same frames with another noise draw: the scenario's seed 9 becomes 19.
+    const std::size_t seedAt = toml.find("seed = ");
+    ASSERT_NE(seedAt, std::string::npos);
+    toml.insert(seedAt + 7, "1");
+    const std::string reseeded = frames("seed", "\n[runtime]\nfield_rows = \"all\"\n");
+    ASSERT_EQ(own.size(), all.size());
+    ASSERT_EQ(own.size(), reseeded.size());
+    const auto meanSquare = [](const std::string& a, const std::string& b) {
+        double s = 0.0;
+        std::size_t n = 0;
+        for (std::size_t i = 0; i < a.size(); ++i) {
+            const double d = static_cast<unsigned char>(a[i]) - static_cast<unsigned char>(b[i]);
+            s += d * d;
+            ++n;
+        }
+        return s / static_cast<double>(n);
+    };
+    const double rowsMs = meanSquare(own, all);
+    const double noiseMs = meanSquare(all, reseeded);  // 2σ² of the camera noise
+    std::printf("field rows: mean-square difference %.3f DC², two noise seeds %.1f DC²\n", rowsMs,
+                noiseMs);
+    EXPECT_GT(noiseMs, 10.0);           // the comparison has noise to compare with
+    EXPECT_GT(rowsMs, 0.0);             // and the two renders differ (a moving camera)
+    EXPECT_LT(rowsMs, 0.01 * noiseMs);  // below 1 % of the noise variance
+    fs::remove_all(dir);
+}
+
 }  // namespace
 }  // namespace nvs
