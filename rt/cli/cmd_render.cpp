@@ -52,6 +52,10 @@ int runRender(const RenderOptions& opts) {
     const auto& cam = sr->renderer().camera();
     ImageF pe(cam.width, cam.height), band(cam.width, cam.height);
     ThreadExecutor ex;
+    if (sr->scenario().primaryVisibility != render::PrimaryVisibility::kEmbree) {
+        std::fprintf(stderr, "nvstim render: %s\n",
+                     sr->renderer().choosePrimaryVisibility(ex).c_str());
+    }
     sr->renderer().render(sky, pe.view(), band.view(), ex);
 
     const auto& moon = sr->sunMoon().moon;

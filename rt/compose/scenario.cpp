@@ -278,6 +278,10 @@ void readRuntime(const ConfigTable& root, Scenario& sc) {
     if (fieldRows != "all" && fieldRows != "own")
         r->fail("field_rows", "must be \"all\" or \"own\"");
     sc.fieldRowsOwn = fieldRows == "own";
+    const std::string vis = getOr<std::string>(r, "primary_visibility", "embree");
+    if (!render::parsePrimaryVisibility(vis, &sc.primaryVisibility)) {
+        r->fail("primary_visibility", "must be \"embree\", \"gl\" or \"auto\"");
+    }
     sc.staleAfter_s = getOr<double>(r, "stale_after_s", 0.5);
     sc.maxExtrapolation_s = getOr<double>(r, "max_extrapolation_s", 0.1);
     if (!(sc.staleAfter_s > 0.0 && sc.staleAfter_s <= kMaxDuration_s)) {

@@ -29,6 +29,9 @@
 //                                      render_threads  1..16 (2), coarse_tiles 1..8 (1)
 //                                      field_rows      "own" | "all": an interlaced
 //                                                      field renders only its own rows "own"
+//                                      primary_visibility "embree" | "gl" | "auto" ("embree"):
+//                                                      how the primary hits are found
+//                                                      (docs/render.md)
 //                                      trigger         "gpio:CHIP:LINE": with --clock wall,
 //                                                      frames follow its rising edges
 //                                      trigger_timeout_s s: no edge → stalled (3 periods)
@@ -74,6 +77,7 @@
 #include "rt/loop/frame_loop.h"
 #include "rt/loop/stages.h"
 #include "sim/astro/ephemeris.h"
+#include "sim/render/renderer.h"
 #include "sim/sensor/camera.h"
 #include "sim/sky/atmosphere.h"
 
@@ -139,7 +143,10 @@ struct Scenario {
     int renderThreads = 2;     // [runtime] render_threads: rows split over this many threads
     int renderCoarse = 1;      // [runtime] coarse_tiles: lighting every N-th pixel (1 = full rate)
     bool fieldRowsOwn = true;  // [runtime] field_rows = "own" (FrameLoopConfig::fieldRowsOnly)
-    FrameRate rate;            // of the emitted frames
+    // [runtime] primary_visibility: Embree's primary rays, OpenGL rasterisation, or the faster
+    // of the two present (Renderer::choosePrimaryVisibility).
+    render::PrimaryVisibility primaryVisibility = render::PrimaryVisibility::kEmbree;
+    FrameRate rate;  // of the emitted frames
     ScanKind scan = ScanKind::Progressive;
     std::optional<std::string> trigger;  // [runtime] trigger, "gpio:CHIP:LINE"
     double triggerTimeout_s = 0.0;       // 0: three periods

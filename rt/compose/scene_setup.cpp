@@ -56,6 +56,7 @@ std::unique_ptr<ScenarioRenderer> ScenarioRenderer::create(const Scenario& sc, c
 
     RenderConfig cfg = renderConfigFor(r->camera_, sc.width, sc.height);
     cfg.coarseFactor = coarseFactor;
+    cfg.primaryVisibility = sc.primaryVisibility;
     sky::SkyModelConfig skyConfig;
     skyConfig.atmosphere = spec.atmosphere;
     skyConfig.extraBands.push_back({"render_pe", cfg.bandWeight[kBandPe]});

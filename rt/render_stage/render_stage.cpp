@@ -28,6 +28,8 @@ std::unique_ptr<SceneRenderStage> SceneRenderStage::create(const Scenario& sc,
     s->sr_ = ScenarioRenderer::create(sc, dirs, sc.renderCoarse);
     const SceneSpec& rs = sc.scene;
     s->pool_ = std::make_unique<RowPool>(sc.renderThreads);
+    // "auto" times both primary passes here, on the first view with the loop's row pool.
+    s->visibilityNote_ = s->sr_->renderer().choosePrimaryVisibility(*s->pool_);
     s->band_ = ImageF(sc.width, sc.height);
     s->holdRows_ = sc.fieldRowsOwn && sc.scan == ScanKind::Interlaced;
     if (s->holdRows_) {

@@ -24,6 +24,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <memory>
+#include <string>
 
 #include "rt/compose/scene_setup.h"
 #include "rt/loop/stages.h"
@@ -53,12 +54,15 @@ class SceneRenderStage final : public RenderStage {
     static bool poseUsable(const scene::CameraPose& pose) noexcept;
     // Frames rendered with the last good time or camera because the request's platform state
     // was not finite (never expected: telemetry is checked where it enters).
+    // The renderer's primary-visibility line (Renderer::primaryVisibilityNote), chosen at setup.
+    const std::string& primaryVisibilityNote() const noexcept { return visibilityNote_; }
     std::int64_t heldFrames() const noexcept { return heldFrames_.load(std::memory_order_relaxed); }
 
   private:
     SceneRenderStage() = default;
     std::unique_ptr<ScenarioRenderer> sr_;
     std::unique_ptr<RowPool> pool_;
+    std::string visibilityNote_;
     ImageF band_;  // scratch band image when the target has none
     // field_rows = "own": the images the renderer fills a field's rows of, in place (the other
     // rows hold the previous field's), copied out whole; valid once every row was rendered.

@@ -354,6 +354,9 @@ int runScenario(const RunRequest& req, std::FILE* status) {
     if (sc.rendered) {
         sceneStage = SceneRenderStage::create(sc, req.dirs);
         render = sceneStage.get();
+        if (sc.primaryVisibility != render::PrimaryVisibility::kEmbree) {
+            std::fprintf(status, "nvstim run: %s\n", sceneStage->primaryVisibilityNote().c_str());
+        }
         sc.platform.lampMask = sceneStage->initialLampMask();
         sc.camera.spectrum = "pe";
     }

@@ -5,9 +5,13 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
+#include <cstring>
 #include <limits>
 #include <numeric>
 #include <string>
+
+#include "sim/render/gl_visibility.h"
 
 namespace nvs::render {
 
@@ -154,6 +158,15 @@ struct Renderer::Impl {
     static constexpr int kMaxDirty = 8;
     Vec3 dirtyLo[kMaxDirty], dirtyHi[kMaxDirty];
     int nDirty = 0;
+    // OpenGL primary visibility (gl_visibility.h; RenderConfig::primaryVisibility): the pass,
+    // whether it makes the G-buffer, which objects' vertices changed since they were uploaded,
+    // why there is no pass, the auto choice's timings, passes that failed (Embree redid them).
+    std::unique_ptr<GlVisibility> gl;
+    bool useGl = false, autoPending = false;
+    std::vector<std::uint8_t> glStale;
+    std::string glReason;
+    double autoEmbree_ms = -1.0, autoGl_ms = -1.0;
+    std::uint64_t glFailures = 0;
 
     ~Impl() {
         if (scene) rtcReleaseScene(scene);
@@ -196,6 +209,33 @@ struct Renderer::Impl {
         return true;
     }
 };
+
+namespace {
+
+// The OpenGL pass for primary visibility, every object's mesh in it with its Embree geometry
+// id. "gl" without a working backend is a setup error; "auto" then stays on Embree.
+void setUpGl(Renderer::Impl& im, const RenderConfig& config) {
+    const bool required = config.primaryVisibility == PrimaryVisibility::kGl;
+    im.gl = GlVisibility::create(GlBackendChoice::kAuto, config.camera.width, config.camera.height,
+                                 &im.glReason);
+    if (!im.gl) {
+        if (required) {
+            throw SetupError("render: primary_visibility = \"gl\": no OpenGL backend (" +
+                             im.glReason + ")");
+        }
+        return;
+    }
+    for (const ObjectData& od : im.objects) {
+        const scene::Mesh& mesh = od.obj->mesh;
+        im.gl->addMesh(reinterpret_cast<const float*>(od.vbuf), mesh.vertexCount(),
+                       mesh.triangles.data(), mesh.triangleCount(), od.geomId);
+    }
+    im.glStale.assign(im.objects.size(), 0);
+    im.useGl = required;
+    im.autoPending = !required;
+}
+
+}  // namespace
 
 // ------------------------------------------------------------------------------------------
 Renderer::Renderer(const scene::Scene& sc, const RenderConfig& config)
@@ -378,6 +418,7 @@ Renderer::Renderer(const scene::Scene& sc, const RenderConfig& config)
     im.kLamp.assign(nl * nm * kBands, 0.0f);
     im.skyTab.assign(static_cast<std::size_t>(kBands) * kSkyZ * kSkyA, 0.0f);
     setCoarseFactor(config.coarseFactor);
+    if (config.primaryVisibility != PrimaryVisibility::kEmbree) setUpGl(im, config);
 }
 
 Renderer::~Renderer() = default;
@@ -436,6 +477,7 @@ void Renderer::setTime(double t_s) noexcept {
         }
         rtcUpdateGeometryBuffer(od.geom, RTC_BUFFER_TYPE_VERTEX, 0);
         rtcCommitGeometry(od.geom);
+        if (!im.glStale.empty()) im.glStale[od.geomId] = 1;  // uploaded by the next GL pass
     }
     if (changed) {
         rtcCommitScene(im.scene);
@@ -725,22 +767,31 @@ int moonFactors(const Ctx& c, int count, const Vec3* p, const Vec3* n, const boo
     return any;
 }
 
-// Hit of lane k → position, camera-facing unit normal, material, sky-view factor.
-void hitInfo(const Renderer::Impl& im, const RTCRayHit16& rh, int k, const Vec3& o, const Vec3& d,
-             Vec3* p, Vec3* n, int* m, double* svf) noexcept {
-    *p = o + d * static_cast<double>(rh.ray.tfar[k]);
-    Vec3 ng{rh.hit.Ng_x[k], rh.hit.Ng_y[k], rh.hit.Ng_z[k]};
+// A hit (object geom, triangle prim, Embree's barycentrics u, v of vertices 1 and 2, distance t
+// along the unit ray o + t d, geometric normal ng of either sign) → position, camera-facing unit
+// normal, material, sky-view factor. Embree's hits and the OpenGL pass's (glPrimaryRows) both
+// go through here.
+void hitFields(const Renderer::Impl& im, unsigned geom, unsigned prim, double u, double v, double t,
+               Vec3 ng, const Vec3& o, const Vec3& d, Vec3* p, Vec3* n, int* m,
+               double* svf) noexcept {
+    *p = o + d * t;
     ng = normalized(ng);
     const bool back = dot(ng, d) > 0.0;
     if (back) ng = -ng;
     *n = ng;
-    const ObjectData& od = im.objects[rh.hit.geomID[k]];
-    const unsigned prim = rh.hit.primID[k];
+    const ObjectData& od = im.objects[geom];
     *m = od.material[prim];
     const std::size_t base = static_cast<std::size_t>(prim) * 6 + (back ? 3 : 0);
-    const double u = rh.hit.u[k], v = rh.hit.v[k];
     *svf = (1.0 - u - v) * static_cast<double>(od.svf[base]) +
            u * static_cast<double>(od.svf[base + 1]) + v * static_cast<double>(od.svf[base + 2]);
+}
+
+// Hit of lane k → position, camera-facing unit normal, material, sky-view factor.
+void hitInfo(const Renderer::Impl& im, const RTCRayHit16& rh, int k, const Vec3& o, const Vec3& d,
+             Vec3* p, Vec3* n, int* m, double* svf) noexcept {
+    hitFields(im, rh.hit.geomID[k], rh.hit.primID[k], rh.hit.u[k], rh.hit.v[k],
+              static_cast<double>(rh.ray.tfar[k]),
+              Vec3{rh.hit.Ng_x[k], rh.hit.Ng_y[k], rh.hit.Ng_z[k]}, o, d, p, n, m, svf);
 }
 
 inline void put3(std::vector<float>& a, std::size_t i, const Vec3& v) {
@@ -963,6 +1014,134 @@ void primaryRows(void* vctx, int y0, int y1) {
         }
     }
     im.primary += prim;
+}
+
+// The G-buffer of the pass's rectangle from the OpenGL pass's hits (gl_visibility.h): the same
+// fields as primaryRows, through hitFields, from (geomId, primId, u, v, t) per pixel. The
+// geometric normal is Embree's for the triangle, Ng = e2 × e1 with e1 = v0 − v1, e2 = v2 − v0,
+// that is (v1 − v0) × (v2 − v0) (Embree 3, kernels/geometry/triangle_intersector_moeller.h),
+// so a hit's side, and with it the side's sky-view factors, is the one Embree's hit gives (the
+// test GlPrimary.* compares them).
+void glPrimaryRows(void* vctx, int y0, int y1) {
+    const Ctx& c = *static_cast<const Ctx*>(vctx);
+    Renderer::Impl& im = *c.im;
+    const PinholeCamera& cam = c.cfg->camera;
+    const std::uint32_t* ids = im.gl->ids();
+    const float* dist_m = im.gl->distances_m();
+    for (int yr = y0; yr < y1; ++yr) {
+        const int y = c.rowLo + c.rowStride * rowAt(yr, c.rowStepRect, c.rowCount);
+        for (int x = c.colLo; x < c.colHi; ++x) {
+            const std::size_t i = static_cast<std::size_t>(y) * im.W + x;
+            im.sValid[i] = 0;
+            const Vec3 d = im.pixelDir(x + 0.5, y + 0.5, cam);
+            const std::uint32_t* w = &ids[4 * i];
+            const std::uint32_t geom = w[2] - 1u, prim = w[3];
+            if (w[2] == 0 || geom >= im.objects.size() ||
+                prim >= im.objects[geom].material.size()) {
+                double gz, az;
+                skyGridPos(d, &gz, &az);
+                im.gMat[i] = kMiss;
+                im.gObj[i] = -1;
+                put3(im.gPos, i, d);
+                put3(im.gNrm, i, Vec3{gz, az, 0.0});
+                continue;
+            }
+            const ObjectData& od = im.objects[geom];
+            const std::uint32_t* tri = &od.obj->mesh.triangles[3 * static_cast<std::size_t>(prim)];
+            const Vec3 a = toV(od.vbuf[tri[0]]), b = toV(od.vbuf[tri[1]]), e = toV(od.vbuf[tri[2]]);
+            float u, v;
+            std::memcpy(&u, &w[0], sizeof u);
+            std::memcpy(&v, &w[1], sizeof v);
+            Vec3 p, n;
+            int m;
+            double svf;
+            hitFields(im, geom, prim, u, v, static_cast<double>(dist_m[i]), cross(b - a, e - a),
+                      im.camPos, d, &p, &n, &m, &svf);
+            im.gMat[i] = static_cast<std::uint16_t>(m);
+            im.gObj[i] = static_cast<std::int16_t>(geom);
+            put3(im.gPos, i, p);
+            put3(im.gNrm, i, n);
+            im.gSvf[i] = static_cast<float>(svf);
+        }
+    }
+}
+
+// The primary pass over the context's rectangle: OpenGL (after uploading the objects that moved)
+// when it is in use, else, or if the GL pass fails, Embree's primary rays.
+void primaryPass(Ctx& c, RowExecutor& exec) noexcept {
+    Renderer::Impl& im = *c.im;
+    if (im.useGl) {
+        GlStatus st = GlStatus::kOk;
+        for (std::size_t k = 0; k < im.glStale.size() && st == GlStatus::kOk; ++k) {
+            if (!im.glStale[k]) continue;
+            st = im.gl->setVertices(static_cast<int>(k),
+                                    reinterpret_cast<const float*>(im.objects[k].vbuf));
+            im.glStale[k] = st == GlStatus::kOk ? 0 : 1;
+        }
+        const PinholeCamera& pc = c.cfg->camera;
+        GlView view;
+        view.width = pc.width;
+        view.height = pc.height;
+        view.focalLength_m = pc.focalLength_m;
+        view.pitchX_m = pc.pitchX_m;
+        view.pitchY_m = pc.pitchY_m;
+        view.position_m = im.camPos;
+        view.forward = im.camFwd;
+        view.right = im.camRight;
+        view.up = im.camUp;
+        if (st == GlStatus::kOk) {
+            // The rows rowLo + rowStride·i lie in [rowLo, rowLo + rowStride (rowCount − 1)]; with
+            // a stride of 2 the other field's rows in between are drawn too and not read.
+            st = im.gl->render(view, c.colLo, c.rowLo, c.colHi,
+                               c.rowLo + c.rowStride * (c.rowCount - 1) + 1);
+        }
+        if (st == GlStatus::kOk) {
+            exec.run(c.rowCount, &glPrimaryRows, &c);
+            return;
+        }
+        ++im.glFailures;
+    }
+    exec.run(c.rowCount, &primaryRows, &c);
+}
+
+// A context for a primary pass over the whole image (no shading).
+Ctx fullPrimaryCtx(Renderer::Impl& im, const RenderConfig& cfg) noexcept {
+    Ctx c{&im, &cfg, nullptr, {}, {}, 1, kTermAll, false, false, rowStep(im.H), 1};
+    c.rowLo = 0;
+    c.rowCount = im.H;
+    c.rowStepRect = c.rowStepImage;
+    c.colLo = 0;
+    c.colHi = im.W;
+    return c;
+}
+
+// Mean wall time of `reps` primary passes [ms] after one untimed pass (shader compilation,
+// caches), with OpenGL (useGl) or Embree.
+double timePrimaryPass(Renderer::Impl& im, const RenderConfig& cfg, bool useGl, RowExecutor& exec,
+                       int reps) noexcept {
+    const bool was = im.useGl;
+    im.useGl = useGl;
+    Ctx c = fullPrimaryCtx(im, cfg);
+    primaryPass(c, exec);
+    const auto t0 = std::chrono::steady_clock::now();
+    for (int r = 0; r < reps; ++r)
+        primaryPass(c, exec);
+    const double dt = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    im.useGl = was;
+    im.gValidRows = 0;
+    return 1e3 * dt / std::max(1, reps);
+}
+
+// PrimaryVisibility::kAuto: both passes timed on the current view with the frame loop's
+// executor; the faster makes the G-buffer from now on (a GL pass that failed is not chosen).
+void decideAuto(Renderer::Impl& im, const RenderConfig& cfg, RowExecutor& exec) noexcept {
+    im.autoPending = false;
+    if (!im.gl) return;
+    constexpr int kReps = 3;
+    const std::uint64_t failures = im.glFailures;
+    im.autoEmbree_ms = timePrimaryPass(im, cfg, false, exec, kReps);
+    im.autoGl_ms = timePrimaryPass(im, cfg, true, exec, kReps);
+    im.useGl = im.glFailures == failures && im.autoGl_ms < im.autoEmbree_ms;
 }
 
 // Whether the segment o + t·d, 0 ≤ t ≤ tmax, meets the box [lo − pad, hi + pad] (slabs).
@@ -1215,6 +1394,7 @@ void Renderer::render(const FrameSky& sky, ImageView<float> pe, ImageView<float>
         bandW.height() != im.H) {
         return;
     }
+    if (im.autoPending) decideAuto(im, config_, exec);
     im.primary = 0;
     im.shadow = 0;
     im.secondary = 0;
@@ -1308,7 +1488,7 @@ void Renderer::render(const FrameSky& sky, ImageView<float> pe, ImageView<float>
         c.rowStepRect = rowStep(c.rowCount);
         c.colLo = 0;
         c.colHi = im.W;
-        exec.run(c.rowCount, &primaryRows, &c);
+        primaryPass(c, exec);
         im.gValidRows |= missing;
         im.uFactor = 0;
         c.buildWeights = coarse_ > 1;
@@ -1345,7 +1525,7 @@ void Renderer::render(const FrameSky& sky, ImageView<float> pe, ImageView<float>
             c.rowStepRect = rowStep(c.rowCount);
             c.colLo = x0;
             c.colHi = x1;
-            exec.run(c.rowCount, &primaryRows, &c);
+            primaryPass(c, exec);
         }
         // Static data made from rays that may cross a box.
         if (im.staticNeed != 0) exec.run(im.H, &invalidateStaticRows, &c);
@@ -1508,7 +1688,85 @@ void Renderer::setObjectEnabled(int object, bool enabled) noexcept {
         rtcDisableGeometry(g);
     }
     rtcCommitScene(im.scene);
+    if (im.gl) im.gl->setEnabled(object, enabled);
     im.gValidRows = 0;
+}
+
+bool Renderer::pixelSurface(int x, int y, Vec3* normal, double* skyViewFactor) const noexcept {
+    const Impl& im = *impl_;
+    const std::size_t i = static_cast<std::size_t>(y) * im.W + x;
+    if (im.gMat[i] == kMiss) return false;
+    *normal = g3(im.gNrm, i);
+    *skyViewFactor = im.gSvf[i];
+    return true;
+}
+
+const char* primaryVisibilityName(PrimaryVisibility v) noexcept {
+    switch (v) {
+        case PrimaryVisibility::kGl:
+            return "gl";
+        case PrimaryVisibility::kAuto:
+            return "auto";
+        case PrimaryVisibility::kEmbree:
+            break;
+    }
+    return "embree";
+}
+
+bool parsePrimaryVisibility(const std::string& s, PrimaryVisibility* v) noexcept {
+    for (PrimaryVisibility p :
+         {PrimaryVisibility::kEmbree, PrimaryVisibility::kGl, PrimaryVisibility::kAuto}) {
+        if (s == primaryVisibilityName(p)) {
+            *v = p;
+            return true;
+        }
+    }
+    return false;
+}
+
+bool Renderer::primaryByGl() const noexcept {
+    return impl_->useGl;
+}
+
+std::string Renderer::choosePrimaryVisibility(RowExecutor& exec) {
+    if (impl_->autoPending) decideAuto(*impl_, config_, exec);
+    if (impl_->gl) impl_->gl->releaseContext();  // the frame loop's thread renders next
+    return primaryVisibilityNote();
+}
+
+std::string Renderer::primaryVisibilityNote() const {
+    const Impl& im = *impl_;
+    const PrimaryVisibility asked = config_.primaryVisibility;
+    std::string s = std::string("primary visibility ") + (im.useGl ? "gl" : "embree") + " (" +
+                    primaryVisibilityName(asked);
+    if (im.gl) {
+        s += std::string(", OpenGL ") + glBackendName(im.gl->backend()) + ": " +
+             im.gl->description();
+    } else if (asked != PrimaryVisibility::kEmbree) {
+        s += ", no OpenGL: " + im.glReason;
+    }
+    if (im.autoGl_ms >= 0.0) {
+        char b[96];
+        std::snprintf(b, sizeof b, "; first view: gl %.2f ms, embree %.2f ms", im.autoGl_ms,
+                      im.autoEmbree_ms);
+        s += b;
+    } else if (im.autoPending) {
+        s += "; chosen at the first render";
+    }
+    return s + ")";
+}
+
+Renderer::PrimaryTiming Renderer::measurePrimaryPasses(RowExecutor& exec, int repetitions) {
+    Impl& im = *impl_;
+    PrimaryTiming t;
+    t.embree_ms = timePrimaryPass(im, config_, false, exec, repetitions);
+    if (im.gl) {
+        const std::uint64_t failures = im.glFailures;
+        const double ms = timePrimaryPass(im, config_, true, exec, repetitions);
+        if (im.glFailures == failures) t.gl_ms = ms;
+        im.gl->releaseContext();
+    }
+    return t;
 }
 
 }  // namespace nvs::render

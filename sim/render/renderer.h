@@ -27,6 +27,7 @@
 #include <atomic>
 #include <cstdint>
 #include <memory>
+#include <string>
 #include <vector>
 
 #include "sim/core/image.h"
@@ -63,6 +64,15 @@ struct PinholeCamera {
     double pitchY_m = 13e-6 * 1.636;
 };
 
+// How the primary rays' hits (the geometry buffer) are found (docs/render.md, "Primary
+// visibility"): Embree's coherent packets; OpenGL rasterisation (sim/render/gl_visibility.h:
+// a GPU through EGL, else Mesa's llvmpipe through EGL or OSMesa); or whichever of the two is
+// present and faster on the first view (measured once: choosePrimaryVisibility).
+enum class PrimaryVisibility { kEmbree, kGl, kAuto };
+const char* primaryVisibilityName(PrimaryVisibility v) noexcept;  // "embree", "gl", "auto"
+// Parses "embree", "gl" or "auto"; false otherwise.
+bool parsePrimaryVisibility(const std::string& s, PrimaryVisibility* v) noexcept;
+
 struct RenderConfig {
     PinholeCamera camera;
     std::array<Spectrum, kBands> bandWeight;  // w_pe = QE λ/(hc), w_W = β
@@ -72,6 +82,7 @@ struct RenderConfig {
     int skyViewRays = 64;                     // per surface element, at setup
     int lampShadowRays = 1;                   // per lamp with an aperture, per point
     bool specular = true;
+    PrimaryVisibility primaryVisibility = PrimaryVisibility::kEmbree;
 };
 
 class RowExecutor {
@@ -134,6 +145,24 @@ class Renderer {
     // Coefficient ∫ I_l ρ_m w_b dλ / π (for a lamp without aperture) or ∫ L_glass ρ w / π.
     double lampCoefficient(int lamp, int material, int band) const;
     double moonCoefficient(int material, int band) const { return rhoMoon_[idx(material, band)]; }
+    // Surface normal (facing the camera) and sky-view factor of a pixel's primary hit.
+    bool pixelSurface(int x, int y, Vec3* normal, double* skyViewFactor) const noexcept;
+
+    // Primary visibility. Whether the OpenGL pass makes the geometry buffer now (else Embree).
+    bool primaryByGl() const noexcept;
+    // With PrimaryVisibility::kAuto, times both passes on the current view with exec (setup:
+    // the first render does it if no one has) and keeps the faster. Returns the note below.
+    std::string choosePrimaryVisibility(RowExecutor& exec);
+    // One line: the path in use and why (OpenGL backend and renderer, the times measured, or
+    // why OpenGL is not available), e.g. for a log line.
+    std::string primaryVisibilityNote() const;
+    // Wall time of one primary pass over the whole image on the current view [ms], each path,
+    // the mean of `repetitions` after one untimed pass; gl_ms < 0 without an OpenGL pass. The GL
+    // time includes drawing and reading back. The G-buffer is rebuilt at the next render.
+    struct PrimaryTiming {
+        double embree_ms = -1.0, gl_ms = -1.0;
+    };
+    PrimaryTiming measurePrimaryPasses(RowExecutor& exec, int repetitions);
     // Embree's own single-ray throughput for primary rays of this view [rays/s] (benchmarks).
     double measureEmbreePrimaryRate(int repetitions) const;
     // The same with coherent 16-ray packets (rtcIntersect16), as the renderer casts them.

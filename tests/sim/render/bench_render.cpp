@@ -9,6 +9,7 @@
 
 #include <benchmark/benchmark.h>
 
+#include <cmath>
 #include <condition_variable>
 #include <filesystem>
 #include <mutex>
@@ -16,6 +17,7 @@
 #include <vector>
 
 #include "rt/compose/scene_setup.h"
+#include "sim/core/error.h"
 #include "tests/sim/core/test_paths.h"
 
 namespace {
@@ -140,6 +142,60 @@ BENCHMARK(BM_RenderCoarse4)
     ->ArgsProduct({{1, 2}, {0, 1}})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
+
+// Primary visibility alone, Embree's packets against the OpenGL pass (drawing and reading
+// back included; Renderer::measurePrimaryPasses: the mean of 3 passes after an untimed one, each
+// building the whole G-buffer with 2 threads). range(0): 0 = 768 × 494, 1 = 1280 × 1024 (the
+// scenario's field of view kept); range(1): 0 = the RIT scenario's camera, 1 = the airborne
+// pass's first pose (scenarios/airborne-pass/make_flight.py, t = 0) over its scene. The
+// iteration time is the GL pass's; the counters give both and their ratio.
+void BM_PrimaryVisibility(benchmark::State& state) {
+    const bool large = state.range(0) != 0, air = state.range(1) != 0;
+    const auto path = std::filesystem::path(NVS_SOURCE_DIR) /
+                      (air ? "scenarios/airborne-pass/scenario.toml" : "scenarios/rit/stlamp.toml");
+    nvs::rt::Scenario sc = nvs::rt::loadScenario(path, nvs::test::configDir());
+    sc.width = large ? 1280 : 768;
+    sc.height = large ? 1024 : 494;
+    sc.primaryVisibility = nvs::render::PrimaryVisibility::kGl;
+    std::unique_ptr<nvs::rt::ScenarioRenderer> sr;
+    try {
+        sr = nvs::rt::ScenarioRenderer::create(sc, nvs::test::dataDirs());
+    } catch (const nvs::SetupError& e) {
+        state.SkipWithError(e.what());
+        return;
+    }
+    auto& r = sr->renderer();
+    if (air) {
+        const double hd = 10.0 * M_PI / 180.0, pitch = -45.0 * M_PI / 180.0, s = -360.0;
+        nvs::scene::CameraPose pose;
+        pose.position_m = {s * std::sin(hd), s * std::cos(hd), 300.0};
+        pose.target_m =
+            pose.position_m + nvs::Vec3{std::sin(hd) * std::cos(pitch),
+                                        std::cos(hd) * std::cos(pitch), std::sin(pitch)};
+        pose.up = {0.0, 0.0, 1.0};
+        r.setCamera(pose);
+    }
+    PoolExecutor ex(2);
+    double embree = 0.0, gl = 0.0;
+    int n = 0;
+    for (auto _ : state) {
+        const nvs::render::Renderer::PrimaryTiming t = r.measurePrimaryPasses(ex, 3);
+        embree += t.embree_ms;
+        gl += t.gl_ms;
+        ++n;
+        state.SetIterationTime(1e-3 * t.gl_ms);
+    }
+    state.counters["embree_ms"] = embree / n;
+    state.counters["gl_ms"] = gl / n;
+    state.counters["embree_over_gl"] = embree / gl;
+    state.SetLabel(r.primaryVisibilityNote());
+}
+
+BENCHMARK(BM_PrimaryVisibility)
+    ->ArgsProduct({{0, 1}, {0, 1}})
+    ->Unit(benchmark::kMillisecond)
+    ->UseManualTime()
+    ->Iterations(3);
 
 }  // namespace
 
