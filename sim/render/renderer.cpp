@@ -143,6 +143,9 @@ struct Renderer::Impl {
     // Per-frame coefficients [m kBands + b] (kLamp: [(l nm + m) kBands + b]): radiance per unit
     // factor, with the frame's source levels, the material's (1 − s) and the term switches.
     std::vector<float> kMoon, kSky, kSpec, kLamp;
+    // The lamps this frame's sums take (on, with the lamp term): every other one's kLamp is 0.
+    int activeLamp[kMaxLampsStatic] = {};
+    int activeLamps = 0;
     // Per-frame sky radiance in view [b][view zenith][Δφ] on the atmosphere table's own grid
     // (night sky + E_toa × lunar sky radiance at this frame's Moon zenith).
     std::vector<float> skyTab;
@@ -812,7 +815,7 @@ void buildStatic(const Ctx& c, int count, const std::size_t* idx, Counts& n) noe
         nn[k] = g3(im.gNrm, idx[k]);
     }
     float fac[kPacket * kMaxLampsStatic];
-    if (nl > 0) {
+    if ((need & ~kSpecBit) != 0) {  // the lamps the static data covers (≥ those on now)
         n.shadow += static_cast<std::uint64_t>(lampFactors(im, *c.cfg, need, count, p, nn, fac));
         for (int k = 0; k < count; ++k)
             std::copy(fac + static_cast<std::size_t>(k) * nl,
@@ -929,8 +932,10 @@ void shadeBatch(const Ctx& c, int count, const std::size_t* idx, bool withSky,
                 for (std::size_t b = 0; b < kBands; ++b) {
                     const std::size_t mb = qm * std::size_t{kBands} + b;
                     float l = im.kMoon[mb] * moonQ[k] + im.kSky[mb] * im.sqSvf[i];
-                    for (std::size_t li = 0; li < nl; ++li)
+                    for (int a = 0; a < im.activeLamps; ++a) {
+                        const auto li = static_cast<std::size_t>(im.activeLamp[a]);
                         l += im.kLamp[li * nmb + mb] * ql[li];
+                    }
                     specL[b] = l;
                 }
             }
@@ -939,8 +944,10 @@ void shadeBatch(const Ctx& c, int count, const std::size_t* idx, bool withSky,
             const std::size_t mb = m * kBands + b;
             float l = im.kMoon[mb] * moonF[k] + im.kSpec[mb] * specL[b];
             if (withSky) l += im.kSky[mb] * im.gSvf[i];
-            for (std::size_t li = 0; li < nl; ++li)
+            for (int a = 0; a < im.activeLamps; ++a) {
+                const auto li = static_cast<std::size_t>(im.activeLamp[a]);
                 l += im.kLamp[li * nmb + mb] * fl[li];
+            }
             out[b][k] = l;
         }
     }
@@ -1412,6 +1419,11 @@ void Renderer::render(const FrameSky& sky, ImageView<float> pe, ImageView<float>
         im.staticNeed = need;
         std::fill(im.sValid.begin(), im.sValid.end(), std::uint8_t{0});
     }
+    // Lamps outside `need` weigh 0 in every sum (kLamp below): they are left out of the loops,
+    // which adds nothing but +0 to any sum, the same bits.
+    im.activeLamps = 0;
+    for (std::size_t l = 0; l < nl; ++l)
+        if ((need >> l) & 1u) im.activeLamp[im.activeLamps++] = static_cast<int>(l);
     // Per-frame coefficients.
     const bool moonOn = sky.moonUp && (terms_ & kTermMoon);
     const double skyOn = (terms_ & kTermSky) ? 1.0 : 0.0;
