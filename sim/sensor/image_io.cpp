@@ -22,6 +22,7 @@
 #include <memory>
 #include <stdexcept>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 #include "sim/core/error.h"
@@ -162,6 +163,61 @@ class MemoryIStream final : public Imf::IStream {
 // here each size must fit in the bytes that remain, and the data window within the limits,
 // first. Single-part scan-line files only (nvstim writes those): tiled, deep and multi-part
 // files, whose chunk tables grow with other fields, are refused.
+// Whether an attribute's stated size is the one OpenEXR will read for its type. OpenEXR reads a
+// known type by its own layout, not by the stated size (a box2i is 16 bytes whatever the file
+// says, a channel list runs to its empty name, a preview to width·height·4 bytes): where the
+// two differ, its reading and this walk part ways, and it reads the next bytes as whatever they
+// happen to be (a string's size of 1.9 GB, found by fuzzing). Types by the "OpenEXR File
+// Layout" (openexr.com) and OpenEXR 3.1's ImfStandardAttributes; unknown types are read as
+// opaque bytes of the stated size, as OpenEXR does.
+bool exrAttributeSizeAgrees(std::string_view type, std::string_view v) {
+    static constexpr std::pair<std::string_view, std::size_t> kFixed[] = {
+        {"box2i", 16},      {"box2f", 16},   {"chromaticities", 32},
+        {"compression", 1}, {"double", 8},   {"envmap", 1},
+        {"float", 4},       {"int", 4},      {"keycode", 28},
+        {"lineOrder", 1},   {"m33f", 36},    {"m33d", 72},
+        {"m44f", 64},       {"m44d", 128},   {"rational", 8},
+        {"tiledesc", 9},    {"timecode", 8}, {"v2i", 8},
+        {"v2f", 8},         {"v2d", 16},     {"v3i", 12},
+        {"v3f", 12},        {"v3d", 24},     {"deepImageState", 1}};
+    for (const auto& [t, n] : kFixed)
+        if (type == t) return v.size() == n;
+    const auto le32 = [&v](std::size_t at) {
+        std::uint32_t x = 0;
+        for (int i = 3; i >= 0; --i)
+            x = (x << 8) | static_cast<unsigned char>(v[at + static_cast<std::size_t>(i)]);
+        return x;
+    };
+    if (type == "chlist") {
+        // Entries "name\0" + 16 bytes, then an empty name: exactly the stated size.
+        std::size_t at = 0;
+        for (;;) {
+            const std::size_t end = v.find('\0', at);
+            if (end == std::string_view::npos) return false;
+            if (end == at) return end + 1 == v.size();
+            at = end + 1 + 16;
+            if (at > v.size()) return false;
+        }
+    }
+    if (type == "preview") {
+        if (v.size() < 8) return false;
+        return std::uint64_t{le32(0)} * le32(4) * 4 + 8 == v.size();
+    }
+    if (type == "stringvector") {
+        std::size_t at = 0;
+        while (at < v.size()) {
+            if (v.size() - at < 4) return false;
+            const std::uint32_t n = le32(at);
+            at += 4;
+            if (n > v.size() - at) return false;
+            at += n;
+        }
+        return true;
+    }
+    if (type == "floatvector") return v.size() % 4 == 0;
+    return true;  // string, opaque: read by the stated size
+}
+
 void checkExrHeader(std::string_view b, const std::string& name, const ImageLimits& limits) {
     const auto bad = [&name](const std::string& why) {
         throw SetupError(FileLoc{name}, "not a readable EXR file: " + why);
@@ -194,6 +250,10 @@ void checkExrHeader(std::string_view b, const std::string& name, const ImageLimi
         const std::uint32_t size = u32(at);
         at += 4;
         if (size > b.size() - at) bad("attribute '" + std::string(attr) + "' larger than the file");
+        if (!exrAttributeSizeAgrees(type, b.substr(at, size))) {
+            bad("attribute '" + std::string(attr) + "' of type '" + std::string(type) +
+                "' with a size its type does not have");
+        }
         if (attr == "dataWindow") {
             if (type != "box2i" || size != 16) bad("bad dataWindow");
             const auto i32 = [&](std::size_t k) { return static_cast<std::int32_t>(u32(at + k)); };
