@@ -6,12 +6,16 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <exception>
 #include <fstream>
 #include <sstream>
+#include <stdexcept>
+#include <thread>
+#include <vector>
 
 #include "rt/bench/alloc_count.h"
 #include "rt/bench/timed_items.h"
@@ -20,48 +24,88 @@
 namespace nvs::rt::bench {
 namespace {
 
-// What the child sends back through its pipe, then an error text when rc < 0.
+// What the child sends back through its pipe: this, `lines` doubles (when each frame's
+// metadata line arrived), then an error text when rc ≠ 0.
 struct ChildReport {
     int rc = -1;
-    std::uint64_t allocations = 0;
+    std::uint64_t windowAllocations = 0;  // operator new calls between the window's two lines
+    int lines = 0;
 };
 
 struct ChildRun {
     bool ok = false;
     std::string error;
-    std::uint64_t allocations = 0;
+    std::uint64_t windowAllocations = 0;
     double maxRss_MiB = 0.0;
+    std::vector<double> emitted_s;  // when each frame's metadata line arrived (steady clock)
 };
 
-[[noreturn]] void childMain(const EndToEndRequest& req, int frames,
-                            const std::filesystem::path& stats, int fd) {
+double steadyNow_s() {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch())
+        .count();
+}
+
+// The child's watcher thread: reads the metadata lines until end of file, noting when each
+// arrives and the allocation count at lines `from` and `to` (it allocates nothing itself).
+void watchLines(int fd, int from, int to, std::vector<double>& times, std::uint64_t& a0,
+                std::uint64_t& a1) {
+    char buf[65536];
+    for (ssize_t n; (n = read(fd, buf, sizeof buf)) != 0;) {
+        if (n < 0 && errno == EINTR) continue;
+        if (n < 0) break;
+        const double now = steadyNow_s();
+        for (ssize_t i = 0; i < n; ++i) {
+            if (buf[i] != '\n' || times.size() == times.capacity()) continue;
+            times.push_back(now);
+            const auto line = static_cast<int>(times.size());
+            if (line == from) a0 = allocationCount();
+            if (line == to) a1 = allocationCount();
+        }
+    }
+}
+
+// The run itself, in the child: the metadata output (stdout) goes to a pipe its watcher thread
+// reads. The allocation window runs from frame warmFrames to the frame before the last two
+// (by then the render thread has rendered its last frame; after the last the loop shuts down).
+[[noreturn]] void childMain(const EndToEndRequest& req, const std::filesystem::path& stats,
+                            int fd) {
     ChildReport rep;
     std::string error;
+    std::vector<double> times;
     try {
+        int lines[2];
+        if (pipe(lines) != 0 || dup2(lines[1], STDOUT_FILENO) < 0) throw std::runtime_error("pipe");
+        close(lines[1]);
+        times.reserve(static_cast<std::size_t>(req.frames) + 1);
+        std::uint64_t a0 = 0, a1 = 0;
+        std::thread watcher(watchLines, lines[0], req.warmFrames, req.frames - 2, std::ref(times),
+                            std::ref(a0), std::ref(a1));
         RunRequest run;
         run.scenario = req.scenario.string();
-        run.outputs = {"y4m:/dev/null"};
+        run.outputs = {"y4m:/dev/null", "meta:-"};
         run.clock = ClockKind::Sim;
-        run.frames = frames;
+        run.frames = req.frames;
         run.statsPath = stats.string();
         run.dirs = req.dirs;
         std::FILE* quiet = std::fopen("/dev/null", "w");
-        const std::uint64_t a0 = allocationCount();
         rep.rc = runScenario(run, quiet != nullptr ? quiet : stderr);
-        rep.allocations = allocationCount() - a0;
+        close(STDOUT_FILENO);  // the watcher's end of file
+        watcher.join();
+        rep.windowAllocations = a1 - a0;
         if (rep.rc != 0) error = "nvstim run exited with status " + std::to_string(rep.rc);
     } catch (const std::exception& e) {
         rep.rc = -1;
         error = e.what();
     }
-    if (rep.rc != 0 && rep.rc != -1) rep.rc = -1;
+    rep.lines = static_cast<int>(times.size());
     (void)!write(fd, &rep, sizeof rep);
+    (void)!write(fd, times.data(), times.size() * sizeof(double));
     (void)!write(fd, error.data(), error.size());
     close(fd);
     _exit(0);
 }
 
-ChildRun runChild(const EndToEndRequest& req, int frames, const std::filesystem::path& stats) {
+ChildRun runChild(const EndToEndRequest& req, const std::filesystem::path& stats) {
     ChildRun out;
     int fds[2];
     if (pipe(fds) != 0) {
@@ -76,7 +120,7 @@ ChildRun runChild(const EndToEndRequest& req, int frames, const std::filesystem:
     }
     if (pid == 0) {
         close(fds[0]);
-        childMain(req, frames, stats, fds[1]);
+        childMain(req, stats, fds[1]);
     }
     close(fds[1]);
     std::string bytes;
@@ -91,16 +135,23 @@ ChildRun runChild(const EndToEndRequest& req, int frames, const std::filesystem:
     rusage ru{};
     while (wait4(pid, &status, 0, &ru) < 0 && errno == EINTR) {
     }
-    if (bytes.size() < sizeof(ChildReport)) {
-        out.error = "the run's process ended without a report (status " + std::to_string(status) +
-                    ")";
+    ChildReport rep;
+    if (bytes.size() < sizeof rep) {
+        out.error =
+            "the run's process ended without a report (status " + std::to_string(status) + ")";
         return out;
     }
-    ChildReport rep;
     std::memcpy(&rep, bytes.data(), sizeof rep);
+    const std::size_t timesBytes = static_cast<std::size_t>(rep.lines) * sizeof(double);
+    if (rep.lines < 0 || bytes.size() < sizeof rep + timesBytes) {
+        out.error = "the run's process sent a short report";
+        return out;
+    }
+    out.emitted_s.resize(static_cast<std::size_t>(rep.lines));
+    std::memcpy(out.emitted_s.data(), bytes.data() + sizeof rep, timesBytes);
     out.ok = rep.rc == 0;
-    out.error = bytes.substr(sizeof rep);
-    out.allocations = rep.allocations;
+    out.error = bytes.substr(sizeof rep + timesBytes);
+    out.windowAllocations = rep.windowAllocations;
     out.maxRss_MiB = static_cast<double>(ru.ru_maxrss) / 1024.0;  // ru_maxrss: KiB (getrusage(2))
     return out;
 }
@@ -125,10 +176,9 @@ EndToEndResult runEndToEnd(const EndToEndRequest& req) {
     const std::filesystem::path stats =
         std::filesystem::temp_directory_path() /
         ("nvstim-bench-" + std::to_string(getpid()) + "-" + req.name + ".json");
-    std::fprintf(stderr, "nvstim bench: %s: %d and %d frames under the sim clock ...\n",
-                 req.name.c_str(), req.warmFrames, req.frames);
-    const ChildRun warm = runChild(req, req.warmFrames, stats);
-    const ChildRun full = warm.ok ? runChild(req, req.frames, stats) : warm;
+    std::fprintf(stderr, "nvstim bench: %s: %d frames under the sim clock ...\n", req.name.c_str(),
+                 req.frames);
+    const ChildRun full = runChild(req, stats);
     if (!full.ok) {
         r.error = full.error;
         std::filesystem::remove(stats);
@@ -146,16 +196,32 @@ EndToEndResult runEndToEnd(const EndToEndRequest& req) {
         r.error = "no frames in the run's statistics";
         return r;
     }
-    r.fields_per_s = static_cast<double>(r.frames * r.fieldsPerFrame) / r.elapsed_s;
-    r.period_p50_s = number(json, "period", "p50_s");
-    r.period_p99_s = number(json, "period", "p99_s");
+    r.fieldsPerSecondWholeRun = static_cast<double>(r.frames * r.fieldsPerFrame) / r.elapsed_s;
+    // Steady state: the frames after the first warmFrames, as the metadata output saw them.
+    const std::vector<double>& t = full.emitted_s;
+    if (static_cast<int>(t.size()) != req.frames || req.frames - req.warmFrames < 2) {
+        r.error = "the metadata output gave " + std::to_string(t.size()) + " lines for " +
+                  std::to_string(req.frames) + " frames";
+        return r;
+    }
+    std::vector<double> period;
+    for (std::size_t i = static_cast<std::size_t>(req.warmFrames); i < t.size(); ++i)
+        period.push_back(t[i] - t[i - 1]);
+    r.fields_per_s = static_cast<double>(period.size()) * r.fieldsPerFrame /
+                     (t.back() - t[static_cast<std::size_t>(req.warmFrames) - 1]);
+    std::sort(period.begin(), period.end());
+    const auto q = [&period](double p) {
+        return period[std::min(period.size() - 1,
+                               static_cast<std::size_t>(p * static_cast<double>(period.size())))];
+    };
+    r.period_p50_s = q(0.5);
+    r.period_p99_s = q(0.99);
     r.frameTime_p50_s = number(json, "frame_time", "p50_s");
     r.frameTime_p99_s = number(json, "frame_time", "p99_s");
     r.peakRss_MiB = full.maxRss_MiB;
     r.allocationsCounted = allocationCounting();
-    r.steadyAllocations =
-        static_cast<std::int64_t>(full.allocations) - static_cast<std::int64_t>(warm.allocations);
-    r.steadyFields = static_cast<std::int64_t>(req.frames - req.warmFrames) * r.fieldsPerFrame;
+    r.steadyAllocations = static_cast<std::int64_t>(full.windowAllocations);
+    r.steadyFields = static_cast<std::int64_t>(req.frames - 2 - req.warmFrames) * r.fieldsPerFrame;
     r.ok = true;
     return r;
 }
@@ -169,18 +235,21 @@ std::string endToEndJson(const EndToEndRequest& req, const EndToEndResult& r) {
     std::snprintf(
         buf, sizeof buf,
         ",\"frames\":%lld,\"fields_per_frame\":%d,\"elapsed_s\":%.6g,\"fields_per_s\":%.6g,"
+        "\"fields_per_s_whole_run\":%.6g,"
         "\"target_fields_per_s\":%.6g,\"meets_target\":%s,\"field_period_p50_s\":%.6g,"
         "\"field_period_p99_s\":%.6g,\"frame_period_p50_s\":%.6g,\"frame_period_p99_s\":%.6g,"
         "\"frame_time_p50_s\":%.6g,\"frame_time_p99_s\":%.6g,\"peak_rss_mib\":%.6g,"
         "\"steady_fields\":%lld,",
         static_cast<long long>(r.frames), r.fieldsPerFrame, r.elapsed_s, r.fields_per_s,
-        req.targetFields_per_s, r.fields_per_s >= req.targetFields_per_s ? "true" : "false",
+        r.fieldsPerSecondWholeRun, req.targetFields_per_s,
+        r.fields_per_s >= req.targetFields_per_s ? "true" : "false",
         r.period_p50_s / r.fieldsPerFrame, r.period_p99_s / r.fieldsPerFrame, r.period_p50_s,
         r.period_p99_s, r.frameTime_p50_s, r.frameTime_p99_s, r.peakRss_MiB,
         static_cast<long long>(r.steadyFields));
     j += buf;
     if (r.allocationsCounted) {
-        std::snprintf(buf, sizeof buf, "\"steady_allocations\":%lld,\"allocations_per_field\":%.6g}",
+        std::snprintf(buf, sizeof buf,
+                      "\"steady_allocations\":%lld,\"allocations_per_field\":%.6g}",
                       static_cast<long long>(r.steadyAllocations),
                       static_cast<double>(r.steadyAllocations) /
                           static_cast<double>(std::max<std::int64_t>(1, r.steadyFields)));

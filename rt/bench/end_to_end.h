@@ -1,12 +1,16 @@
 #pragma once
 // End-to-end figures of `nvstim bench`: a scenario run through the real frame loop under the
-// sim clock, exactly as `nvstim run SCENARIO --clock sim --frames N --output y4m:/dev/null`
+// sim clock, as `nvstim run SCENARIO --clock sim --frames N --output y4m:/dev/null --output meta:-`
 // runs it (rt/run's runScenario), in a child process of its own so that its peak RSS
 // (getrusage ru_maxrss of the child, from wait4) is that run's alone.
 //
-// Steady-state allocations: the same run twice, for warmFrames and for frames ticks; the
-// difference of their operator new counts (rt/bench/alloc_count.h) is what the extra
-// (frames − warmFrames) ticks allocated, setup and shutdown being the same in both.
+// The run's outputs are y4m:/dev/null and meta:- (the child's stdout, a pipe to a watcher
+// thread of the child, which notes when each frame's line arrives: the emission period as an
+// output sees it; the loop keeps its own period statistics under the wall clock only).
+//
+// Steady-state allocations: the watcher reads the operator new count (rt/bench/alloc_count.h)
+// when frame warmFrames's line arrives and again at frame frames − 2's; in between every thread
+// of the run (render, camera, output, sinks) worked on steady frames.
 //
 // Must be called while the calling process has a single thread (fork).
 
@@ -23,8 +27,8 @@ struct EndToEndRequest {
     std::string what;
     std::filesystem::path scenario;
     DataDirs dirs;
-    int warmFrames = 20;  // the shorter run (allocation count)
-    int frames = 60;      // the measured run
+    int warmFrames = 20;  // frames before the steady state (period, allocations)
+    int frames = 60;      // frames in the run
     double targetFields_per_s = 59.94;
 };
 
@@ -34,12 +38,16 @@ struct EndToEndResult {
     int fieldsPerFrame = 1;  // 2: interlaced
     std::int64_t frames = 0;
     double elapsed_s = 0.0;
-    double fields_per_s = 0.0;                           // fields emitted / elapsed
-    double period_p50_s = 0.0, period_p99_s = 0.0;       // between emitted frames
+    // Steady state (after warmFrames): fields per second and the interval between consecutive
+    // frames, as the metadata output receives them (its line for each frame, timed by the
+    // parent: the loop's own period statistics are kept under the wall clock only).
+    double fields_per_s = 0.0;
+    double period_p50_s = 0.0, period_p99_s = 0.0;
+    double fieldsPerSecondWholeRun = 0.0;  // frames emitted · fields / the run's elapsed_s
     double frameTime_p50_s = 0.0, frameTime_p99_s = 0.0;  // render start → camera done
     double peakRss_MiB = 0.0;
     bool allocationsCounted = false;
-    std::int64_t steadyAllocations = 0;  // operator new calls in (frames − warmFrames) ticks
+    std::int64_t steadyAllocations = 0;  // operator new calls in the steady window
     std::int64_t steadyFields = 0;
 };
 

@@ -30,7 +30,8 @@ Eq71Reference::Eq71Reference(const Eq71Params& p) : p_(p), rng_(p.seed) {
     // Nyquist), column kx frequency kx/w. FFTW's transforms are unnormalised: the round trip
     // multiplies by w·h, which the filter divides out.
     mtf_.resize(static_cast<std::size_t>(wc) * h);
-    const double twoPi2s2 = 2.0 * std::numbers::pi * std::numbers::pi * p.mtf_sigma_px * p.mtf_sigma_px;
+    const double twoPi2s2 =
+        2.0 * std::numbers::pi * std::numbers::pi * p.mtf_sigma_px * p.mtf_sigma_px;
     for (int ky = 0; ky < h; ++ky) {
         const double fy = (ky <= h / 2 ? ky : ky - h) / static_cast<double>(h);
         for (int kx = 0; kx < wc; ++kx) {

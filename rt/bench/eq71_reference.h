@@ -59,11 +59,11 @@ class Eq71Reference {
 
   private:
     Eq71Params p_;
-    std::vector<double> image_;    // width × height
-    void* spectrum_ = nullptr;     // fftw_complex[height × (width/2 + 1)]
-    std::vector<double> mtf_;      // height × (width/2 + 1), divided by width·height
-    void* forward_ = nullptr;      // fftw_plan
-    void* inverse_ = nullptr;      // fftw_plan
+    std::vector<double> image_;  // width × height
+    void* spectrum_ = nullptr;   // fftw_complex[height × (width/2 + 1)]
+    std::vector<double> mtf_;    // height × (width/2 + 1), divided by width·height
+    void* forward_ = nullptr;    // fftw_plan
+    void* inverse_ = nullptr;    // fftw_plan
     std::mt19937 rng_;
 };
 

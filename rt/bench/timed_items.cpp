@@ -13,7 +13,8 @@ namespace {
 
 // Quantile q of sorted samples: the value at rank ⌊q·n⌋ (the previous `nvstim bench`'s rule).
 double quantile(const std::vector<double>& sorted, double q) {
-    const std::size_t i = std::min(sorted.size() - 1, static_cast<std::size_t>(q * static_cast<double>(sorted.size())));
+    const std::size_t i = std::min(
+        sorted.size() - 1, static_cast<std::size_t>(q * static_cast<double>(sorted.size())));
     return sorted[i];
 }
 
@@ -37,9 +38,7 @@ class Collector final : public benchmark::BenchmarkReporter {
   public:
     explicit Collector(std::map<std::string, TimedItem*> byName) : byName_(std::move(byName)) {}
     bool ReportContext(const Context& ctx) override {
-        machine.cpus = ctx.cpu_info.num_cpus;
         machine.mhz = ctx.cpu_info.cycles_per_second * 1e-6;
-        machine.loadAvg = ctx.cpu_info.load_avg;
         return true;
     }
     void ReportRuns(const std::vector<Run>& runs) override {
@@ -57,9 +56,9 @@ class Collector final : public benchmark::BenchmarkReporter {
             std::fprintf(stderr, "  %-34s p50 %10.4f ms  p99 %10.4f ms  n %6lld  %s\n",
                          it.name.c_str(), it.p50_s * 1e3, it.p99_s * 1e3,
                          static_cast<long long>(it.iterations),
-                         !it.target_s                 ? "(reference)"
+                         !it.target_s               ? "(reference)"
                          : it.p50_s <= *it.target_s ? "ok"
-                                                      : "OVER target");
+                                                    : "OVER target");
         }
     }
     MachineInfo machine;
@@ -107,9 +106,12 @@ MachineInfo runTimedItems(std::vector<std::unique_ptr<TimedItem>>& items,
         });
         b->UseManualTime()->MinTime(it->minTime_s)->Unit(benchmark::kMillisecond);
     }
+    bool any = false;
+    for (const auto& p : items)
+        any = any || !filter || p->name.find(*filter) != std::string::npos;
     Collector collector(std::move(byName));
     const std::string spec = filter ? regexQuote(*filter) : std::string(".");
-    benchmark::RunSpecifiedBenchmarks(&collector, spec);
+    if (any) benchmark::RunSpecifiedBenchmarks(&collector, spec);
     benchmark::ClearRegisteredBenchmarks();
     return collector.machine;
 }

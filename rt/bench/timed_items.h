@@ -35,11 +35,9 @@ struct TimedItem {
     std::vector<double> samples_s;  // the reported trial's per-iteration times
 };
 
-// What Google Benchmark reports about the machine while it runs.
+// What Google Benchmark reports about the machine (0 when no item ran).
 struct MachineInfo {
-    int cpus = 0;
     double mhz = 0.0;
-    std::vector<double> loadAvg;  // 1, 5, 15 min, at the start of the run
 };
 
 // Registers every item and runs those whose name contains `filter` (all without one),

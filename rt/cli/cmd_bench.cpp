@@ -17,10 +17,12 @@
 //                   chain time, chain time over the memcpy
 
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <functional>
 #include <memory>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "rt/bench/end_to_end.h"
@@ -89,10 +91,11 @@ void addAstroSkyItems(Items& items, const DataDirs& dirs) {
         double z = 0.1, sink = 0.0;
     };
     auto s = std::make_shared<Sky>();
-    TimedItem& k = add(items, "sky_lookup",
-                       "horizontal terms, sky radiance, night sky, path terms", 20e-6, 1.0);
+    TimedItem& k = add(items, "sky_lookup", "horizontal terms, sky radiance, night sky, path terms",
+                       20e-6, 1.0);
     k.setup = [s, dirs] {
-        s->model = std::make_unique<sky::SkyModel>(sky::SkyModel::create(sky::SkyModelConfig{}, dirs));
+        s->model =
+            std::make_unique<sky::SkyModel>(sky::SkyModel::create(sky::SkyModelConfig{}, dirs));
         s->moon.alt_rad = 0.6;
         s->moon.phaseAngle_rad = 0.3;
         s->moon.distanceTopocentric_m = sky::kMoonMeanDistance_m;
@@ -149,11 +152,10 @@ void addRenderItems(Items& items, const DataDirs& dirs, const std::filesystem::p
             for (const bool moving : {false, true}) {
                 const std::string name =
                     base + "_" + std::to_string(threads) + "t" + (moving ? "_moving" : "");
-                const std::string what =
-                    "RIT stlamp 768x494, " + std::to_string(threads) +
-                    (threads == 1 ? " thread, " : " threads, ") +
-                    (moving ? "camera moving (primary rays every frame)"
-                            : "fixed camera (G-buffer reused)");
+                const std::string what = "RIT stlamp 768x494, " + std::to_string(threads) +
+                                         (threads == 1 ? " thread, " : " threads, ") +
+                                         (moving ? "camera moving (primary rays every frame)"
+                                                 : "fixed camera (G-buffer reused)");
                 TimedItem& it = add(items, name, what, coarse == 1 ? 30e-3 : 8e-3, 1.5);
                 it.setup = [shared, pool, threads] {
                     shared->get();
@@ -202,11 +204,10 @@ void addTruckItems(Items& items, const DataDirs& dirs, const std::filesystem::pa
         shared->coarse = coarse;
         auto pool = std::make_shared<std::unique_ptr<rt::RowPool>>();
         auto k = std::make_shared<int>(0);
-        TimedItem& it = add(items,
-                            std::string(coarse == 1 ? "render_full" : "render_coarse4") +
-                                "_2t_truck",
-                            "RIT vehicle-drive, 2 threads, truck moving under the fixed camera",
-                            coarse == 1 ? 30e-3 : 8e-3, 1.5);
+        TimedItem& it =
+            add(items, std::string(coarse == 1 ? "render_full" : "render_coarse4") + "_2t_truck",
+                "RIT vehicle-drive, 2 threads, truck moving under the fixed camera",
+                coarse == 1 ? 30e-3 : 8e-3, 1.5);
         it.setup = [shared, pool] {
             shared->get();
             *pool = std::make_unique<rt::RowPool>(2);
@@ -274,10 +275,9 @@ void addCameraItems(Items& items, const DataDirs& dirs, const std::filesystem::p
         const char* scene;  // RIT scenario file, or nullptr: uniform
         const char* what;
     };
-    for (const Input& in :
-         {Input{"rit_nolight", "nolight.toml", "RIT nolight render"},
-          Input{"rit_stlamp", "stlamp.toml", "RIT stlamp render"},
-          Input{"uniform", nullptr, "uniform 1e13 pe/s/m2/sr"}}) {
+    for (const Input& in : {Input{"rit_nolight", "nolight.toml", "RIT nolight render"},
+                            Input{"rit_stlamp", "stlamp.toml", "RIT stlamp render"},
+                            Input{"uniform", nullptr, "uniform 1e13 pe/s/m2/sr"}}) {
         const std::filesystem::path file = in.scene ? rit.parent_path() / in.scene : "";
         if (in.scene != nullptr && !std::filesystem::exists(file)) continue;
         auto lpe = std::make_shared<ImageF>();
@@ -294,9 +294,9 @@ void addCameraItems(Items& items, const DataDirs& dirs, const std::filesystem::p
             for (int y = 0; y < lpe->height(); ++y)
                 flat->insert(flat->end(), lpe->row(y), lpe->row(y) + lpe->width());
         };
-        TimedItem& ch = add(items, std::string("sensor_chain_") + in.name,
-                            std::string("IICCD chain, one field 768x494, one thread, ") + in.what,
-                            6e-3, 2.0);
+        TimedItem& ch =
+            add(items, std::string("sensor_chain_") + in.name,
+                std::string("IICCD chain, one field 768x494, one thread, ") + in.what, 6e-3, 2.0);
         ch.setup = frameSetup;
         ch.iteration = [c, lpe] { c->chain->process(lpe->cview()); };
         ch.after = [c, lpe](TimedItem& self) {
@@ -316,11 +316,11 @@ void addMemcpyItems(Items& items) {
     constexpr std::size_t kPixels = 768 * 494;
     auto f = std::make_shared<std::vector<float>>(2 * kPixels, 1.0f);
     auto u = std::make_shared<std::vector<std::uint16_t>>(2 * kPixels, 1);
-    TimedItem& a = add(items, "memcpy_frame_f32", "memcpy of 768x494 float (1.5 MB)",
-                       std::nullopt, 0.5);
+    TimedItem& a =
+        add(items, "memcpy_frame_f32", "memcpy of 768x494 float (1.5 MB)", std::nullopt, 0.5);
     a.iteration = [f] { std::memcpy(f->data() + kPixels, f->data(), kPixels * sizeof(float)); };
-    TimedItem& b = add(items, "memcpy_frame_u16", "memcpy of 768x494 uint16 (0.76 MB)",
-                       std::nullopt, 0.5);
+    TimedItem& b =
+        add(items, "memcpy_frame_u16", "memcpy of 768x494 uint16 (0.76 MB)", std::nullopt, 0.5);
     b.iteration = [u] {
         std::memcpy(u->data() + kPixels, u->data(), kPixels * sizeof(std::uint16_t));
     };
@@ -332,13 +332,15 @@ std::vector<std::string> runEndToEndItems(const DataDirs& dirs,
                                           const std::function<bool(const std::string&)>& wanted) {
     std::vector<rt::bench::EndToEndRequest> reqs(2);
     reqs[0].name = "e2e_airborne_pass_768x494i";
-    reqs[0].what = "scenarios/airborne-pass, 768x494 interlaced, moving platform, every camera "
-                   "stage, sim clock, y4m to /dev/null";
+    reqs[0].what =
+        "scenarios/airborne-pass, 768x494 interlaced, moving platform, every camera "
+        "stage, sim clock, y4m to /dev/null";
     reqs[0].scenario = scenarios / "airborne-pass" / "scenario.toml";
     reqs[0].targetFields_per_s = 59.94;
     reqs[1].name = "e2e_airborne_pass_sxga_1280x1024p";
-    reqs[1].what = "scenarios/airborne-pass-sxga, 1280x1024 progressive, moving platform, "
-                   "sim clock, y4m to /dev/null";
+    reqs[1].what =
+        "scenarios/airborne-pass-sxga, 1280x1024 progressive, moving platform, "
+        "sim clock, y4m to /dev/null";
     reqs[1].scenario = scenarios / "airborne-pass-sxga" / "scenario.toml";
     reqs[1].targetFields_per_s = 30.0;
     std::vector<std::string> out;
@@ -403,17 +405,18 @@ std::string ratiosJson(const Items& items) {
         const TimedItem* chain = find(items, std::string("sensor_chain_") + in);
         const TimedItem* ref = find(items, std::string("eq71_reference_") + in);
         const TimedItem* mem = find(items, "memcpy_frame_f32");
-        if (chain && ref) put(std::string("eq71_reference_over_chain_") + in, ref->p50_s / chain->p50_s);
-        if (chain && mem) put(std::string("chain_") + in + "_over_memcpy_f32", chain->p50_s / mem->p50_s);
+        if (chain && ref)
+            put(std::string("eq71_reference_over_chain_") + in, ref->p50_s / chain->p50_s);
+        if (chain && mem)
+            put(std::string("chain_") + in + "_over_memcpy_f32", chain->p50_s / mem->p50_s);
     }
     return "{" + j + "}";
 }
 
-
 // The run as one JSON object (docs/contracts.md, "bench"), on stdout and to --json OUT.
 int writeBenchJson(const Items& items, const std::vector<std::string>& e2e,
-                   const rt::bench::MachineInfo& machine, const std::vector<std::string>& notes,
-                   const BenchOptions& opts) {
+                   const rt::bench::MachineInfo& machine, const double (&loadStart)[3],
+                   const std::vector<std::string>& notes, const BenchOptions& opts) {
     std::string json = "{\"benchmarks\":[";
     bool first = true;
     for (const auto& it : items) {
@@ -424,16 +427,17 @@ int writeBenchJson(const Items& items, const std::vector<std::string>& e2e,
     json += "],\"end_to_end\":[";
     for (std::size_t i = 0; i < e2e.size(); ++i)
         json += (i ? "," : "") + e2e[i];
-    char buf[256];
-    std::snprintf(buf, sizeof buf, "],\"ratios\":%s,\"machine\":{\"cpus\":%d,\"mhz\":%.0f,",
-                  ratiosJson(items).c_str(), machine.cpus, machine.mhz);
+    // The machine: CPUs, clock, and the load averages (1, 5, 15 min; getloadavg(3)) when the
+    // run started and when it ended: the machine is shared, a figure is only as quiet as this.
+    double loadEnd[3] = {0.0, 0.0, 0.0};
+    if (getloadavg(loadEnd, 3) != 3) loadEnd[0] = loadEnd[1] = loadEnd[2] = -1.0;
+    char buf[512];
+    std::snprintf(buf, sizeof buf,
+                  "],\"ratios\":%s,\"machine\":{\"cpus\":%u,\"mhz\":%.0f,"
+                  "\"load_avg_start\":[%.2f,%.2f,%.2f],\"load_avg_end\":[%.2f,%.2f,%.2f]}",
+                  ratiosJson(items).c_str(), std::thread::hardware_concurrency(), machine.mhz,
+                  loadStart[0], loadStart[1], loadStart[2], loadEnd[0], loadEnd[1], loadEnd[2]);
     json += buf;
-    json += "\"load_avg\":[";
-    for (std::size_t i = 0; i < machine.loadAvg.size(); ++i) {
-        std::snprintf(buf, sizeof buf, "%s%.2f", i ? "," : "", machine.loadAvg[i]);
-        json += buf;
-    }
-    json += "]}";
     if (!notes.empty()) {
         json += ",\"notes\":[";
         for (std::size_t i = 0; i < notes.size(); ++i)
@@ -463,6 +467,8 @@ int runBench(const BenchOptions& opts) {
     const std::filesystem::path rit = scenarios / "rit" / "stlamp.toml";
     const std::filesystem::path drive = scenarios / "vehicle-drive" / "scenario.toml";
     std::vector<std::string> notes;
+    double loadStart[3] = {0.0, 0.0, 0.0};
+    if (getloadavg(loadStart, 3) != 3) loadStart[0] = loadStart[1] = loadStart[2] = -1.0;
     // End to end first: each run forks, which wants a process without threads.
     const std::vector<std::string> e2e = runEndToEndItems(dirs, scenarios, wanted);
 
@@ -483,7 +489,7 @@ int runBench(const BenchOptions& opts) {
         throw SetupError("--filter: no benchmark name contains '" + *opts.filter + "'");
     }
     const rt::bench::MachineInfo machine = rt::bench::runTimedItems(items, opts.filter);
-    return writeBenchJson(items, e2e, machine, notes, opts);
+    return writeBenchJson(items, e2e, machine, loadStart, notes, opts);
 }
 
 }  // namespace nvs::cli
