@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <memory>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "rt/bench/alloc_count.h"
@@ -41,6 +42,21 @@ class CountingPlatform final : public PlatformSource {
     int from_, to_;
     int calls_ = 0;
 };
+
+TEST(FrameLoopAllocations, TheCounterSeesEveryFormOfNewOnAnyThread) {
+    if (!bench::allocationCounting()) GTEST_SKIP() << "operator new is not replaced";
+    const std::uint64_t a0 = bench::allocationCount();
+    std::thread t([] {
+        auto a = std::make_unique<int>(1);                  // new
+        auto b = std::make_unique<double[]>(4);             // new[]
+        std::unique_ptr<ImageF> c(new ImageF(8, 8));        // new + aligned new[] (its pixels)
+        std::unique_ptr<int> d(new (std::nothrow) int(2));  // nothrow new
+    });
+    t.join();
+    // The thread's own start (its state block) is one more operator new in libstdc++.
+    EXPECT_GE(bench::allocationCount() - a0, 5u);
+    EXPECT_LE(bench::allocationCount() - a0, 6u);
+}
 
 TEST(FrameLoopAllocations, NonePerFieldInSteadyStateOnTheAirbornePass) {
     if (!bench::allocationCounting()) {
