@@ -431,13 +431,13 @@ int writeBenchJson(const Items& items, const std::vector<std::string>& e2e,
     // run started and when it ended: the machine is shared, a figure is only as quiet as this.
     double loadEnd[3] = {0.0, 0.0, 0.0};
     if (getloadavg(loadEnd, 3) != 3) loadEnd[0] = loadEnd[1] = loadEnd[2] = -1.0;
-    char buf[512];
+    char buf[256];
     std::snprintf(buf, sizeof buf,
-                  "],\"ratios\":%s,\"machine\":{\"cpus\":%u,\"mhz\":%.0f,"
+                  ",\"machine\":{\"cpus\":%u,\"mhz\":%.0f,"
                   "\"load_avg_start\":[%.2f,%.2f,%.2f],\"load_avg_end\":[%.2f,%.2f,%.2f]}",
-                  ratiosJson(items).c_str(), std::thread::hardware_concurrency(), machine.mhz,
-                  loadStart[0], loadStart[1], loadStart[2], loadEnd[0], loadEnd[1], loadEnd[2]);
-    json += buf;
+                  std::thread::hardware_concurrency(), machine.mhz, loadStart[0], loadStart[1],
+                  loadStart[2], loadEnd[0], loadEnd[1], loadEnd[2]);
+    json += "],\"ratios\":" + ratiosJson(items) + buf;
     if (!notes.empty()) {
         json += ",\"notes\":[";
         for (std::size_t i = 0; i < notes.size(); ++i)
