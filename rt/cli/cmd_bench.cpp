@@ -313,7 +313,7 @@ void addCameraItems(Items& items, const DataDirs& dirs, const std::filesystem::p
 
 // A frame-sized memory copy: the floor any per-frame stage stands on.
 void addMemcpyItems(Items& items) {
-    constexpr std::size_t kPixels = 768 * 494;
+    constexpr std::size_t kPixels = std::size_t{768} * 494;
     auto f = std::make_shared<std::vector<float>>(2 * kPixels, 1.0f);
     auto u = std::make_shared<std::vector<std::uint16_t>>(2 * kPixels, 1);
     TimedItem& a =
