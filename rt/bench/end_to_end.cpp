@@ -29,13 +29,31 @@ namespace {
 struct ChildReport {
     int rc = -1;
     std::uint64_t windowAllocations = 0;  // operator new calls between the window's two lines
+    double windowCpu_s = 0.0;             // CPU time of every thread between them
     int lines = 0;
+};
+
+// CPU time (user + system) of every thread of this process so far (getrusage(2), RUSAGE_SELF).
+double processCpu_s() {
+    rusage ru{};
+    getrusage(RUSAGE_SELF, &ru);
+    const auto s = [](const timeval& t) {
+        return static_cast<double>(t.tv_sec) + static_cast<double>(t.tv_usec) * 1e-6;
+    };
+    return s(ru.ru_utime) + s(ru.ru_stime);
+}
+
+// What the watcher notes at the two ends of the steady window.
+struct WindowMarks {
+    std::uint64_t alloc0 = 0, alloc1 = 0;
+    double cpu0_s = 0.0, cpu1_s = 0.0;
 };
 
 struct ChildRun {
     bool ok = false;
     std::string error;
     std::uint64_t windowAllocations = 0;
+    double windowCpu_s = 0.0;
     double maxRss_MiB = 0.0;
     std::vector<double> emitted_s;  // when each frame's metadata line arrived (steady clock)
 };
@@ -47,8 +65,7 @@ double steadyNow_s() {
 
 // The child's watcher thread: reads the metadata lines until end of file, noting when each
 // arrives and the allocation count at lines `from` and `to` (it allocates nothing itself).
-void watchLines(int fd, int from, int to, std::vector<double>& times, std::uint64_t& a0,
-                std::uint64_t& a1) {
+void watchLines(int fd, int from, int to, std::vector<double>& times, WindowMarks& marks) {
     char buf[65536];
     for (ssize_t n; (n = read(fd, buf, sizeof buf)) != 0;) {
         if (n < 0 && errno == EINTR) continue;
@@ -58,8 +75,14 @@ void watchLines(int fd, int from, int to, std::vector<double>& times, std::uint6
             if (buf[i] != '\n' || times.size() == times.capacity()) continue;
             times.push_back(now);
             const auto line = static_cast<int>(times.size());
-            if (line == from) a0 = allocationCount();
-            if (line == to) a1 = allocationCount();
+            if (line == from) {
+                marks.alloc0 = allocationCount();
+                marks.cpu0_s = processCpu_s();
+            }
+            if (line == to) {
+                marks.alloc1 = allocationCount();
+                marks.cpu1_s = processCpu_s();
+            }
         }
     }
 }
@@ -77,9 +100,9 @@ void watchLines(int fd, int from, int to, std::vector<double>& times, std::uint6
         if (pipe(lines) != 0 || dup2(lines[1], STDOUT_FILENO) < 0) throw std::runtime_error("pipe");
         close(lines[1]);
         times.reserve(static_cast<std::size_t>(req.frames) + 1);
-        std::uint64_t a0 = 0, a1 = 0;
+        WindowMarks marks;
         std::thread watcher(watchLines, lines[0], req.warmFrames, req.frames - 2, std::ref(times),
-                            std::ref(a0), std::ref(a1));
+                            std::ref(marks));
         RunRequest run;
         run.scenario = req.scenario.string();
         run.outputs = {"y4m:/dev/null", "meta:-"};
@@ -91,7 +114,8 @@ void watchLines(int fd, int from, int to, std::vector<double>& times, std::uint6
         rep.rc = runScenario(run, quiet != nullptr ? quiet : stderr);
         close(STDOUT_FILENO);  // the watcher's end of file
         watcher.join();
-        rep.windowAllocations = a1 - a0;
+        rep.windowAllocations = marks.alloc1 - marks.alloc0;
+        rep.windowCpu_s = marks.cpu1_s - marks.cpu0_s;
         if (rep.rc != 0) error = "nvstim run exited with status " + std::to_string(rep.rc);
     } catch (const std::exception& e) {
         rep.rc = -1;
@@ -152,6 +176,7 @@ ChildRun runChild(const EndToEndRequest& req, const std::filesystem::path& stats
     out.ok = rep.rc == 0;
     out.error = bytes.substr(sizeof rep + timesBytes);
     out.windowAllocations = rep.windowAllocations;
+    out.windowCpu_s = rep.windowCpu_s;
     out.maxRss_MiB = static_cast<double>(ru.ru_maxrss) / 1024.0;  // ru_maxrss: KiB (getrusage(2))
     return out;
 }
@@ -222,6 +247,8 @@ EndToEndResult runEndToEnd(const EndToEndRequest& req) {
     r.allocationsCounted = allocationCounting();
     r.steadyAllocations = static_cast<std::int64_t>(full.windowAllocations);
     r.steadyFields = static_cast<std::int64_t>(req.frames - 2 - req.warmFrames) * r.fieldsPerFrame;
+    r.cpuPerField_s =
+        full.windowCpu_s / static_cast<double>(std::max<std::int64_t>(1, r.steadyFields));
     r.ok = true;
     return r;
 }
@@ -239,13 +266,13 @@ std::string endToEndJson(const EndToEndRequest& req, const EndToEndResult& r) {
         "\"target_fields_per_s\":%.6g,\"meets_target\":%s,\"field_period_p50_s\":%.6g,"
         "\"field_period_p99_s\":%.6g,\"frame_period_p50_s\":%.6g,\"frame_period_p99_s\":%.6g,"
         "\"frame_time_p50_s\":%.6g,\"frame_time_p99_s\":%.6g,\"peak_rss_mib\":%.6g,"
-        "\"steady_fields\":%lld,",
+        "\"steady_fields\":%lld,\"cpu_s_per_field\":%.6g,",
         static_cast<long long>(r.frames), r.fieldsPerFrame, r.elapsed_s, r.fields_per_s,
         r.fieldsPerSecondWholeRun, req.targetFields_per_s,
         r.fields_per_s >= req.targetFields_per_s ? "true" : "false",
         r.period_p50_s / r.fieldsPerFrame, r.period_p99_s / r.fieldsPerFrame, r.period_p50_s,
         r.period_p99_s, r.frameTime_p50_s, r.frameTime_p99_s, r.peakRss_MiB,
-        static_cast<long long>(r.steadyFields));
+        static_cast<long long>(r.steadyFields), r.cpuPerField_s);
     j += buf;
     if (r.allocationsCounted) {
         std::snprintf(buf, sizeof buf,

@@ -49,6 +49,9 @@ struct EndToEndResult {
     bool allocationsCounted = false;
     std::int64_t steadyAllocations = 0;  // operator new calls in the steady window
     std::int64_t steadyFields = 0;
+    // CPU time of all the run's threads per field in the steady window (getrusage): what a
+    // field costs whatever else the machine runs; on n idle cores at most n / this fields/s.
+    double cpuPerField_s = 0.0;
 };
 
 EndToEndResult runEndToEnd(const EndToEndRequest& req);
