@@ -14,7 +14,16 @@
 
 #include "rt/bench/alloc_count.h"
 
-#if !defined(__SANITIZE_ADDRESS__)
+// GCC defines __SANITIZE_ADDRESS__; clang answers __has_feature(address_sanitizer).
+#if defined(__SANITIZE_ADDRESS__)
+#define NVS_ASAN 1
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+#define NVS_ASAN 1
+#endif
+#endif
+
+#if !defined(NVS_ASAN)
 
 namespace {
 

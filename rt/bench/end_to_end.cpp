@@ -241,6 +241,8 @@ EndToEndResult runEndToEnd(const EndToEndRequest& req) {
     };
     r.period_p50_s = q(0.5);
     r.period_p99_s = q(0.99);
+    r.overhead_p50_s = number(json, "overhead", "p50_s");
+    r.overhead_p99_s = number(json, "overhead", "p99_s");
     r.frameTime_p50_s = number(json, "frame_time", "p50_s");
     r.frameTime_p99_s = number(json, "frame_time", "p99_s");
     r.peakRss_MiB = full.maxRss_MiB;
@@ -265,14 +267,15 @@ std::string endToEndJson(const EndToEndRequest& req, const EndToEndResult& r) {
         "\"fields_per_s_whole_run\":%.6g,"
         "\"target_fields_per_s\":%.6g,\"meets_target\":%s,\"field_period_p50_s\":%.6g,"
         "\"field_period_p99_s\":%.6g,\"frame_period_p50_s\":%.6g,\"frame_period_p99_s\":%.6g,"
-        "\"frame_time_p50_s\":%.6g,\"frame_time_p99_s\":%.6g,\"peak_rss_mib\":%.6g,"
+        "\"frame_time_p50_s\":%.6g,\"frame_time_p99_s\":%.6g,\"loop_overhead_p50_s\":%.6g,"
+        "\"loop_overhead_p99_s\":%.6g,\"peak_rss_mib\":%.6g,"
         "\"steady_fields\":%lld,\"cpu_s_per_field\":%.6g,",
         static_cast<long long>(r.frames), r.fieldsPerFrame, r.elapsed_s, r.fields_per_s,
         r.fieldsPerSecondWholeRun, req.targetFields_per_s,
         r.fields_per_s >= req.targetFields_per_s ? "true" : "false",
         r.period_p50_s / r.fieldsPerFrame, r.period_p99_s / r.fieldsPerFrame, r.period_p50_s,
-        r.period_p99_s, r.frameTime_p50_s, r.frameTime_p99_s, r.peakRss_MiB,
-        static_cast<long long>(r.steadyFields), r.cpuPerField_s);
+        r.period_p99_s, r.frameTime_p50_s, r.frameTime_p99_s, r.overhead_p50_s, r.overhead_p99_s,
+        r.peakRss_MiB, static_cast<long long>(r.steadyFields), r.cpuPerField_s);
     j += buf;
     if (r.allocationsCounted) {
         std::snprintf(buf, sizeof buf,

@@ -45,6 +45,7 @@ struct EndToEndResult {
     double period_p50_s = 0.0, period_p99_s = 0.0;
     double fieldsPerSecondWholeRun = 0.0;  // frames emitted · fields / the run's elapsed_s
     double frameTime_p50_s = 0.0, frameTime_p99_s = 0.0;  // render start → camera done
+    double overhead_p50_s = 0.0, overhead_p99_s = 0.0;    // the loop's own work per frame
     double peakRss_MiB = 0.0;
     bool allocationsCounted = false;
     std::int64_t steadyAllocations = 0;  // operator new calls in the steady window
