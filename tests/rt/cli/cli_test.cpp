@@ -6,8 +6,10 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <array>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -165,6 +167,43 @@ TEST(Cli, SensorOnAFullDiskLeavesNoFileAndNoTemporary) {
         }
     }
     fs::remove_all(dir);
+}
+
+// nvstim bench --filter memcpy --json F: valid JSON (checked by Python's json module, an
+// independent parser) with the contract's keys for each benchmark kept by the filter, the same
+// object on stdout; a filter that keeps nothing is a setup error (exit 2, one line).
+TEST(Cli, BenchWritesJsonWithTheContractKeys) {
+    namespace fs = std::filesystem;
+    const fs::path json =
+        fs::temp_directory_path() / ("nvs_cli_bench_" + std::to_string(::getpid()) + ".json");
+    const fs::path out = fs::path(json).replace_extension(".stdout");
+    const std::string cmd = std::string(NVSTIM_EXE) + " bench --filter memcpy --json " +
+                            json.string() + " > " + out.string() + " 2>/dev/null";
+    const int st = std::system(cmd.c_str());
+    ASSERT_TRUE(WIFEXITED(st) && WEXITSTATUS(st) == 0) << cmd;
+    const std::string check =
+        "python3 -c \"import json,sys\n"
+        "d = json.load(open(sys.argv[1])); s = json.load(open(sys.argv[2]))\n"
+        "assert d == s, 'stdout differs from --json'\n"
+        "names = sorted(b['name'] for b in d['benchmarks'])\n"
+        "assert names == ['memcpy_frame_f32', 'memcpy_frame_u16'], names\n"
+        "for b in d['benchmarks']:\n"
+        "    for k in "
+        "('name','what','iterations','min_s','p50_s','p99_s','mean_s','target_s','meets_target'):\n"
+        "        assert k in b, k\n"
+        "    assert b['iterations'] > 0 and 0 < b['min_s'] <= b['p50_s'] <= b['p99_s'], b\n"
+        "    assert b['min_s'] <= b['mean_s'], b\n"
+        "assert d['end_to_end'] == [] and isinstance(d['ratios'], dict)\n"
+        "assert d['machine']['cpus'] >= 1 and len(d['machine']['load_avg_start']) == 3\n"
+        "\" " +
+        json.string() + " " + out.string();
+    EXPECT_EQ(std::system(check.c_str()), 0) << check;
+    fs::remove(json);
+    fs::remove(out);
+    const Result none = runNvstim("bench --filter no_such_benchmark");
+    EXPECT_EQ(none.status, cli::kExitUsage) << none.out;
+    EXPECT_NE(none.out.find("no_such_benchmark"), std::string::npos) << none.out;
+    EXPECT_EQ(std::count(none.out.begin(), none.out.end(), '\n'), 1) << none.out;
 }
 
 }  // namespace

@@ -1,0 +1,158 @@
+#include "rt/bench/timed_items.h"
+
+#include <benchmark/benchmark.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <map>
+
+namespace nvs::rt::bench {
+namespace {
+
+// Quantile q of sorted samples: the value at rank ⌊q·n⌋ (the previous `nvstim bench`'s rule).
+double quantile(const std::vector<double>& sorted, double q) {
+    const std::size_t i = std::min(
+        sorted.size() - 1, static_cast<std::size_t>(q * static_cast<double>(sorted.size())));
+    return sorted[i];
+}
+
+void summarise(TimedItem& it) {
+    std::vector<double> t = it.samples_s;
+    if (t.empty()) return;
+    std::sort(t.begin(), t.end());
+    double sum = 0.0;
+    for (const double x : t)
+        sum += x;
+    it.ran = true;
+    it.iterations = static_cast<std::int64_t>(t.size());
+    it.min_s = t.front();
+    it.p50_s = quantile(t, 0.5);
+    it.p99_s = quantile(t, 0.99);
+    it.mean_s = sum / static_cast<double>(t.size());
+}
+
+// Collects each item's last (reported) trial and prints one line per item on stderr.
+class Collector final : public benchmark::BenchmarkReporter {
+  public:
+    explicit Collector(std::map<std::string, TimedItem*> byName) : byName_(std::move(byName)) {}
+    bool ReportContext(const Context& ctx) override {
+        machine.mhz = ctx.cpu_info.cycles_per_second * 1e-6;
+        return true;
+    }
+    void ReportRuns(const std::vector<Run>& runs) override {
+        for (const Run& r : runs) {
+            const auto f = byName_.find(r.run_name.function_name);
+            if (f == byName_.end() || r.run_type != Run::RT_Iteration) continue;
+            TimedItem& it = *f->second;
+            if (r.error_occurred) {
+                std::fprintf(stderr, "  %-34s error: %s\n", it.name.c_str(),
+                             r.error_message.c_str());
+                continue;
+            }
+            summarise(it);
+            if (it.after) it.after(it);
+            std::fprintf(stderr, "  %-34s p50 %10.4f ms  p99 %10.4f ms  n %6lld  %s\n",
+                         it.name.c_str(), it.p50_s * 1e3, it.p99_s * 1e3,
+                         static_cast<long long>(it.iterations),
+                         !it.target_s               ? "(reference)"
+                         : it.p50_s <= *it.target_s ? "ok"
+                                                    : "OVER target");
+        }
+    }
+    MachineInfo machine;
+
+  private:
+    std::map<std::string, TimedItem*> byName_;
+};
+
+// Google Benchmark's filter is a regular expression; ours is a plain substring.
+std::string regexQuote(const std::string& text) {
+    std::string out;
+    for (const char c : text) {
+        if (std::string_view("\\^$.|?*+()[]{}").find(c) != std::string_view::npos) out += '\\';
+        out += c;
+    }
+    return out;
+}
+
+}  // namespace
+
+MachineInfo runTimedItems(std::vector<std::unique_ptr<TimedItem>>& items,
+                          const std::optional<std::string>& filter) {
+    std::map<std::string, TimedItem*> byName;
+    for (auto& p : items) {
+        TimedItem* it = p.get();
+        byName[it->name] = it;
+        auto* b = benchmark::RegisterBenchmark(it->name.c_str(), [it](benchmark::State& st) {
+            if (it->setup) {
+                std::fprintf(stderr, "nvstim bench: %s: setting up ...\n", it->name.c_str());
+                it->setup();
+                it->setup = nullptr;
+            }
+            // Google Benchmark calls this once per trial with a growing iteration count; the
+            // last trial is the one reported, so each call starts the samples afresh.
+            it->samples_s.clear();
+            it->samples_s.reserve(static_cast<std::size_t>(st.max_iterations));
+            using Clock = std::chrono::steady_clock;
+            for (auto _ : st) {
+                const auto t0 = Clock::now();
+                it->iteration();
+                const double dt = std::chrono::duration<double>(Clock::now() - t0).count();
+                st.SetIterationTime(dt);
+                it->samples_s.push_back(dt);
+            }
+        });
+        b->UseManualTime()->MinTime(it->minTime_s)->Unit(benchmark::kMillisecond);
+    }
+    bool any = false;
+    for (const auto& p : items)
+        any = any || !filter || p->name.find(*filter) != std::string::npos;
+    Collector collector(std::move(byName));
+    const std::string spec = filter ? regexQuote(*filter) : std::string(".");
+    if (any) benchmark::RunSpecifiedBenchmarks(&collector, spec);
+    benchmark::ClearRegisteredBenchmarks();
+    return collector.machine;
+}
+
+std::string jsonEscape(const std::string& in) {
+    std::string out;
+    for (const char c : in) {
+        if (c == '"' || c == '\\') {
+            out += '\\';
+            out += c;
+        } else if (static_cast<unsigned char>(c) < 0x20) {
+            char b[8];
+            std::snprintf(b, sizeof b, "\\u%04x", c);
+            out += b;
+        } else {
+            out += c;
+        }
+    }
+    return out;
+}
+
+std::string timedItemJson(const TimedItem& r) {
+    char buf[512];
+    std::snprintf(buf, sizeof buf,
+                  "{\"name\":\"%s\",\"what\":\"%s\",\"iterations\":%lld,\"min_s\":%.4g,"
+                  "\"p50_s\":%.4g,\"p99_s\":%.4g,\"mean_s\":%.4g,",
+                  jsonEscape(r.name).c_str(), jsonEscape(r.what).c_str(),
+                  static_cast<long long>(r.iterations), r.min_s, r.p50_s, r.p99_s, r.mean_s);
+    std::string j = buf;
+    if (r.target_s) {
+        std::snprintf(buf, sizeof buf, "\"target_s\":%.4g,\"meets_target\":%s", *r.target_s,
+                      r.p50_s <= *r.target_s ? "true" : "false");
+        j += buf;
+    } else {
+        j += "\"target_s\":null,\"meets_target\":null";
+    }
+    for (const auto& [key, value] : r.extra) {
+        std::snprintf(buf, sizeof buf, ",\"%s\":%.6g", key.c_str(), value);
+        j += std::isfinite(value) ? std::string(buf) : ",\"" + key + "\":null";
+    }
+    return j + "}";
+}
+
+}  // namespace nvs::rt::bench

@@ -1,0 +1,55 @@
+#pragma once
+// `nvstim bench`'s per-stage items on Google Benchmark: each item is registered with
+// benchmark::RegisterBenchmark and run by benchmark::RunSpecifiedBenchmarks; a reporter
+// (timed_items.cpp) collects the results into nvstim's JSON keys (docs/contracts.md, "bench").
+// Each iteration is timed on its own (manual time), so the distribution (min, p50, p99) of the
+// per-iteration times is reported, not only Google Benchmark's mean.
+
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace nvs::rt::bench {
+
+struct TimedItem {
+    std::string name;
+    std::string what;
+    std::optional<double> target_s;  // budget for p50 (absent: a reference figure)
+    double minTime_s = 1.0;          // Google Benchmark's min time (of the manual time)
+    // Called once before the first timed iteration (untimed): heavy setup, only for the items
+    // the filter keeps.
+    std::function<void()> setup;
+    std::function<void()> iteration;  // one timed iteration
+    // Called once after timing: adds figures (rays/s, pe/px, ...) to `extra`.
+    std::function<void(TimedItem&)> after;
+
+    // Results.
+    bool ran = false;
+    std::int64_t iterations = 0;
+    double min_s = 0.0, p50_s = 0.0, p99_s = 0.0, mean_s = 0.0;
+    std::vector<std::pair<std::string, double>> extra;
+    std::vector<double> samples_s;  // the reported trial's per-iteration times
+};
+
+// What Google Benchmark reports about the machine (0 when no item ran).
+struct MachineInfo {
+    double mhz = 0.0;
+};
+
+// Registers every item and runs those whose name contains `filter` (all without one),
+// filling their results; progress and a table on stderr.
+MachineInfo runTimedItems(std::vector<std::unique_ptr<TimedItem>>& items,
+                          const std::optional<std::string>& filter);
+
+// One item as nvstim's JSON object: name, what, iterations, min_s, p50_s, p99_s, mean_s,
+// target_s and meets_target (null without a target), then the extra keys.
+std::string timedItemJson(const TimedItem& item);
+
+// Text as a JSON string body (quotes and control characters escaped).
+std::string jsonEscape(const std::string& text);
+
+}  // namespace nvs::rt::bench
