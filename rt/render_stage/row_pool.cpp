@@ -2,11 +2,13 @@
 
 #include <pthread.h>
 
+#include <algorithm>
+
 namespace nvs::rt {
 
 RowPool::RowPool(int threads) : n_(threads < 1 ? 1 : threads) {
     for (int i = 1; i < n_; ++i) {
-        workers_.emplace_back([this, i] { loop(i); });
+        workers_.emplace_back([this] { loop(); });
         pthread_setname_np(workers_.back().native_handle(), "nvs-render-w");
     }
 }
@@ -30,29 +32,38 @@ void RowPool::run(int rows, void (*fn)(void*, int, int), void* ctx) noexcept {
     {
         std::lock_guard<std::mutex> g(m_);
         rows_ = rows;
+        // Eight chunks a thread: small enough to even out a thread held up for a while, large
+        // enough that taking one costs nothing against its rows.
+        chunk_ = std::max(1, rows / (8 * n_));
+        next_.store(0, std::memory_order_relaxed);
         fn_ = fn;
         ctx_ = ctx;
         pending_ = n_ - 1;
         ++generation_;
     }
     wake_.notify_all();
-    fn(ctx, 0, rows / n_);
+    work();
     std::unique_lock<std::mutex> l(m_);
     done_.wait(l, [this] { return pending_ == 0; });
 }
 
-void RowPool::loop(int index) {
+void RowPool::work() noexcept {
+    for (;;) {
+        const int y0 = next_.fetch_add(chunk_, std::memory_order_relaxed);
+        if (y0 >= rows_) return;
+        fn_(ctx_, y0, std::min(rows_, y0 + chunk_));
+    }
+}
+
+void RowPool::loop() {
     unsigned long seen = 0;
     for (;;) {
         std::unique_lock<std::mutex> l(m_);
         wake_.wait(l, [&] { return generation_ != seen; });
         seen = generation_;
         if (stop_) return;
-        const int rows = rows_;
-        auto* fn = fn_;
-        void* ctx = ctx_;
         l.unlock();
-        fn(ctx, rows * index / n_, rows * (index + 1) / n_);
+        work();
         l.lock();
         if (--pending_ == 0) done_.notify_one();
     }

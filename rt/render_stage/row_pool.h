@@ -1,8 +1,13 @@
 #pragma once
 // A fixed pool of worker threads that splits the renderer's rows (sim/render's RowExecutor).
-// sim/ has no threads (DESIGN §2); the runtime owns them. The calling thread takes the first
-// share; workers are created at setup and woken per frame: nothing is allocated per frame.
+// sim/ has no threads (DESIGN §2); the runtime owns them. The calling thread works too; workers
+// are created at setup and woken per frame: nothing is allocated per frame. Rows are handed out
+// in chunks from a shared counter, not in fixed shares: the camera thread and the rest of the
+// machine take cores from the render threads at random, and a thread held up then leaves its
+// rows to the others instead of making them wait (each row's result does not depend on which
+// thread computes it, sim/render).
 
+#include <atomic>
 #include <condition_variable>
 #include <mutex>
 #include <thread>
@@ -24,7 +29,8 @@ class RowPool final : public render::RowExecutor {
     int threads() const { return n_; }
 
   private:
-    void loop(int index);
+    void loop();
+    void work() noexcept;  // takes chunks of rows until none is left
 
     int n_;
     std::vector<std::thread> workers_;
@@ -33,7 +39,8 @@ class RowPool final : public render::RowExecutor {
     unsigned long generation_ = 0;
     int pending_ = 0;
     bool stop_ = false;
-    int rows_ = 0;
+    int rows_ = 0, chunk_ = 1;
+    std::atomic<int> next_{0};
     void (*fn_)(void*, int, int) = nullptr;
     void* ctx_ = nullptr;
 };
