@@ -76,6 +76,16 @@ int AtomicFile::open(const char* finalPath) noexcept {
     const std::size_t len = std::strlen(finalPath);
     if (len + 1 > kMaxPath) return -ENAMETOOLONG;
     std::memcpy(final_, finalPath, len + 1);
+    // A device or a FIFO (/dev/null, a named pipe to a consumer) is written in place: a
+    // temporary renamed onto it would replace the node itself by a regular file (rename(2)
+    // replaces any non-directory; for root that turns /dev/null into a file).
+    struct stat st {};
+    direct_ = ::stat(finalPath, &st) == 0 && !S_ISREG(st.st_mode) && !S_ISDIR(st.st_mode);
+    if (direct_) {
+        temp_[0] = '\0';
+        fd_ = ::open(finalPath, O_WRONLY | O_CLOEXEC);
+        return fd_ < 0 ? -errno : 0;
+    }
     std::snprintf(temp_, sizeof temp_, "%s.part", finalPath);
     fd_ = ::open(temp_, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
     return fd_ < 0 ? -errno : 0;
@@ -88,6 +98,7 @@ int AtomicFile::write(const void* data, std::size_t size) noexcept {
 
 int AtomicFile::truncate(off_t size) noexcept {
     if (fd_ < 0) return -EBADF;
+    if (direct_) return -ESPIPE;  // what went to a device or a pipe cannot be taken back
     if (::ftruncate(fd_, size) != 0) return -errno;
     if (::lseek(fd_, size, SEEK_SET) < 0) return -errno;
     return 0;
@@ -96,9 +107,11 @@ int AtomicFile::truncate(off_t size) noexcept {
 int AtomicFile::commit(bool sync, bool keepOnError) noexcept {
     if (fd_ < 0) return -EBADF;
     int rc = 0;
-    if (sync && ::fsync(fd_) != 0) rc = -errno;
+    // A device or a pipe has no file to make durable (fsync(2): EINVAL on most of them).
+    if (sync && !direct_ && ::fsync(fd_) != 0) rc = -errno;
     if (::close(fd_) != 0 && rc == 0) rc = -errno;
     fd_ = -1;
+    if (direct_) return rc;
     if (rc != 0 && !keepOnError) {
         ::unlink(temp_);
         return rc;
@@ -115,7 +128,7 @@ void AtomicFile::abort() noexcept {
     if (fd_ < 0) return;
     ::close(fd_);
     fd_ = -1;
-    ::unlink(temp_);
+    if (!direct_) ::unlink(temp_);
 }
 
 }  // namespace nvs::drivers

@@ -47,7 +47,9 @@ class AtomicFile {
     AtomicFile(const AtomicFile&) = delete;
     AtomicFile& operator=(const AtomicFile&) = delete;
 
-    // Opens "<finalPath>.part" for writing. `finalPath` must fit in kMaxPath.
+    // Opens "<finalPath>.part" for writing. `finalPath` must fit in kMaxPath. A final path that
+    // is a device or a FIFO (/dev/null, a named pipe) is opened and written in place instead:
+    // no temporary, commit() only closes, truncate() fails with -ESPIPE.
     int open(const char* finalPath) noexcept;
     int write(const void* data, std::size_t size) noexcept;
     // Cuts the temporary back to `size` bytes (a stream's last whole record) and goes on
@@ -67,6 +69,7 @@ class AtomicFile {
 
   private:
     int fd_ = -1;
+    bool direct_ = false;  // writing the final path in place (a device or a FIFO)
     char final_[kMaxPath] = {};
     char temp_[kMaxPath + 8] = {};
 };

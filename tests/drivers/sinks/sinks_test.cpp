@@ -1,9 +1,11 @@
 // File sinks write exactly the documented bytes, and a sink that fails leaves no file.
 #include "drivers/sinks/sinks.h"
 
+#include <fcntl.h>
 #include <gtest/gtest.h>
 #include <signal.h>
 #include <sys/resource.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <cerrno>
@@ -153,6 +155,52 @@ TEST(Sinks, PgmAndY4mBytesAreExact) {
     // 1001 << 6 = 64064 = 0xFA40, little-endian.
     EXPECT_EQ(static_cast<unsigned char>(y4m[yh.size() + 8]), 0x40);
     EXPECT_EQ(static_cast<unsigned char>(y4m[yh.size() + 9]), 0xFA);
+    fs::remove_all(dir);
+}
+
+// An output path that is a FIFO or a device (a named pipe to a consumer, /dev/null) is written
+// in place: a temporary renamed onto it would replace the node by a regular file (for root,
+// /dev/null). Here a named pipe: the reader gets the stream, the node stays a FIFO and no
+// temporary is left beside it.
+TEST(Sinks, Y4mIntoANamedPipeWritesThroughAndLeavesTheNode) {
+    const fs::path dir =
+        fs::temp_directory_path() / ("nvs_sinks_fifo_" + std::to_string(::getpid()));
+    fs::remove_all(dir);
+    fs::create_directories(dir);
+    const fs::path fifo = dir / "v.y4m";
+    ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+    // The read end first (non-blocking open: no writer yet), so that the sink's open for
+    // writing does not wait; then blocking reads until the writer closes. Were the sink to
+    // write a temporary instead, no writer would ever open the pipe and the reads end at once.
+    const int rfd = ::open(fifo.c_str(), O_RDONLY | O_NONBLOCK);
+    ASSERT_GE(rfd, 0);
+    ImageU16 counts(4, 2);
+    counts.fill(3);
+    msg::FrameMeta meta;
+    msg::OutputFrame f;
+    f.meta = &meta;
+    f.counts = counts.cview();
+    f.bits = 8;
+    std::string got;
+    {
+        Y4mSink sink(fifo.string(), 4, 2, 8, msg::FrameRate{30, 1});
+        std::thread reader([&] {
+            ::fcntl(rfd, F_SETFL, 0);
+            char buf[256];
+            for (ssize_t n; (n = ::read(rfd, buf, sizeof buf)) > 0;)
+                got.append(buf, static_cast<std::size_t>(n));
+        });
+        EXPECT_EQ(sink.write(f), 0);
+        EXPECT_EQ(sink.write(f), 0);
+        EXPECT_EQ(sink.close(), 0);
+        reader.join();
+    }
+    ::close(rfd);
+    const std::string header = "YUV4MPEG2 W4 H2 F30:1 Ip A1:1 Cmono\n";
+    EXPECT_EQ(got.size(), header.size() + 2 * (6 + 8));
+    EXPECT_EQ(got.substr(0, header.size()), header);
+    EXPECT_TRUE(fs::is_fifo(fifo));
+    EXPECT_FALSE(fs::exists(dir / "v.y4m.part"));
     fs::remove_all(dir);
 }
 
