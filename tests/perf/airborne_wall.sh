@@ -87,11 +87,15 @@ for line in open(out + "/meta.jsonl"):
         if m["t_sample_s"] < 1.0: early += 1
         else: late += 1
 gaps = sum(b - a - 1 for a, b in zip(ticks, ticks[1:]) if b - a > 1)
+# Ticks before the first frame was ready (nothing to send yet): at the start, in the first second.
+lead = ticks[0] if ticks else 0
+early += lead
 p, r = st["period"], st["render_latency"]
 fields = 2 * st["frames_rendered"]
-print("airborne_wall: exit %d, %d frames emitted, %d rendered; deadline misses %d (repeated in the "
-      "first second %d, after it %d; ticks with nothing sent %d)" % (status, st["frames_emitted"],
-      st["frames_rendered"], st["deadline_misses"], early, late, gaps))
+print("airborne_wall: exit %d, %d frames emitted, %d rendered; deadline misses %d: in the first "
+      "second %d (%d of them before the first frame), after it %d (repeated %d, nothing sent %d)"
+      % (status, st["frames_emitted"], st["frames_rendered"], st["deadline_misses"], early, lead,
+         late + gaps, late, gaps))
 print("airborne_wall: period p50 %.2f p99 %.2f max %.2f ms; render to emission p50 %.1f p99 %.1f "
       "max %.1f ms; CPU %.1f ms per field; load %s" % (p["p50_s"] * 1e3, p["p99_s"] * 1e3,
       p["max_s"] * 1e3, r["p50_s"] * 1e3, r["p99_s"] * 1e3, r["max_s"] * 1e3,
