@@ -116,23 +116,6 @@ MachineInfo runTimedItems(std::vector<std::unique_ptr<TimedItem>>& items,
     return collector.machine;
 }
 
-std::string jsonEscape(const std::string& in) {
-    std::string out;
-    for (const char c : in) {
-        if (c == '"' || c == '\\') {
-            out += '\\';
-            out += c;
-        } else if (static_cast<unsigned char>(c) < 0x20) {
-            char b[8];
-            std::snprintf(b, sizeof b, "\\u%04x", c);
-            out += b;
-        } else {
-            out += c;
-        }
-    }
-    return out;
-}
-
 std::string timedItemJson(const TimedItem& r) {
     char buf[512];
     std::snprintf(buf, sizeof buf,

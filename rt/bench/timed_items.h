@@ -13,6 +13,8 @@
 #include <utility>
 #include <vector>
 
+#include "rt/run/run.h"  // jsonEscape
+
 namespace nvs::rt::bench {
 
 struct TimedItem {
@@ -48,8 +50,5 @@ MachineInfo runTimedItems(std::vector<std::unique_ptr<TimedItem>>& items,
 // One item as nvstim's JSON object: name, what, iterations, min_s, p50_s, p99_s, mean_s,
 // target_s and meets_target (null without a target), then the extra keys.
 std::string timedItemJson(const TimedItem& item);
-
-// Text as a JSON string body (quotes and control characters escaped).
-std::string jsonEscape(const std::string& text);
 
 }  // namespace nvs::rt::bench

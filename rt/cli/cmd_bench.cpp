@@ -441,7 +441,7 @@ int writeBenchJson(const Items& items, const std::vector<std::string>& e2e,
     if (!notes.empty()) {
         json += ",\"notes\":[";
         for (std::size_t i = 0; i < notes.size(); ++i)
-            json += (i ? ",\"" : "\"") + rt::bench::jsonEscape(notes[i]) + "\"";
+            json += (i ? ",\"" : "\"") + rt::jsonEscape(notes[i]) + "\"";
         json += "]";
     }
     json += "}\n";

@@ -121,23 +121,6 @@ std::unique_ptr<PlatformSource> makePlatformSource(const std::optional<std::stri
 
 namespace {
 
-std::string jsonEscape(const std::string& in) {
-    std::string out;
-    for (const char c : in) {
-        if (c == '"' || c == '\\') {
-            out += '\\';
-            out += c;
-        } else if (static_cast<unsigned char>(c) < 0x20) {
-            char b[8];
-            std::snprintf(b, sizeof b, "\\u%04x", c);
-            out += b;
-        } else {
-            out += c;
-        }
-    }
-    return out;
-}
-
 std::atomic<bool> gStop{false};
 
 extern "C" void onStopSignal(int /*sig*/) {
@@ -453,6 +436,23 @@ int runScenario(const RunRequest& req, std::FILE* status) {
     if (outputFailed)
         std::fprintf(status, "nvstim run: an output failed or had write errors (exit status 4)\n");
     return (outputFailed ? kRunOutputFailed : 0) | (interrupted ? kRunInterrupted : 0);
+}
+
+std::string jsonEscape(const std::string& in) {
+    std::string out;
+    for (const char c : in) {
+        if (c == '"' || c == '\\') {
+            out += '\\';
+            out += c;
+        } else if (static_cast<unsigned char>(c) < 0x20) {
+            char b[8];
+            std::snprintf(b, sizeof b, "\\u%04x", c);
+            out += b;
+        } else {
+            out += c;
+        }
+    }
+    return out;
 }
 
 }  // namespace nvs::rt

@@ -62,6 +62,10 @@ inline constexpr int kRunInterrupted = 8;   // stopped by SIGINT or SIGTERM (cle
 // to `status` at most once a second.
 int runScenario(const RunRequest& req, std::FILE* status);
 
+// Text as a JSON string body (quotes and control characters escaped): the stats JSON's, and
+// `nvstim bench`'s.
+std::string jsonEscape(const std::string& text);
+
 // The stop flag SIGINT and SIGTERM set.
 std::atomic<bool>& stopRequested();
 void installStopSignals();
