@@ -9,7 +9,9 @@
 #
 # Not run by `make test` (it takes the time it is given). Usage:
 #   tests/perf/airborne_wall.sh [BUILD_DIR]       # default build/release
-# Environment: WALL_SECONDS (60), WALL_OUT (a folder to keep the files; default temporary).
+# Environment: WALL_SECONDS (60), WALL_OUT (a folder to keep the files; default temporary),
+# WALL_REALTIME=1 ([runtime] realtime = true: SCHED_FIFO threads and mlockall; needs the
+# privilege to use them).
 set -eu
 
 here=$(cd "$(dirname "$0")/../.." && pwd)
@@ -67,8 +69,11 @@ PY
 sed -e "s#\"\.\./rit/#\"$here/scenarios/rit/#" -e "s#replay:flight.candump#replay:$out/orbit.candump#" \
     -e "s#^duration_s = .*#duration_s = $((seconds + 2))#" \
     "$here/scenarios/airborne-pass/scenario.toml" > "$out/scenario.toml"
+if [ "${WALL_REALTIME:-0}" = 1 ]; then
+  printf '\n[runtime]\nrealtime = true\n' >> "$out/scenario.toml"
+fi
 
-echo "airborne_wall: $frames frames ($seconds s) on the wall clock, load $(cut -d' ' -f1-3 /proc/loadavg)" >&2
+echo "airborne_wall: $frames frames ($seconds s) on the wall clock (realtime ${WALL_REALTIME:-0}), load $(cut -d' ' -f1-3 /proc/loadavg)" >&2
 status=0
 /usr/bin/time -f "%U %S" -o "$out/cpu" "$nvstim" run "$out/scenario.toml" --clock wall \
     --frames "$frames" --output y4m:/dev/null --output "meta:$out/meta.jsonl" \
