@@ -16,6 +16,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <string>
 #include <vector>
 
@@ -238,6 +239,47 @@ TEST(GlPrimary, AutoPicksAPathAndSaysWhich) {
     const Renderer::PrimaryTiming t = sr->renderer().measurePrimaryPasses(ex, 1);
     EXPECT_GT(t.embree_ms, 0.0);
     std::printf("embree %.2f ms, gl %.2f ms\n", t.embree_ms, t.gl_ms);
+}
+
+// An interlaced field's own rows through the GL pass (Renderer::render with rowParity): after
+// the camera moved, the even field and then the odd field give, bit for bit, the image a second
+// GL renderer makes of every row at the new pose, each field casting no Embree primary ray.
+TEST(GlPrimary, FieldRowsMakeTheWholeImageOfTheGlPass) {
+    Pair a = openPair(test::sourceDir() / "scenarios/rit/stlamp.toml");
+    if (!a.gl) GTEST_SKIP() << a.why;
+    Pair b = openPair(test::sourceDir() / "scenarios/rit/stlamp.toml");
+    ASSERT_TRUE(b.gl);
+    const FrameSky sky = a.gl->prepare(0.0);
+    (void)b.gl->prepare(0.0);
+    const PinholeCamera& c = a.gl->renderer().camera();
+    ImageF pa(c.width, c.height), wa(c.width, c.height), pb(c.width, c.height),
+        wb(c.width, c.height);
+    SerialExecutor ex;
+    a.gl->renderer().render(sky, pa.view(), wa.view(), ex);
+    scene::CameraPose moved = a.gl->scene().camera;
+    moved.position_m = moved.position_m + Vec3{0.7, -0.4, 0.2};
+    a.gl->renderer().setCamera(moved);
+    b.gl->renderer().setCamera(moved);
+    b.gl->renderer().render(sky, pb.view(), wb.view(), ex);
+    const auto rowsSame = [&](int parity) {
+        int same = 0;
+        const std::size_t bytes = static_cast<std::size_t>(c.width) * sizeof(float);
+        for (int y = parity; y < c.height; y += 2) {
+            same += std::memcmp(pa.view().row(y), pb.view().row(y), bytes) == 0 &&
+                    std::memcmp(wa.view().row(y), wb.view().row(y), bytes) == 0;
+        }
+        return same;
+    };
+    const int half = c.height / 2;
+    EXPECT_LT(rowsSame(0), half / 2);  // the move changed the image
+    a.gl->renderer().render(sky, pa.view(), wa.view(), ex, 0);
+    EXPECT_TRUE(a.gl->renderer().primaryByGl());
+    EXPECT_EQ(a.gl->renderer().lastStats().primaryRays, 0u);
+    EXPECT_EQ(rowsSame(0), half);
+    EXPECT_LT(rowsSame(1), half / 2);  // the odd rows still hold the old pose
+    a.gl->renderer().render(sky, pa.view(), wa.view(), ex, 1);
+    EXPECT_EQ(rowsSame(0), half);
+    EXPECT_EQ(rowsSame(1), half);
 }
 
 }  // namespace
