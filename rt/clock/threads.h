@@ -21,7 +21,8 @@ enum ThreadId : int {
     kThreadGpio = 3,
     kThreadCamera = 4,
     kThreadSink = 5,
-    kThreadCount = 6
+    kThreadRenderWorker = 6,
+    kThreadCount = 7
 };
 
 inline constexpr ThreadSpec kThreadTable[kThreadCount] = {
@@ -46,6 +47,10 @@ inline constexpr ThreadSpec kThreadTable[kThreadCount] = {
      "one per output (not gpio:): takes frames from its bounded queue and writes them, so a "
      "stalled or dead consumer holds up only itself",
      78, -1},
+    {"nvs-render-w",
+     "render_threads − 1 of them: rows of the render thread's frame or field, handed out in "
+     "chunks (RowPool); the camera thread outranks them on its core",
+     70, -1},
 };
 
 // Names the calling thread after its table entry and, when `realtime`, applies its priority

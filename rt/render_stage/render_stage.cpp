@@ -27,7 +27,7 @@ std::unique_ptr<SceneRenderStage> SceneRenderStage::create(const Scenario& sc,
     auto s = std::unique_ptr<SceneRenderStage>(new SceneRenderStage());
     s->sr_ = ScenarioRenderer::create(sc, dirs, sc.renderCoarse);
     const SceneSpec& rs = sc.scene;
-    s->pool_ = std::make_unique<RowPool>(sc.renderThreads);
+    s->pool_ = std::make_unique<RowPool>(sc.renderThreads, sc.realtime);
     // "auto" times both primary passes here, on the first view with the loop's row pool.
     s->visibilityNote_ = s->sr_->renderer().choosePrimaryVisibility(*s->pool_);
     s->band_ = ImageF(sc.width, sc.height);

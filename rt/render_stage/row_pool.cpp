@@ -1,15 +1,19 @@
 #include "rt/render_stage/row_pool.h"
 
-#include <pthread.h>
-
 #include <algorithm>
+#include <string>
+
+#include "rt/clock/threads.h"
 
 namespace nvs::rt {
 
-RowPool::RowPool(int threads) : n_(threads < 1 ? 1 : threads) {
+RowPool::RowPool(int threads, bool realtime) : n_(threads < 1 ? 1 : threads) {
     for (int i = 1; i < n_; ++i) {
-        workers_.emplace_back([this] { loop(); });
-        pthread_setname_np(workers_.back().native_handle(), "nvs-render-w");
+        workers_.emplace_back([this, realtime] {
+            std::string refused;  // already reported by the render thread's own spec
+            applyThreadSpec(kThreadRenderWorker, realtime, refused);
+            loop();
+        });
     }
 }
 

@@ -19,8 +19,9 @@ namespace nvs::rt {
 
 class RowPool final : public render::RowExecutor {
   public:
-    // `threads` ≥ 1 in total, the caller included.
-    explicit RowPool(int threads);
+    // `threads` ≥ 1 in total, the caller included. With `realtime` the workers take their
+    // entry of the thread table (rt/clock/threads.h: SCHED_FIFO, the render thread's priority).
+    explicit RowPool(int threads, bool realtime = false);
     ~RowPool() override;
     RowPool(const RowPool&) = delete;
     RowPool& operator=(const RowPool&) = delete;
