@@ -167,11 +167,13 @@ TEST(ChainPhotonTransferThesis, Table18_5SigmaWithin30Percent) {
 // transmission, photocathode QE from its luminous sensitivity) turns that radiance into
 // photoelectrons per pixel and field; the frame's mean above the bias divided by them is the DC
 // per photoelectron the radiance calibration implies. Photon transfer (the same frames' σ) says
-// K(5.5 V) = dcPerPhotoelectron. They differ by the factor the docs state: about 5.
+// K(5.5 V) = dcPerPhotoelectron. They differ by the factor the docs state: about 20.
 TEST(ChainPhotonTransferThesis, RadianceCalibrationImpliesFewerPhotoelectronsPerDc) {
     const CsvTable t =
         CsvTable::load(test::thesisData("table18-5_radiometric_calibration_gain5p5V.csv"));
-    const CameraParams cam = preset("pulnix-ag5745ef3");
+    // Table 18-5 was taken at f/11 (Appendix H §18.4; tests/data/thesis/README.md), not at the
+    // preset's f/5.6.
+    const CameraParams cam = preset("pulnix-ag5745ef3", {{"f_number", "11"}});
     const Spectrum box =
         Spectrum::fromFunction([](double nm) { return nm >= 480.0 && nm <= 940.0 ? 1.0 : 0.0; });
     const double lpePerL = peRadiancePerBandRadiance(cam, planckRadiance_W_m2_sr_nm(2856.0), box);
@@ -187,8 +189,8 @@ TEST(ChainPhotonTransferThesis, RadianceCalibrationImpliesFewerPhotoelectronsPer
     std::printf(
         "Table 18-5: radiance calibration %.4g DC/pe vs photon transfer %.4g DC/pe: x%.1f\n",
         ratio * cam.dcPerPhotoelectron(5.5), cam.dcPerPhotoelectron(5.5), ratio);
-    EXPECT_GT(ratio, 4.0);
-    EXPECT_LT(ratio, 6.5);
+    EXPECT_GT(ratio, 15.0);
+    EXPECT_LT(ratio, 25.0);
 }
 
 // The Gen III preset's luminous gain, derived through the whole tube (cathode sensitivity, MCP
