@@ -4,6 +4,7 @@
 // write nothing.
 #include <gtest/gtest.h>
 #include <sys/wait.h>
+#include <unistd.h>
 
 #include <array>
 #include <cstdio>
@@ -25,9 +26,16 @@ struct CliRun {
     std::string out, err;
 };
 
+// Each test's own folder: ctest runs the tests of this file in parallel processes.
+fs::path testPath(const std::string& what) {
+    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+    return fs::path(NVS_BINARY_DIR) /
+           ("test-diagnose-" + std::string(info->name()) + "-" + std::to_string(::getpid()) + what);
+}
+
 CliRun nvstim(const std::string& args) {
     CliRun r;
-    const fs::path errFile = fs::path(NVS_BINARY_DIR) / "test-diagnose-stderr.txt";
+    const fs::path errFile = testPath("-stderr.txt");
     const std::string cmd = std::string(NVSTIM_EXE) + " " + args + " 2>" + errFile.string();
     FILE* p = popen(cmd.c_str(), "r");
     if (p == nullptr) return r;
@@ -37,17 +45,25 @@ CliRun nvstim(const std::string& args) {
         r.out.append(buf.data(), n);
     const int st = pclose(p);
     r.status = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
-    std::ifstream e(errFile);
-    r.err.assign(std::istreambuf_iterator<char>(e), std::istreambuf_iterator<char>());
+    {
+        std::ifstream e(errFile);
+        r.err.assign(std::istreambuf_iterator<char>(e), std::istreambuf_iterator<char>());
+    }
+    fs::remove(errFile);
     return r;
 }
 
-fs::path workDir() {
-    const fs::path p = fs::path(NVS_BINARY_DIR) / "test-diagnose";
-    fs::remove_all(p);
-    fs::create_directories(p);
-    return p;
-}
+// The test's folder, empty at the start and removed at the end.
+struct WorkDir {
+    fs::path path = testPath("");
+    WorkDir() {
+        fs::remove_all(path);
+        fs::create_directories(path);
+    }
+    ~WorkDir() { fs::remove_all(path); }
+    WorkDir(const WorkDir&) = delete;
+    WorkDir& operator=(const WorkDir&) = delete;
+};
 
 fs::path writeHalo(const fs::path& dir) {
     fit::GenSpec s;
@@ -58,7 +74,8 @@ fs::path writeHalo(const fs::path& dir) {
 }
 
 TEST(Diagnose, NamesAHiddenHaloAndItsPresetLeavesNothingToFind) {
-    const fs::path dir = workDir();
+    const WorkDir work;
+    const fs::path& dir = work.path;
     const fs::path ds = writeHalo(dir);
     const CliRun r = nvstim("diagnose " + ds.string() + " --json " + (dir / "out.json").string() +
                             " --write-preset " + (dir / "fitted.toml").string());
@@ -93,7 +110,8 @@ TEST(Diagnose, ReportHasItsPlots) {
     if (!fs::exists("/usr/bin/python3") ||
         std::system("/usr/bin/python3 -c 'import matplotlib' 2>/dev/null") != 0)
         GTEST_SKIP() << "python3-matplotlib is not installed (make test installs it)";
-    const fs::path dir = workDir();
+    const WorkDir work;
+    const fs::path& dir = work.path;
     const fs::path ds = writeHalo(dir);
     const CliRun r = nvstim("diagnose " + ds.string() + " --report " + (dir / "report").string());
     ASSERT_EQ(r.status, 0) << r.err;
@@ -104,7 +122,8 @@ TEST(Diagnose, ReportHasItsPlots) {
 }
 
 TEST(Diagnose, BadDatasetExitsTwoWithOneLineAndWritesNothing) {
-    const fs::path dir = workDir();
+    const WorkDir work;
+    const fs::path& dir = work.path;
     const fs::path ds = writeHalo(dir);
     std::ifstream in(ds / "dataset.toml");
     const std::string good((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
