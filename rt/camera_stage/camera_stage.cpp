@@ -1,7 +1,5 @@
 #include "rt/camera_stage/camera_stage.h"
 
-#include <cstring>
-
 namespace nvs::rt {
 
 IiccdCameraStage::IiccdCameraStage(const sensor::CameraParams& cam, const std::string& spectrum,
@@ -42,9 +40,7 @@ void IiccdCameraStage::expose(const FrameRequest& req, RadianceFrame in,
     const sensor::CameraCommand cmd{p.gain_V, p.gate_s, p.gateMode, p.agc};
     const sensor::FieldInfo& info = chain_.process(lpe, cmd, req.t_sample_s);
 
-    const std::size_t rowBytes = static_cast<std::size_t>(cam.width) * sizeof(std::uint16_t);
-    for (int y = 0; y < cam.height; ++y)
-        std::memcpy(counts.row(y), chain_.video().cview().row(y), rowBytes);
+    counts.copyFrom(chain_.video().cview());
     // What the camera applied: the field's metadata.
     applied = FieldMeta{req.t_sample_s, info.gain_V, info.gate_s};
 }

@@ -1,7 +1,6 @@
 #include "rt/render_stage/render_stage.h"
 
 #include <cmath>
-#include <cstring>
 
 #include "sim/core/error.h"
 #include "sim/core/geometry.h"
@@ -13,12 +12,6 @@ namespace {
 // WGS84 (NIMA TR8350.2).
 constexpr double kWgs84A_m = 6378137.0;
 constexpr double kWgs84E2 = 6.69437999014e-3;
-
-void copyImage(ImageView<const float> from, ImageView<float> to) noexcept {
-    const std::size_t rowBytes = static_cast<std::size_t>(from.width()) * sizeof(float);
-    for (int y = 0; y < from.height(); ++y)
-        std::memcpy(to.row(y), from.row(y), rowBytes);
-}
 
 }  // namespace
 
@@ -108,8 +101,8 @@ void SceneRenderStage::render(const FrameRequest& req, RadianceTarget out,
         const int parity = heldValid_ ? req.rowParity : -1;
         r.render(sky, heldLpe_.view(), heldBand_.view(), *pool_, parity);
         heldValid_ = true;
-        copyImage(heldLpe_.cview(), out.lpe_pe_s_m2_sr);
-        if (!out.band_W_m2_sr.empty()) copyImage(heldBand_.cview(), out.band_W_m2_sr);
+        out.lpe_pe_s_m2_sr.copyFrom(heldLpe_.cview());
+        if (!out.band_W_m2_sr.empty()) out.band_W_m2_sr.copyFrom(heldBand_.cview());
     } else {
         const ImageView<float> band = out.band_W_m2_sr.empty() ? band_.view() : out.band_W_m2_sr;
         r.render(sky, out.lpe_pe_s_m2_sr, band, *pool_);

@@ -3,11 +3,13 @@
 // row stride in pixels. Image<T> owns its pixels; ImageView<T> borrows them (a V4L2 buffer, a
 // region of another image). Rows are padded to 64 bytes so row starts are SIMD-aligned.
 
+#include <algorithm>
 #include <cassert>
 #include <cstddef>
 #include <cstdint>
 #include <memory>
 #include <new>
+#include <type_traits>
 
 namespace nvs {
 
@@ -42,6 +44,12 @@ class ImageView {
             for (int x = 0; x < width_; ++x)
                 r[x] = value;
         }
+    }
+    // Copies the pixels of a view of the same size into this one (no allocation).
+    void copyFrom(ImageView<const std::remove_const_t<T>> src) const {
+        assert(src.width() == width_ && src.height() == height_);
+        for (int y = 0; y < height_; ++y)
+            std::copy(src.row(y), src.row(y) + width_, row(y));
     }
 
   private:
@@ -99,15 +107,7 @@ class Image {
     }
 
     // Copies pixels from a view of the same size (no allocation).
-    void copyFrom(ImageView<const T> src) {
-        assert(src.width() == width_ && src.height() == height_);
-        for (int y = 0; y < height_; ++y) {
-            const T* s = src.row(y);
-            T* d = row(y);
-            for (int x = 0; x < width_; ++x)
-                d[x] = s[x];
-        }
-    }
+    void copyFrom(ImageView<const T> src) { view().copyFrom(src); }
 
   private:
     struct AlignedDelete {
