@@ -9,11 +9,6 @@
 
 namespace nvs::cli {
 
-int notImplemented(const char* name) {
-    std::fprintf(stderr, "nvstim %s: not implemented yet\n", name);
-    return kExitNotImplemented;
-}
-
 int runCli(int argc, const char* const* argv) {
     CLI::App app{
         "nvstim — real-time hardware-in-the-loop night-vision stimulator.\n"

@@ -15,7 +15,4 @@ int runReplay(const ReplayOptions& opts);
 int runDiagnose(const DiagnoseOptions& opts);
 int runBench(const BenchOptions& opts);
 
-// Prints "nvstim NAME: not implemented yet" and returns kExitNotImplemented.
-int notImplemented(const char* name);
-
 }  // namespace nvs::cli
