@@ -21,6 +21,7 @@
 
 #include "rt/cli/commands.h"
 #include "rt/cli/data_dirs.h"
+#include "rt/compose/scene_stimulus.h"
 #include "sim/core/error.h"
 #include "sim/fit/diagnose.h"
 #include "sim/sensor/image_io.h"
@@ -103,8 +104,13 @@ int runDiagnose(const DiagnoseOptions& opts) {
             std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
         std::fprintf(stderr, "nvstim diagnose: [%6.1f s] %s\n", s, line.c_str());
     };
-    // No progress while reading: a bad dataset is one line on stderr.
-    const fit::Dataset d = fit::loadDataset(opts.datasetDir, dirs.config);
+    // No progress while reading radiance files: a bad dataset is one line on stderr. A
+    // scenario stimulus is rendered while reading, which takes a while: that says so.
+    auto renderScenario = [&](const fs::path& scenario, const sensor::CameraParams& cam,
+                              const fs::path& presetFile, const sensor::Overrides& settings) {
+        return rt::makeSceneStimulus(scenario, cam, presetFile, settings, dirs);
+    };
+    const fit::Dataset d = fit::loadDataset(opts.datasetDir, dirs.config, progress, renderScenario);
     progress("dataset: " + std::to_string(d.frameCount()) + " frames " + std::to_string(d.width) +
              "x" + std::to_string(d.height) + ", " + std::to_string(d.stimuli.size()) +
              " distinct stimuli, camera " + d.camera.name);

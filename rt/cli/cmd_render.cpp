@@ -7,7 +7,6 @@
 #include <cstdio>
 #include <ctime>
 #include <string>
-#include <thread>
 #include <vector>
 
 #include "rt/cli/commands.h"
@@ -18,21 +17,6 @@
 
 namespace nvs::cli {
 namespace {
-
-// Row ranges on the machine's cores (the command runs one frame, so plain threads suffice).
-class ThreadExecutor final : public render::RowExecutor {
-  public:
-    void run(int rows, void (*fn)(void*, int, int), void* ctx) noexcept override {
-        const int n =
-            std::max(1, std::min(8, static_cast<int>(std::thread::hardware_concurrency())));
-        std::vector<std::thread> ts;
-        for (int i = 1; i < n; ++i)
-            ts.emplace_back([=] { fn(ctx, rows * i / n, rows * (i + 1) / n); });
-        fn(ctx, 0, rows / n);
-        for (auto& t : ts)
-            t.join();
-    }
-};
 
 std::string fmt(double v) {
     char b[64];
@@ -51,7 +35,7 @@ int runRender(const RenderOptions& opts) {
     const render::FrameSky sky = sr->prepare(t_s);
     const auto& cam = sr->renderer().camera();
     ImageF pe(cam.width, cam.height), band(cam.width, cam.height);
-    ThreadExecutor ex;
+    rt::ThreadExecutor ex;
     if (sr->scenario().primaryVisibility != render::PrimaryVisibility::kEmbree) {
         std::fprintf(stderr, "nvstim render: %s\n",
                      sr->renderer().choosePrimaryVisibility(ex).c_str());

@@ -132,6 +132,7 @@ void readSceneTables(const ConfigTable& root, const std::filesystem::path& file,
         out.atmosphere.precipitableWater_cm = finiteIn(at, "precipitable_water_cm", 1.5, 0.0, 10.0);
         out.atmosphere.cloudOpticalDepth = finiteIn(at, "cloud_optical_depth", 0.0, 0.0, 200.0);
         out.atmosphere.groundAlbedo = finiteIn(at, "ground_albedo", 0.15, 0.0, 1.0);
+        out.lunarSkyScale = finiteIn(at, "lunar_sky_scale", 1.0, 0.0, 10.0);
     }
     const ConfigTable scn = root.table("scene");
     const auto rel = scn.require<std::string>("file");

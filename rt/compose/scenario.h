@@ -123,6 +123,9 @@ struct TimelineEvent {
 struct SceneSpec {
     astro::Site site;
     sky::AtmosphereParams atmosphere;
+    // [atmosphere] lunar_sky_scale: the Moon's light scattered by the atmosphere, 1 as the
+    // physics has it, 0 without it (sky::frameSky).
+    double lunarSkyScale = 1.0;
     std::filesystem::path sceneFile;                  // absolute
     std::optional<std::vector<std::string>> lampsOn;  // absent: each lamp's own `on`
 };

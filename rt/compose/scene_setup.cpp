@@ -1,5 +1,9 @@
 #include "rt/compose/scene_setup.h"
 
+#include <algorithm>
+#include <thread>
+#include <vector>
+
 #include "sim/sensor/mtf.h"
 #include "sim/sky/frame_sky.h"
 #include "sim/sky/night_sky.h"
@@ -23,6 +27,16 @@ RenderConfig renderConfigFor(const sensor::CameraParams& cam, int width, int hei
     c.bandWeight[kBandPe] = sky::photoelectronWeight(beta * cam.qe_peak);
     c.bandWeight[kBandW] = beta;
     return c;
+}
+
+void ThreadExecutor::run(int rows, void (*fn)(void*, int, int), void* ctx) noexcept {
+    const int n = std::max(1, std::min(8, static_cast<int>(std::thread::hardware_concurrency())));
+    std::vector<std::thread> ts;
+    for (int i = 1; i < n; ++i)
+        ts.emplace_back([=] { fn(ctx, rows * i / n, rows * (i + 1) / n); });
+    fn(ctx, 0, rows / n);
+    for (auto& t : ts)
+        t.join();
 }
 
 std::unique_ptr<ScenarioRenderer> ScenarioRenderer::create(const std::filesystem::path& path,
@@ -88,7 +102,8 @@ FrameSky ScenarioRenderer::prepare(double t_s) noexcept {
     const astro::AstrometryContext astrometry = ephemeris_->prepare(t);
     sunMoon_ = ephemeris_->compute(astrometry);
     renderer_->setTime(t_s);
-    FrameSky s = sky::frameSky(*sky_, tableBand_, sunMoon_.moon, t_s);
+    FrameSky s =
+        sky::frameSky(*sky_, tableBand_, sunMoon_.moon, t_s, scenario_.scene.lunarSkyScale);
     // Stars above the horizon: E_b = E_v(V) · (band per lux) · T_direct(z).
     const int n = static_cast<int>(stars_.size());
     ephemeris_->stars(astrometry, stars_.ra_rad.data(), stars_.dec_rad.data(), n, starAz_.data(),

@@ -32,6 +32,13 @@ using render::Renderer;
 // QE = qe_peak β, w_W = β; the pinhole's focal length and the pixel pitch at the photocathode.
 RenderConfig renderConfigFor(const sensor::CameraParams& cam, int width, int height);
 
+// Row ranges on the machine's cores (up to 8), with threads started per call: for commands that
+// render a frame at a time outside the frame loop (render, diagnose); the loop has its RowPool.
+class ThreadExecutor final : public render::RowExecutor {
+  public:
+    void run(int rows, void (*fn)(void*, int, int), void* ctx) noexcept override;
+};
+
 class ScenarioRenderer {
   public:
     // A rendered scenario (one with a [scene]); throws SetupError otherwise. Data (camera
@@ -47,6 +54,8 @@ class ScenarioRenderer {
     FrameSky prepare(double t_s) noexcept;
 
     Renderer& renderer() { return *renderer_; }
+    // The lunar sky light of the frames prepared from now on ([atmosphere] lunar_sky_scale).
+    void setLunarSkyScale(double scale) { scenario_.scene.lunarSkyScale = scale; }
     const Scenario& scenario() const { return scenario_; }
     // Seconds since the scenario epoch of frame k (its start, at the scenario's frame rate).
     double frameTime_s(long long frame) const {

@@ -389,9 +389,37 @@ void loadStimuli(Dataset& d, const ConfigTable& st, const std::vector<long long>
     }
 }
 
+// [stimulus] scenario: the scene rendered for every frame by the composition root's renderer.
+void renderStimuli(Dataset& d, const ConfigTable& st, const std::vector<long long>& numbers,
+                   const SceneStimulusFactory& renderScenario, const Progress& progress) {
+    if (st.contains("radiance")) st.fail("radiance", "give either radiance or scenario, not both");
+    const fs::path given = st.require<std::string>("scenario");
+    d.scenario = given.is_relative() ? d.dir / given : given;
+    if (!fs::exists(d.scenario)) st.fail("scenario", "not found: " + d.scenario.string());
+    if (!renderScenario) {
+        st.fail("scenario", "a scenario stimulus needs the renderer of the nvstim command line");
+    }
+    try {
+        d.scene = renderScenario(d.scenario, d.camera, d.presetFile, d.settings);
+        d.sceneEffects = d.scene->stated();
+        if (progress)
+            progress("rendering " + d.scenario.string() + " for " + std::to_string(numbers.size()) +
+                     " frames");
+        d.stimuli = d.scene->render(numbers, d.frameRate_Hz, d.sceneEffects, progress);
+    } catch (const SetupError& e) {
+        st.fail("scenario", e.what());
+    }
+    d.frameNumbers = numbers;
+    d.stimulusOfFrame.resize(numbers.size());
+    for (std::size_t i = 0; i < numbers.size(); ++i)
+        d.stimulusOfFrame[i] = static_cast<int>(i);
+    d.unit = "pe/s/m2/sr";
+}
+
 }  // namespace
 
-Dataset loadDataset(const fs::path& dir, const fs::path& configDir, const Progress& progress) {
+Dataset loadDataset(const fs::path& dir, const fs::path& configDir, const Progress& progress,
+                    const SceneStimulusFactory& renderScenario) {
     const fs::path tomlPath = dir / "dataset.toml";
     if (!fs::exists(tomlPath)) fail(dir, "no dataset.toml in the dataset folder");
     const ConfigDocument doc = ConfigDocument::parseFile(tomlPath);
@@ -419,17 +447,11 @@ Dataset loadDataset(const fs::path& dir, const fs::path& configDir, const Progre
     const FrameList fl = listFrames(out, dir, tomlPath);
     d.firstFrame = fl.numbers.front();
     const ConfigTable st = root.table("stimulus");
-    if (st.contains("scenario")) {
-        st.fail("scenario",
-                "a scenario stimulus is not implemented yet: give the stimulus as "
-                "radiance images");
-    }
     for (const ConfigTable& r : root.tableArray("roi")) {
         Roi roi{r.require<std::string>("name"), r.require<int>("x"), r.require<int>("y"),
                 r.require<int>("w"), r.require<int>("h")};
         d.rois.push_back(roi);
     }
-    if (progress) progress("reading " + std::to_string(fl.files.size()) + " frames");
     for (std::size_t i = 0; i < fl.files.size(); ++i) {
         int w = 0, h = 0, maxv = 0;
         Plane p = readFrame(fl.files[i], w, h, maxv);
@@ -449,21 +471,24 @@ Dataset loadDataset(const fs::path& dir, const fs::path& configDir, const Progre
             r.y + r.h > d.height) {
             fail(tomlPath, "[[roi]] '" + r.name + "' lies outside the frame");
         }
-    loadStimuli(d, st, fl.numbers, configDir);
+    const bool scenario = st.contains("scenario");
+    if (!scenario) loadStimuli(d, st, fl.numbers, configDir);
     if (d.width != d.camera.width || d.height != d.camera.height) {
         fail(tomlPath, "frames are " + std::to_string(d.width) + "x" + std::to_string(d.height) +
                            " but camera '" + d.camera.name + "' is " +
                            std::to_string(d.camera.width) + "x" + std::to_string(d.camera.height) +
                            " (set width and height in [camera.settings])");
     }
+    if (scenario) renderStimuli(d, st, fl.numbers, renderScenario, progress);
     doc.finish();
     return d;
 }
 
 void writeDataset(const Dataset& d, const fs::path& dir) {
-    fs::create_directories(dir / "radiance");
+    const bool scenario = !d.scenario.empty();
+    if (!scenario) fs::create_directories(dir / "radiance");
     fs::create_directories(dir / "frames");
-    for (std::size_t i = 0; i < d.stimuli.size(); ++i)
+    for (std::size_t i = 0; !scenario && i < d.stimuli.size(); ++i)
         sensor::writePfm(
             dir / "radiance" /
                 sensor::expandFramePattern("{frame:06d}.pfm", static_cast<long long>(i)),
@@ -489,11 +514,16 @@ void writeDataset(const Dataset& d, const fs::path& dir) {
         for (const auto& [k, v] : d.settings)
             t << "\"" << k << "\" = " << v << "\n";
     }
-    t << "\n[stimulus]\nradiance = \"radiance/{frame:06d}.pfm\"\nunit = \"pe/s/m2/sr\"\n";
-    t << "index = [";
-    for (std::size_t k = 0; k < d.stimulusOfFrame.size(); ++k)
-        t << (k ? ", " : "") << d.stimulusOfFrame[k];
-    t << "]\n\n[output]\nframes = \"frames/{frame:06d}.pgm\"\n";
+    if (scenario) {
+        t << "\n[stimulus]\nscenario = \"" << d.scenario.generic_string() << "\"\n";
+    } else {
+        t << "\n[stimulus]\nradiance = \"radiance/{frame:06d}.pfm\"\nunit = \"pe/s/m2/sr\"\n";
+        t << "index = [";
+        for (std::size_t k = 0; k < d.stimulusOfFrame.size(); ++k)
+            t << (k ? ", " : "") << d.stimulusOfFrame[k];
+        t << "]\n";
+    }
+    t << "\n[output]\nframes = \"frames/{frame:06d}.pgm\"\n";
     char buf[64];
     std::snprintf(buf, sizeof buf, "%.9g", d.frameRate_Hz);
     t << "frame_rate_hz = " << buf << "\nfirst_frame = " << d.firstFrame

@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <functional>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -43,6 +44,36 @@ sensor::CameraParams loadModelCamera(const std::filesystem::path& configDir,
                                      const std::string& nameOrPath,
                                      const sensor::Overrides& overrides, FitEffects& extra);
 
+// The scenario effects of the catalog (docs/contracts.md), as a scenario states them: what a
+// stimulus rendered from a scenario depends on besides the scene and the ephemeris.
+struct SkyEffects {
+    double lunarSkyScale = 1.0;      // [atmosphere] lunar_sky_scale (0: no lunar sky light)
+    double pressure_hPa = 1013.25;   // [site] pressure_hPa (0: no refraction)
+    double cloudOpticalDepth = 0.0;  // [atmosphere] cloud_optical_depth
+};
+
+// A stimulus rendered from a scenario (`[stimulus] scenario`). sim/fit does not render: the
+// composition root gives the implementation (rt/compose/scene_stimulus.h).
+class SceneStimulus {
+  public:
+    virtual ~SceneStimulus() = default;
+    // The scenario's own values: the model under test.
+    virtual SkyEffects stated() const = 0;
+    // Photoelectron radiance [pe s⁻¹ m⁻² sr⁻¹] at the camera's size for each dataset frame
+    // number n, rendered at the scenario's utc_start + n / frameRate_Hz with `fx`. Throws
+    // SetupError.
+    virtual std::vector<ImageF> render(const std::vector<long long>& frames, double frameRate_Hz,
+                                       const SkyEffects& fx, const Progress& progress) = 0;
+    // The Moon's apparent altitude [deg] at frame n with `fx` (for reports).
+    virtual double moonAltitude_deg(long long frame, double frameRate_Hz, const SkyEffects& fx) = 0;
+};
+
+// Makes the renderer of a scenario stimulus for the dataset's camera (its preset with the
+// dataset's settings, at the frames' size); throws SetupError.
+using SceneStimulusFactory = std::function<std::unique_ptr<SceneStimulus>(
+    const std::filesystem::path& scenario, const sensor::CameraParams& camera,
+    const std::filesystem::path& presetFile, const sensor::Overrides& settings)>;
+
 struct Dataset {
     std::filesystem::path dir;
     std::string preset;          // [camera] preset, as written
@@ -62,12 +93,19 @@ struct Dataset {
     std::string unit;       // of the stimulus files as given
     std::string spectrum;   // for W/m2/sr stimuli
     int frameMax_dc = 255;  // largest value the frame files can hold
+    // [stimulus] scenario: the scenario rendered for every frame (stimuli then holds one image
+    // per frame), the frames' numbers and the scenario's effects as stated.
+    std::filesystem::path scenario;
+    std::shared_ptr<SceneStimulus> scene;
+    std::vector<long long> frameNumbers;
+    SkyEffects sceneEffects;
     std::size_t frameCount() const { return frames.size(); }
 };
 
-// Reads DATASET_DIR/dataset.toml and everything it names; presets from configDir/cameras.
+// Reads DATASET_DIR/dataset.toml and everything it names; presets from configDir/cameras. A
+// scenario stimulus needs `renderScenario` (without it: SetupError).
 Dataset loadDataset(const std::filesystem::path& dir, const std::filesystem::path& configDir,
-                    const Progress& progress = {});
+                    const Progress& progress = {}, const SceneStimulusFactory& renderScenario = {});
 
 // Writes a dataset folder in the contract's layout: dataset.toml, radiance/NNNNNN.pfm (one per
 // distinct stimulus, unit pe/s/m2/sr) and frames/NNNNNN.pgm. For the generator and the tests.

@@ -9,6 +9,7 @@
 
 #include "sim/fit/effects.h"
 #include "sim/fit/model.h"
+#include "sim/fit/scene_effects.h"
 
 namespace nvs::fit {
 
@@ -308,9 +309,11 @@ MeanModel modelExtras(const Dataset& d, const ModelRun& m) {
 
 }  // namespace
 
-Result diagnose(const Dataset& d, const std::filesystem::path& configDir, const Options& opt,
-                const Progress& progress) {
-    Result r;
+namespace {
+
+// The camera's side on the dataset's stimulus: baseline, mean effects, noise effects.
+void diagnoseCamera(const Dataset& d, const std::filesystem::path& configDir, const Options& opt,
+                    const Progress& progress, Result& r) {
     r.width = d.width;
     r.height = d.height;
     r.camera = d.camera.name;
@@ -347,6 +350,7 @@ Result diagnose(const Dataset& d, const std::filesystem::path& configDir, const 
             r.findings.push_back(c.finding);
     }
     for (const char* e : {"lunar_sky_scatter", "refraction", "cloud_transmission"}) {
+        if (d.scene) break;  // tried on the scenario (trySceneEffects)
         Candidate c;
         c.finding.effect = e;
         c.why = "needs a stimulus rendered from a scenario with its ephemeris";
@@ -355,6 +359,43 @@ Result diagnose(const Dataset& d, const std::filesystem::path& configDir, const 
     signatures(w, base, cur, r);
     std::stable_sort(r.findings.begin(), r.findings.end(),
                      [](const Finding& a, const Finding& b) { return a.score > b.score; });
+}
+
+// The scenario's side: the baseline on the stimulus as the scenario states it, then the
+// scenario effects it lacks (scene_effects.h).
+SceneFit diagnoseScene(const Dataset& d, const std::filesystem::path& configDir, const Options& opt,
+                       const Progress& progress, Result& r) {
+    ModelRun m = simulate(d, d.camera, configDir, opt.seed, true, progress);
+    Work w(d, m, d.camera, opt, progress, configDir);
+    for (int k : w.sub) {
+        Plane u;
+        assembleFrame(m.unblurred, k, w.w, w.h, m.fieldScan, u);
+        w.unblurred.push_back(std::move(u));
+    }
+    Current cur;
+    cur.mm = modelExtras(d, m);
+    Result scratch;
+    fitBaseline(w, cur, scratch);
+    return trySceneEffects(w, cur, r, progress);
+}
+
+}  // namespace
+
+Result diagnose(const Dataset& d, const std::filesystem::path& configDir, const Options& opt,
+                const Progress& progress) {
+    Result r;
+    if (d.scene) {
+        SceneFit sf = diagnoseScene(d, configDir, opt, progress, r);
+        if (!sf.stimuli.empty()) {
+            // The camera is diagnosed on the scene with the scenario effects found.
+            Dataset withScene = d;
+            withScene.stimuli = std::move(sf.stimuli);
+            withScene.sceneEffects = sf.fx;
+            diagnoseCamera(withScene, configDir, opt, progress, r);
+            return r;
+        }
+    }
+    diagnoseCamera(d, configDir, opt, progress, r);
     return r;
 }
 

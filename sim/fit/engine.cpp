@@ -62,7 +62,7 @@ std::vector<Plane> perCall(const Work& w, const MeanModel& mm, const std::vector
         double f = 1.0;
         if (mm.bspKnee_A > 0.0)
             f = 1.0 / (1.0 + std::pow(m.cathode_A[c] / mm.bspKnee_A, mm.bspExponent));
-        const Plane& X = m.signal[c];
+        const Plane& X = w.signal()[c];
         Plane o(needed[c] ? n : 0);
         for (std::size_t p = 0; p < n; ++p) {
             const float x = static_cast<float>(X[p] * f);
@@ -160,7 +160,7 @@ std::vector<Plane> predict(Work& w, const MeanModel& mm) {
     std::vector<Plane> calls;
     const bool modified = mm.persistW != 0.0 || mm.bspKnee_A > 0.0;
     if (modified) calls = perCall(w, mm, needed);
-    const std::vector<Plane>& src = modified ? calls : m.signal;
+    const std::vector<Plane>& src = modified ? calls : w.signal();
     std::vector<Plane> S(w.sub.size());
     for (std::size_t i = 0; i < w.sub.size(); ++i)
         assembleFrame(src, w.sub[i], w.w, w.h, m.fieldScan, S[i]);

@@ -61,6 +61,10 @@ struct Work {
     int tile = 16, tilesX = 0, tilesY = 0;
     std::vector<double> tileVar;   // the model's noise variance per tile [DC²]
     std::vector<Plane> unblurred;  // assembled unblurred frames of `sub` (mcp_saturation)
+    // Scenario effects (scene_effects.h): the mean signal per call of another stimulus, used in
+    // place of m.signal while set.
+    const std::vector<Plane>* signalOverride = nullptr;
+    const std::vector<Plane>& signal() const { return signalOverride ? *signalOverride : m.signal; }
     std::unique_ptr<Convolver> conv;
     std::shared_ptr<sensor::BlurStage> blur;  // the model's MTF (mcp_saturation)
     double pitchX_um = 0.0, pitchY_um = 0.0;  // a pixel at the photocathode

@@ -126,28 +126,36 @@ ModelRun simulate(const Dataset& d, const sensor::CameraParams& cam,
     m.ebiLevel_dc_per_lm_cm2 = ebiLevel(mean, configDir, tables);
     m.ebiC1_dc2_per_lm_cm2 = ebiC1(cam, configDir, tables);
     if (progress) progress("simulating " + std::to_string(m.calls) + " frames with the model");
-    {
-        sensor::IiccdChain chain(mean, seed, configDir, tables);
-        m.signal.resize(static_cast<std::size_t>(m.calls));
-        for (int k = 0; k < m.calls; ++k) {
-            const ImageF& s = d.stimuli[static_cast<std::size_t>(d.stimulusOfFrame[k])];
-            m.cathode_A.push_back(chain.process(s.cview()).cathode_current_A);
-            copyPlane(chain.electrons().cview(), vg, m.signal[static_cast<std::size_t>(k)]);
+    meanRun(d, d.stimuli, cam, configDir, seed, m.signal, unblurred ? &m.unblurred : nullptr,
+            &m.cathode_A);
+    m.noisy = noisyRun(d, d.stimuli, cam, configDir, seed);
+    return m;
+}
+
+void meanRun(const Dataset& d, const std::vector<ImageF>& stimuli, const sensor::CameraParams& cam,
+             const std::filesystem::path& configDir, std::uint64_t seed, std::vector<Plane>& signal,
+             std::vector<Plane>* unblurred, std::vector<double>* cathode_A) {
+    GammaTableCache tables;
+    const sensor::CameraParams mean = meanCamera(cam);
+    const double vg = cam.video_gain_dc_per_e;
+    const std::size_t calls = d.frameCount();
+    auto run = [&](const sensor::CameraParams& c, std::vector<Plane>& out, bool current) {
+        sensor::IiccdChain chain(c, seed, configDir, tables);
+        out.resize(calls);
+        if (current && cathode_A) cathode_A->clear();
+        for (std::size_t k = 0; k < calls; ++k) {
+            const ImageF& s = stimuli[static_cast<std::size_t>(d.stimulusOfFrame[k])];
+            const double i_A = chain.process(s.cview()).cathode_current_A;
+            if (current && cathode_A) cathode_A->push_back(i_A);
+            copyPlane(chain.electrons().cview(), vg, out[k]);
         }
-    }
+    };
+    run(mean, signal, true);
     if (unblurred) {
         sensor::CameraParams u = mean;
         u.mtf_enabled = false;
-        sensor::IiccdChain chain(u, seed, configDir, tables);
-        m.unblurred.resize(static_cast<std::size_t>(m.calls));
-        for (int k = 0; k < m.calls; ++k) {
-            const ImageF& s = d.stimuli[static_cast<std::size_t>(d.stimulusOfFrame[k])];
-            chain.process(s.cview());
-            copyPlane(chain.electrons().cview(), vg, m.unblurred[static_cast<std::size_t>(k)]);
-        }
+        run(u, *unblurred, false);
     }
-    m.noisy = noisyRun(d, d.stimuli, cam, configDir, seed);
-    return m;
 }
 
 std::vector<Plane> noisyRun(const Dataset& d, const std::vector<ImageF>& stimuli,

@@ -42,6 +42,13 @@ ModelRun simulate(const Dataset& d, const sensor::CameraParams& cam,
                   const std::filesystem::path& configDir, std::uint64_t seed, bool unblurred,
                   const Progress& progress = {});
 
+// The mean run alone for a stimulus sequence (one image per distinct stimulus, indexed by
+// d.stimulusOfFrame): signal per call [DC] as ModelRun::signal, without the MTF into
+// `unblurred` and the cathode current into `cathode_A` where given.
+void meanRun(const Dataset& d, const std::vector<ImageF>& stimuli, const sensor::CameraParams& cam,
+             const std::filesystem::path& configDir, std::uint64_t seed, std::vector<Plane>& signal,
+             std::vector<Plane>* unblurred, std::vector<double>* cathode_A = nullptr);
+
 // The model's noisy output frames for the dataset's sequence of stimuli (one per distinct
 // stimulus, indexed by d.stimulusOfFrame).
 std::vector<Plane> noisyRun(const Dataset& d, const std::vector<ImageF>& stimuli,

@@ -14,7 +14,8 @@ constexpr double kSkyStepA_deg = 180.0 / (msg::kSkyAzimuths - 1);
 }  // namespace
 
 msg::FrameSky frameSky(const SkyModel& model, const std::array<int, msg::kBands>& tableBand,
-                       const msg::MoonState& moon, double t_sample_s) noexcept {
+                       const msg::MoonState& moon, double t_sample_s,
+                       double lunarSkyScale) noexcept {
     msg::FrameSky s;
     s.t_sample_s = t_sample_s;
     s.moonAz_rad = moon.az_rad;
@@ -28,7 +29,7 @@ msg::FrameSky frameSky(const SkyModel& model, const std::array<int, msg::kBands>
         const double toa = model.moonToa(tb, moon);
         s.moonToa[b] = toa;
         s.moonNormal[b] = s.moonUp ? toa * t.directTransmittance(tb, s.moonZenith_rad) : 0.0;
-        s.moonSkyHorizontal[b] = toa * t.diffuseHorizontal(tb, s.moonZenith_rad);
+        s.moonSkyHorizontal[b] = lunarSkyScale * toa * t.diffuseHorizontal(tb, s.moonZenith_rad);
         s.nightSkyHorizontal[b] = t.nightSkyHorizontal(tb);
     }
     // Sky in view on the table's (view zenith, Δφ) nodes: night sky plus the Moon's scattered
@@ -41,9 +42,10 @@ msg::FrameSky frameSky(const SkyModel& model, const std::array<int, msg::kBands>
             const double vz = iz * kSkyStepZ_deg * (kPi / 180.0);
             for (int ia = 0; ia < msg::kSkyAzimuths; ++ia) {
                 double l = t.nightSkyRadiance(tb, vz);
-                if (s.moonZenith_rad < 1.6755) {
-                    l += s.moonToa[b] * t.skyRadiance(tb, vz, ia * kSkyStepA_deg * (kPi / 180.0),
-                                                      s.moonZenith_rad);
+                if (s.moonZenith_rad < 1.6755 && lunarSkyScale != 0.0) {
+                    l +=
+                        lunarSkyScale * s.moonToa[b] *
+                        t.skyRadiance(tb, vz, ia * kSkyStepA_deg * (kPi / 180.0), s.moonZenith_rad);
                 }
                 out[iz * msg::kSkyAzimuths + ia] = static_cast<float>(l);
             }

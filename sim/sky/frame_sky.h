@@ -14,8 +14,12 @@ static_assert(msg::kSkyViewZeniths == AtmosphereTable::kViewZeniths &&
                   msg::kSkyAzimuths == AtmosphereTable::kAzimuths,
               "the frame's sky radiance grid is the atmosphere table's");
 
-// tableBand[b] is the atmosphere table's band for renderer band b. No allocation, no throw.
+// tableBand[b] is the atmosphere table's band for renderer band b. lunarSkyScale multiplies the
+// Moon's light scattered by the atmosphere (diffuse irradiance and sky radiance in view): 1 is
+// the physics, 0 leaves it out as the thesis's atmosphere builder did (its Table 8-3). No
+// allocation, no throw.
 msg::FrameSky frameSky(const SkyModel& model, const std::array<int, msg::kBands>& tableBand,
-                       const msg::MoonState& moon, double t_sample_s) noexcept;
+                       const msg::MoonState& moon, double t_sample_s,
+                       double lunarSkyScale = 1.0) noexcept;
 
 }  // namespace nvs::sky

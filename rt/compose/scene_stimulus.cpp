@@ -1,0 +1,91 @@
+#include "rt/compose/scene_stimulus.h"
+
+#include <cmath>
+#include <string>
+
+#include "rt/compose/scenario.h"
+#include "rt/compose/scene_setup.h"
+
+namespace nvs::rt {
+namespace {
+
+class ScenarioStimulus final : public fit::SceneStimulus {
+  public:
+    ScenarioStimulus(Scenario sc, DataDirs dirs) : base_(std::move(sc)), dirs_(std::move(dirs)) {}
+
+    fit::SkyEffects stated() const override {
+        fit::SkyEffects fx;
+        fx.lunarSkyScale = base_.scene.lunarSkyScale;
+        fx.pressure_hPa = base_.scene.site.pressure_hPa;
+        fx.cloudOpticalDepth = base_.scene.atmosphere.cloudOpticalDepth;
+        return fx;
+    }
+
+    std::vector<ImageF> render(const std::vector<long long>& frames, double frameRate_Hz,
+                               const fit::SkyEffects& fx, const fit::Progress& progress) override {
+        ScenarioRenderer& r = rendererFor(fx, progress);
+        const auto& cam = r.renderer().camera();
+        std::vector<ImageF> out;
+        out.reserve(frames.size());
+        ImageF band(cam.width, cam.height);
+        ThreadExecutor ex;
+        for (long long n : frames) {
+            const render::FrameSky sky = r.prepare(static_cast<double>(n) / frameRate_Hz);
+            ImageF pe(cam.width, cam.height);
+            r.renderer().render(sky, pe.view(), band.view(), ex);
+            out.push_back(std::move(pe));
+        }
+        return out;
+    }
+
+    double moonAltitude_deg(long long frame, double frameRate_Hz,
+                            const fit::SkyEffects& fx) override {
+        ScenarioRenderer& r = rendererFor(fx, {});
+        r.prepare(static_cast<double>(frame) / frameRate_Hz);
+        return r.sunMoon().moon.alt_rad * (180.0 / 3.14159265358979323846);
+    }
+
+  private:
+    // One renderer, made again when the site pressure or the cloud layer changes (the
+    // ephemeris and the atmosphere table depend on them; the table is cached on disk).
+    ScenarioRenderer& rendererFor(const fit::SkyEffects& fx, const fit::Progress& progress) {
+        if (!current_ || fx.pressure_hPa != made_.pressure_hPa ||
+            fx.cloudOpticalDepth != made_.cloudOpticalDepth) {
+            Scenario sc = base_;
+            sc.scene.site.pressure_hPa = fx.pressure_hPa;
+            sc.scene.atmosphere.cloudOpticalDepth = fx.cloudOpticalDepth;
+            if (progress && fx.cloudOpticalDepth != made_.cloudOpticalDepth)
+                progress("atmosphere with cloud optical depth " +
+                         std::to_string(fx.cloudOpticalDepth));
+            current_.reset();
+            current_ = ScenarioRenderer::create(sc, dirs_);
+            made_ = fx;
+        }
+        current_->setLunarSkyScale(fx.lunarSkyScale);
+        return *current_;
+    }
+
+    Scenario base_;
+    DataDirs dirs_;
+    std::unique_ptr<ScenarioRenderer> current_;
+    fit::SkyEffects made_;
+};
+
+}  // namespace
+
+std::unique_ptr<fit::SceneStimulus> makeSceneStimulus(const std::filesystem::path& scenario,
+                                                      const sensor::CameraParams& camera,
+                                                      const std::filesystem::path& presetFile,
+                                                      const sensor::Overrides& settings,
+                                                      const DataDirs& dirs) {
+    Scenario sc = loadScenario(scenario, dirs.config);
+    if (!sc.rendered) throw SetupError(sc.file + ": the scenario has no [scene] to render");
+    // The dataset's camera: its preset and settings at the frames' size.
+    sc.camera.preset = presetFile.string();
+    sc.camera.presetOverrides = settings;
+    sc.width = camera.width;
+    sc.height = camera.height;
+    return std::make_unique<ScenarioStimulus>(std::move(sc), dirs);
+}
+
+}  // namespace nvs::rt

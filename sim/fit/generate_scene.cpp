@@ -1,0 +1,118 @@
+#include "sim/fit/generate_scene.h"
+
+#include <cstdio>
+#include <fstream>
+#include <random>
+
+#include "sim/core/error.h"
+#include "sim/core/gamma_table.h"
+#include "sim/sensor/chain.h"
+
+namespace nvs::fit {
+
+namespace {
+
+// 1998-09-02 03:00 UTC (Table 4-2: the Moon 23° up at 69 %), one frame every 232 s: 48 frames
+// reach 06:02, 1.6° above the horizon by Table 4-2.
+constexpr const char* kUtcStart = "1998-09-02T03:00:00Z";
+constexpr double kFramePeriod_s = 232.0;
+
+std::string number(double v) {
+    char b[64];
+    std::snprintf(b, sizeof b, "%.9g", v);
+    return b;
+}
+
+}  // namespace
+
+const std::vector<EffectRange>& sceneEffectRanges() {
+    static const std::vector<EffectRange> r = {
+        {"lunar_sky_scatter", "lunar_sky_scale", 0.5, 2.0},
+        {"refraction", "pressure_hPa", 700.0, 1050.0},
+        {"cloud_transmission", "cloud_optical_depth", 0.3, 3.0},
+    };
+    return r;
+}
+
+void writeSceneScenario(const std::filesystem::path& file, const std::filesystem::path& sceneFile,
+                        const SkyEffects& fx, const std::string& utcStart) {
+    std::ofstream t(file);
+    t << "# The RIT roof under the Moon (written for a diagnose dataset)\n"
+      << "[scenario]\nname = \"diagnose-scene\"\nutc_start = \"" << utcStart
+      << "\"\nframe_rate_hz = 29.97\n\n"
+      << "[site]\nlat_deg = 43.16856\nlon_deg = -77.61583\nheight_m = 218.0\n"
+      << "pressure_hPa = " << number(fx.pressure_hPa) << "\n\n"
+      << "[atmosphere]\nvisibility_km = 23.0\naerosol = \"rural\"\n"
+      << "cloud_optical_depth = " << number(fx.cloudOpticalDepth) << "\n"
+      << "lunar_sky_scale = " << number(fx.lunarSkyScale) << "\n\n"
+      << "[camera]\npreset = \"pulnix-ag5745ef3\"\n\n"
+      << "[scene]\nfile = \"" << std::filesystem::absolute(sceneFile).generic_string()
+      << "\"\nlamps_on = []\n";
+    if (!t) throw SetupError(file.string() + ": cannot write");
+}
+
+Generated generateScene(const SceneGenSpec& s, const SceneStimulusFactory& factory,
+                        const std::filesystem::path& configDir) {
+    Generated g;
+    Dataset& d = g.data;
+    std::mt19937_64 rng(s.seed * 0x9E3779B97F4A7C15ull + 0x5ce7e5ull);
+    // The truth: the physics (lunar sky light, refraction at standard pressure, no cloud) with
+    // the hidden effect's strength drawn; the model: the same without the effect.
+    SkyEffects truth, model;
+    const double u = std::uniform_real_distribution<double>(0.0, 1.0)(rng);
+    for (const EffectRange& e : sceneEffectRanges()) {
+        if (s.effect != e.effect) continue;
+        const double v = e.lo + u * (e.hi - e.lo);
+        g.truth[std::string(e.effect) + "." + e.parameter] = v;
+        if (s.effect == "lunar_sky_scatter") {
+            truth.lunarSkyScale = v;
+            model.lunarSkyScale = 0.0;
+        } else if (s.effect == "refraction") {
+            truth.pressure_hPa = v;
+            model.pressure_hPa = 0.0;
+        } else {
+            truth.cloudOpticalDepth = v;
+        }
+    }
+    if (!s.effect.empty() && g.truth.empty())
+        throw SetupError("no scenario effect '" + s.effect + "'");
+    std::filesystem::create_directories(s.workDir);
+    d.scenario = s.workDir / "scenario.toml";
+    writeSceneScenario(d.scenario, s.sceneFile, model, kUtcStart);
+    d.preset = "pulnix-ag5745ef3";
+    d.settings = {{"width", std::to_string(s.width)},
+                  {"height", std::to_string(s.height)},
+                  {"agc", "\"off\""},
+                  {"gain_V", "6.5"}};
+    d.camera = loadModelCamera(configDir, d.preset, d.settings, d.cameraExtra);
+    d.presetFile = sensor::resolveCameraPath(configDir, d.preset);
+    d.width = s.width;
+    d.height = s.height;
+    d.frameRate_Hz = 1.0 / kFramePeriod_s;
+    d.frameMax_dc = (1 << d.camera.adc_bits) - 1;
+    d.unit = "pe/s/m2/sr";
+    for (int k = 0; k < s.frames; ++k) {
+        d.frameNumbers.push_back(k);
+        d.stimulusOfFrame.push_back(k);
+    }
+    d.scene = factory(d.scenario, d.camera, d.presetFile, d.settings);
+    d.sceneEffects = d.scene->stated();
+    d.stimuli = d.scene->render(d.frameNumbers, d.frameRate_Hz, model, {});
+    const std::vector<ImageF> seen = d.scene->render(d.frameNumbers, d.frameRate_Hz, truth, {});
+    // The camera that makes the frames is the preset as it ships (its chain has the halo and
+    // MCP saturation that diagnose models itself: d.camera has them moved to d.cameraExtra).
+    const sensor::CameraParams cam = sensor::loadCamera(configDir, d.preset, d.settings);
+    GammaTableCache tables;
+    sensor::IiccdChain chain(cam, s.seed, configDir, tables);
+    for (const ImageF& img : seen) {
+        chain.process(img.cview());
+        Plane p(static_cast<std::size_t>(s.width) * s.height);
+        for (int y = 0; y < s.height; ++y)
+            for (int x = 0; x < s.width; ++x)
+                p[static_cast<std::size_t>(y) * s.width + x] = chain.video()(x, y);
+        d.frames.push_back(std::move(p));
+    }
+    return g;
+}
+
+}  // namespace nvs::fit

@@ -1,0 +1,166 @@
+// The hidden scenario-effect sweep behind `make validate` (docs/validation.md, "Scenario
+// effects"): for lunar_sky_scatter, refraction, cloud_transmission and the null case, N seeds of
+// datasets rendered from the RIT roof under a setting Moon (sim/fit/generate_scene.h), diagnose
+// on the scenario without the effect; writes the table as Markdown.
+//
+//   nvs_validate_scene [--seeds N] [--first S] [--size WxH] [--effects a,b] [--out FILE.md] [-v]
+//   nvs_validate_scene --write DIR [--effects NAME] [--first SEED]
+//       writes one dataset (frames, dataset.toml, its scenario) to DIR and prints the truth
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "rt/compose/scene_stimulus.h"
+#include "sim/fit/diagnose.h"
+#include "sim/fit/generate_scene.h"
+
+namespace {
+
+using namespace nvs;
+
+struct Row {
+    std::string name;
+    int n = 0, named = 0, within = 0, none = 0;
+    double worstErr = 0.0, seconds = 0.0;
+};
+
+fit::SceneStimulusFactory factory(const DataDirs& dirs) {
+    return [dirs](const std::filesystem::path& sc, const sensor::CameraParams& cam,
+                  const std::filesystem::path& preset, const sensor::Overrides& settings) {
+        return rt::makeSceneStimulus(sc, cam, preset, settings, dirs);
+    };
+}
+
+std::vector<std::string> split(const std::string& s) {
+    std::vector<std::string> out;
+    std::stringstream ss(s);
+    std::string t;
+    while (std::getline(ss, t, ','))
+        out.push_back(t);
+    return out;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    int seeds = 20, first = 1, w = 128, h = 96;
+    bool verbose = false;
+    std::string out, only, write;
+    for (int i = 1; i < argc; ++i) {
+        const std::string a = argv[i];
+        if (a == "--seeds" && i + 1 < argc)
+            seeds = std::atoi(argv[++i]);
+        else if (a == "--first" && i + 1 < argc)
+            first = std::atoi(argv[++i]);
+        else if (a == "--size" && i + 1 < argc)
+            std::sscanf(argv[++i], "%dx%d", &w, &h);
+        else if (a == "--out" && i + 1 < argc)
+            out = argv[++i];
+        else if (a == "--effects" && i + 1 < argc)
+            only = argv[++i];
+        else if (a == "--write" && i + 1 < argc)
+            write = argv[++i];
+        else if (a == "-v")
+            verbose = true;
+        else {
+            std::fprintf(stderr,
+                         "usage: %s [--seeds N] [--first S] [--size WxH] [--effects a,b] "
+                         "[--out F] [-v] | --write DIR\n",
+                         argv[0]);
+            return 2;
+        }
+    }
+    const std::filesystem::path src = NVS_SOURCE_DIR;
+    const DataDirs dirs{src / "config", std::filesystem::path(NVS_BINARY_DIR) / "nvstim-cache"};
+    const auto make = factory(dirs);
+    auto spec = [&](const std::string& effect, int seed, const std::filesystem::path& work) {
+        fit::SceneGenSpec s;
+        s.effect = effect == "null" ? "" : effect;
+        s.seed = static_cast<std::uint64_t>(seed);
+        s.width = w;
+        s.height = h;
+        s.sceneFile = src / "scenarios" / "rit" / "scene.toml";
+        s.workDir = work;
+        return s;
+    };
+    if (!write.empty()) {
+        const fit::Generated g =
+            fit::generateScene(spec(only.empty() ? "null" : only, first, write), make, dirs.config);
+        fit::writeDataset(g.data, write);
+        for (const auto& [k, v] : g.truth)
+            std::printf("%s = %.6g\n", k.c_str(), v);
+        return 0;
+    }
+    std::vector<std::string> cases = {"null", "lunar_sky_scatter", "refraction",
+                                      "cloud_transmission"};
+    if (!only.empty()) cases = split(only);
+    const std::filesystem::path work = std::filesystem::path(NVS_BINARY_DIR) / "validate-scene";
+    std::vector<Row> rows;
+    for (const std::string& c : cases) {
+        Row row;
+        row.name = c;
+        const auto t0 = std::chrono::steady_clock::now();
+        for (int s = first; s < first + seeds; ++s) {
+            const fit::Generated g = fit::generateScene(spec(c, s, work), make, dirs.config);
+            const fit::Result r = fit::diagnose(g.data, dirs.config);
+            ++row.n;
+            if (c == "null") {
+                row.none += r.findings.empty() ? 1 : 0;
+            } else if (!r.findings.empty() && r.findings[0].effect == c) {
+                ++row.named;
+                double err = 0.0;
+                for (const auto& [k, v] : g.truth)
+                    for (const auto& [pk, pv] : r.findings[0].parameters)
+                        if (k == c + "." + pk) err = std::max(err, std::fabs(pv - v) / v);
+                row.within += err <= 0.2 ? 1 : 0;
+                row.worstErr = std::max(row.worstErr, err);
+            }
+            if (verbose) {
+                std::fprintf(stderr, "%s seed %d:", c.c_str(), s);
+                for (const auto& [k, v] : g.truth)
+                    std::fprintf(stderr, " %s=%.4g", k.c_str(), v);
+                std::fprintf(stderr, " ->");
+                for (const auto& f : r.findings) {
+                    std::fprintf(stderr, " [%s z=%.1f", f.effect.c_str(), f.z);
+                    for (const auto& [k, v] : f.parameters)
+                        std::fprintf(stderr, " %s=%.4g", k.c_str(), v);
+                    std::fprintf(stderr, "]");
+                }
+                std::fprintf(stderr, "\n");
+                for (const auto& t : r.trials)
+                    if (t.effect == "lunar_sky_scatter" || t.effect == "refraction" ||
+                        t.effect == "cloud_transmission")
+                        std::fprintf(stderr, "    %s z=%.2f rms %.4f->%.4f %s\n", t.effect.c_str(),
+                                     t.z, t.before, t.after, t.why.c_str());
+            }
+        }
+        row.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+        rows.push_back(row);
+        std::fprintf(stderr, "%s: done in %.1f s\n", c.c_str(), row.seconds);
+    }
+    std::ostringstream md;
+    md << "| hidden | seeds | top finding names it | parameter within 20 % | worst parameter "
+          "error | no finding | time [s] |\n|---|---|---|---|---|---|---|\n";
+    for (const Row& r : rows) {
+        char buf[400];
+        if (r.name == "null")
+            std::snprintf(buf, sizeof buf, "| (none) | %d | | | | %d/%d (%.0f %%) | %.1f |\n", r.n,
+                          r.none, r.n, 100.0 * r.none / r.n, r.seconds);
+        else
+            std::snprintf(buf, sizeof buf,
+                          "| %s | %d | %d/%d (%.0f %%) | %d/%d (%.0f %%) | %.1f %% | | %.1f |\n",
+                          r.name.c_str(), r.n, r.named, r.n, 100.0 * r.named / r.n, r.within, r.n,
+                          100.0 * r.within / r.n, 100.0 * r.worstErr, r.seconds);
+        md << buf;
+    }
+    std::printf("%s", md.str().c_str());
+    if (!out.empty()) std::ofstream(out) << md.str();
+    return 0;
+}
