@@ -83,7 +83,12 @@ Generated generateScene(const SceneGenSpec& s, const SceneStimulusFactory& facto
     d.settings = {{"width", std::to_string(s.width)},
                   {"height", std::to_string(s.height)},
                   {"agc", "\"off\""},
-                  {"gain_V", "6.5"}};
+                  {"gain_V", "6.5"},
+                  // The chain's halo and MCP saturation off in the frames and the model alike:
+                  // diagnose's own forward models of them are approximations, and the
+                  // scenario sweep is about the scene.
+                  {"halo.enabled", "false"},
+                  {"mcp_saturation.enabled", "false"}};
     d.camera = loadModelCamera(configDir, d.preset, d.settings, d.cameraExtra);
     d.presetFile = sensor::resolveCameraPath(configDir, d.preset);
     d.width = s.width;
@@ -99,8 +104,6 @@ Generated generateScene(const SceneGenSpec& s, const SceneStimulusFactory& facto
     d.sceneEffects = d.scene->stated();
     d.stimuli = d.scene->render(d.frameNumbers, d.frameRate_Hz, model, {});
     const std::vector<ImageF> seen = d.scene->render(d.frameNumbers, d.frameRate_Hz, truth, {});
-    // The camera that makes the frames is the preset as it ships (its chain has the halo and
-    // MCP saturation that diagnose models itself: d.camera has them moved to d.cameraExtra).
     const sensor::CameraParams cam = sensor::loadCamera(configDir, d.preset, d.settings);
     GammaTableCache tables;
     sensor::IiccdChain chain(cam, s.seed, configDir, tables);
