@@ -80,12 +80,13 @@ VALIDATE := $(BUILD)/validate
 validate: .nvs-build
 	@mkdir -p $(VALIDATE)
 	$(BUILD)/tests/sim/fit/nvs_validate_diagnose --seeds 20 --out $(VALIDATE)/diagnose.md
+	$(BUILD)/tests/rt/compose/nvs_validate_scene --seeds 20 --out $(VALIDATE)/diagnose-scene.md
 	rm -rf $(VALIDATE)/thesis && python3 tests/data/diagnose/make_thesis_datasets.py tests/data/thesis $(VALIDATE)/thesis
 	@for d in $(VALIDATE)/thesis/*/; do \
 	  echo "nvstim: diagnose $$d"; \
 	  $(NVSTIM) diagnose $$d --json $${d%/}.json --report $${d%/}-report 2>/dev/null || exit 1; \
 	done
-	@echo "nvstim: sweep table $(VALIDATE)/diagnose.md; thesis findings $(VALIDATE)/thesis/*.json"
+	@echo "nvstim: sweep tables $(VALIDATE)/diagnose.md $(VALIDATE)/diagnose-scene.md; thesis findings $(VALIDATE)/thesis/*.json"
 
 .nvs-deps:
 	@missing=""; \

@@ -88,7 +88,10 @@ Generated generateScene(const SceneGenSpec& s, const SceneStimulusFactory& facto
                   // diagnose's own forward models of them are approximations, and the
                   // scenario sweep is about the scene.
                   {"halo.enabled", "false"},
-                  {"mcp_saturation.enabled", "false"}};
+                  {"mcp_saturation.enabled", "false"},
+                  // Each frame of a time-lapse is its own exposure: frame scan, so that no frame
+                  // holds a field of the one taken minutes before.
+                  {"video.scan", "\"frame\""}};
     d.camera = loadModelCamera(configDir, d.preset, d.settings, d.cameraExtra);
     d.presetFile = sensor::resolveCameraPath(configDir, d.preset);
     d.width = s.width;
