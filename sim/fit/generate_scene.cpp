@@ -83,7 +83,7 @@ Generated generateScene(const SceneGenSpec& s, const SceneStimulusFactory& facto
     d.settings = {{"width", std::to_string(s.width)},
                   {"height", std::to_string(s.height)},
                   {"agc", "\"off\""},
-                  {"gain_V", "6.5"},
+                  {"gain_V", "6.0"},
                   // The chain's halo and MCP saturation off in the frames and the model alike:
                   // diagnose's own forward models of them are approximations, and the
                   // scenario sweep is about the scene.
