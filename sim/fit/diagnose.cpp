@@ -311,6 +311,15 @@ MeanModel modelExtras(const Dataset& d, const ModelRun& m) {
 
 namespace {
 
+// The unblurred frames of w.sub (mcp_saturation's forward model).
+void assembleUnblurred(Work& w, const ModelRun& m) {
+    for (int k : w.sub) {
+        Plane u;
+        assembleFrame(m.unblurred, k, w.w, w.h, m.fieldScan, u);
+        w.unblurred.push_back(std::move(u));
+    }
+}
+
 // The camera's side on the dataset's stimulus: baseline, mean effects, noise effects.
 void diagnoseCamera(const Dataset& d, const std::filesystem::path& configDir, const Options& opt,
                     const Progress& progress, Result& r) {
@@ -319,11 +328,7 @@ void diagnoseCamera(const Dataset& d, const std::filesystem::path& configDir, co
     r.camera = d.camera.name;
     ModelRun m = simulate(d, d.camera, configDir, opt.seed, true, progress);
     Work w(d, m, d.camera, opt, progress, configDir);
-    for (int k : w.sub) {
-        Plane u;
-        assembleFrame(m.unblurred, k, w.w, w.h, m.fieldScan, u);
-        w.unblurred.push_back(std::move(u));
-    }
+    assembleUnblurred(w, m);
     if (progress)
         progress("baseline: gain, offset, MTF on " + std::to_string(w.cal.size()) +
                  " calibration frames");
@@ -367,16 +372,13 @@ SceneFit diagnoseScene(const Dataset& d, const std::filesystem::path& configDir,
                        const Progress& progress, Result& r) {
     ModelRun m = simulate(d, d.camera, configDir, opt.seed, true, progress);
     Work w(d, m, d.camera, opt, progress, configDir);
-    for (int k : w.sub) {
-        Plane u;
-        assembleFrame(m.unblurred, k, w.w, w.h, m.fieldScan, u);
-        w.unblurred.push_back(std::move(u));
-    }
+    assembleUnblurred(w, m);
     Current cur;
     cur.mm = modelExtras(d, m);
     Result scratch;
     fitBaseline(w, cur, scratch);
-    return trySceneEffects(w, cur, r, progress);
+    return trySceneEffects(
+        w, cur, r, [&r](const Candidate& c, bool tried) { recordTrial(r, c, tried); }, progress);
 }
 
 }  // namespace

@@ -183,75 +183,66 @@ std::string lowestMoon(Work& w, const SkyEffects& without, const SkyEffects& wit
     return text("%.3f deg at the Moon's lowest (%.2f deg)", raise, lowest);
 }
 
-SceneTry tryRefraction(Work& w, const MeanModel& mm, const SceneState& s) {
+// An effect the scene must be rendered again for: its parameter (member `key` of SkyEffects)
+// searched on [lo, hi], the best rendered and scored.
+struct RenderedSearch {
+    const char* effect;
+    const char* parameter;
+    double SkyEffects::*key;
+    double lo, hi;
+    int grid;
+    bool logScale;
+    int steps;
+};
+
+SceneTry renderedTry(Work& w, const MeanModel& mm, const SceneState& s, const RenderedSearch& r) {
     SceneTry t;
-    t.c.finding.effect = "refraction";
-    auto at = [&](double p) {
+    t.c.finding.effect = r.effect;
+    auto at = [&](double v) {
         SkyEffects fx = s.fx;
-        fx.pressure_hPa = p;
+        fx.*r.key = v;
         return fx;
     };
-    const double p = searchGrid([&](double v) { return sseOf(w, mm, renderAll(w, at(v))); }, 100.0,
-                                1100.0, 6, false, 6);
-    t.fx = at(p);
+    const double v = searchGrid([&](double x) { return sseOf(w, mm, renderAll(w, at(x))); }, r.lo,
+                                r.hi, r.grid, r.logScale, r.steps);
+    t.fx = at(v);
     t.stim = renderAll(w, t.fx);
     scoreTry(w, mm, s, t);
-    t.c.finding.parameters = {{"pressure_hPa", p}};
+    t.c.finding.parameters = {{r.parameter, v}};
+    t.c.valid = t.c.valid && v > 0.0;
+    return t;
+}
+
+SceneTry tryRefraction(Work& w, const MeanModel& mm, const SceneState& s) {
+    SceneTry t = renderedTry(
+        w, mm, s,
+        {"refraction", "pressure_hPa", &SkyEffects::pressure_hPa, 100.0, 1100.0, 6, false, 6});
     t.c.finding.cause =
         "the Moon stands higher than the scenario puts it: atmospheric refraction "
         "for a site pressure of " +
-        text("%.0f hPa raises it by ", p) + lowestMoon(w, s.fx, t.fx) +
+        text("%.0f hPa raises it by ", t.fx.pressure_hPa) + lowestMoon(w, s.fx, t.fx) +
         " ([site] pressure_hPa = 0 leaves refraction out)";
-    t.c.valid = t.c.valid && p > 0.0;
     return t;
 }
 
 SceneTry tryCloud(Work& w, const MeanModel& mm, const SceneState& s) {
-    SceneTry t;
-    t.c.finding.effect = "cloud_transmission";
-    auto at = [&](double tau) {
-        SkyEffects fx = s.fx;
-        fx.cloudOpticalDepth = tau;
-        return fx;
-    };
     // A log grid whose nodes are the same for every dataset: their atmosphere tables come from
     // the disk cache after the first time.
-    const double tau = searchGrid([&](double v) { return sseOf(w, mm, renderAll(w, at(v))); }, 0.03,
-                                  30.0, 7, true, 5);
-    t.fx = at(tau);
-    t.stim = renderAll(w, t.fx);
-    scoreTry(w, mm, s, t);
-    t.c.finding.parameters = {{"cloud_optical_depth", tau}};
+    SceneTry t = renderedTry(w, mm, s,
+                             {"cloud_transmission", "cloud_optical_depth",
+                              &SkyEffects::cloudOpticalDepth, 0.03, 30.0, 7, true, 5});
     t.c.finding.cause = text(
         "less moonlight than the scenario's clear sky, dimmed more at high air mass and spread "
         "into shadows: a cloud layer of optical depth %.3g ([atmosphere] cloud_optical_depth = 0 "
         "in the scenario)",
-        tau);
+        t.fx.cloudOpticalDepth);
     return t;
-}
-
-void record(Result& r, const Candidate& c, bool tried) {
-    Trial t;
-    t.effect = c.finding.effect;
-    t.tried = tried;
-    t.z = c.finding.z;
-    t.score = c.finding.score;
-    t.before = c.finding.heldoutRmsBefore;
-    t.after = c.finding.heldoutRmsAfter;
-    t.why = c.why;
-    for (const auto& [k, v] : c.finding.parameters)
-        t.why += (t.why.empty() ? "" : ", ") + k + " = " + text("%.6g", v);
-    for (Trial& old : r.trials)
-        if (old.effect == t.effect) {
-            old = t;
-            return;
-        }
-    r.trials.push_back(t);
 }
 
 }  // namespace
 
-SceneFit trySceneEffects(Work& w, const Current& base, Result& r, const Progress& progress) {
+SceneFit trySceneEffects(Work& w, const Current& base, Result& r, const RecordTrial& record,
+                         const Progress& progress) {
     SceneFit out;
     SceneState s;
     s.fx = w.d.sceneEffects;
@@ -284,12 +275,12 @@ SceneFit trySceneEffects(Work& w, const Current& base, Result& r, const Progress
                 Candidate c;
                 c.finding.effect = e.name;
                 c.why = "the scenario has it (" + e.stated + ")";
-                record(r, c, false);
+                record(c, false);
                 continue;
             }
             if (progress) progress("scenario effect: " + std::string(e.name));
             SceneTry t = e.fn(w, base.mm, s);
-            record(r, t.c, true);
+            record(t.c, true);
             const double zMin = w.opt.zMin + (r.findings.empty() ? 0.0 : 1.0);
             if (t.c.valid && t.c.finding.z >= zMin && t.c.finding.score > 0.0 &&
                 (bi < 0 || t.c.finding.score > best.c.finding.score)) {

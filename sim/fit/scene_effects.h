@@ -13,6 +13,7 @@
 // they are tried first, on the baseline; the camera's effects are then tried on the stimulus
 // with the scenario effects found.
 
+#include <functional>
 #include <vector>
 
 #include "sim/fit/effects.h"
@@ -24,8 +25,12 @@ struct SceneFit {
     std::vector<ImageF> stimuli;  // rendered with fx; empty when nothing was found
 };
 
+// Records an effect's trial in the result (tried or not, and why).
+using RecordTrial = std::function<void(const Candidate&, bool tried)>;
+
 // Greedy over the three (best significant first, the others tried again on top of it); each
-// trial recorded in r, each finding appended to r.findings.
-SceneFit trySceneEffects(Work& w, const Current& base, Result& r, const Progress& progress);
+// trial passed to `record`, each finding appended to r.findings.
+SceneFit trySceneEffects(Work& w, const Current& base, Result& r, const RecordTrial& record,
+                         const Progress& progress);
 
 }  // namespace nvs::fit
