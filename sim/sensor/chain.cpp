@@ -345,8 +345,9 @@ PhotocathodeStage::PhotocathodeStage(const CameraParams& c, std::uint64_t seed)
     : noise_(c.shot_noise),
       ebi_pe_s_(ebiRatePerPixel_pe_s(c)),
       seed_(seed),
-      mean_(new float[paddedRow(c.width)]),
-      words_(new std::uint32_t[paddedRow(c.width)]) {}
+      stride_(paddedRow(c.width)),
+      mean_(new float[kChainSlots * stride_]),
+      words_(new std::uint32_t[kChainSlots * stride_]) {}
 
 void PhotocathodeStage::apply(ImageView<const float> rate, ImageView<float> pe,
                               FieldContext& ctx) noexcept {
@@ -361,7 +362,7 @@ void PhotocathodeStage::begin(FieldContext& ctx, int w, int h) noexcept {
     ctx.cathodeRate_pe_s += ebi_pe_s_ * w * h;
 }
 
-void PhotocathodeStage::applyRow(const float* rate, float* pe, int w, int y) noexcept {
+void PhotocathodeStage::applyRow(const float* rate, float* pe, int w, int y, int slot) noexcept {
     const float ebi = static_cast<float>(ebi_pe_s_);
     if (!noise_) {
         cathodeMeanKernel(rate, pe, w, ebi, t_s_);
@@ -369,12 +370,14 @@ void PhotocathodeStage::applyRow(const float* rate, float* pe, int w, int y) noe
     }
     // One word per pixel; Poisson by the exact row sampler (zeros settled in a vector pass,
     // the rest by inversion or PTRS).
-    float* __restrict mean = mean_.get();
+    const std::size_t off = static_cast<std::size_t>(slot) * stride_;
+    float* __restrict mean = mean_.get() + off;
+    std::uint32_t* __restrict words = words_.get() + off;
     cathodeMeanKernel(rate, mean, w, ebi, t_s_);
     const PixelRng rng(seed_, RngStream::Photocathode, field_);
     const std::uint32_t yy = static_cast<std::uint32_t>(y);
-    rng.rowWords(yy, 0, 0, blocksFor(w), words_.get());
-    poissonRow(mean, words_.get(), pe, w, rng, 0, yy);
+    rng.rowWords(yy, 0, 0, blocksFor(w), words);
+    poissonRow(mean, words, pe, w, rng, 0, yy);
 }
 
 // ---- 4. BSP ---------------------------------------------------------------------------------
@@ -495,17 +498,18 @@ McpStage::McpStage(const CameraParams& c, std::uint64_t seed, GammaTableCache& g
       k_(c.mcp_noise_factor > 1.0 + 1e-9 ? 1.0 / (c.mcp_noise_factor - 1.0) : 0.0),
       seed_(seed),
       table_(enabled_ && noise_ ? gammaTables.forShapeStep(k_) : nullptr),
-      words_(new std::uint32_t[paddedRow(c.width)]),
-      idx_(new int[paddedRow(c.width)]),
-      blocks_(new std::uint32_t[paddedRow(c.width)]),
-      uWords_(new std::uint32_t[paddedRow(c.width)]),
-      n_(new float[paddedRow(c.width)]),
-      e_(new float[paddedRow(c.width)]),
-      rest_(new int[paddedRow(c.width)]),
-      restN_(new float[paddedRow(c.width)]),
-      heads_(new std::uint32_t[4 * paddedRow(c.width)]),
-      z_(new float[paddedRow(c.width)]),
-      g_(new double[paddedRow(c.width)]) {}
+      stride_(paddedRow(c.width)),
+      words_(new std::uint32_t[kChainSlots * stride_]),
+      idx_(new int[kChainSlots * stride_]),
+      blocks_(new std::uint32_t[kChainSlots * stride_]),
+      uWords_(new std::uint32_t[kChainSlots * stride_]),
+      n_(new float[kChainSlots * stride_]),
+      e_(new float[kChainSlots * stride_]),
+      rest_(new int[kChainSlots * stride_]),
+      restN_(new float[kChainSlots * stride_]),
+      heads_(new std::uint32_t[kChainSlots * 4 * stride_]),
+      z_(new float[kChainSlots * stride_]),
+      g_(new double[kChainSlots * stride_]) {}
 
 void McpStage::apply(ImageView<float> pe, FieldContext& ctx) noexcept {
     begin(ctx);
@@ -520,7 +524,7 @@ void McpStage::begin(const FieldContext& ctx) noexcept {
     field_ = ctx.field;
 }
 
-double McpStage::applyRow(float* __restrict v, int w, int y) noexcept {
+double McpStage::applyRow(float* __restrict v, int w, int y, int slot) noexcept {
     const double g = gain_;
     if (!noise_) return mcpMeanKernel(v, w, static_cast<float>(g));
     // The gain of one electron has mean G and variance (F − 1)G²: a Gamma(k, G/k) with
@@ -537,9 +541,11 @@ double McpStage::applyRow(float* __restrict v, int w, int y) noexcept {
     const PixelRng rng(seed_, RngStream::McpGain, field_);
     const std::uint32_t yy = static_cast<std::uint32_t>(y);
     const double theta = g / k_;
-    int* __restrict idx = idx_.get();
-    std::uint32_t* __restrict wz = words_.get();
-    float* __restrict e = e_.get();
+    const std::size_t off = static_cast<std::size_t>(slot) * stride_;
+    int* __restrict idx = idx_.get() + off;
+    std::uint32_t* __restrict wz = words_.get() + off;
+    float* __restrict e = e_.get() + off;
+    std::uint32_t* __restrict headsAll = heads_.get() + 4 * off;
     const bool dense = 4 * m > w;
     if (dense) {
         // Most pixels draw: the whole row at once (those with N = 0 get 0).
@@ -553,20 +559,20 @@ double McpStage::applyRow(float* __restrict v, int w, int y) noexcept {
             idx[m] = x;
             m += v[x] > 0.0f ? 1 : 0;
         }
-        std::uint32_t* __restrict uw = uWords_.get();
-        float* __restrict n = n_.get();
-        std::uint32_t* __restrict b = blocks_.get();
+        std::uint32_t* __restrict uw = uWords_.get() + off;
+        float* __restrict n = n_.get() + off;
+        std::uint32_t* __restrict b = blocks_.get() + off;
         for (int j = 0; j < m; ++j)
             b[j] = static_cast<std::uint32_t>(idx[j] / 4);
-        rng.blocksAt(yy, 0, b, m, heads_.get());
+        rng.blocksAt(yy, 0, b, m, headsAll);
         for (int j = 0; j < m; ++j) {
-            uw[j] = heads_[static_cast<std::size_t>(4 * j + idx[j] % 4)];
+            uw[j] = headsAll[static_cast<std::size_t>(4 * j + idx[j] % 4)];
             n[j] = v[idx[j]];
         }
         gammaTableDraws(*table_, n, uw, e, m, static_cast<float>(theta));
     }
     // The pixels past the table (e = −1): rare, so the chunks without one are passed over.
-    int* __restrict rest = rest_.get();
+    int* __restrict rest = rest_.get() + off;
     int nRest = 0;
     for (int j0 = 0; j0 < m; j0 += 16) {
         const int len = std::min(16, m - j0);
@@ -582,23 +588,23 @@ double McpStage::applyRow(float* __restrict v, int w, int y) noexcept {
     if (nRest > 0) {
         // Each one's stream head (made in bulk): word 0 gives the normal, word 1 the squeeze's
         // uniform; the first attempt in a vector pass, the rest one pixel at a time.
-        std::uint32_t* __restrict xs = blocks_.get();  // their pixels
+        std::uint32_t* __restrict xs = blocks_.get() + off;  // their pixels
         for (int r = 0; r < nRest; ++r)
             xs[r] = static_cast<std::uint32_t>(dense ? rest[r] : idx[rest[r]]);
-        std::uint32_t* __restrict heads = heads_.get();
+        std::uint32_t* __restrict heads = headsAll;
         rng.streamHeads(yy, xs, nRest, heads);
         // Their normal and uniform words, in the buffers of the words the table draws used.
         std::uint32_t* __restrict zw = wz;
-        std::uint32_t* __restrict u1 = uWords_.get();
-        float* __restrict rn = restN_.get();
+        std::uint32_t* __restrict u1 = uWords_.get() + off;
+        float* __restrict rn = restN_.get() + off;
         for (int r = 0; r < nRest; ++r) {
             zw[r] = heads[4 * r];
             u1[r] = heads[4 * r + 1];
             rn[r] = v[xs[r]];
         }
-        float* __restrict z = z_.get();
+        float* __restrict z = z_.get() + off;
         normalsFromWords(zw, z, nRest);
-        double* __restrict first = g_.get();
+        double* __restrict first = g_.get() + off;
         gammaFirstAttemptKernel(rn, z, u1, first, nRest, k_, theta);
         for (int r = 0; r < nRest; ++r) {
             double ej = first[r];
@@ -945,8 +951,9 @@ CcdStage::CcdStage(const CameraParams& c, std::uint64_t seed)
       line_(new float[static_cast<std::size_t>(2 * std::max(c.width, c.height) + 2)]),
       colSum_(new float[paddedRow(c.width)]),
       colMax_(new float[paddedRow(c.width)]),
-      words_(new std::uint32_t[paddedRow(c.width)]),
-      z_(new float[paddedRow(c.width)]),
+      stride_(paddedRow(c.width)),
+      words_(new std::uint32_t[kChainSlots * stride_]),
+      z_(new float[kChainSlots * stride_]),
       row_(new float[paddedRow(c.width)]) {
     if (c.full_well_e > 0.0 && c.bloom == BloomDirection::Vertical)
         upCarry_ = ImageF(c.width, c.height);
@@ -1126,6 +1133,23 @@ void CcdStage::loadRow(const float* src, float* dst, int y) noexcept {
                         static_cast<float>(cam_->full_well_e));
 }
 
+void CcdStage::loadColumns(ImageView<const float> src, ImageView<float> dst, int x0,
+                           int x1) noexcept {
+    const int n = x1 - x0;
+    if (n <= 0) return;
+    const int w = cam_->width;
+    float* cmax = colMax_.get() + x0;
+    float* csum = colSum_.get() + x0;
+    float* moving = line_.get() + w + x0;  // loadRow's down sweep, these columns
+    const float fw = static_cast<float>(cam_->full_well_e);
+    for (int y = 0; y < dst.height(); ++y) {
+        float* d = dst.row(y) + x0;
+        ccdLoadKernel(src.row(y) + x0, prnu_.empty() ? nullptr : prnu_.row(y) + x0, d, cmax, csum,
+                      n, dark_e_);
+        if (!upCarry_.empty()) bloomDownKernel(d, moving, upCarry_.row(y) + x0, n, fw);
+    }
+}
+
 std::int64_t CcdStage::bloom(ImageView<float> e) noexcept {
     const CameraParams& c = *cam_;
     const int w = e.width();
@@ -1178,7 +1202,7 @@ std::int64_t CcdStage::bloom(ImageView<float> e) noexcept {
     return saturated;
 }
 
-void CcdStage::finishRow(float* v, int y) noexcept {
+void CcdStage::finishRow(float* v, int y, int slot) noexcept {
     const CameraParams& c = *cam_;
     const int w = c.width;
     const bool smear = c.smear_rel > 0.0;
@@ -1193,10 +1217,13 @@ void CcdStage::finishRow(float* v, int y) noexcept {
     }
     if (sigma_e_ > 0.0f) {
         // One word per cell, inverse-CDF normals.
+        const std::size_t off = static_cast<std::size_t>(slot) * stride_;
+        std::uint32_t* words = words_.get() + off;
+        float* z = z_.get() + off;
         const PixelRng rng(seed_, RngStream::ReadNoise, field_);
-        rng.rowWords(static_cast<std::uint32_t>(y), 0, 0, blocksFor(w), words_.get());
-        normalsFromWords(words_.get(), z_.get(), w);
-        ccdReadKernel(v, cs, z_.get(), w, sigma_e_);
+        rng.rowWords(static_cast<std::uint32_t>(y), 0, 0, blocksFor(w), words);
+        normalsFromWords(words, z, w);
+        ccdReadKernel(v, cs, z, w, sigma_e_);
     } else if (smear) {
         for (int x = 0; x < w; ++x)
             v[x] += cs[x];
@@ -1387,8 +1414,12 @@ IiccdChain::IiccdChain(const CameraParams& cam, std::uint64_t seed,
       sig_(cam_.width, cam_.height),
       counts_(cam_.width, cam_.height),
       video_(cam_.width, cam_.height),
-      rowRate_(new float[paddedRow(cam_.width)]),
-      rowSig_(new float[paddedRow(cam_.width)]) {
+      rowRate_(new float[kChainSlots * paddedRow(cam_.width)]),
+      rowSig_(new float[kChainSlots * paddedRow(cam_.width)]),
+      rowOptics_(static_cast<std::size_t>(cam_.height), 0.0),
+      rowMcp_(static_cast<std::size_t>(cam_.height), 0.0),
+      rowBad_(static_cast<std::size_t>(cam_.height), 0),
+      rowLevel_(static_cast<std::size_t>(cam_.height), 0) {
     counts_.fill(static_cast<float>(std::clamp(cam_.video_offset_dc, 0.0, 65535.0)));
 }
 
@@ -1477,16 +1508,36 @@ const FieldInfo& IiccdChain::process(ImageView<const float> lpe, const CameraCom
     return info_;
 }
 
+namespace {
+// Rows (or columns) [begin, end) of band b of n: the same bands whatever runs them.
+inline int bandStart(int b, int n) {
+    return static_cast<int>(static_cast<long long>(b) * n / kChainSlots);
+}
+// Column bands start on whole 16-float lines (no two threads write one cache line).
+inline int columnBandStart(int b, int w) {
+    return b >= kChainSlots ? w : bandStart(b, w) / 16 * 16;
+}
+}  // namespace
+
+void IiccdChain::setExecutor(RowExecutor* exec) noexcept {
+    exec_ = exec != nullptr ? exec : &serial_;
+}
+
 void IiccdChain::run(ImageView<const float> lpe, FieldContext& ctx) noexcept {
     const int w = cam_.width;
     const int h = cam_.height;
+    // Each row's sums go to rowOptics_/rowMcp_ and are added up in row order afterwards: the
+    // same sums, in the same order, however the bands ran.
     // 1. optics: the whole image first only where the gain depends on it (BSP: the cathode
-    // current) or the halo spreads it; otherwise row by row below. Both give the same sums in
-    // the same order.
+    // current) or the halo spreads it; otherwise row by row below.
     const bool opticsFirst = bsp_.enabled() || halo_.enabled();
-    double opticsTotal = 0.0;
     if (opticsFirst) {
-        info_.bad_input_px = optics_.apply(lpe, rate_.view(), ctx);
+        auto optics = [&](int b) {
+            for (int y = bandStart(b, h); y < bandStart(b + 1, h); ++y)
+                rowBad_[y] = optics_.applyRow(lpe.row(y), rate_.row(y), y, rowOptics_[y]);
+        };
+        forEachIndex(*exec_, kChainSlots, optics);
+        addOpticsSums(ctx);
         halo_.apply(rate_.view());  // 3b: a share of the photoelectrons lands on the halo disk
         cathode_.begin(ctx, w, h);
     }
@@ -1502,33 +1553,36 @@ void IiccdChain::run(ImageView<const float> lpe, FieldContext& ctx) noexcept {
     mcpSat_.begin(ctx);
     phosphor_.begin(ctx);
     // 1, 3, 5, 6 row by row: optics → photocathode → MCP → phosphor, written straight into
-    // the blur's FFT input (or the signal image when the MTF is off).
+    // the blur's FFT input (or the signal image when the MTF is off); each band of rows with
+    // its own scratch.
+    auto rows = [&](int b) {
+        const std::size_t off = static_cast<std::size_t>(b) * paddedRow(w);
+        float* rate = rowRate_.get() + off;
+        float* sig = rowSig_.get() + off;
+        for (int y = bandStart(b, h); y < bandStart(b + 1, h); ++y) {
+            const float* r = rate_.row(y);
+            if (!opticsFirst) {
+                rowBad_[y] = optics_.applyRow(lpe.row(y), rate, y, rowOptics_[y]);
+                r = rate;
+            }
+            cathode_.applyRow(r, sig, w, y, b);
+            if (mcp_.enabled()) {
+                const double rowOut = mcp_.applyRow(sig, w, y, b);
+                rowMcp_[y] = mcpSat_.enabled() ? mcpSat_.applyRow(sig, w, y) : rowOut;
+            }
+            float* dst = blur_.enabled() ? blur_.inputRow(y) : sig_.row(y);
+            if (phosphor_.enabled())
+                phosphor_.applyRow(sig, dst, w, y);
+            else
+                std::copy(sig, sig + w, dst);
+        }
+    };
+    forEachIndex(*exec_, kChainSlots, rows);
     double mcpTotal = 0.0;
-    std::int64_t bad = 0;
-    float* rate = rowRate_.get();
-    float* sig = rowSig_.get();
-    for (int y = 0; y < h; ++y) {
-        const float* r = rate_.row(y);
-        if (!opticsFirst) {
-            double rowSum = 0.0;
-            bad += optics_.applyRow(lpe.row(y), rate, y, rowSum);
-            opticsTotal += rowSum;
-            r = rate;
-        }
-        cathode_.applyRow(r, sig, w, y);
-        if (mcp_.enabled()) {
-            const double rowOut = mcp_.applyRow(sig, w, y);
-            mcpTotal += mcpSat_.enabled() ? mcpSat_.applyRow(sig, w, y) : rowOut;
-        }
-        float* dst = blur_.enabled() ? blur_.inputRow(y) : sig_.row(y);
-        if (phosphor_.enabled())
-            phosphor_.applyRow(sig, dst, w, y);
-        else
-            std::copy(sig, sig + w, dst);
-    }
+    for (int y = 0; y < h; ++y)
+        mcpTotal += rowMcp_[y];
     if (!opticsFirst) {
-        info_.bad_input_px = bad;
-        ctx.cathodeRate_pe_s += opticsTotal;
+        addOpticsSums(ctx);
         cathode_.begin(ctx, w, h);  // the EBI, added after the optics as apply() does
     }
     ctx.mcpOut_e = mcp_.enabled() ? mcpTotal : ctx.cathodeRate_pe_s * ctx.gate_s;
@@ -1542,24 +1596,52 @@ void IiccdChain::run(ImageView<const float> lpe, FieldContext& ctx) noexcept {
     readOut(ctx);
 }
 
+void IiccdChain::addOpticsSums(FieldContext& ctx) noexcept {
+    std::int64_t bad = 0;
+    double total = 0.0;
+    for (int y = 0; y < cam_.height; ++y) {
+        bad += rowBad_[y];
+        total += rowOptics_[y];
+    }
+    info_.bad_input_px = bad;
+    ctx.cathodeRate_pe_s += total;
+}
+
 void IiccdChain::readOut(const FieldContext& ctx) noexcept {
     const int w = cam_.width;
     const int h = cam_.height;
     // 7. blur
     blur_.filter();
-    // 8. CCD, 9. video: load (PRNU, dark) row by row from the blurred image, bloom, then
-    // smear and read noise row by row, each row read out converted at once.
+    // 8. CCD, 9. video: load (PRNU, dark) from the blurred image, by bands of columns (each
+    // column's sums and blooming sweep run down its rows in order), bloom, then smear and read
+    // noise by bands of rows, each row read out converted at once.
     ccd_.begin(ctx);
-    for (int y = 0; y < h; ++y)
-        ccd_.loadRow(blur_.enabled() ? blur_.outputRow(y) : sig_.row(y), sig_.row(y), y);
+    if (blur_.enabled()) {
+        const ImageView<const float> src(blur_.outputRow(0), w, h, blur_.paddedWidth());
+        auto load = [&](int b) {
+            ccd_.loadColumns(src, sig_.view(), columnBandStart(b, w), columnBandStart(b + 1, w));
+        };
+        forEachIndex(*exec_, kChainSlots, load);
+    } else {
+        for (int y = 0; y < h; ++y)
+            ccd_.loadRow(sig_.row(y), sig_.row(y), y);
+    }
     info_.saturated_px = ccd_.bloom(sig_.view());
+    auto finish = [&](int b) {
+        for (int y = bandStart(b, h); y < bandStart(b + 1, h); ++y) {
+            float* v = sig_.row(y);
+            ccd_.finishRow(v, y, b);
+            rowLevel_[y] = videoStage_.readsRow(field_, y)
+                               ? videoStage_.applyRow(v, counts_.row(y), video_.row(y), w)
+                               : -1;
+        }
+    };
+    forEachIndex(*exec_, kChainSlots, finish);
     double sum = 0.0;
     std::int64_t n = 0;
     for (int y = 0; y < h; ++y) {
-        float* v = sig_.row(y);
-        ccd_.finishRow(v, y);
-        if (!videoStage_.readsRow(field_, y)) continue;
-        sum += static_cast<double>(videoStage_.applyRow(v, counts_.row(y), video_.row(y), w));
+        if (rowLevel_[y] < 0) continue;
+        sum += static_cast<double>(rowLevel_[y]);
         n += w;
     }
     info_.level_dc = n > 0 ? sum / static_cast<double>(n) : 0.0;

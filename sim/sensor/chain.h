@@ -28,12 +28,17 @@
 
 #include "sim/core/gamma_table.h"
 #include "sim/core/image.h"
+#include "sim/core/row_executor.h"
 #include "sim/sensor/camera.h"
 
 namespace nvs::sensor {
 
 // Row scratch is rounded up to whole Philox blocks and vector chunks.
 inline constexpr int kRowPad_px = 32;
+// The chain splits a field into this many bands of rows (or columns), whatever the number of
+// threads that run them: each band has its own row scratch in every stage (its slot), and no
+// result depends on which thread ran a band or in what order.
+inline constexpr int kChainSlots = 8;
 
 // What one call did: the state of the controls and the observables a driver reports.
 struct FieldInfo {
@@ -105,8 +110,9 @@ class PhotocathodeStage {
     double ebiRate_pe_s() const { return ebi_pe_s_; }
     // apply() by rows: begin() adds the EBI to ctx.cathodeRate_pe_s and fixes the field's
     // exposure and noise key; applyRow() then draws row y.
+    // `slot` (0 … kChainSlots − 1): whose row scratch; rows in different slots may run at once.
     void begin(FieldContext& ctx, int w, int h) noexcept;
-    void applyRow(const float* rate, float* pe, int w, int y) noexcept;
+    void applyRow(const float* rate, float* pe, int w, int y, int slot = 0) noexcept;
 
   private:
     bool noise_;
@@ -114,8 +120,9 @@ class PhotocathodeStage {
     std::uint64_t seed_;
     std::uint64_t field_ = 0;
     float t_s_ = 0.0f;                        // this field's gate
-    std::unique_ptr<float[]> mean_;           // one row of means
-    std::unique_ptr<std::uint32_t[]> words_;  // one row of words
+    std::size_t stride_;                      // one slot's row scratch
+    std::unique_ptr<float[]> mean_;           // one row of means per slot
+    std::unique_ptr<std::uint32_t[]> words_;  // one row of words per slot
 };
 
 // ---- 3b. Halo ------------------------------------------------------------------------------
@@ -169,9 +176,10 @@ class McpStage {
     // electrons = Σ of N single-electron gains ~ Gamma(N·k, G/k), k = 1/(F − 1).
     void apply(ImageView<float> pe, FieldContext& ctx) noexcept;
     // apply() by rows: begin() fixes the gain (ctx.mcpGain) and noise key, applyRow()
-    // multiplies row y in place and returns its sum of electrons.
+    // multiplies row y in place and returns its sum of electrons (`slot`: whose scratch, as in
+    // PhotocathodeStage).
     void begin(const FieldContext& ctx) noexcept;
-    double applyRow(float* pe, int w, int y) noexcept;
+    double applyRow(float* pe, int w, int y, int slot = 0) noexcept;
 
   private:
     bool enabled_;
@@ -181,6 +189,8 @@ class McpStage {
     std::uint64_t field_ = 0;
     double gain_ = 1.0;
     std::shared_ptr<const GammaTable> table_;  // quantiles of Gamma(N·k), N ≤ kMaxN
+    // Row scratch, kChainSlots rows of stride_ each (heads_: 4·stride_ per slot).
+    std::size_t stride_;
     std::unique_ptr<std::uint32_t[]> words_;   // one row of words, one per pixel
     std::unique_ptr<int[]> idx_;               // pixels of the row that draw
     std::unique_ptr<std::uint32_t[]> blocks_;  // their Philox blocks / stream x
@@ -298,8 +308,12 @@ class CcdStage {
     // then finishRow(e.row(y), y) for every row (smear, and read noise on the rows read out).
     void begin(const FieldContext& ctx) noexcept;
     void loadRow(const float* src, float* dst, int y) noexcept;
+    // loadRow for the columns [x0, x1) of every row of `src` (a view of the blur's output or
+    // the signal) into `dst`, rows in order: the same values as loadRow row by row, for
+    // disjoint column ranges at once (each column's sums and blooming sweep are its own).
+    void loadColumns(ImageView<const float> src, ImageView<float> dst, int x0, int x1) noexcept;
     std::int64_t bloom(ImageView<float> e) noexcept;
-    void finishRow(float* v, int y) noexcept;
+    void finishRow(float* v, int y, int slot = 0) noexcept;
     // Thesis Appendix L, charge-conserving form: excess over full well in one line spills
     // half each way along the line, filling neighbours to full well before passing on; what
     // leaves the ends is drained. Exposed for tests. Returns cells at full well.
@@ -321,8 +335,9 @@ class CcdStage {
     std::unique_ptr<float[]> line_;  // scratch for blooming (max(w, h) floats)
     std::unique_ptr<float[]> colSum_;
     std::unique_ptr<float[]> colMax_;
-    std::unique_ptr<std::uint32_t[]> words_;  // one row of words
-    std::unique_ptr<float[]> z_;              // one row of normals
+    std::size_t stride_;                      // one slot's row scratch
+    std::unique_ptr<std::uint32_t[]> words_;  // one row of words per slot
+    std::unique_ptr<float[]> z_;              // one row of normals per slot
     std::unique_ptr<float[]> row_;            // in-place loadRow(): a copy of the row
     double noiseSigma_e_;  // read noise ⊕ video pre-amplifier noise referred to electrons
 };
@@ -433,6 +448,11 @@ class IiccdChain {
     // What the last call did.
     const FieldInfo& lastInfo() const { return info_; }
 
+    // Who runs the bands of a field (kChainSlots of them): any executor gives the same bits.
+    // nullptr: the calling thread alone (the default). The executor must outlive the chain's
+    // use of it.
+    void setExecutor(RowExecutor* exec) noexcept;
+
     // Counts how many non-finite or negative pixels an input has (setup-time validation).
     static std::int64_t countBadPixels(ImageView<const float> img);
 
@@ -447,6 +467,8 @@ class IiccdChain {
     // Steps 1–6 row by row into the blur's input, then readOut(): 7–9.
     void run(ImageView<const float> lpe, FieldContext& ctx) noexcept;
     void readOut(const FieldContext& ctx) noexcept;
+    // The optics' bad pixels and rate of every row, added up in row order.
+    void addOpticsSums(FieldContext& ctx) noexcept;
 
     CameraParams cam_;
     CameraParams camAuto_;  // cam_ with its automatic loop switched on (ControlSource::Command)
@@ -473,8 +495,15 @@ class IiccdChain {
     ImageF sig_;
     ImageF counts_;
     ImageU16 video_;
-    std::unique_ptr<float[]> rowRate_;  // one row of optics output
-    std::unique_ptr<float[]> rowSig_;   // one row of photoelectrons / MCP electrons
+    std::unique_ptr<float[]> rowRate_;  // one row of optics output per slot
+    std::unique_ptr<float[]> rowSig_;   // one row of photoelectrons / MCP electrons per slot
+    // Per-row results of the bands, added up in row order.
+    std::vector<double> rowOptics_;       // expected rate
+    std::vector<double> rowMcp_;          // MCP output electrons
+    std::vector<int> rowBad_;             // bad input pixels
+    std::vector<std::int64_t> rowLevel_;  // sum of output counts; −1: not read out
+    SerialExecutor serial_;
+    RowExecutor* exec_ = &serial_;
     FieldInfo info_;
 };
 
