@@ -27,6 +27,10 @@ double ebiRatePerPixel_pe_s(const CameraParams& c) {
 inline std::size_t paddedRow(int width) {
     return static_cast<std::size_t>((width + kRowPad_px - 1) / kRowPad_px * kRowPad_px);
 }
+// Rows (or columns) [begin, end) of band b of n: the same bands whatever runs them.
+inline int bandStart(int b, int n) {
+    return static_cast<int>(static_cast<long long>(b) * n / kChainSlots);
+}
 // Philox blocks that cover `n` words.
 inline int blocksFor(int n) {
     return (n + 3) / 4;
@@ -784,11 +788,13 @@ struct BlurStage::Fft {
     float* real = nullptr;
     fftwf_complex* spec = nullptr;
     float* filter = nullptr;
-    fftwf_plan fwd = nullptr;
-    fftwf_plan inv = nullptr;
+    fftwf_plan rowFwd = nullptr;  // one row, r2c, real row → spectrum row
+    fftwf_plan rowInv = nullptr;  // one row, c2r, spectrum row → real row
+    fftwf_plan colFwd[2] = {};    // a band of columns, in place: a full band, the last band
+    fftwf_plan colInv[2] = {};
     ~Fft() {
-        if (fwd) fftwf_destroy_plan(fwd);
-        if (inv) fftwf_destroy_plan(inv);
+        for (fftwf_plan p : {rowFwd, rowInv, colFwd[0], colFwd[1], colInv[0], colInv[1]})
+            if (p) fftwf_destroy_plan(p);
         fftwf_free(real);
         fftwf_free(spec);
         fftwf_free(filter);
@@ -826,10 +832,10 @@ inline int padIndex(int i, int n, int np) {
 }  // namespace
 
 namespace {
-// The wisdom in config/fftw/wisdom-single.txt, made by `fftwf-wisdom -n -o FILE orf512x800
-// orb512x800` (PATIENT plans for the 800 × 512 transforms of a 768 × 494 camera). FFTW uses it
-// only where its solvers exist on this CPU (FFTW_WISDOM_ONLY gives no plan otherwise).
-// Measured: 1.6 → 1.3 ms per blur on one core (docs/sensor.md).
+// The wisdom in config/fftw/wisdom-single.txt, made by `nvs_fftw_wisdom` (tests/sim/sensor:
+// FFTW_PATIENT plans of the blur's row and column transforms for the shipped presets' sizes).
+// FFTW uses it only where its solvers exist on this CPU (FFTW_WISDOM_ONLY gives no plan
+// otherwise), and falls back to FFTW_ESTIMATE: deterministic either way.
 // Imported by every BlurStage before it plans, from the config folder it was given: the wisdom
 // lives in FFTW's own planner, and importing the same file again replaces each entry with
 // itself (FFTW's hash table overwrites an entry of the same problem and flags), so repeating it
@@ -838,6 +844,23 @@ namespace {
 void importShippedWisdom(const std::filesystem::path& configDir) {
     const std::filesystem::path file = configDir / "fftw" / "wisdom-single.txt";
     if (pathExists(file)) fftwf_import_wisdom_from_filename(file.c_str());
+}
+}  // namespace
+
+namespace {
+// A plan from the flags asked for; with FFTW_WISDOM_ONLY and no wisdom for the problem,
+// FFTW_ESTIMATE's (deterministic).
+template <class MakePlan>
+fftwf_plan planOrEstimate(MakePlan&& make, unsigned flags) {
+    fftwf_plan p = make(flags);
+    if (!p && (flags & FFTW_WISDOM_ONLY)) p = make(FFTW_ESTIMATE);
+    if (!p) throw SetupError("blur: FFTW could not plan");
+    return p;
+}
+// Columns of the spectrum per band: the chain's band count, on whole 64-byte lines.
+int columnBandWidth(int wc) {
+    const int perBand = (wc + kChainSlots - 1) / kChainSlots;
+    return (perBand + 7) / 8 * 8;
 }
 }  // namespace
 
@@ -850,28 +873,29 @@ BlurStage::BlurStage(const CameraParams& c, const ChainOptions& opt,
     wp_ = fastSize(w_);
     hp_ = fastSize(h_);
     fft_ = std::make_unique<Fft>();
-    const int wc = wp_ / 2 + 1;
+    // The 2-d transform as its two passes, so that bands of rows and bands of columns can run
+    // at once: a 1-d r2c of each row, then a 1-d FFT down each column of the half spectrum
+    // (rows of wcs_ ≥ wp/2 + 1 complex, on whole 64-byte lines, so that every row and every
+    // column band has the alignment the plans were made for).
+    wc_ = wp_ / 2 + 1;
+    wcs_ = (wc_ + 7) / 8 * 8;
+    cb_ = columnBandWidth(wc_);
     const std::size_t nr = static_cast<std::size_t>(wp_) * static_cast<std::size_t>(hp_);
-    const std::size_t nc = static_cast<std::size_t>(wc) * static_cast<std::size_t>(hp_);
+    const std::size_t nc = static_cast<std::size_t>(wcs_) * static_cast<std::size_t>(hp_);
     fft_->real = fftwf_alloc_real(nr);
     fft_->spec = fftwf_alloc_complex(nc);
     fft_->filter = fftwf_alloc_real(nc);
     if (!fft_->real || !fft_->spec || !fft_->filter) throw SetupError("blur: out of memory");
-    // Plans: from the shipped wisdom where it holds this problem (deterministic, and as fast
-    // as FFTW_PATIENT), else FFTW_ESTIMATE (deterministic); FFTW_MEASURE on request only, as a
-    // measured plan can differ from run to run and so break bit-exact replay.
+    std::fill(fft_->real, fft_->real + nr, 0.0f);
+    std::fill(fft_->filter, fft_->filter + nc, 0.0f);
+    // Plans: from the shipped wisdom where it holds the problem (deterministic, and as fast as
+    // FFTW_PATIENT), else FFTW_ESTIMATE (deterministic); FFTW_MEASURE / FFTW_PATIENT on request
+    // only (a measured plan can differ from run to run and so break bit-exact replay).
     importShippedWisdom(configDir);
-    const auto plan = [&](unsigned flags) {
-        fft_->fwd = fftwf_plan_dft_r2c_2d(hp_, wp_, fft_->real, fft_->spec, flags);
-        fft_->inv = fftwf_plan_dft_c2r_2d(hp_, wp_, fft_->spec, fft_->real, flags);
-    };
-    plan(opt.measureFft ? FFTW_MEASURE : FFTW_MEASURE | FFTW_WISDOM_ONLY);
-    if (!fft_->fwd || !fft_->inv) {
-        if (fft_->fwd) fftwf_destroy_plan(fft_->fwd);
-        if (fft_->inv) fftwf_destroy_plan(fft_->inv);
-        plan(FFTW_ESTIMATE);
-    }
-    if (!fft_->fwd || !fft_->inv) throw SetupError("blur: FFTW could not plan");
+    const unsigned flags = opt.patientFft   ? FFTW_PATIENT
+                           : opt.measureFft ? FFTW_MEASURE
+                                            : FFTW_MEASURE | FFTW_WISDOM_ONLY;
+    planTransforms(flags);
     // The filter: the product of the stage MTFs at each DFT frequency, converted from cycles
     // per pixel to cycles per mm at the cathode; 1/(wp·hp) normalises FFTW's round trip.
     const double px = cathodePitchX_mm(c);
@@ -879,15 +903,43 @@ BlurStage::BlurStage(const CameraParams& c, const ChainOptions& opt,
     const double norm = 1.0 / static_cast<double>(nr);
     for (int ky = 0; ky < hp_; ++ky) {
         const double fy = (ky <= hp_ / 2 ? ky : ky - hp_) / static_cast<double>(hp_) / py;
-        for (int kx = 0; kx < wc; ++kx) {
+        for (int kx = 0; kx < wc_; ++kx) {
             const double fx = kx / static_cast<double>(wp_) / px;
-            fft_->filter[static_cast<std::size_t>(ky) * wc + kx] =
+            fft_->filter[static_cast<std::size_t>(ky) * wcs_ + kx] =
                 static_cast<float>(systemMtf(c, fx, fy) * norm);
         }
     }
 }
 
+void BlurStage::planTransforms(unsigned flags) {
+    float* r = fft_->real;
+    fftwf_complex* sp = fft_->spec;
+    fft_->rowFwd =
+        planOrEstimate([&](unsigned f) { return fftwf_plan_dft_r2c_1d(wp_, r, sp, f); }, flags);
+    fft_->rowInv =
+        planOrEstimate([&](unsigned f) { return fftwf_plan_dft_c2r_1d(wp_, sp, r, f); }, flags);
+    // Column bands: cb_ columns each, the last one what is left.
+    const int last = wc_ - (wc_ - 1) / cb_ * cb_;
+    for (int i = 0; i < 2; ++i) {
+        int n[1] = {hp_};
+        const int howmany = i == 0 ? cb_ : last;
+        for (int sign : {FFTW_FORWARD, FFTW_BACKWARD}) {
+            fftwf_plan p = planOrEstimate(
+                [&](unsigned f) {
+                    return fftwf_plan_many_dft(1, n, howmany, sp, nullptr, wcs_, 1, sp, nullptr,
+                                               wcs_, 1, sign, f);
+                },
+                flags);
+            (sign == FFTW_FORWARD ? fft_->colFwd : fft_->colInv)[i] = p;
+        }
+    }
+}
+
 BlurStage::~BlurStage() = default;
+
+bool BlurStage::exportWisdom(const std::filesystem::path& file) {
+    return fftwf_export_wisdom_to_filename(file.c_str()) != 0;
+}
 
 void BlurStage::apply(ImageView<float> img) noexcept {
     if (!enabled_) return;
@@ -924,23 +976,51 @@ NVS_ROW_CLONES void applyFilterKernel(fftwf_complex* __restrict s, const float* 
 }  // namespace
 
 void BlurStage::filter() noexcept {
+    SerialExecutor serial;
+    filter(serial);
+}
+
+void BlurStage::filter(RowExecutor& exec) noexcept {
     if (!enabled_) return;
-    // Mirrored margins: the columns past the image in each image row, then the rows past it.
-    float* r = fft_->real;
-    for (int y = 0; y < h_; ++y) {
-        float* row = r + static_cast<std::ptrdiff_t>(y) * wp_;
-        for (int x = w_; x < wp_; ++x)
-            row[x] = row[padIndex(x, w_, wp_)];
-    }
-    for (int y = h_; y < hp_; ++y) {
-        const float* src = r + static_cast<std::ptrdiff_t>(padIndex(y, h_, hp_)) * wp_;
-        std::copy(src, src + wp_, r + static_cast<std::ptrdiff_t>(y) * wp_);
-    }
-    fftwf_execute(fft_->fwd);
-    const int wc = wp_ / 2 + 1;
-    applyFilterKernel(fft_->spec, fft_->filter,
-                      static_cast<std::size_t>(wc) * static_cast<std::size_t>(hp_));
-    fftwf_execute(fft_->inv);
+    // 1. Bands of image rows: the mirrored margin past the row's end, then its r2c.
+    auto rowsForward = [&](int b) {
+        for (int y = bandStart(b, h_); y < bandStart(b + 1, h_); ++y) {
+            float* row = fft_->real + static_cast<std::ptrdiff_t>(y) * wp_;
+            for (int x = w_; x < wp_; ++x)
+                row[x] = row[padIndex(x, w_, wp_)];
+            fftwf_execute_dft_r2c(fft_->rowFwd, row,
+                                  fft_->spec + static_cast<std::ptrdiff_t>(y) * wcs_);
+        }
+    };
+    forEachIndex(exec, kChainSlots, rowsForward);
+    // 2. Bands of columns: the rows past the image mirror image rows, and so do their spectra
+    // (copied); the column FFT, the MTF, the inverse column FFT.
+    const int bands = (wc_ + cb_ - 1) / cb_;
+    auto columns = [&](int b) {
+        const int c0 = b * cb_;
+        const int n = std::min(cb_, wc_ - c0);
+        for (int y = h_; y < hp_; ++y) {
+            const float* src =
+                &fft_->spec[static_cast<std::ptrdiff_t>(padIndex(y, h_, hp_)) * wcs_ + c0][0];
+            std::copy(src, src + 2 * n, &fft_->spec[static_cast<std::ptrdiff_t>(y) * wcs_ + c0][0]);
+        }
+        const int which = n == cb_ ? 0 : 1;
+        fftwf_complex* col = fft_->spec + c0;
+        fftwf_execute_dft(fft_->colFwd[which], col, col);
+        for (int y = 0; y < hp_; ++y) {
+            const std::ptrdiff_t off = static_cast<std::ptrdiff_t>(y) * wcs_ + c0;
+            applyFilterKernel(fft_->spec + off, fft_->filter + off, static_cast<std::size_t>(n));
+        }
+        fftwf_execute_dft(fft_->colInv[which], col, col);
+    };
+    forEachIndex(exec, bands, columns);
+    // 3. Bands of image rows again: the c2r of each (the rows past the image are not needed).
+    auto rowsInverse = [&](int b) {
+        for (int y = bandStart(b, h_); y < bandStart(b + 1, h_); ++y)
+            fftwf_execute_dft_c2r(fft_->rowInv, fft_->spec + static_cast<std::ptrdiff_t>(y) * wcs_,
+                                  fft_->real + static_cast<std::ptrdiff_t>(y) * wp_);
+    };
+    forEachIndex(exec, kChainSlots, rowsInverse);
 }
 
 // ---- 8. CCD ---------------------------------------------------------------------------------
@@ -1509,10 +1589,6 @@ const FieldInfo& IiccdChain::process(ImageView<const float> lpe, const CameraCom
 }
 
 namespace {
-// Rows (or columns) [begin, end) of band b of n: the same bands whatever runs them.
-inline int bandStart(int b, int n) {
-    return static_cast<int>(static_cast<long long>(b) * n / kChainSlots);
-}
 // Column bands start on whole 16-float lines (no two threads write one cache line).
 inline int columnBandStart(int b, int w) {
     return b >= kChainSlots ? w : bandStart(b, w) / 16 * 16;
@@ -1611,7 +1687,7 @@ void IiccdChain::readOut(const FieldContext& ctx) noexcept {
     const int w = cam_.width;
     const int h = cam_.height;
     // 7. blur
-    blur_.filter();
+    blur_.filter(*exec_);
     // 8. CCD, 9. video: load (PRNU, dark) from the blurred image, by bands of columns (each
     // column's sums and blooming sweep run down its rows in order), bloom, then smear and read
     // noise by bands of rows, each row read out converted at once.

@@ -59,6 +59,7 @@ struct FieldInfo {
 
 struct ChainOptions {
     bool measureFft = false;  // FFTW_MEASURE plans (slower setup, faster fields)
+    bool patientFft = false;  // FFTW_PATIENT plans (what the shipped wisdom is made with)
 };
 
 // Per-field values the stages hand to each other.
@@ -285,15 +286,26 @@ class BlurStage {
     int paddedHeight() const { return hp_; }
     // apply() in steps: write image row y (w floats) into inputRow(y) for every row, then
     // filter() pads, transforms, applies the MTF and transforms back; outputRow(y) is then the
-    // blurred row (ringing below zero not yet removed: the CCD's loadRow clamps it).
+    // blurred row (ringing below zero not yet removed: the CCD's loadRow clamps it). filter()
+    // runs in bands of rows and of columns through `exec` (the same bits with any executor;
+    // only the image's rows are transformed back, the padding rows are not).
     float* inputRow(int y) noexcept;
     void filter() noexcept;
+    void filter(RowExecutor& exec) noexcept;
+    // Writes the wisdom FFTW's planner holds (every plan made so far in this process) to
+    // `file` (tests/sim/sensor/fftw_wisdom.cpp makes config/fftw/wisdom-single.txt with it).
+    // Returns false if it could not be written.
+    static bool exportWisdom(const std::filesystem::path& file);
     const float* outputRow(int y) const noexcept;
 
   private:
     struct Fft;
+    void planTransforms(unsigned flags);
     bool enabled_;
     int w_ = 0, h_ = 0, wp_ = 0, hp_ = 0;
+    int wc_ = 0;   // complex columns of the half spectrum, wp/2 + 1
+    int wcs_ = 0;  // its row stride (whole 64-byte lines)
+    int cb_ = 0;   // columns per column band
     std::unique_ptr<Fft> fft_;
 };
 
