@@ -429,58 +429,75 @@ HaloStage::HaloStage(const CameraParams& c)
 }
 
 void HaloStage::apply(ImageView<float> rate) noexcept {
+    SerialExecutor serial;
+    apply(rate, serial);
+}
+
+void HaloStage::apply(ImageView<float> rate, RowExecutor& exec) noexcept {
     if (!enabled_) return;
     // The loops run along rows with the column index innermost and no division, so that they
-    // vectorise (this stage is on every field's path).
+    // vectorise (this stage is on every field's path). Each step by bands of rows (of cells or
+    // of pixels), each band's sums in the same order as one thread's.
     const int fullCells = w_ / kBlock;  // cells of kBlock whole pixels; the last may be partial
-    // 1. Sum the rate over each cell.
-    cells_.fill(0.0f);
-    for (int y = 0; y < h_; ++y) {
-        const float* r = rate.row(y);
-        float* c = cells_.row(y / kBlock);
-        for (int cx = 0; cx < fullCells; ++cx) {
-            float acc = 0.0f;
-            for (int k = 0; k < kBlock; ++k)
-                acc += r[cx * kBlock + k];
-            c[cx] += acc;
+    // 1. Sum the rate over each cell: a cell row from its kBlock pixel rows, top to bottom.
+    auto sumCells = [&](int b) {
+        for (int cy = bandStart(b, ch_); cy < bandStart(b + 1, ch_); ++cy) {
+            float* c = cells_.row(cy);
+            std::fill(c, c + cw_, 0.0f);
+            for (int y = cy * kBlock; y < std::min(h_, (cy + 1) * kBlock); ++y) {
+                const float* r = rate.row(y);
+                for (int cx = 0; cx < fullCells; ++cx) {
+                    float acc = 0.0f;
+                    for (int k = 0; k < kBlock; ++k)
+                        acc += r[cx * kBlock + k];
+                    c[cx] += acc;
+                }
+                for (int x = fullCells * kBlock; x < w_; ++x)
+                    c[fullCells] += r[x];
+            }
         }
-        for (int x = fullCells * kBlock; x < w_; ++x)
-            c[fullCells] += r[x];
-    }
+    };
+    forEachIndex(exec, kChainSlots, sumCells);
     // 2. Spread each cell over the disk (cells off the image are lost: the halo's share of
     // light near the border leaves the frame, as on the tube): out(cx, cy) = Σ_ij
     // K(i, j)·cells(cx − i, cy − j), one kernel tap at a time over a whole row of cells.
     const int n = 2 * kr_ + 1;
-    spread_.fill(0.0f);
-    for (int cy = 0; cy < ch_; ++cy) {
-        float* out = spread_.row(cy);
-        for (int j = -kr_; j <= kr_; ++j) {
-            const int sy = cy - j;
-            if (sy < 0 || sy >= ch_) continue;
-            const float* src = cells_.row(sy);
-            for (int i = -kr_; i <= kr_; ++i) {
-                const float k = kernel_[static_cast<std::size_t>((j + kr_) * n + (i + kr_))];
-                if (k == 0.0f) continue;
-                const int x0 = std::max(0, i), x1 = std::min(cw_, cw_ + i);
-                for (int cx = x0; cx < x1; ++cx)
-                    out[cx] += k * src[cx - i];
+    auto spread = [&](int b) {
+        for (int cy = bandStart(b, ch_); cy < bandStart(b + 1, ch_); ++cy) {
+            float* out = spread_.row(cy);
+            std::fill(out, out + cw_, 0.0f);
+            for (int j = -kr_; j <= kr_; ++j) {
+                const int sy = cy - j;
+                if (sy < 0 || sy >= ch_) continue;
+                const float* src = cells_.row(sy);
+                for (int i = -kr_; i <= kr_; ++i) {
+                    const float k = kernel_[static_cast<std::size_t>((j + kr_) * n + (i + kr_))];
+                    if (k == 0.0f) continue;
+                    const int x0 = std::max(0, i), x1 = std::min(cw_, cw_ + i);
+                    for (int cx = x0; cx < x1; ++cx)
+                        out[cx] += k * src[cx - i];
+                }
             }
         }
-    }
+    };
+    forEachIndex(exec, kChainSlots, spread);
     // 3. Back onto the pixels: a cell's halo share evenly over its pixels.
     const float keep = 1.0f - fraction_;
     const float share = fraction_ / static_cast<float>(kBlock * kBlock);
-    for (int y = 0; y < h_; ++y) {
-        float* r = rate.row(y);
-        const float* sp = spread_.row(y / kBlock);
-        for (int cx = 0; cx < fullCells; ++cx) {
-            const float add = share * sp[cx];
-            for (int k = 0; k < kBlock; ++k)
-                r[cx * kBlock + k] = keep * r[cx * kBlock + k] + add;
+    auto back = [&](int b) {
+        for (int y = bandStart(b, h_); y < bandStart(b + 1, h_); ++y) {
+            float* r = rate.row(y);
+            const float* sp = spread_.row(y / kBlock);
+            for (int cx = 0; cx < fullCells; ++cx) {
+                const float add = share * sp[cx];
+                for (int k = 0; k < kBlock; ++k)
+                    r[cx * kBlock + k] = keep * r[cx * kBlock + k] + add;
+            }
+            for (int x = fullCells * kBlock; x < w_; ++x)
+                r[x] = keep * r[x] + share * sp[fullCells];
         }
-        for (int x = fullCells * kBlock; x < w_; ++x)
-            r[x] = keep * r[x] + share * sp[fullCells];
-    }
+    };
+    forEachIndex(exec, kChainSlots, back);
 }
 
 BspStage::BspStage(const CameraParams& c)
@@ -1614,7 +1631,8 @@ void IiccdChain::run(ImageView<const float> lpe, FieldContext& ctx) noexcept {
         };
         forEachIndex(*exec_, kChainSlots, optics);
         addOpticsSums(ctx);
-        halo_.apply(rate_.view());  // 3b: a share of the photoelectrons lands on the halo disk
+        halo_.apply(rate_.view(),
+                    *exec_);  // 3b: a share of the photoelectrons lands on the halo disk
         cathode_.begin(ctx, w, h);
     }
     // 4. bright-source protection (the gain for this field), 5. MCP gain

@@ -139,8 +139,10 @@ class HaloStage {
     static constexpr int kBlock = 4;
     explicit HaloStage(const CameraParams& cam);
     bool enabled() const { return enabled_; }
-    // rate ← (1 − f)·rate + f·(rate ⊛ disk), in place; conserves the total.
+    // rate ← (1 − f)·rate + f·(rate ⊛ disk), in place; conserves the total. By bands of rows
+    // through `exec` (the same bits with any executor).
     void apply(ImageView<float> rate) noexcept;
+    void apply(ImageView<float> rate, RowExecutor& exec) noexcept;
     // The kernel on the cell grid (odd size, sums to 1), for tests.
     const std::vector<float>& kernel() const { return kernel_; }
     int kernelRadiusCells() const { return kr_; }
