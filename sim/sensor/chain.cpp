@@ -229,6 +229,33 @@ NVS_ROW_CLONES void ccdLoadKernel(const float* __restrict src, const float* __re
     }
 }
 
+// CCD load without the column sums: max(src, 0)·(1 + PRNU) + dark, and the column maxima.
+NVS_ROW_CLONES void ccdLoadMaxKernel(const float* __restrict src, const float* __restrict prnu,
+                                     float* __restrict dst, float* __restrict cmax, int w,
+                                     float dark) noexcept {
+    if (prnu) {
+        for (int x = 0; x < w; ++x) {
+            const float s = src[x];
+            const float v = (s < 0.0f ? 0.0f : s) * prnu[x] + dark;
+            dst[x] = v;
+            cmax[x] = cmax[x] < v ? v : cmax[x];
+        }
+    } else {
+        for (int x = 0; x < w; ++x) {
+            const float s = src[x];
+            const float v = (s < 0.0f ? 0.0f : s) + dark;
+            dst[x] = v;
+            cmax[x] = cmax[x] < v ? v : cmax[x];
+        }
+    }
+}
+
+// Column sums of a row: cs += v.
+NVS_ROW_CLONES void addRowKernel(const float* __restrict v, float* __restrict cs, int w) noexcept {
+    for (int x = 0; x < w; ++x)
+        cs[x] += v[x];
+}
+
 // Read-out row: v += smear + σ·z.
 NVS_ROW_CLONES void ccdReadKernel(float* __restrict v, const float* __restrict cs,
                                   const float* __restrict z, int w, float sigma) noexcept {
@@ -1048,6 +1075,7 @@ CcdStage::CcdStage(const CameraParams& c, std::uint64_t seed)
       line_(new float[static_cast<std::size_t>(2 * std::max(c.width, c.height) + 2)]),
       colSum_(new float[paddedRow(c.width)]),
       colMax_(new float[paddedRow(c.width)]),
+      slotMax_(new float[kChainSlots * paddedRow(c.width)]),
       stride_(paddedRow(c.width)),
       words_(new std::uint32_t[kChainSlots * stride_]),
       z_(new float[kChainSlots * stride_]),
@@ -1230,21 +1258,44 @@ void CcdStage::loadRow(const float* src, float* dst, int y) noexcept {
                         static_cast<float>(cam_->full_well_e));
 }
 
-void CcdStage::loadColumns(ImageView<const float> src, ImageView<float> dst, int x0,
-                           int x1) noexcept {
-    const int n = x1 - x0;
-    if (n <= 0) return;
+void CcdStage::beginLoad() noexcept {
+    const std::size_t n = kChainSlots * stride_;
+    std::fill(slotMax_.get(), slotMax_.get() + n, 0.0f);
+}
+
+void CcdStage::loadRowMax(const float* src, float* dst, int y, int slot) noexcept {
+    ccdLoadMaxKernel(src, prnu_.empty() ? nullptr : prnu_.row(y), dst,
+                     slotMax_.get() + static_cast<std::size_t>(slot) * stride_, cam_->width,
+                     dark_e_);
+}
+
+void CcdStage::finishLoad(ImageView<float> e) noexcept {
     const int w = cam_->width;
-    float* cmax = colMax_.get() + x0;
-    float* csum = colSum_.get() + x0;
-    float* moving = line_.get() + w + x0;  // loadRow's down sweep, these columns
-    const float fw = static_cast<float>(cam_->full_well_e);
-    for (int y = 0; y < dst.height(); ++y) {
-        float* d = dst.row(y) + x0;
-        ccdLoadKernel(src.row(y) + x0, prnu_.empty() ? nullptr : prnu_.row(y) + x0, d, cmax, csum,
-                      n, dark_e_);
-        if (!upCarry_.empty()) bloomDownKernel(d, moving, upCarry_.row(y) + x0, n, fw);
+    float* __restrict cmax = colMax_.get();
+    for (int s = 0; s < kChainSlots; ++s) {
+        const float* m = slotMax_.get() + static_cast<std::size_t>(s) * stride_;
+        for (int x = 0; x < w; ++x)
+            cmax[x] = cmax[x] < m[x] ? m[x] : cmax[x];
     }
+    // The column sums (smear only), down each column in row order as loadRow adds them.
+    if (cam_->smear_rel > 0.0) {
+        for (int y = 0; y < e.height(); ++y)
+            addRowKernel(e.row(y), colSum_.get(), w);
+    }
+    // Vertical blooming's down sweep (loadRow's, after the loads: a row's sweep reads only its
+    // own loaded values and the columns' carries), over the span of columns that reach full
+    // well: elsewhere it changes nothing and bloomColumns reads nothing.
+    if (upCarry_.empty()) return;
+    const float fw = static_cast<float>(cam_->full_well_e);
+    int x0 = 0, x1 = w;
+    while (x0 < w && cmax[x0] < fw)
+        ++x0;
+    while (x1 > x0 && cmax[x1 - 1] < fw)
+        --x1;
+    if (x0 >= x1) return;
+    float* moving = line_.get() + w;
+    for (int y = 0; y < e.height(); ++y)
+        bloomDownKernel(e.row(y) + x0, moving + x0, upCarry_.row(y) + x0, x1 - x0, fw);
 }
 
 std::int64_t CcdStage::bloom(ImageView<float> e) noexcept {
@@ -1605,13 +1656,6 @@ const FieldInfo& IiccdChain::process(ImageView<const float> lpe, const CameraCom
     return info_;
 }
 
-namespace {
-// Column bands start on whole 16-float lines (no two threads write one cache line).
-inline int columnBandStart(int b, int w) {
-    return b >= kChainSlots ? w : bandStart(b, w) / 16 * 16;
-}
-}  // namespace
-
 void IiccdChain::setExecutor(RowExecutor* exec) noexcept {
     exec_ = exec != nullptr ? exec : &serial_;
 }
@@ -1706,16 +1750,18 @@ void IiccdChain::readOut(const FieldContext& ctx) noexcept {
     const int h = cam_.height;
     // 7. blur
     blur_.filter(*exec_);
-    // 8. CCD, 9. video: load (PRNU, dark) from the blurred image, by bands of columns (each
-    // column's sums and blooming sweep run down its rows in order), bloom, then smear and read
-    // noise by bands of rows, each row read out converted at once.
+    // 8. CCD, 9. video: load (PRNU, dark) from the blurred image by bands of rows (each band
+    // its own column maxima), then the column sums and blooming's down sweep where needed,
+    // bloom, then smear and read noise by bands of rows, each row read out converted at once.
     ccd_.begin(ctx);
     if (blur_.enabled()) {
-        const ImageView<const float> src(blur_.outputRow(0), w, h, blur_.paddedWidth());
+        ccd_.beginLoad();
         auto load = [&](int b) {
-            ccd_.loadColumns(src, sig_.view(), columnBandStart(b, w), columnBandStart(b + 1, w));
+            for (int y = bandStart(b, h); y < bandStart(b + 1, h); ++y)
+                ccd_.loadRowMax(blur_.outputRow(y), sig_.row(y), y, b);
         };
         forEachIndex(*exec_, kChainSlots, load);
+        ccd_.finishLoad(sig_.view());
     } else {
         for (int y = 0; y < h; ++y)
             ccd_.loadRow(sig_.row(y), sig_.row(y), y);

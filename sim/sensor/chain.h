@@ -322,10 +322,13 @@ class CcdStage {
     // then finishRow(e.row(y), y) for every row (smear, and read noise on the rows read out).
     void begin(const FieldContext& ctx) noexcept;
     void loadRow(const float* src, float* dst, int y) noexcept;
-    // loadRow for the columns [x0, x1) of every row of `src` (a view of the blur's output or
-    // the signal) into `dst`, rows in order: the same values as loadRow row by row, for
-    // disjoint column ranges at once (each column's sums and blooming sweep are its own).
-    void loadColumns(ImageView<const float> src, ImageView<float> dst, int x0, int x1) noexcept;
+    // loadRow in two steps, for bands of rows at once: beginLoad(); loadRowMax(src, dst, y,
+    // slot) for every row (src ≠ dst; any order, the slot's own column maxima); then
+    // finishLoad(dst) merges the maxima, forms the column sums and makes the blooming down
+    // sweep, rows in order: the same values as loadRow row by row.
+    void beginLoad() noexcept;
+    void loadRowMax(const float* src, float* dst, int y, int slot) noexcept;
+    void finishLoad(ImageView<float> e) noexcept;
     std::int64_t bloom(ImageView<float> e) noexcept;
     void finishRow(float* v, int y, int slot = 0) noexcept;
     // Thesis Appendix L, charge-conserving form: excess over full well in one line spills
@@ -349,6 +352,7 @@ class CcdStage {
     std::unique_ptr<float[]> line_;  // scratch for blooming (max(w, h) floats)
     std::unique_ptr<float[]> colSum_;
     std::unique_ptr<float[]> colMax_;
+    std::unique_ptr<float[]> slotMax_;        // loadRowMax: the column maxima of each slot
     std::size_t stride_;                      // one slot's row scratch
     std::unique_ptr<std::uint32_t[]> words_;  // one row of words per slot
     std::unique_ptr<float[]> z_;              // one row of normals per slot
