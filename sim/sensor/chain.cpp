@@ -1026,19 +1026,33 @@ void BlurStage::filter() noexcept {
 
 void BlurStage::filter(RowExecutor& exec) noexcept {
     if (!enabled_) return;
-    // 1. Bands of image rows: the mirrored margin past the row's end, then its r2c.
+    // 1. Bands of image rows: the mirrored margin past each row's end, then its r2c.
     auto rowsForward = [&](int b) {
-        for (int y = bandStart(b, h_); y < bandStart(b + 1, h_); ++y) {
-            float* row = fft_->real + static_cast<std::ptrdiff_t>(y) * wp_;
-            for (int x = w_; x < wp_; ++x)
-                row[x] = row[padIndex(x, w_, wp_)];
-            fftwf_execute_dft_r2c(fft_->rowFwd, row,
-                                  fft_->spec + static_cast<std::ptrdiff_t>(y) * wcs_);
-        }
+        for (int y = bandStart(b, h_); y < bandStart(b + 1, h_); ++y)
+            forwardRow(y);
     };
     forEachIndex(exec, kChainSlots, rowsForward);
-    // 2. Bands of columns: the rows past the image mirror image rows, and so do their spectra
-    // (copied); the column FFT, the MTF, the inverse column FFT.
+    // 2. Bands of columns.
+    filterColumns(exec);
+    // 3. Bands of image rows again: the c2r of each.
+    auto rowsInverse = [&](int b) {
+        for (int y = bandStart(b, h_); y < bandStart(b + 1, h_); ++y)
+            inverseRow(y);
+    };
+    forEachIndex(exec, kChainSlots, rowsInverse);
+}
+
+void BlurStage::forwardRow(int y) noexcept {
+    float* row = fft_->real + static_cast<std::ptrdiff_t>(y) * wp_;
+    for (int x = w_; x < wp_; ++x)
+        row[x] = row[padIndex(x, w_, wp_)];
+    fftwf_execute_dft_r2c(fft_->rowFwd, row, fft_->spec + static_cast<std::ptrdiff_t>(y) * wcs_);
+}
+
+void BlurStage::filterColumns(RowExecutor& exec) noexcept {
+    if (!enabled_) return;
+    // The rows past the image mirror image rows, and so do their spectra (copied); then the
+    // column FFT, the MTF and the inverse column FFT, band by band.
     const int bands = (wc_ + cb_ - 1) / cb_;
     auto columns = [&](int b) {
         const int c0 = b * cb_;
@@ -1058,13 +1072,11 @@ void BlurStage::filter(RowExecutor& exec) noexcept {
         fftwf_execute_dft(fft_->colInv[which], col, col);
     };
     forEachIndex(exec, bands, columns);
-    // 3. Bands of image rows again: the c2r of each (the rows past the image are not needed).
-    auto rowsInverse = [&](int b) {
-        for (int y = bandStart(b, h_); y < bandStart(b + 1, h_); ++y)
-            fftwf_execute_dft_c2r(fft_->rowInv, fft_->spec + static_cast<std::ptrdiff_t>(y) * wcs_,
-                                  fft_->real + static_cast<std::ptrdiff_t>(y) * wp_);
-    };
-    forEachIndex(exec, kChainSlots, rowsInverse);
+}
+
+void BlurStage::inverseRow(int y) noexcept {
+    fftwf_execute_dft_c2r(fft_->rowInv, fft_->spec + static_cast<std::ptrdiff_t>(y) * wcs_,
+                          fft_->real + static_cast<std::ptrdiff_t>(y) * wp_);
 }
 
 // ---- 8. CCD ---------------------------------------------------------------------------------
@@ -1713,6 +1725,7 @@ void IiccdChain::run(ImageView<const float> lpe, FieldContext& ctx) noexcept {
                 phosphor_.applyRow(sig, dst, w, y);
             else
                 std::copy(sig, sig + w, dst);
+            if (blur_.enabled()) blur_.forwardRow(y);  // 7's row transform, the row in cache
         }
     };
     forEachIndex(*exec_, kChainSlots, rows);
@@ -1748,8 +1761,9 @@ void IiccdChain::addOpticsSums(FieldContext& ctx) noexcept {
 void IiccdChain::readOut(const FieldContext& ctx) noexcept {
     const int w = cam_.width;
     const int h = cam_.height;
-    // 7. blur
-    blur_.filter(*exec_);
+    // 7. blur: its row transforms were made with the rows (run()); the columns now, the
+    // inverse row transforms with the CCD load below.
+    blur_.filterColumns(*exec_);
     // 8. CCD, 9. video: load (PRNU, dark) from the blurred image by bands of rows (each band
     // its own column maxima), then the column sums and blooming's down sweep where needed,
     // bloom, then smear and read noise by bands of rows, each row read out converted at once.
@@ -1757,8 +1771,10 @@ void IiccdChain::readOut(const FieldContext& ctx) noexcept {
     if (blur_.enabled()) {
         ccd_.beginLoad();
         auto load = [&](int b) {
-            for (int y = bandStart(b, h); y < bandStart(b + 1, h); ++y)
+            for (int y = bandStart(b, h); y < bandStart(b + 1, h); ++y) {
+                blur_.inverseRow(y);
                 ccd_.loadRowMax(blur_.outputRow(y), sig_.row(y), y, b);
+            }
         };
         forEachIndex(*exec_, kChainSlots, load);
         ccd_.finishLoad(sig_.view());

@@ -294,6 +294,13 @@ class BlurStage {
     float* inputRow(int y) noexcept;
     void filter() noexcept;
     void filter(RowExecutor& exec) noexcept;
+    // filter(exec) in its steps, for callers that fuse them with their own row passes:
+    // forwardRow(y) for every image row (after inputRow(y) is written; rows in any order or at
+    // once), then filterColumns(exec), then inverseRow(y) for every image row (before
+    // outputRow(y) is read).
+    void forwardRow(int y) noexcept;
+    void filterColumns(RowExecutor& exec) noexcept;
+    void inverseRow(int y) noexcept;
     // Writes the wisdom FFTW's planner holds (every plan made so far in this process) to
     // `file` (tests/sim/sensor/fftw_wisdom.cpp makes config/fftw/wisdom-single.txt with it).
     // Returns false if it could not be written.
