@@ -462,34 +462,45 @@ void HaloStage::apply(ImageView<float> rate) noexcept {
 
 void HaloStage::apply(ImageView<float> rate, RowExecutor& exec) noexcept {
     if (!enabled_) return;
-    // The loops run along rows with the column index innermost and no division, so that they
-    // vectorise (this stage is on every field's path). Each step by bands of rows (of cells or
-    // of pixels), each band's sums in the same order as one thread's.
-    const int fullCells = w_ / kBlock;  // cells of kBlock whole pixels; the last may be partial
-    // 1. Sum the rate over each cell: a cell row from its kBlock pixel rows, top to bottom.
-    auto sumCells = [&](int b) {
-        for (int cy = bandStart(b, ch_); cy < bandStart(b + 1, ch_); ++cy) {
-            float* c = cells_.row(cy);
-            std::fill(c, c + cw_, 0.0f);
-            for (int y = cy * kBlock; y < std::min(h_, (cy + 1) * kBlock); ++y) {
-                const float* r = rate.row(y);
-                for (int cx = 0; cx < fullCells; ++cx) {
-                    float acc = 0.0f;
-                    for (int k = 0; k < kBlock; ++k)
-                        acc += r[cx * kBlock + k];
-                    c[cx] += acc;
-                }
-                for (int x = fullCells * kBlock; x < w_; ++x)
-                    c[fullCells] += r[x];
-            }
-        }
+    const ImageView<const float> in(rate.row(0), rate.width(), rate.height(), rate.stride_px());
+    auto cells = [&](int b) { sumCells(in, bandStart(b, ch_), bandStart(b + 1, ch_)); };
+    forEachIndex(exec, kChainSlots, cells);
+    spread(exec);
+    auto back = [&](int b) {
+        for (int y = bandStart(b, h_); y < bandStart(b + 1, h_); ++y)
+            addBackRow(rate.row(y), y);
     };
-    forEachIndex(exec, kChainSlots, sumCells);
+    forEachIndex(exec, kChainSlots, back);
+}
+
+// The loops run along rows with the column index innermost and no division, so that they
+// vectorise (this stage is on every field's path).
+void HaloStage::sumCells(ImageView<const float> rate, int cy0, int cy1) noexcept {
+    // 1. Sum the rate over each cell: a cell row from its kBlock pixel rows, top to bottom.
+    const int fullCells = w_ / kBlock;  // cells of kBlock whole pixels; the last may be partial
+    for (int cy = cy0; cy < cy1; ++cy) {
+        float* c = cells_.row(cy);
+        std::fill(c, c + cw_, 0.0f);
+        for (int y = cy * kBlock; y < std::min(h_, (cy + 1) * kBlock); ++y) {
+            const float* r = rate.row(y);
+            for (int cx = 0; cx < fullCells; ++cx) {
+                float acc = 0.0f;
+                for (int k = 0; k < kBlock; ++k)
+                    acc += r[cx * kBlock + k];
+                c[cx] += acc;
+            }
+            for (int x = fullCells * kBlock; x < w_; ++x)
+                c[fullCells] += r[x];
+        }
+    }
+}
+
+void HaloStage::spread(RowExecutor& exec) noexcept {
     // 2. Spread each cell over the disk (cells off the image are lost: the halo's share of
     // light near the border leaves the frame, as on the tube): out(cx, cy) = Σ_ij
     // K(i, j)·cells(cx − i, cy − j), one kernel tap at a time over a whole row of cells.
     const int n = 2 * kr_ + 1;
-    auto spread = [&](int b) {
+    auto rows = [&](int b) {
         for (int cy = bandStart(b, ch_); cy < bandStart(b + 1, ch_); ++cy) {
             float* out = spread_.row(cy);
             std::fill(out, out + cw_, 0.0f);
@@ -507,24 +518,22 @@ void HaloStage::apply(ImageView<float> rate, RowExecutor& exec) noexcept {
             }
         }
     };
-    forEachIndex(exec, kChainSlots, spread);
+    forEachIndex(exec, kChainSlots, rows);
+}
+
+void HaloStage::addBackRow(float* r, int y) noexcept {
     // 3. Back onto the pixels: a cell's halo share evenly over its pixels.
+    const int fullCells = w_ / kBlock;
     const float keep = 1.0f - fraction_;
     const float share = fraction_ / static_cast<float>(kBlock * kBlock);
-    auto back = [&](int b) {
-        for (int y = bandStart(b, h_); y < bandStart(b + 1, h_); ++y) {
-            float* r = rate.row(y);
-            const float* sp = spread_.row(y / kBlock);
-            for (int cx = 0; cx < fullCells; ++cx) {
-                const float add = share * sp[cx];
-                for (int k = 0; k < kBlock; ++k)
-                    r[cx * kBlock + k] = keep * r[cx * kBlock + k] + add;
-            }
-            for (int x = fullCells * kBlock; x < w_; ++x)
-                r[x] = keep * r[x] + share * sp[fullCells];
-        }
-    };
-    forEachIndex(exec, kChainSlots, back);
+    const float* sp = spread_.row(y / kBlock);
+    for (int cx = 0; cx < fullCells; ++cx) {
+        const float add = share * sp[cx];
+        for (int k = 0; k < kBlock; ++k)
+            r[cx * kBlock + k] = keep * r[cx * kBlock + k] + add;
+    }
+    for (int x = fullCells * kBlock; x < w_; ++x)
+        r[x] = keep * r[x] + share * sp[fullCells];
 }
 
 BspStage::BspStage(const CameraParams& c)
@@ -1680,15 +1689,21 @@ void IiccdChain::run(ImageView<const float> lpe, FieldContext& ctx) noexcept {
     // 1. optics: the whole image first only where the gain depends on it (BSP: the cathode
     // current) or the halo spreads it; otherwise row by row below.
     const bool opticsFirst = bsp_.enabled() || halo_.enabled();
+    const bool halo = halo_.enabled();
     if (opticsFirst) {
+        // With the halo, bands of whole cell rows: each band's rows, then its cells' sums.
+        const int units = halo ? halo_.cellRows() : h;
+        const int rowsPer = halo ? HaloStage::kBlock : 1;
         auto optics = [&](int b) {
-            for (int y = bandStart(b, h); y < bandStart(b + 1, h); ++y)
+            const int u0 = bandStart(b, units), u1 = bandStart(b + 1, units);
+            for (int y = u0 * rowsPer; y < std::min(h, u1 * rowsPer); ++y)
                 rowBad_[y] = optics_.applyRow(lpe.row(y), rate_.row(y), y, rowOptics_[y]);
+            if (halo) halo_.sumCells(rate_.cview(), u0, u1);
         };
         forEachIndex(*exec_, kChainSlots, optics);
         addOpticsSums(ctx);
-        halo_.apply(rate_.view(),
-                    *exec_);  // 3b: a share of the photoelectrons lands on the halo disk
+        // 3b: a share of the photoelectrons lands on the halo disk (added to each row below).
+        if (halo) halo_.spread(*exec_);
         cathode_.begin(ctx, w, h);
     }
     // 4. bright-source protection (the gain for this field), 5. MCP gain
@@ -1711,6 +1726,7 @@ void IiccdChain::run(ImageView<const float> lpe, FieldContext& ctx) noexcept {
         float* sig = rowSig_.get() + off;
         for (int y = bandStart(b, h); y < bandStart(b + 1, h); ++y) {
             const float* r = rate_.row(y);
+            if (halo) halo_.addBackRow(rate_.row(y), y);
             if (!opticsFirst) {
                 rowBad_[y] = optics_.applyRow(lpe.row(y), rate, y, rowOptics_[y]);
                 r = rate;

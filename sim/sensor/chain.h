@@ -143,6 +143,13 @@ class HaloStage {
     // through `exec` (the same bits with any executor).
     void apply(ImageView<float> rate) noexcept;
     void apply(ImageView<float> rate, RowExecutor& exec) noexcept;
+    // apply() in its steps, for callers that fuse them with their own row passes: sumCells()
+    // for every band of cell rows [cy0, cy1) (after the kBlock pixel rows of each are
+    // written), then spread(exec), then addBackRow(rate row y, y) for every pixel row.
+    int cellRows() const { return ch_; }
+    void sumCells(ImageView<const float> rate, int cy0, int cy1) noexcept;
+    void spread(RowExecutor& exec) noexcept;
+    void addBackRow(float* rateRow, int y) noexcept;
     // The kernel on the cell grid (odd size, sums to 1), for tests.
     const std::vector<float>& kernel() const { return kernel_; }
     int kernelRadiusCells() const { return kr_; }
