@@ -250,15 +250,18 @@ void renderInto(const std::filesystem::path& file, const DataDirs& dirs,
     sr->renderer().render(sr->prepare(0.0), lpe, band.view(), pool);
 }
 
-// The camera chain, one field, every stage of the PULNiX preset (one thread), on the
-// photoelectron radiance of the thesis scenes (rendered once: Moon and sky only, and with the
-// street lamp on) and on a uniform bright field where every pixel draws; the eq. 7.1 reference
-// on the same frames.
+// The camera chain, one field, every stage of the PULNiX preset, on one thread and on two (the
+// calling thread and one pool worker running its bands: the same bits), on the photoelectron
+// radiance of the thesis scenes (rendered once: Moon and sky only, and with the street lamp
+// on) and on a uniform bright field where every pixel draws; the eq. 7.1 reference on the same
+// frames.
 void addCameraItems(Items& items, const DataDirs& dirs, const std::filesystem::path& rit) {
     struct Camera {
         sensor::CameraParams cam;
         GammaTableCache gammaTables;
         std::unique_ptr<sensor::IiccdChain> chain;
+        std::unique_ptr<sensor::IiccdChain> chain2t;
+        std::unique_ptr<rt::RowPool> pool;  // chain2t's second thread
         std::unique_ptr<rt::bench::Eq71Reference> reference;
         std::vector<std::uint16_t> out;
     };
@@ -267,6 +270,9 @@ void addCameraItems(Items& items, const DataDirs& dirs, const std::filesystem::p
         if (c->chain) return;
         c->cam = sensor::loadCamera(dirs.config, "pulnix-ag5745ef3");
         c->chain = std::make_unique<sensor::IiccdChain>(c->cam, 1, dirs.config, c->gammaTables);
+        c->chain2t = std::make_unique<sensor::IiccdChain>(c->cam, 1, dirs.config, c->gammaTables);
+        c->pool = std::make_unique<rt::RowPool>(2);
+        c->chain2t->setExecutor(c->pool.get());
         c->reference = std::make_unique<rt::bench::Eq71Reference>(eq71ParamsFor(c->cam));
         c->out.assign(static_cast<std::size_t>(c->cam.width) * c->cam.height, 0);
     };
@@ -301,6 +307,14 @@ void addCameraItems(Items& items, const DataDirs& dirs, const std::filesystem::p
         ch.iteration = [c, lpe] { c->chain->process(lpe->cview()); };
         ch.after = [c, lpe](TimedItem& self) {
             self.extra.emplace_back("mean_pe_per_px", c->chain->process(lpe->cview()).mean_pe);
+        };
+        TimedItem& ch2 =
+            add(items, std::string("sensor_chain_2t_") + in.name,
+                std::string("IICCD chain, one field 768x494, two threads, ") + in.what, 6e-3, 2.0);
+        ch2.setup = frameSetup;
+        ch2.iteration = [c, lpe] { c->chain2t->process(lpe->cview()); };
+        ch2.after = [c, lpe](TimedItem& self) {
+            self.extra.emplace_back("mean_pe_per_px", c->chain2t->process(lpe->cview()).mean_pe);
         };
         TimedItem& ref = add(items, std::string("eq71_reference_") + in.name,
                              std::string("plain eq. 7.1 model (Poisson, FFT Gaussian MTF, ") +
@@ -409,6 +423,9 @@ std::string ratiosJson(const Items& items) {
             put(std::string("eq71_reference_over_chain_") + in, ref->p50_s / chain->p50_s);
         if (chain && mem)
             put(std::string("chain_") + in + "_over_memcpy_f32", chain->p50_s / mem->p50_s);
+        if (const TimedItem* chain2 = find(items, std::string("sensor_chain_2t_") + in);
+            chain2 && ref)
+            put(std::string("eq71_reference_over_chain_2t_") + in, ref->p50_s / chain2->p50_s);
     }
     return "{" + j + "}";
 }

@@ -31,6 +31,7 @@
 #include <vector>
 
 #include "sim/core/image.h"
+#include "sim/core/row_executor.h"
 #include "sim/core/spectrum.h"
 #include "sim/msg/sky.h"
 #include "sim/scene/scene.h"
@@ -85,19 +86,9 @@ struct RenderConfig {
     PrimaryVisibility primaryVisibility = PrimaryVisibility::kEmbree;
 };
 
-class RowExecutor {
-  public:
-    virtual ~RowExecutor() = default;
-    // Calls fn(ctx, y0, y1) over disjoint ranges covering [0, rows), maybe concurrently, and
-    // returns when all are done.
-    virtual void run(int rows, void (*fn)(void*, int, int), void* ctx) noexcept = 0;
-};
-class SerialExecutor final : public RowExecutor {
-  public:
-    void run(int rows, void (*fn)(void*, int, int), void* ctx) noexcept override {
-        fn(ctx, 0, rows);
-    }
-};
+// The row executors live in sim/core (the camera chain uses them too).
+using RowExecutor = nvs::RowExecutor;
+using SerialExecutor = nvs::SerialExecutor;
 
 struct RenderStats {
     std::uint64_t primaryRays = 0;

@@ -27,6 +27,10 @@ double ebiRatePerPixel_pe_s(const CameraParams& c) {
 inline std::size_t paddedRow(int width) {
     return static_cast<std::size_t>((width + kRowPad_px - 1) / kRowPad_px * kRowPad_px);
 }
+// Rows (or columns) [begin, end) of band b of n: the same bands whatever runs them.
+inline int bandStart(int b, int n) {
+    return static_cast<int>(static_cast<long long>(b) * n / kChainSlots);
+}
 // Philox blocks that cover `n` words.
 inline int blocksFor(int n) {
     return (n + 3) / 4;
@@ -225,6 +229,33 @@ NVS_ROW_CLONES void ccdLoadKernel(const float* __restrict src, const float* __re
     }
 }
 
+// CCD load without the column sums: max(src, 0)·(1 + PRNU) + dark, and the column maxima.
+NVS_ROW_CLONES void ccdLoadMaxKernel(const float* __restrict src, const float* __restrict prnu,
+                                     float* __restrict dst, float* __restrict cmax, int w,
+                                     float dark) noexcept {
+    if (prnu) {
+        for (int x = 0; x < w; ++x) {
+            const float s = src[x];
+            const float v = (s < 0.0f ? 0.0f : s) * prnu[x] + dark;
+            dst[x] = v;
+            cmax[x] = cmax[x] < v ? v : cmax[x];
+        }
+    } else {
+        for (int x = 0; x < w; ++x) {
+            const float s = src[x];
+            const float v = (s < 0.0f ? 0.0f : s) + dark;
+            dst[x] = v;
+            cmax[x] = cmax[x] < v ? v : cmax[x];
+        }
+    }
+}
+
+// Column sums of a row: cs += v.
+NVS_ROW_CLONES void addRowKernel(const float* __restrict v, float* __restrict cs, int w) noexcept {
+    for (int x = 0; x < w; ++x)
+        cs[x] += v[x];
+}
+
 // Read-out row: v += smear + σ·z.
 NVS_ROW_CLONES void ccdReadKernel(float* __restrict v, const float* __restrict cs,
                                   const float* __restrict z, int w, float sigma) noexcept {
@@ -345,8 +376,9 @@ PhotocathodeStage::PhotocathodeStage(const CameraParams& c, std::uint64_t seed)
     : noise_(c.shot_noise),
       ebi_pe_s_(ebiRatePerPixel_pe_s(c)),
       seed_(seed),
-      mean_(new float[paddedRow(c.width)]),
-      words_(new std::uint32_t[paddedRow(c.width)]) {}
+      stride_(paddedRow(c.width)),
+      mean_(new float[kChainSlots * stride_]),
+      words_(new std::uint32_t[kChainSlots * stride_]) {}
 
 void PhotocathodeStage::apply(ImageView<const float> rate, ImageView<float> pe,
                               FieldContext& ctx) noexcept {
@@ -361,7 +393,7 @@ void PhotocathodeStage::begin(FieldContext& ctx, int w, int h) noexcept {
     ctx.cathodeRate_pe_s += ebi_pe_s_ * w * h;
 }
 
-void PhotocathodeStage::applyRow(const float* rate, float* pe, int w, int y) noexcept {
+void PhotocathodeStage::applyRow(const float* rate, float* pe, int w, int y, int slot) noexcept {
     const float ebi = static_cast<float>(ebi_pe_s_);
     if (!noise_) {
         cathodeMeanKernel(rate, pe, w, ebi, t_s_);
@@ -369,12 +401,14 @@ void PhotocathodeStage::applyRow(const float* rate, float* pe, int w, int y) noe
     }
     // One word per pixel; Poisson by the exact row sampler (zeros settled in a vector pass,
     // the rest by inversion or PTRS).
-    float* __restrict mean = mean_.get();
+    const std::size_t off = static_cast<std::size_t>(slot) * stride_;
+    float* __restrict mean = mean_.get() + off;
+    std::uint32_t* __restrict words = words_.get() + off;
     cathodeMeanKernel(rate, mean, w, ebi, t_s_);
     const PixelRng rng(seed_, RngStream::Photocathode, field_);
     const std::uint32_t yy = static_cast<std::uint32_t>(y);
-    rng.rowWords(yy, 0, 0, blocksFor(w), words_.get());
-    poissonRow(mean, words_.get(), pe, w, rng, 0, yy);
+    rng.rowWords(yy, 0, 0, blocksFor(w), words);
+    poissonRow(mean, words, pe, w, rng, 0, yy);
 }
 
 // ---- 4. BSP ---------------------------------------------------------------------------------
@@ -422,58 +456,84 @@ HaloStage::HaloStage(const CameraParams& c)
 }
 
 void HaloStage::apply(ImageView<float> rate) noexcept {
+    SerialExecutor serial;
+    apply(rate, serial);
+}
+
+void HaloStage::apply(ImageView<float> rate, RowExecutor& exec) noexcept {
     if (!enabled_) return;
-    // The loops run along rows with the column index innermost and no division, so that they
-    // vectorise (this stage is on every field's path).
+    const ImageView<const float> in(rate.row(0), rate.width(), rate.height(), rate.stride_px());
+    auto cells = [&](int b) { sumCells(in, bandStart(b, ch_), bandStart(b + 1, ch_)); };
+    forEachIndex(exec, kChainSlots, cells);
+    spread(exec);
+    auto back = [&](int b) {
+        for (int y = bandStart(b, h_); y < bandStart(b + 1, h_); ++y)
+            addBackRow(rate.row(y), y);
+    };
+    forEachIndex(exec, kChainSlots, back);
+}
+
+// The loops run along rows with the column index innermost and no division, so that they
+// vectorise (this stage is on every field's path).
+void HaloStage::sumCells(ImageView<const float> rate, int cy0, int cy1) noexcept {
+    // 1. Sum the rate over each cell: a cell row from its kBlock pixel rows, top to bottom.
     const int fullCells = w_ / kBlock;  // cells of kBlock whole pixels; the last may be partial
-    // 1. Sum the rate over each cell.
-    cells_.fill(0.0f);
-    for (int y = 0; y < h_; ++y) {
-        const float* r = rate.row(y);
-        float* c = cells_.row(y / kBlock);
-        for (int cx = 0; cx < fullCells; ++cx) {
-            float acc = 0.0f;
-            for (int k = 0; k < kBlock; ++k)
-                acc += r[cx * kBlock + k];
-            c[cx] += acc;
+    for (int cy = cy0; cy < cy1; ++cy) {
+        float* c = cells_.row(cy);
+        std::fill(c, c + cw_, 0.0f);
+        for (int y = cy * kBlock; y < std::min(h_, (cy + 1) * kBlock); ++y) {
+            const float* r = rate.row(y);
+            for (int cx = 0; cx < fullCells; ++cx) {
+                float acc = 0.0f;
+                for (int k = 0; k < kBlock; ++k)
+                    acc += r[cx * kBlock + k];
+                c[cx] += acc;
+            }
+            for (int x = fullCells * kBlock; x < w_; ++x)
+                c[fullCells] += r[x];
         }
-        for (int x = fullCells * kBlock; x < w_; ++x)
-            c[fullCells] += r[x];
     }
+}
+
+void HaloStage::spread(RowExecutor& exec) noexcept {
     // 2. Spread each cell over the disk (cells off the image are lost: the halo's share of
     // light near the border leaves the frame, as on the tube): out(cx, cy) = Σ_ij
     // K(i, j)·cells(cx − i, cy − j), one kernel tap at a time over a whole row of cells.
     const int n = 2 * kr_ + 1;
-    spread_.fill(0.0f);
-    for (int cy = 0; cy < ch_; ++cy) {
-        float* out = spread_.row(cy);
-        for (int j = -kr_; j <= kr_; ++j) {
-            const int sy = cy - j;
-            if (sy < 0 || sy >= ch_) continue;
-            const float* src = cells_.row(sy);
-            for (int i = -kr_; i <= kr_; ++i) {
-                const float k = kernel_[static_cast<std::size_t>((j + kr_) * n + (i + kr_))];
-                if (k == 0.0f) continue;
-                const int x0 = std::max(0, i), x1 = std::min(cw_, cw_ + i);
-                for (int cx = x0; cx < x1; ++cx)
-                    out[cx] += k * src[cx - i];
+    auto rows = [&](int b) {
+        for (int cy = bandStart(b, ch_); cy < bandStart(b + 1, ch_); ++cy) {
+            float* out = spread_.row(cy);
+            std::fill(out, out + cw_, 0.0f);
+            for (int j = -kr_; j <= kr_; ++j) {
+                const int sy = cy - j;
+                if (sy < 0 || sy >= ch_) continue;
+                const float* src = cells_.row(sy);
+                for (int i = -kr_; i <= kr_; ++i) {
+                    const float k = kernel_[static_cast<std::size_t>((j + kr_) * n + (i + kr_))];
+                    if (k == 0.0f) continue;
+                    const int x0 = std::max(0, i), x1 = std::min(cw_, cw_ + i);
+                    for (int cx = x0; cx < x1; ++cx)
+                        out[cx] += k * src[cx - i];
+                }
             }
         }
-    }
+    };
+    forEachIndex(exec, kChainSlots, rows);
+}
+
+void HaloStage::addBackRow(float* r, int y) noexcept {
     // 3. Back onto the pixels: a cell's halo share evenly over its pixels.
+    const int fullCells = w_ / kBlock;
     const float keep = 1.0f - fraction_;
     const float share = fraction_ / static_cast<float>(kBlock * kBlock);
-    for (int y = 0; y < h_; ++y) {
-        float* r = rate.row(y);
-        const float* sp = spread_.row(y / kBlock);
-        for (int cx = 0; cx < fullCells; ++cx) {
-            const float add = share * sp[cx];
-            for (int k = 0; k < kBlock; ++k)
-                r[cx * kBlock + k] = keep * r[cx * kBlock + k] + add;
-        }
-        for (int x = fullCells * kBlock; x < w_; ++x)
-            r[x] = keep * r[x] + share * sp[fullCells];
+    const float* sp = spread_.row(y / kBlock);
+    for (int cx = 0; cx < fullCells; ++cx) {
+        const float add = share * sp[cx];
+        for (int k = 0; k < kBlock; ++k)
+            r[cx * kBlock + k] = keep * r[cx * kBlock + k] + add;
     }
+    for (int x = fullCells * kBlock; x < w_; ++x)
+        r[x] = keep * r[x] + share * sp[fullCells];
 }
 
 BspStage::BspStage(const CameraParams& c)
@@ -495,17 +555,18 @@ McpStage::McpStage(const CameraParams& c, std::uint64_t seed, GammaTableCache& g
       k_(c.mcp_noise_factor > 1.0 + 1e-9 ? 1.0 / (c.mcp_noise_factor - 1.0) : 0.0),
       seed_(seed),
       table_(enabled_ && noise_ ? gammaTables.forShapeStep(k_) : nullptr),
-      words_(new std::uint32_t[paddedRow(c.width)]),
-      idx_(new int[paddedRow(c.width)]),
-      blocks_(new std::uint32_t[paddedRow(c.width)]),
-      uWords_(new std::uint32_t[paddedRow(c.width)]),
-      n_(new float[paddedRow(c.width)]),
-      e_(new float[paddedRow(c.width)]),
-      rest_(new int[paddedRow(c.width)]),
-      restN_(new float[paddedRow(c.width)]),
-      heads_(new std::uint32_t[4 * paddedRow(c.width)]),
-      z_(new float[paddedRow(c.width)]),
-      g_(new double[paddedRow(c.width)]) {}
+      stride_(paddedRow(c.width)),
+      words_(new std::uint32_t[kChainSlots * stride_]),
+      idx_(new int[kChainSlots * stride_]),
+      blocks_(new std::uint32_t[kChainSlots * stride_]),
+      uWords_(new std::uint32_t[kChainSlots * stride_]),
+      n_(new float[kChainSlots * stride_]),
+      e_(new float[kChainSlots * stride_]),
+      rest_(new int[kChainSlots * stride_]),
+      restN_(new float[kChainSlots * stride_]),
+      heads_(new std::uint32_t[kChainSlots * 4 * stride_]),
+      z_(new float[kChainSlots * stride_]),
+      g_(new double[kChainSlots * stride_]) {}
 
 void McpStage::apply(ImageView<float> pe, FieldContext& ctx) noexcept {
     begin(ctx);
@@ -520,7 +581,7 @@ void McpStage::begin(const FieldContext& ctx) noexcept {
     field_ = ctx.field;
 }
 
-double McpStage::applyRow(float* __restrict v, int w, int y) noexcept {
+double McpStage::applyRow(float* __restrict v, int w, int y, int slot) noexcept {
     const double g = gain_;
     if (!noise_) return mcpMeanKernel(v, w, static_cast<float>(g));
     // The gain of one electron has mean G and variance (F − 1)G²: a Gamma(k, G/k) with
@@ -537,9 +598,11 @@ double McpStage::applyRow(float* __restrict v, int w, int y) noexcept {
     const PixelRng rng(seed_, RngStream::McpGain, field_);
     const std::uint32_t yy = static_cast<std::uint32_t>(y);
     const double theta = g / k_;
-    int* __restrict idx = idx_.get();
-    std::uint32_t* __restrict wz = words_.get();
-    float* __restrict e = e_.get();
+    const std::size_t off = static_cast<std::size_t>(slot) * stride_;
+    int* __restrict idx = idx_.get() + off;
+    std::uint32_t* __restrict wz = words_.get() + off;
+    float* __restrict e = e_.get() + off;
+    std::uint32_t* __restrict headsAll = heads_.get() + 4 * off;
     const bool dense = 4 * m > w;
     if (dense) {
         // Most pixels draw: the whole row at once (those with N = 0 get 0).
@@ -553,20 +616,20 @@ double McpStage::applyRow(float* __restrict v, int w, int y) noexcept {
             idx[m] = x;
             m += v[x] > 0.0f ? 1 : 0;
         }
-        std::uint32_t* __restrict uw = uWords_.get();
-        float* __restrict n = n_.get();
-        std::uint32_t* __restrict b = blocks_.get();
+        std::uint32_t* __restrict uw = uWords_.get() + off;
+        float* __restrict n = n_.get() + off;
+        std::uint32_t* __restrict b = blocks_.get() + off;
         for (int j = 0; j < m; ++j)
             b[j] = static_cast<std::uint32_t>(idx[j] / 4);
-        rng.blocksAt(yy, 0, b, m, heads_.get());
+        rng.blocksAt(yy, 0, b, m, headsAll);
         for (int j = 0; j < m; ++j) {
-            uw[j] = heads_[static_cast<std::size_t>(4 * j + idx[j] % 4)];
+            uw[j] = headsAll[static_cast<std::size_t>(4 * j + idx[j] % 4)];
             n[j] = v[idx[j]];
         }
         gammaTableDraws(*table_, n, uw, e, m, static_cast<float>(theta));
     }
     // The pixels past the table (e = −1): rare, so the chunks without one are passed over.
-    int* __restrict rest = rest_.get();
+    int* __restrict rest = rest_.get() + off;
     int nRest = 0;
     for (int j0 = 0; j0 < m; j0 += 16) {
         const int len = std::min(16, m - j0);
@@ -582,23 +645,23 @@ double McpStage::applyRow(float* __restrict v, int w, int y) noexcept {
     if (nRest > 0) {
         // Each one's stream head (made in bulk): word 0 gives the normal, word 1 the squeeze's
         // uniform; the first attempt in a vector pass, the rest one pixel at a time.
-        std::uint32_t* __restrict xs = blocks_.get();  // their pixels
+        std::uint32_t* __restrict xs = blocks_.get() + off;  // their pixels
         for (int r = 0; r < nRest; ++r)
             xs[r] = static_cast<std::uint32_t>(dense ? rest[r] : idx[rest[r]]);
-        std::uint32_t* __restrict heads = heads_.get();
+        std::uint32_t* __restrict heads = headsAll;
         rng.streamHeads(yy, xs, nRest, heads);
         // Their normal and uniform words, in the buffers of the words the table draws used.
         std::uint32_t* __restrict zw = wz;
-        std::uint32_t* __restrict u1 = uWords_.get();
-        float* __restrict rn = restN_.get();
+        std::uint32_t* __restrict u1 = uWords_.get() + off;
+        float* __restrict rn = restN_.get() + off;
         for (int r = 0; r < nRest; ++r) {
             zw[r] = heads[4 * r];
             u1[r] = heads[4 * r + 1];
             rn[r] = v[xs[r]];
         }
-        float* __restrict z = z_.get();
+        float* __restrict z = z_.get() + off;
         normalsFromWords(zw, z, nRest);
-        double* __restrict first = g_.get();
+        double* __restrict first = g_.get() + off;
         gammaFirstAttemptKernel(rn, z, u1, first, nRest, k_, theta);
         for (int r = 0; r < nRest; ++r) {
             double ej = first[r];
@@ -778,11 +841,13 @@ struct BlurStage::Fft {
     float* real = nullptr;
     fftwf_complex* spec = nullptr;
     float* filter = nullptr;
-    fftwf_plan fwd = nullptr;
-    fftwf_plan inv = nullptr;
+    fftwf_plan rowFwd = nullptr;  // one row, r2c, real row → spectrum row
+    fftwf_plan rowInv = nullptr;  // one row, c2r, spectrum row → real row
+    fftwf_plan colFwd[2] = {};    // a band of columns, in place: a full band, the last band
+    fftwf_plan colInv[2] = {};
     ~Fft() {
-        if (fwd) fftwf_destroy_plan(fwd);
-        if (inv) fftwf_destroy_plan(inv);
+        for (fftwf_plan p : {rowFwd, rowInv, colFwd[0], colFwd[1], colInv[0], colInv[1]})
+            if (p) fftwf_destroy_plan(p);
         fftwf_free(real);
         fftwf_free(spec);
         fftwf_free(filter);
@@ -820,10 +885,10 @@ inline int padIndex(int i, int n, int np) {
 }  // namespace
 
 namespace {
-// The wisdom in config/fftw/wisdom-single.txt, made by `fftwf-wisdom -n -o FILE orf512x800
-// orb512x800` (PATIENT plans for the 800 × 512 transforms of a 768 × 494 camera). FFTW uses it
-// only where its solvers exist on this CPU (FFTW_WISDOM_ONLY gives no plan otherwise).
-// Measured: 1.6 → 1.3 ms per blur on one core (docs/sensor.md).
+// The wisdom in config/fftw/wisdom-single.txt, made by `nvs_fftw_wisdom` (tests/sim/sensor:
+// FFTW_PATIENT plans of the blur's row and column transforms for the shipped presets' sizes).
+// FFTW uses it only where its solvers exist on this CPU (FFTW_WISDOM_ONLY gives no plan
+// otherwise), and falls back to FFTW_ESTIMATE: deterministic either way.
 // Imported by every BlurStage before it plans, from the config folder it was given: the wisdom
 // lives in FFTW's own planner, and importing the same file again replaces each entry with
 // itself (FFTW's hash table overwrites an entry of the same problem and flags), so repeating it
@@ -832,6 +897,23 @@ namespace {
 void importShippedWisdom(const std::filesystem::path& configDir) {
     const std::filesystem::path file = configDir / "fftw" / "wisdom-single.txt";
     if (pathExists(file)) fftwf_import_wisdom_from_filename(file.c_str());
+}
+}  // namespace
+
+namespace {
+// A plan from the flags asked for; with FFTW_WISDOM_ONLY and no wisdom for the problem,
+// FFTW_ESTIMATE's (deterministic).
+template <class MakePlan>
+fftwf_plan planOrEstimate(MakePlan&& make, unsigned flags) {
+    fftwf_plan p = make(flags);
+    if (!p && (flags & FFTW_WISDOM_ONLY)) p = make(FFTW_ESTIMATE);
+    if (!p) throw SetupError("blur: FFTW could not plan");
+    return p;
+}
+// Columns of the spectrum per band: the chain's band count, on whole 64-byte lines.
+int columnBandWidth(int wc) {
+    const int perBand = (wc + kChainSlots - 1) / kChainSlots;
+    return (perBand + 7) / 8 * 8;
 }
 }  // namespace
 
@@ -844,28 +926,29 @@ BlurStage::BlurStage(const CameraParams& c, const ChainOptions& opt,
     wp_ = fastSize(w_);
     hp_ = fastSize(h_);
     fft_ = std::make_unique<Fft>();
-    const int wc = wp_ / 2 + 1;
+    // The 2-d transform as its two passes, so that bands of rows and bands of columns can run
+    // at once: a 1-d r2c of each row, then a 1-d FFT down each column of the half spectrum
+    // (rows of wcs_ ≥ wp/2 + 1 complex, on whole 64-byte lines, so that every row and every
+    // column band has the alignment the plans were made for).
+    wc_ = wp_ / 2 + 1;
+    wcs_ = (wc_ + 7) / 8 * 8;
+    cb_ = columnBandWidth(wc_);
     const std::size_t nr = static_cast<std::size_t>(wp_) * static_cast<std::size_t>(hp_);
-    const std::size_t nc = static_cast<std::size_t>(wc) * static_cast<std::size_t>(hp_);
+    const std::size_t nc = static_cast<std::size_t>(wcs_) * static_cast<std::size_t>(hp_);
     fft_->real = fftwf_alloc_real(nr);
     fft_->spec = fftwf_alloc_complex(nc);
     fft_->filter = fftwf_alloc_real(nc);
     if (!fft_->real || !fft_->spec || !fft_->filter) throw SetupError("blur: out of memory");
-    // Plans: from the shipped wisdom where it holds this problem (deterministic, and as fast
-    // as FFTW_PATIENT), else FFTW_ESTIMATE (deterministic); FFTW_MEASURE on request only, as a
-    // measured plan can differ from run to run and so break bit-exact replay.
+    std::fill(fft_->real, fft_->real + nr, 0.0f);
+    std::fill(fft_->filter, fft_->filter + nc, 0.0f);
+    // Plans: from the shipped wisdom where it holds the problem (deterministic, and as fast as
+    // FFTW_PATIENT), else FFTW_ESTIMATE (deterministic); FFTW_MEASURE / FFTW_PATIENT on request
+    // only (a measured plan can differ from run to run and so break bit-exact replay).
     importShippedWisdom(configDir);
-    const auto plan = [&](unsigned flags) {
-        fft_->fwd = fftwf_plan_dft_r2c_2d(hp_, wp_, fft_->real, fft_->spec, flags);
-        fft_->inv = fftwf_plan_dft_c2r_2d(hp_, wp_, fft_->spec, fft_->real, flags);
-    };
-    plan(opt.measureFft ? FFTW_MEASURE : FFTW_MEASURE | FFTW_WISDOM_ONLY);
-    if (!fft_->fwd || !fft_->inv) {
-        if (fft_->fwd) fftwf_destroy_plan(fft_->fwd);
-        if (fft_->inv) fftwf_destroy_plan(fft_->inv);
-        plan(FFTW_ESTIMATE);
-    }
-    if (!fft_->fwd || !fft_->inv) throw SetupError("blur: FFTW could not plan");
+    const unsigned flags = opt.patientFft   ? FFTW_PATIENT
+                           : opt.measureFft ? FFTW_MEASURE
+                                            : FFTW_MEASURE | FFTW_WISDOM_ONLY;
+    planTransforms(flags);
     // The filter: the product of the stage MTFs at each DFT frequency, converted from cycles
     // per pixel to cycles per mm at the cathode; 1/(wp·hp) normalises FFTW's round trip.
     const double px = cathodePitchX_mm(c);
@@ -873,15 +956,43 @@ BlurStage::BlurStage(const CameraParams& c, const ChainOptions& opt,
     const double norm = 1.0 / static_cast<double>(nr);
     for (int ky = 0; ky < hp_; ++ky) {
         const double fy = (ky <= hp_ / 2 ? ky : ky - hp_) / static_cast<double>(hp_) / py;
-        for (int kx = 0; kx < wc; ++kx) {
+        for (int kx = 0; kx < wc_; ++kx) {
             const double fx = kx / static_cast<double>(wp_) / px;
-            fft_->filter[static_cast<std::size_t>(ky) * wc + kx] =
+            fft_->filter[static_cast<std::size_t>(ky) * wcs_ + kx] =
                 static_cast<float>(systemMtf(c, fx, fy) * norm);
         }
     }
 }
 
+void BlurStage::planTransforms(unsigned flags) {
+    float* r = fft_->real;
+    fftwf_complex* sp = fft_->spec;
+    fft_->rowFwd =
+        planOrEstimate([&](unsigned f) { return fftwf_plan_dft_r2c_1d(wp_, r, sp, f); }, flags);
+    fft_->rowInv =
+        planOrEstimate([&](unsigned f) { return fftwf_plan_dft_c2r_1d(wp_, sp, r, f); }, flags);
+    // Column bands: cb_ columns each, the last one what is left.
+    const int last = wc_ - (wc_ - 1) / cb_ * cb_;
+    for (int i = 0; i < 2; ++i) {
+        int n[1] = {hp_};
+        const int howmany = i == 0 ? cb_ : last;
+        for (int sign : {FFTW_FORWARD, FFTW_BACKWARD}) {
+            fftwf_plan p = planOrEstimate(
+                [&](unsigned f) {
+                    return fftwf_plan_many_dft(1, n, howmany, sp, nullptr, wcs_, 1, sp, nullptr,
+                                               wcs_, 1, sign, f);
+                },
+                flags);
+            (sign == FFTW_FORWARD ? fft_->colFwd : fft_->colInv)[i] = p;
+        }
+    }
+}
+
 BlurStage::~BlurStage() = default;
+
+bool BlurStage::exportWisdom(const std::filesystem::path& file) {
+    return fftwf_export_wisdom_to_filename(file.c_str()) != 0;
+}
 
 void BlurStage::apply(ImageView<float> img) noexcept {
     if (!enabled_) return;
@@ -918,23 +1029,63 @@ NVS_ROW_CLONES void applyFilterKernel(fftwf_complex* __restrict s, const float* 
 }  // namespace
 
 void BlurStage::filter() noexcept {
+    SerialExecutor serial;
+    filter(serial);
+}
+
+void BlurStage::filter(RowExecutor& exec) noexcept {
     if (!enabled_) return;
-    // Mirrored margins: the columns past the image in each image row, then the rows past it.
-    float* r = fft_->real;
-    for (int y = 0; y < h_; ++y) {
-        float* row = r + static_cast<std::ptrdiff_t>(y) * wp_;
-        for (int x = w_; x < wp_; ++x)
-            row[x] = row[padIndex(x, w_, wp_)];
-    }
-    for (int y = h_; y < hp_; ++y) {
-        const float* src = r + static_cast<std::ptrdiff_t>(padIndex(y, h_, hp_)) * wp_;
-        std::copy(src, src + wp_, r + static_cast<std::ptrdiff_t>(y) * wp_);
-    }
-    fftwf_execute(fft_->fwd);
-    const int wc = wp_ / 2 + 1;
-    applyFilterKernel(fft_->spec, fft_->filter,
-                      static_cast<std::size_t>(wc) * static_cast<std::size_t>(hp_));
-    fftwf_execute(fft_->inv);
+    // 1. Bands of image rows: the mirrored margin past each row's end, then its r2c.
+    auto rowsForward = [&](int b) {
+        for (int y = bandStart(b, h_); y < bandStart(b + 1, h_); ++y)
+            forwardRow(y);
+    };
+    forEachIndex(exec, kChainSlots, rowsForward);
+    // 2. Bands of columns.
+    filterColumns(exec);
+    // 3. Bands of image rows again: the c2r of each.
+    auto rowsInverse = [&](int b) {
+        for (int y = bandStart(b, h_); y < bandStart(b + 1, h_); ++y)
+            inverseRow(y);
+    };
+    forEachIndex(exec, kChainSlots, rowsInverse);
+}
+
+void BlurStage::forwardRow(int y) noexcept {
+    float* row = fft_->real + static_cast<std::ptrdiff_t>(y) * wp_;
+    for (int x = w_; x < wp_; ++x)
+        row[x] = row[padIndex(x, w_, wp_)];
+    fftwf_execute_dft_r2c(fft_->rowFwd, row, fft_->spec + static_cast<std::ptrdiff_t>(y) * wcs_);
+}
+
+void BlurStage::filterColumns(RowExecutor& exec) noexcept {
+    if (!enabled_) return;
+    // The rows past the image mirror image rows, and so do their spectra (copied); then the
+    // column FFT, the MTF and the inverse column FFT, band by band.
+    const int bands = (wc_ + cb_ - 1) / cb_;
+    auto columns = [&](int b) {
+        const int c0 = b * cb_;
+        const int n = std::min(cb_, wc_ - c0);
+        for (int y = h_; y < hp_; ++y) {
+            const float* src =
+                &fft_->spec[static_cast<std::ptrdiff_t>(padIndex(y, h_, hp_)) * wcs_ + c0][0];
+            std::copy(src, src + 2 * n, &fft_->spec[static_cast<std::ptrdiff_t>(y) * wcs_ + c0][0]);
+        }
+        const int which = n == cb_ ? 0 : 1;
+        fftwf_complex* col = fft_->spec + c0;
+        fftwf_execute_dft(fft_->colFwd[which], col, col);
+        for (int y = 0; y < hp_; ++y) {
+            const std::ptrdiff_t off = static_cast<std::ptrdiff_t>(y) * wcs_ + c0;
+            applyFilterKernel(fft_->spec + off, fft_->filter + off, static_cast<std::size_t>(n));
+        }
+        fftwf_execute_dft(fft_->colInv[which], col, col);
+    };
+    forEachIndex(exec, bands, columns);
+}
+
+void BlurStage::inverseRow(int y) noexcept {
+    fftwf_execute_dft_c2r(fft_->rowInv, fft_->spec + static_cast<std::ptrdiff_t>(y) * wcs_,
+                          fft_->real + static_cast<std::ptrdiff_t>(y) * wp_);
 }
 
 // ---- 8. CCD ---------------------------------------------------------------------------------
@@ -945,8 +1096,10 @@ CcdStage::CcdStage(const CameraParams& c, std::uint64_t seed)
       line_(new float[static_cast<std::size_t>(2 * std::max(c.width, c.height) + 2)]),
       colSum_(new float[paddedRow(c.width)]),
       colMax_(new float[paddedRow(c.width)]),
-      words_(new std::uint32_t[paddedRow(c.width)]),
-      z_(new float[paddedRow(c.width)]),
+      slotMax_(new float[kChainSlots * paddedRow(c.width)]),
+      stride_(paddedRow(c.width)),
+      words_(new std::uint32_t[kChainSlots * stride_]),
+      z_(new float[kChainSlots * stride_]),
       row_(new float[paddedRow(c.width)]) {
     if (c.full_well_e > 0.0 && c.bloom == BloomDirection::Vertical)
         upCarry_ = ImageF(c.width, c.height);
@@ -1126,6 +1279,46 @@ void CcdStage::loadRow(const float* src, float* dst, int y) noexcept {
                         static_cast<float>(cam_->full_well_e));
 }
 
+void CcdStage::beginLoad() noexcept {
+    const std::size_t n = kChainSlots * stride_;
+    std::fill(slotMax_.get(), slotMax_.get() + n, 0.0f);
+}
+
+void CcdStage::loadRowMax(const float* src, float* dst, int y, int slot) noexcept {
+    ccdLoadMaxKernel(src, prnu_.empty() ? nullptr : prnu_.row(y), dst,
+                     slotMax_.get() + static_cast<std::size_t>(slot) * stride_, cam_->width,
+                     dark_e_);
+}
+
+void CcdStage::finishLoad(ImageView<float> e) noexcept {
+    const int w = cam_->width;
+    float* __restrict cmax = colMax_.get();
+    for (int s = 0; s < kChainSlots; ++s) {
+        const float* m = slotMax_.get() + static_cast<std::size_t>(s) * stride_;
+        for (int x = 0; x < w; ++x)
+            cmax[x] = cmax[x] < m[x] ? m[x] : cmax[x];
+    }
+    // The column sums (smear only), down each column in row order as loadRow adds them.
+    if (cam_->smear_rel > 0.0) {
+        for (int y = 0; y < e.height(); ++y)
+            addRowKernel(e.row(y), colSum_.get(), w);
+    }
+    // Vertical blooming's down sweep (loadRow's, after the loads: a row's sweep reads only its
+    // own loaded values and the columns' carries), over the span of columns that reach full
+    // well: elsewhere it changes nothing and bloomColumns reads nothing.
+    if (upCarry_.empty()) return;
+    const float fw = static_cast<float>(cam_->full_well_e);
+    int x0 = 0, x1 = w;
+    while (x0 < w && cmax[x0] < fw)
+        ++x0;
+    while (x1 > x0 && cmax[x1 - 1] < fw)
+        --x1;
+    if (x0 >= x1) return;
+    float* moving = line_.get() + w;
+    for (int y = 0; y < e.height(); ++y)
+        bloomDownKernel(e.row(y) + x0, moving + x0, upCarry_.row(y) + x0, x1 - x0, fw);
+}
+
 std::int64_t CcdStage::bloom(ImageView<float> e) noexcept {
     const CameraParams& c = *cam_;
     const int w = e.width();
@@ -1178,7 +1371,7 @@ std::int64_t CcdStage::bloom(ImageView<float> e) noexcept {
     return saturated;
 }
 
-void CcdStage::finishRow(float* v, int y) noexcept {
+void CcdStage::finishRow(float* v, int y, int slot) noexcept {
     const CameraParams& c = *cam_;
     const int w = c.width;
     const bool smear = c.smear_rel > 0.0;
@@ -1193,10 +1386,13 @@ void CcdStage::finishRow(float* v, int y) noexcept {
     }
     if (sigma_e_ > 0.0f) {
         // One word per cell, inverse-CDF normals.
+        const std::size_t off = static_cast<std::size_t>(slot) * stride_;
+        std::uint32_t* words = words_.get() + off;
+        float* z = z_.get() + off;
         const PixelRng rng(seed_, RngStream::ReadNoise, field_);
-        rng.rowWords(static_cast<std::uint32_t>(y), 0, 0, blocksFor(w), words_.get());
-        normalsFromWords(words_.get(), z_.get(), w);
-        ccdReadKernel(v, cs, z_.get(), w, sigma_e_);
+        rng.rowWords(static_cast<std::uint32_t>(y), 0, 0, blocksFor(w), words);
+        normalsFromWords(words, z, w);
+        ccdReadKernel(v, cs, z, w, sigma_e_);
     } else if (smear) {
         for (int x = 0; x < w; ++x)
             v[x] += cs[x];
@@ -1387,8 +1583,12 @@ IiccdChain::IiccdChain(const CameraParams& cam, std::uint64_t seed,
       sig_(cam_.width, cam_.height),
       counts_(cam_.width, cam_.height),
       video_(cam_.width, cam_.height),
-      rowRate_(new float[paddedRow(cam_.width)]),
-      rowSig_(new float[paddedRow(cam_.width)]) {
+      rowRate_(new float[kChainSlots * paddedRow(cam_.width)]),
+      rowSig_(new float[kChainSlots * paddedRow(cam_.width)]),
+      rowOptics_(static_cast<std::size_t>(cam_.height), 0.0),
+      rowMcp_(static_cast<std::size_t>(cam_.height), 0.0),
+      rowBad_(static_cast<std::size_t>(cam_.height), 0),
+      rowLevel_(static_cast<std::size_t>(cam_.height), 0) {
     counts_.fill(static_cast<float>(std::clamp(cam_.video_offset_dc, 0.0, 65535.0)));
 }
 
@@ -1477,17 +1677,33 @@ const FieldInfo& IiccdChain::process(ImageView<const float> lpe, const CameraCom
     return info_;
 }
 
+void IiccdChain::setExecutor(RowExecutor* exec) noexcept {
+    exec_ = exec != nullptr ? exec : &serial_;
+}
+
 void IiccdChain::run(ImageView<const float> lpe, FieldContext& ctx) noexcept {
     const int w = cam_.width;
     const int h = cam_.height;
+    // Each row's sums go to rowOptics_/rowMcp_ and are added up in row order afterwards: the
+    // same sums, in the same order, however the bands ran.
     // 1. optics: the whole image first only where the gain depends on it (BSP: the cathode
-    // current) or the halo spreads it; otherwise row by row below. Both give the same sums in
-    // the same order.
+    // current) or the halo spreads it; otherwise row by row below.
     const bool opticsFirst = bsp_.enabled() || halo_.enabled();
-    double opticsTotal = 0.0;
+    const bool halo = halo_.enabled();
     if (opticsFirst) {
-        info_.bad_input_px = optics_.apply(lpe, rate_.view(), ctx);
-        halo_.apply(rate_.view());  // 3b: a share of the photoelectrons lands on the halo disk
+        // With the halo, bands of whole cell rows: each band's rows, then its cells' sums.
+        const int units = halo ? halo_.cellRows() : h;
+        const int rowsPer = halo ? HaloStage::kBlock : 1;
+        auto optics = [&](int b) {
+            const int u0 = bandStart(b, units), u1 = bandStart(b + 1, units);
+            for (int y = u0 * rowsPer; y < std::min(h, u1 * rowsPer); ++y)
+                rowBad_[y] = optics_.applyRow(lpe.row(y), rate_.row(y), y, rowOptics_[y]);
+            if (halo) halo_.sumCells(rate_.cview(), u0, u1);
+        };
+        forEachIndex(*exec_, kChainSlots, optics);
+        addOpticsSums(ctx);
+        // 3b: a share of the photoelectrons lands on the halo disk (added to each row below).
+        if (halo) halo_.spread(*exec_);
         cathode_.begin(ctx, w, h);
     }
     // 4. bright-source protection (the gain for this field), 5. MCP gain
@@ -1502,33 +1718,38 @@ void IiccdChain::run(ImageView<const float> lpe, FieldContext& ctx) noexcept {
     mcpSat_.begin(ctx);
     phosphor_.begin(ctx);
     // 1, 3, 5, 6 row by row: optics → photocathode → MCP → phosphor, written straight into
-    // the blur's FFT input (or the signal image when the MTF is off).
+    // the blur's FFT input (or the signal image when the MTF is off); each band of rows with
+    // its own scratch.
+    auto rows = [&](int b) {
+        const std::size_t off = static_cast<std::size_t>(b) * paddedRow(w);
+        float* rate = rowRate_.get() + off;
+        float* sig = rowSig_.get() + off;
+        for (int y = bandStart(b, h); y < bandStart(b + 1, h); ++y) {
+            const float* r = rate_.row(y);
+            if (halo) halo_.addBackRow(rate_.row(y), y);
+            if (!opticsFirst) {
+                rowBad_[y] = optics_.applyRow(lpe.row(y), rate, y, rowOptics_[y]);
+                r = rate;
+            }
+            cathode_.applyRow(r, sig, w, y, b);
+            if (mcp_.enabled()) {
+                const double rowOut = mcp_.applyRow(sig, w, y, b);
+                rowMcp_[y] = mcpSat_.enabled() ? mcpSat_.applyRow(sig, w, y) : rowOut;
+            }
+            float* dst = blur_.enabled() ? blur_.inputRow(y) : sig_.row(y);
+            if (phosphor_.enabled())
+                phosphor_.applyRow(sig, dst, w, y);
+            else
+                std::copy(sig, sig + w, dst);
+            if (blur_.enabled()) blur_.forwardRow(y);  // 7's row transform, the row in cache
+        }
+    };
+    forEachIndex(*exec_, kChainSlots, rows);
     double mcpTotal = 0.0;
-    std::int64_t bad = 0;
-    float* rate = rowRate_.get();
-    float* sig = rowSig_.get();
-    for (int y = 0; y < h; ++y) {
-        const float* r = rate_.row(y);
-        if (!opticsFirst) {
-            double rowSum = 0.0;
-            bad += optics_.applyRow(lpe.row(y), rate, y, rowSum);
-            opticsTotal += rowSum;
-            r = rate;
-        }
-        cathode_.applyRow(r, sig, w, y);
-        if (mcp_.enabled()) {
-            const double rowOut = mcp_.applyRow(sig, w, y);
-            mcpTotal += mcpSat_.enabled() ? mcpSat_.applyRow(sig, w, y) : rowOut;
-        }
-        float* dst = blur_.enabled() ? blur_.inputRow(y) : sig_.row(y);
-        if (phosphor_.enabled())
-            phosphor_.applyRow(sig, dst, w, y);
-        else
-            std::copy(sig, sig + w, dst);
-    }
+    for (int y = 0; y < h; ++y)
+        mcpTotal += rowMcp_[y];
     if (!opticsFirst) {
-        info_.bad_input_px = bad;
-        ctx.cathodeRate_pe_s += opticsTotal;
+        addOpticsSums(ctx);
         cathode_.begin(ctx, w, h);  // the EBI, added after the optics as apply() does
     }
     ctx.mcpOut_e = mcp_.enabled() ? mcpTotal : ctx.cathodeRate_pe_s * ctx.gate_s;
@@ -1542,24 +1763,57 @@ void IiccdChain::run(ImageView<const float> lpe, FieldContext& ctx) noexcept {
     readOut(ctx);
 }
 
+void IiccdChain::addOpticsSums(FieldContext& ctx) noexcept {
+    std::int64_t bad = 0;
+    double total = 0.0;
+    for (int y = 0; y < cam_.height; ++y) {
+        bad += rowBad_[y];
+        total += rowOptics_[y];
+    }
+    info_.bad_input_px = bad;
+    ctx.cathodeRate_pe_s += total;
+}
+
 void IiccdChain::readOut(const FieldContext& ctx) noexcept {
     const int w = cam_.width;
     const int h = cam_.height;
-    // 7. blur
-    blur_.filter();
-    // 8. CCD, 9. video: load (PRNU, dark) row by row from the blurred image, bloom, then
-    // smear and read noise row by row, each row read out converted at once.
+    // 7. blur: its row transforms were made with the rows (run()); the columns now, the
+    // inverse row transforms with the CCD load below.
+    blur_.filterColumns(*exec_);
+    // 8. CCD, 9. video: load (PRNU, dark) from the blurred image by bands of rows (each band
+    // its own column maxima), then the column sums and blooming's down sweep where needed,
+    // bloom, then smear and read noise by bands of rows, each row read out converted at once.
     ccd_.begin(ctx);
-    for (int y = 0; y < h; ++y)
-        ccd_.loadRow(blur_.enabled() ? blur_.outputRow(y) : sig_.row(y), sig_.row(y), y);
+    if (blur_.enabled()) {
+        ccd_.beginLoad();
+        auto load = [&](int b) {
+            for (int y = bandStart(b, h); y < bandStart(b + 1, h); ++y) {
+                blur_.inverseRow(y);
+                ccd_.loadRowMax(blur_.outputRow(y), sig_.row(y), y, b);
+            }
+        };
+        forEachIndex(*exec_, kChainSlots, load);
+        ccd_.finishLoad(sig_.view());
+    } else {
+        for (int y = 0; y < h; ++y)
+            ccd_.loadRow(sig_.row(y), sig_.row(y), y);
+    }
     info_.saturated_px = ccd_.bloom(sig_.view());
+    auto finish = [&](int b) {
+        for (int y = bandStart(b, h); y < bandStart(b + 1, h); ++y) {
+            float* v = sig_.row(y);
+            ccd_.finishRow(v, y, b);
+            rowLevel_[y] = videoStage_.readsRow(field_, y)
+                               ? videoStage_.applyRow(v, counts_.row(y), video_.row(y), w)
+                               : -1;
+        }
+    };
+    forEachIndex(*exec_, kChainSlots, finish);
     double sum = 0.0;
     std::int64_t n = 0;
     for (int y = 0; y < h; ++y) {
-        float* v = sig_.row(y);
-        ccd_.finishRow(v, y);
-        if (!videoStage_.readsRow(field_, y)) continue;
-        sum += static_cast<double>(videoStage_.applyRow(v, counts_.row(y), video_.row(y), w));
+        if (rowLevel_[y] < 0) continue;
+        sum += static_cast<double>(rowLevel_[y]);
         n += w;
     }
     info_.level_dc = n > 0 ? sum / static_cast<double>(n) : 0.0;

@@ -28,12 +28,17 @@
 
 #include "sim/core/gamma_table.h"
 #include "sim/core/image.h"
+#include "sim/core/row_executor.h"
 #include "sim/sensor/camera.h"
 
 namespace nvs::sensor {
 
 // Row scratch is rounded up to whole Philox blocks and vector chunks.
 inline constexpr int kRowPad_px = 32;
+// The chain splits a field into this many bands of rows (or columns), whatever the number of
+// threads that run them: each band has its own row scratch in every stage (its slot), and no
+// result depends on which thread ran a band or in what order.
+inline constexpr int kChainSlots = 8;
 
 // What one call did: the state of the controls and the observables a driver reports.
 struct FieldInfo {
@@ -54,6 +59,7 @@ struct FieldInfo {
 
 struct ChainOptions {
     bool measureFft = false;  // FFTW_MEASURE plans (slower setup, faster fields)
+    bool patientFft = false;  // FFTW_PATIENT plans (what the shipped wisdom is made with)
 };
 
 // Per-field values the stages hand to each other.
@@ -105,8 +111,9 @@ class PhotocathodeStage {
     double ebiRate_pe_s() const { return ebi_pe_s_; }
     // apply() by rows: begin() adds the EBI to ctx.cathodeRate_pe_s and fixes the field's
     // exposure and noise key; applyRow() then draws row y.
+    // `slot` (0 … kChainSlots − 1): whose row scratch; rows in different slots may run at once.
     void begin(FieldContext& ctx, int w, int h) noexcept;
-    void applyRow(const float* rate, float* pe, int w, int y) noexcept;
+    void applyRow(const float* rate, float* pe, int w, int y, int slot = 0) noexcept;
 
   private:
     bool noise_;
@@ -114,8 +121,9 @@ class PhotocathodeStage {
     std::uint64_t seed_;
     std::uint64_t field_ = 0;
     float t_s_ = 0.0f;                        // this field's gate
-    std::unique_ptr<float[]> mean_;           // one row of means
-    std::unique_ptr<std::uint32_t[]> words_;  // one row of words
+    std::size_t stride_;                      // one slot's row scratch
+    std::unique_ptr<float[]> mean_;           // one row of means per slot
+    std::unique_ptr<std::uint32_t[]> words_;  // one row of words per slot
 };
 
 // ---- 3b. Halo ------------------------------------------------------------------------------
@@ -131,8 +139,17 @@ class HaloStage {
     static constexpr int kBlock = 4;
     explicit HaloStage(const CameraParams& cam);
     bool enabled() const { return enabled_; }
-    // rate ← (1 − f)·rate + f·(rate ⊛ disk), in place; conserves the total.
+    // rate ← (1 − f)·rate + f·(rate ⊛ disk), in place; conserves the total. By bands of rows
+    // through `exec` (the same bits with any executor).
     void apply(ImageView<float> rate) noexcept;
+    void apply(ImageView<float> rate, RowExecutor& exec) noexcept;
+    // apply() in its steps, for callers that fuse them with their own row passes: sumCells()
+    // for every band of cell rows [cy0, cy1) (after the kBlock pixel rows of each are
+    // written), then spread(exec), then addBackRow(rate row y, y) for every pixel row.
+    int cellRows() const { return ch_; }
+    void sumCells(ImageView<const float> rate, int cy0, int cy1) noexcept;
+    void spread(RowExecutor& exec) noexcept;
+    void addBackRow(float* rateRow, int y) noexcept;
     // The kernel on the cell grid (odd size, sums to 1), for tests.
     const std::vector<float>& kernel() const { return kernel_; }
     int kernelRadiusCells() const { return kr_; }
@@ -169,9 +186,10 @@ class McpStage {
     // electrons = Σ of N single-electron gains ~ Gamma(N·k, G/k), k = 1/(F − 1).
     void apply(ImageView<float> pe, FieldContext& ctx) noexcept;
     // apply() by rows: begin() fixes the gain (ctx.mcpGain) and noise key, applyRow()
-    // multiplies row y in place and returns its sum of electrons.
+    // multiplies row y in place and returns its sum of electrons (`slot`: whose scratch, as in
+    // PhotocathodeStage).
     void begin(const FieldContext& ctx) noexcept;
-    double applyRow(float* pe, int w, int y) noexcept;
+    double applyRow(float* pe, int w, int y, int slot = 0) noexcept;
 
   private:
     bool enabled_;
@@ -181,6 +199,8 @@ class McpStage {
     std::uint64_t field_ = 0;
     double gain_ = 1.0;
     std::shared_ptr<const GammaTable> table_;  // quantiles of Gamma(N·k), N ≤ kMaxN
+    // Row scratch, kChainSlots rows of stride_ each (heads_: 4·stride_ per slot).
+    std::size_t stride_;
     std::unique_ptr<std::uint32_t[]> words_;   // one row of words, one per pixel
     std::unique_ptr<int[]> idx_;               // pixels of the row that draw
     std::unique_ptr<std::uint32_t[]> blocks_;  // their Philox blocks / stream x
@@ -275,15 +295,33 @@ class BlurStage {
     int paddedHeight() const { return hp_; }
     // apply() in steps: write image row y (w floats) into inputRow(y) for every row, then
     // filter() pads, transforms, applies the MTF and transforms back; outputRow(y) is then the
-    // blurred row (ringing below zero not yet removed: the CCD's loadRow clamps it).
+    // blurred row (ringing below zero not yet removed: the CCD's loadRow clamps it). filter()
+    // runs in bands of rows and of columns through `exec` (the same bits with any executor;
+    // only the image's rows are transformed back, the padding rows are not).
     float* inputRow(int y) noexcept;
     void filter() noexcept;
+    void filter(RowExecutor& exec) noexcept;
+    // filter(exec) in its steps, for callers that fuse them with their own row passes:
+    // forwardRow(y) for every image row (after inputRow(y) is written; rows in any order or at
+    // once), then filterColumns(exec), then inverseRow(y) for every image row (before
+    // outputRow(y) is read).
+    void forwardRow(int y) noexcept;
+    void filterColumns(RowExecutor& exec) noexcept;
+    void inverseRow(int y) noexcept;
+    // Writes the wisdom FFTW's planner holds (every plan made so far in this process) to
+    // `file` (tests/sim/sensor/fftw_wisdom.cpp makes config/fftw/wisdom-single.txt with it).
+    // Returns false if it could not be written.
+    static bool exportWisdom(const std::filesystem::path& file);
     const float* outputRow(int y) const noexcept;
 
   private:
     struct Fft;
+    void planTransforms(unsigned flags);
     bool enabled_;
     int w_ = 0, h_ = 0, wp_ = 0, hp_ = 0;
+    int wc_ = 0;   // complex columns of the half spectrum, wp/2 + 1
+    int wcs_ = 0;  // its row stride (whole 64-byte lines)
+    int cb_ = 0;   // columns per column band
     std::unique_ptr<Fft> fft_;
 };
 
@@ -298,8 +336,15 @@ class CcdStage {
     // then finishRow(e.row(y), y) for every row (smear, and read noise on the rows read out).
     void begin(const FieldContext& ctx) noexcept;
     void loadRow(const float* src, float* dst, int y) noexcept;
+    // loadRow in two steps, for bands of rows at once: beginLoad(); loadRowMax(src, dst, y,
+    // slot) for every row (src ≠ dst; any order, the slot's own column maxima); then
+    // finishLoad(dst) merges the maxima, forms the column sums and makes the blooming down
+    // sweep, rows in order: the same values as loadRow row by row.
+    void beginLoad() noexcept;
+    void loadRowMax(const float* src, float* dst, int y, int slot) noexcept;
+    void finishLoad(ImageView<float> e) noexcept;
     std::int64_t bloom(ImageView<float> e) noexcept;
-    void finishRow(float* v, int y) noexcept;
+    void finishRow(float* v, int y, int slot = 0) noexcept;
     // Thesis Appendix L, charge-conserving form: excess over full well in one line spills
     // half each way along the line, filling neighbours to full well before passing on; what
     // leaves the ends is drained. Exposed for tests. Returns cells at full well.
@@ -321,8 +366,10 @@ class CcdStage {
     std::unique_ptr<float[]> line_;  // scratch for blooming (max(w, h) floats)
     std::unique_ptr<float[]> colSum_;
     std::unique_ptr<float[]> colMax_;
-    std::unique_ptr<std::uint32_t[]> words_;  // one row of words
-    std::unique_ptr<float[]> z_;              // one row of normals
+    std::unique_ptr<float[]> slotMax_;        // loadRowMax: the column maxima of each slot
+    std::size_t stride_;                      // one slot's row scratch
+    std::unique_ptr<std::uint32_t[]> words_;  // one row of words per slot
+    std::unique_ptr<float[]> z_;              // one row of normals per slot
     std::unique_ptr<float[]> row_;            // in-place loadRow(): a copy of the row
     double noiseSigma_e_;  // read noise ⊕ video pre-amplifier noise referred to electrons
 };
@@ -433,6 +480,11 @@ class IiccdChain {
     // What the last call did.
     const FieldInfo& lastInfo() const { return info_; }
 
+    // Who runs the bands of a field (kChainSlots of them): any executor gives the same bits.
+    // nullptr: the calling thread alone (the default). The executor must outlive the chain's
+    // use of it.
+    void setExecutor(RowExecutor* exec) noexcept;
+
     // Counts how many non-finite or negative pixels an input has (setup-time validation).
     static std::int64_t countBadPixels(ImageView<const float> img);
 
@@ -447,6 +499,8 @@ class IiccdChain {
     // Steps 1–6 row by row into the blur's input, then readOut(): 7–9.
     void run(ImageView<const float> lpe, FieldContext& ctx) noexcept;
     void readOut(const FieldContext& ctx) noexcept;
+    // The optics' bad pixels and rate of every row, added up in row order.
+    void addOpticsSums(FieldContext& ctx) noexcept;
 
     CameraParams cam_;
     CameraParams camAuto_;  // cam_ with its automatic loop switched on (ControlSource::Command)
@@ -473,8 +527,15 @@ class IiccdChain {
     ImageF sig_;
     ImageF counts_;
     ImageU16 video_;
-    std::unique_ptr<float[]> rowRate_;  // one row of optics output
-    std::unique_ptr<float[]> rowSig_;   // one row of photoelectrons / MCP electrons
+    std::unique_ptr<float[]> rowRate_;  // one row of optics output per slot
+    std::unique_ptr<float[]> rowSig_;   // one row of photoelectrons / MCP electrons per slot
+    // Per-row results of the bands, added up in row order.
+    std::vector<double> rowOptics_;       // expected rate
+    std::vector<double> rowMcp_;          // MCP output electrons
+    std::vector<int> rowBad_;             // bad input pixels
+    std::vector<std::int64_t> rowLevel_;  // sum of output counts; −1: not read out
+    SerialExecutor serial_;
+    RowExecutor* exec_ = &serial_;
     FieldInfo info_;
 };
 
