@@ -195,7 +195,8 @@ void recordTrial(Result& r, const Candidate& c, bool tried) {
 }
 
 // Greedy forward selection of the mean effects: each round tries every effect not yet taken on
-// top of the current model and takes the best significant one.
+// top of the current model and takes, of the significant ones, the one that removes the most
+// held-out χ² (Candidate::gainChi2; z measures how evenly over the frame, not how much).
 void meanEffects(Work& w, Current& cur, Result& r, const Options& opt, const Progress& progress) {
     struct Entry {
         const char* name;
@@ -228,8 +229,7 @@ void meanEffects(Work& w, Current& cur, Result& r, const Options& opt, const Pro
                 progress(std::string("round ") + std::to_string(round + 1) + ": " + e.name);
             Candidate c = e.fn(w, cur);
             recordTrial(r, c, true);
-            if (significant(c, opt, r.findings.size()) &&
-                (!any || c.finding.score > best.finding.score)) {
+            if (significant(c, opt, r.findings.size()) && (!any || c.gainChi2 > best.gainChi2)) {
                 best = c;
                 any = true;
             }

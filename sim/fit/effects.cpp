@@ -35,6 +35,9 @@ void score(Work& w, const Current& cur, Candidate& cand, const std::vector<Plane
     f.z = s.z;
     f.score = s.score;
     f.confidence = normalCdf(s.z);
+    const double pixels =
+        static_cast<double>(w.ho.size()) * static_cast<double>(w.w) * static_cast<double>(w.h);
+    cand.gainChi2 = s.sum - k * std::log(pixels);
     f.observable = "held-out frames, per pixel";
     f.unit = "DC";
 }

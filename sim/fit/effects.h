@@ -28,6 +28,10 @@ struct Candidate {
     LinFit fit;
     bool valid = false;  // parameters physical (a positive fraction, a finite time)
     std::string why;     // when not valid
+    // Mean effects: the held-out χ² it removes (the sum over score tiles of the squared error's
+    // fall over the tile's noise variance) less the BIC penalty k·ln(held-out pixels); the
+    // greedy selection takes the significant candidate that explains the most.
+    double gainChi2 = 0.0;
 };
 
 // The mean prediction taken so far, its fit and its held-out per-tile error.

@@ -475,18 +475,35 @@ std::vector<Candidate> tryNoiseEffects(Work& w, const Current& cur, Result& r) {
     c.rr = w.m.readVar_dc2 + 1.0 / 12.0;
     std::vector<Candidate> out;
     out.push_back(fpn(w, cur, r));
-    double sn = 0.0;
+    double sn = 0.0, shotMax = 0.0;
     std::vector<double> rho;
+    const double shotMin = 4.0 * c.rr + 1.0;  // shot variance that the covariance can resolve
     for (std::size_t i = 0; i < tc.v.size(); ++i) {
         sn += tc.n[i];
+        if (!(tc.n[i] > 0)) continue;
         const double shot = tc.vSim[i] - c.rr;
-        if (tc.n1[i] > 0 && shot > 4.0 * c.rr + 1.0) rho.push_back(tc.c1Sim[i] / shot);
+        shotMax = std::max(shotMax, shot);
+        if (tc.n1[i] > 0 && shot > shotMin) rho.push_back(tc.c1Sim[i] / shot);
     }
     if (!(sn > 0) || rho.size() < 3) {
+        // Two different failures: no frame pairs of one stimulus at all, or pairs whose signal
+        // is too low against the read noise to measure the shot noise's neighbour correlation.
+        char why[320];
+        if (!(sn > 0))
+            std::snprintf(why, sizeof why,
+                          "no steady frame pairs in the calibration half (a stimulus held for "
+                          "%d frames or more)",
+                          (w.m.fieldScan ? 2 : 1) + 2);
+        else
+            std::snprintf(why, sizeof why,
+                          "steady frames, but their signal is too low against the read noise: "
+                          "%zu tiles (3 needed) with the model's shot variance above 4x the read "
+                          "variance + 1 = %.3g DC2 (largest %.3g DC2)",
+                          rho.size(), shotMin, shotMax);
         for (const char* e : {"excess_noise", "ebi_background"}) {
             Candidate cand;
             cand.finding.effect = e;
-            cand.why = "no steady frame pairs with signal (a stimulus held for 3 frames or more)";
+            cand.why = why;
             out.push_back(cand);
         }
         return out;
