@@ -332,6 +332,8 @@ Result diagnose(const Dataset& d, const std::filesystem::path& configDir, const 
     const Current base = cur;
     meanEffects(w, cur, r, opt, progress);
     if (!r.findings.empty()) {
+        if (progress) progress("the effects found, refitted together on all frames");
+        refitJointly(w, cur, r.findings);
         if (progress) progress("the model's noise again, with the effects found");
         resimulateNoise(d, m, w, cur.mm, r.findings, configDir, opt.seed);
     }

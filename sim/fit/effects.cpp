@@ -291,4 +291,63 @@ Candidate trySaturation(Work& w, const Current& cur) {
     return c;
 }
 
+namespace {
+
+void setCurrentModel(Work& w, Current& cur) {
+    cur.Y = predict(w, cur.mm);
+    cur.fit = fitLinear(w, cur.Y, nullptr);
+    cur.tileSse = heldoutTileSse(w, cur.Y, nullptr, cur.fit, cur.rms);
+}
+
+// The model without one effect, and the function that fits it.
+bool withoutEffect(const std::string& e, MeanModel& mm, Candidate (*&fn)(Work&, const Current&)) {
+    if (e == "phosphor_persistence") {
+        mm.persistW = mm.persistTau_s = 0.0;
+        fn = tryPersistence;
+    } else if (e == "halo") {
+        mm.haloF = mm.haloR_um = 0.0;
+        fn = tryHalo;
+    } else if (e == "veiling_glare") {
+        mm.glareG = mm.glareS_um = 0.0;
+        fn = tryGlare;
+    } else if (e == "vertical_smear") {
+        mm.smear = 0.0;
+        fn = trySmear;
+    } else if (e == "bright_source_protection") {
+        mm.bspKnee_A = 0.0;
+        fn = tryBsp;
+    } else if (e == "mcp_saturation") {
+        mm.satQ_dc = 0.0;
+        fn = trySaturation;
+    } else {
+        return false;
+    }
+    return true;
+}
+
+}  // namespace
+
+void refitJointly(Work& w, Current& cur, std::vector<Finding>& found) {
+    if (found.empty()) return;
+    // One effect alone has nothing to trade against: only its fit on all frames is new.
+    const int passes = found.size() > 1 ? 2 : 1;
+    w.fitAll = true;
+    for (int pass = 0; pass < passes; ++pass)
+        for (Finding& f : found) {
+            Current without;
+            without.mm = cur.mm;
+            Candidate (*fn)(Work&, const Current&) = nullptr;
+            if (!withoutEffect(f.effect, without.mm, fn)) continue;
+            setCurrentModel(w, without);
+            Candidate c = fn(w, without);
+            if (!c.valid) continue;  // keep the selected values
+            cur.mm = c.mm;
+            f.parameters = c.finding.parameters;
+            f.cause = c.finding.cause;
+            f.presetKeys = c.finding.presetKeys;
+        }
+    w.fitAll = false;
+    setCurrentModel(w, cur);
+}
+
 }  // namespace nvs::fit

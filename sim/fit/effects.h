@@ -50,6 +50,14 @@ Candidate trySmear(Work& w, const Current& cur);
 Candidate tryBsp(Work& w, const Current& cur);
 Candidate trySaturation(Work& w, const Current& cur);
 
+// The selected mean effects' final parameters: each refitted with the others held at their
+// values (backfitting, two passes), on all frames of the subset (Work::fitAll). The greedy
+// selection fits each effect on top of those before it only, so the first absorbs part of the
+// later ones (a halo's fraction traded against a persistence's decay). Selection, z and the
+// held-out errors stay as scored; parameters, cause and preset keys are replaced. `cur` ends
+// with the refitted model, its gain and offset refitted on the calibration half.
+void refitJointly(Work& w, Current& cur, std::vector<Finding>& found);
+
 // The noise effects, on the final mean model.
 std::vector<Candidate> tryNoiseEffects(Work& w, const Current& cur, Result& r);
 

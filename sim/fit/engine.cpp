@@ -219,7 +219,7 @@ LinFit fitLinear(const Work& w, const std::vector<Plane>& Y, const std::vector<P
     const int n = B ? 3 : 2;
     double A[3][3] = {}, r[3] = {}, x[3] = {};
     double sy = 0.0, syy = 0.0, cnt = 0.0;
-    for (std::size_t i = 0; i < w.cal.size(); ++i) {
+    for (std::size_t i = 0; i < w.fitFrames(); ++i) {
         const Plane& M = w.measured(w.sub[i]);
         for (std::size_t p = 0; p < M.size(); ++p) {
             if (!w.valid(M[p], Y[i][p])) continue;
@@ -249,7 +249,7 @@ LinFit fitLinear(const Work& w, const std::vector<Plane>& Y, const std::vector<P
     f.c = B ? x[2] : 0.0;
     f.ok = true;
     const float maxDc = static_cast<float>(w.m.maxDc);
-    for (std::size_t i = 0; i < w.cal.size(); ++i) {
+    for (std::size_t i = 0; i < w.fitFrames(); ++i) {
         const Plane& M = w.measured(w.sub[i]);
         for (std::size_t p = 0; p < M.size(); ++p) {
             if (!w.valid(M[p], Y[i][p])) continue;

@@ -59,6 +59,10 @@ struct Work {
     int w = 0, h = 0;
     std::vector<int> cal, ho;  // frames of the two splits used for mean effects
     std::vector<int> sub;      // cal then ho
+    // fitLinear on every frame of `sub`, not the calibration half only: the final parameter
+    // estimates of effects already selected and scored on the held-out half (refitJointly).
+    bool fitAll = false;
+    std::size_t fitFrames() const { return fitAll ? sub.size() : cal.size(); }
     int tile = 16, tilesX = 0, tilesY = 0;  // tiles of the noise statistics
     // Tiles of the mean effects' held-out score (half the noise tiles' side): an effect that
     // changes part of the frame (a column's smear, a point's halo) falls in more of them, so

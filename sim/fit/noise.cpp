@@ -280,11 +280,16 @@ NoiseFit fitNoise(const Tiles& t, const NoiseCtx& c, NoiseFit f, bool freePhi, b
     const double a2 = c.a * c.a;
     for (std::size_t i = 0; i < t.v.size(); ++i) {
         if (!(t.n[i] > 0)) continue;
+        // Weighted by the inverse sampling variance of each estimate (Gauss-Markov), from the
+        // model's own statistics: a variance from n differences of Gaussian noise scatters by
+        // 2σ⁴/n, a covariance by (σ⁴ + c²)/n. Unweighted, the brightest tiles would set every
+        // parameter; the ones that act at zero signal (v_e, s0) are seen best in the dim ones.
+        const double sv = a2 * t.vSim[i] + 1.0, sc = a2 * t.c1Sim[i];
         const double gv[3] = {1.0, a2 * (t.vSim[i] - c.rr), 1.0};
-        row(gv, t.v[i] - a2 * c.rr, 1.0);
+        row(gv, t.v[i] - a2 * c.rr, t.n[i] / (2.0 * sv * sv));
         if (t.n1[i] > 0) {
             const double gc[3] = {0.0, a2 * t.c1Sim[i], c.rho};
-            row(gc, t.c1[i], 1.0);
+            row(gc, t.c1[i], t.n1[i] / (sv * sv + sc * sc));
         }
     }
     // Solve the free block (Cramer on at most 3 unknowns via elimination).
@@ -326,9 +331,10 @@ std::vector<double> noiseSse(const Tiles& t, const NoiseCtx& c, const NoiseFit& 
         predictTile(t, i, c, f, pv, pc);
         const double ev = (t.v[i] - pv) * (t.v[i] - pv);
         const double ec = t.n1[i] > 0 ? (t.c1[i] - pc) * (t.c1[i] - pc) : 0.0;
-        // Both estimates scatter in proportion to the tile's variance (χ² of its pairs).
-        const double sc = c.a * c.a * t.vSim[i] + 1.0;
-        e.push_back((ev + ec) / (sc * sc));
+        // Each over its sampling variance (fitNoise's weights).
+        const double sv = c.a * c.a * t.vSim[i] + 1.0, sc = c.a * c.a * t.c1Sim[i];
+        e.push_back(ev * t.n[i] / (2.0 * sv * sv) +
+                    (t.n1[i] > 0 ? ec * t.n1[i] / (sv * sv + sc * sc) : 0.0));
         s += ev + ec;
     }
     rms = e.empty() ? 0.0 : std::sqrt(s / (2.0 * static_cast<double>(e.size())));
