@@ -119,10 +119,10 @@ Work::Work(const Dataset& ds, const ModelRun& mr, const sensor::CameraParams& c,
     ho = spread(b, cap);
     sub = cal;
     sub.insert(sub.end(), ho.begin(), ho.end());
-    tile = static_cast<double>(w) * h > 200000.0 ? 32 : 16;
+    tile = static_cast<double>(w) * h > 200000.0 ? 16 : 8;
     tilesX = std::max(1, w / tile);
     tilesY = std::max(1, h / tile);
-    stile = tile / 2;
+    stile = tile;
     stilesX = std::max(1, w / stile);
     stilesY = std::max(1, h / stile);
     if (cam.full_well_e > 0.0)
