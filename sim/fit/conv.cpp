@@ -2,6 +2,7 @@
 
 #include <fftw3.h>
 
+#include <algorithm>
 #include <cmath>
 #include <complex>
 
@@ -46,11 +47,19 @@ struct Convolver::Impl {
         fftwf_free(spec);
     }
     std::size_t nspec() const { return static_cast<std::size_t>(cw) * ph; }
+    // The source index of padded index i (padded length np, frame length n): the frame, then
+    // its mirror image past the far edge, then (wrapping round) past the near edge.
+    static int mirrored(int i, int n, int np) {
+        if (i < n) return i;
+        const int s = i < n + (np - n) / 2 ? 2 * n - 1 - i : np - 1 - i;
+        return std::clamp(s, 0, n - 1);
+    }
     void forwardPlane(const Plane& p, std::vector<std::complex<float>>& out) {
-        std::fill(real, real + static_cast<std::size_t>(pw) * ph, 0.0f);
-        for (int y = 0; y < h; ++y)
-            for (int x = 0; x < w; ++x)
-                real[static_cast<std::size_t>(y) * pw + x] = p[static_cast<std::size_t>(y) * w + x];
+        for (int y = 0; y < ph; ++y) {
+            const std::size_t row = static_cast<std::size_t>(mirrored(y, h, ph)) * w;
+            for (int x = 0; x < pw; ++x)
+                real[static_cast<std::size_t>(y) * pw + x] = p[row + mirrored(x, w, pw)];
+        }
         fftwf_execute(fwd);
         out.assign(reinterpret_cast<std::complex<float>*>(spec),
                    reinterpret_cast<std::complex<float>*>(spec) + nspec());

@@ -1,8 +1,13 @@
 #pragma once
-// Linear (not circular) 2-D convolution of frame-sized planes with radially symmetric kernels,
-// through FFTW (single precision). Frames are zero-padded to twice their size, so light spread
-// past the frame's edge leaves it and none comes in from outside, as with a real lens: the
-// scene outside the frame is not known, and is taken as dark.
+// 2-D convolution of frame-sized planes with radially symmetric kernels, through FFTW (single
+// precision). Frames are padded to twice their size with their mirror image at each edge
+// (symmetric extension), not with zeros and not circularly. The scene outside the frame is
+// not known, but it is not dark: the photocathode and the optics see past the CCD's
+// rectangle, and the light from there spreads in as the frame's light spreads out. Taking the
+// scene past an edge as the mirror of the scene inside it keeps a uniform scene uniform up to
+// the edges (zero padding darkened its border by the part of the kernel that falls outside,
+// which a fit then read as signal) and adds no edge of its own, as replicating the border
+// row would for a bright point on it. The kernel's tail beyond half the padding wraps.
 //
 // setFrames() transforms a set of planes once; convolve() then multiplies by one kernel's
 // spectrum and transforms back, so trying many kernels on the same frames costs one inverse

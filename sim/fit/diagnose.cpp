@@ -196,7 +196,8 @@ void recordTrial(Result& r, const Candidate& c, bool tried) {
 }
 
 // Greedy forward selection of the mean effects: each round tries every effect not yet taken on
-// top of the current model and takes the best significant one.
+// top of the current model and takes, of the significant ones, the one that removes the most
+// held-out χ² (Candidate::gainChi2; z measures how evenly over the frame, not how much).
 void meanEffects(Work& w, Current& cur, Result& r, const Options& opt, const Progress& progress) {
     struct Entry {
         const char* name;
@@ -229,8 +230,7 @@ void meanEffects(Work& w, Current& cur, Result& r, const Options& opt, const Pro
                 progress(std::string("round ") + std::to_string(round + 1) + ": " + e.name);
             Candidate c = e.fn(w, cur);
             recordTrial(r, c, true);
-            if (significant(c, opt, r.findings.size()) &&
-                (!any || c.finding.score > best.finding.score)) {
+            if (significant(c, opt, r.findings.size()) && (!any || c.gainChi2 > best.gainChi2)) {
                 best = c;
                 any = true;
             }
@@ -340,6 +340,8 @@ void diagnoseCamera(const Dataset& d, const std::filesystem::path& configDir, co
     const Current base = cur;
     meanEffects(w, cur, r, opt, progress);
     if (!r.findings.empty()) {
+        if (progress) progress("the effects found, refitted together on all frames");
+        refitJointly(w, cur, r.findings);
         if (progress) progress("the model's noise again, with the effects found");
         resimulateNoise(d, m, w, cur.mm, r.findings, configDir, opt.seed);
     }

@@ -28,6 +28,10 @@ struct Candidate {
     LinFit fit;
     bool valid = false;  // parameters physical (a positive fraction, a finite time)
     std::string why;     // when not valid
+    // Mean effects: the held-out χ² it removes (the sum over score tiles of the squared error's
+    // fall over the tile's noise variance) less the BIC penalty k·ln(held-out pixels); the
+    // greedy selection takes the significant candidate that explains the most.
+    double gainChi2 = 0.0;
 };
 
 // The mean prediction taken so far, its fit and its held-out per-tile error.
@@ -45,6 +49,14 @@ Candidate tryGlare(Work& w, const Current& cur);
 Candidate trySmear(Work& w, const Current& cur);
 Candidate tryBsp(Work& w, const Current& cur);
 Candidate trySaturation(Work& w, const Current& cur);
+
+// The selected mean effects' final parameters: each refitted with the others held at their
+// values (backfitting, two passes), on all frames of the subset (Work::fitAll). The greedy
+// selection fits each effect on top of those before it only, so the first absorbs part of the
+// later ones (a halo's fraction traded against a persistence's decay). Selection, z and the
+// held-out errors stay as scored; parameters, cause and preset keys are replaced. `cur` ends
+// with the refitted model, its gain and offset refitted on the calibration half.
+void refitJointly(Work& w, Current& cur, std::vector<Finding>& found);
 
 // The noise effects, on the final mean model.
 std::vector<Candidate> tryNoiseEffects(Work& w, const Current& cur, Result& r);

@@ -119,9 +119,12 @@ Work::Work(const Dataset& ds, const ModelRun& mr, const sensor::CameraParams& c,
     ho = spread(b, cap);
     sub = cal;
     sub.insert(sub.end(), ho.begin(), ho.end());
-    tile = static_cast<double>(w) * h > 200000.0 ? 32 : 16;
+    tile = static_cast<double>(w) * h > 200000.0 ? 16 : 8;
     tilesX = std::max(1, w / tile);
     tilesY = std::max(1, h / tile);
+    stile = tile;
+    stilesX = std::max(1, w / stile);
+    stilesY = std::max(1, h / stile);
     if (cam.full_well_e > 0.0)
         fullWell_dc = static_cast<float>(0.95 * cam.full_well_e * cam.video_gain_dc_per_e);
     pitchX_um = cam.pitch_x_um * cam.taper_magnification;
@@ -129,7 +132,7 @@ Work::Work(const Dataset& ds, const ModelRun& mr, const sensor::CameraParams& c,
     conv = std::make_unique<Convolver>(w, h, pitchX_um, pitchY_um);
     // The model's noise variance per tile on the held-out frames: each tile's squared error is
     // weighed by it, so that a tile counts by how far it is from its noise, not by its level.
-    tileVar.assign(static_cast<std::size_t>(tiles()), 0.0);
+    tileVar.assign(static_cast<std::size_t>(scoreTiles()), 0.0);
     std::vector<double> cnt(tileVar.size(), 0.0);
     Plane S;
     for (int k : ho) {
@@ -139,8 +142,8 @@ Work::Work(const Dataset& ds, const ModelRun& mr, const sensor::CameraParams& c,
             for (int x = 0; x < w; ++x) {
                 const std::size_t q = static_cast<std::size_t>(y) * w + x;
                 const double e = N[q] - (m.offset_dc + S[q]);
-                tileVar[static_cast<std::size_t>(tileOf(x, y))] += e * e;
-                cnt[static_cast<std::size_t>(tileOf(x, y))] += 1.0;
+                tileVar[static_cast<std::size_t>(scoreTileOf(x, y))] += e * e;
+                cnt[static_cast<std::size_t>(scoreTileOf(x, y))] += 1.0;
             }
     }
     for (std::size_t t = 0; t < tileVar.size(); ++t)
@@ -216,7 +219,7 @@ LinFit fitLinear(const Work& w, const std::vector<Plane>& Y, const std::vector<P
     const int n = B ? 3 : 2;
     double A[3][3] = {}, r[3] = {}, x[3] = {};
     double sy = 0.0, syy = 0.0, cnt = 0.0;
-    for (std::size_t i = 0; i < w.cal.size(); ++i) {
+    for (std::size_t i = 0; i < w.fitFrames(); ++i) {
         const Plane& M = w.measured(w.sub[i]);
         for (std::size_t p = 0; p < M.size(); ++p) {
             if (!w.valid(M[p], Y[i][p])) continue;
@@ -246,7 +249,7 @@ LinFit fitLinear(const Work& w, const std::vector<Plane>& Y, const std::vector<P
     f.c = B ? x[2] : 0.0;
     f.ok = true;
     const float maxDc = static_cast<float>(w.m.maxDc);
-    for (std::size_t i = 0; i < w.cal.size(); ++i) {
+    for (std::size_t i = 0; i < w.fitFrames(); ++i) {
         const Plane& M = w.measured(w.sub[i]);
         for (std::size_t p = 0; p < M.size(); ++p) {
             if (!w.valid(M[p], Y[i][p])) continue;
@@ -260,7 +263,7 @@ LinFit fitLinear(const Work& w, const std::vector<Plane>& Y, const std::vector<P
 
 std::vector<double> heldoutTileSse(const Work& w, const std::vector<Plane>& Y,
                                    const std::vector<Plane>* B, const LinFit& f, double& rms) {
-    std::vector<double> t(static_cast<std::size_t>(w.tiles()), 0.0);
+    std::vector<double> t(static_cast<std::size_t>(w.scoreTiles()), 0.0);
     double sum = 0.0;
     long long cnt = 0;
     for (std::size_t i = w.cal.size(); i < w.sub.size(); ++i) {
@@ -272,7 +275,7 @@ std::vector<double> heldoutTileSse(const Work& w, const std::vector<Plane>& Y,
                 double pr = f.b + f.a * Y[i][p] + (B ? f.c * (*B)[i][p] : 0.0);
                 pr = std::clamp(pr, 0.0, w.m.maxDc);
                 const double e = (M[p] - pr) * (M[p] - pr);
-                t[static_cast<std::size_t>(w.tileOf(x, y))] += e;
+                t[static_cast<std::size_t>(w.scoreTileOf(x, y))] += e;
                 sum += e;
                 ++cnt;
             }
@@ -293,6 +296,7 @@ Score pairedScore(const std::vector<double>& before, const std::vector<double>& 
     double mean = 0.0;
     for (std::size_t i = 0; i < n; ++i)
         mean += before[i] - after[i];
+    s.sum = mean;
     mean /= static_cast<double>(n);
     double var = 0.0;
     for (std::size_t i = 0; i < n; ++i) {

@@ -47,6 +47,7 @@ std::function<double(double)> expKernel(double s_um);
 // A scored candidate: per-tile held-out squared error and its paired test against `before`.
 struct Score {
     double rmsBefore = 0.0, rmsAfter = 0.0, z = 0.0, score = 0.0;
+    double sum = 0.0;  // Σ_t (before_t − after_t)
 };
 
 struct Work {
@@ -58,8 +59,17 @@ struct Work {
     int w = 0, h = 0;
     std::vector<int> cal, ho;  // frames of the two splits used for mean effects
     std::vector<int> sub;      // cal then ho
-    int tile = 16, tilesX = 0, tilesY = 0;
-    std::vector<double> tileVar;   // the model's noise variance per tile [DC²]
+    // fitLinear on every frame of `sub`, not the calibration half only: the final parameter
+    // estimates of effects already selected and scored on the held-out half (refitJointly).
+    bool fitAll = false;
+    std::size_t fitFrames() const { return fitAll ? sub.size() : cal.size(); }
+    // Tiles of the noise statistics and of the mean effects' held-out score (8 px, 16 px
+    // above 200 000 pixels). The paired test over tiles measures how evenly an effect improves
+    // them: one that changes part of the frame (a column's smear, a point's halo, EBI seen in
+    // the dim tiles) falls in more small tiles, so its z grows with its spread.
+    int tile = 8, tilesX = 0, tilesY = 0;
+    int stile = 8, stilesX = 0, stilesY = 0;
+    std::vector<double> tileVar;   // the model's noise variance per score tile [DC²]
     std::vector<Plane> unblurred;  // assembled unblurred frames of `sub` (mcp_saturation)
     // Scenario effects (scene_effects.h): the mean signal per call of another stimulus, used in
     // place of m.signal while set.
@@ -76,6 +86,10 @@ struct Work {
     int tiles() const { return tilesX * tilesY; }
     int tileOf(int x, int y) const {
         return std::min(y / tile, tilesY - 1) * tilesX + std::min(x / tile, tilesX - 1);
+    }
+    int scoreTiles() const { return stilesX * stilesY; }
+    int scoreTileOf(int x, int y) const {
+        return std::min(y / stile, stilesY - 1) * stilesX + std::min(x / stile, stilesX - 1);
     }
     const Plane& measured(int frame) const { return d.frames[static_cast<std::size_t>(frame)]; }
     // A measured value inside the ADC's range, where the model is linear: not clipped, and
