@@ -103,15 +103,23 @@ TEST(HiddenEffectRoundTrip, TheFindingsKeysAsTheModelLeaveNothingToFind) {
     }
 }
 
+// Two hidden at once, as the single effects: in at least two of three seeds both are named.
 TEST(HiddenEffectPair, BothEffectsAreNamed) {
-    Generated g;
-    const Result r = run({"vertical_smear", "excess_noise"}, 2, g);
-    bool smear = false, noise = false;
-    for (const Finding& f : r.findings) {
-        smear = smear || f.effect == "vertical_smear";
-        noise = noise || f.effect == "excess_noise";
+    int good = 0;
+    std::string log;
+    for (int seed = 1; seed <= kSeeds; ++seed) {
+        Generated g;
+        const Result r = run({"vertical_smear", "excess_noise"}, seed, g);
+        bool smear = false, noise = false;
+        for (const Finding& f : r.findings) {
+            smear = smear || f.effect == "vertical_smear";
+            noise = noise || f.effect == "excess_noise";
+        }
+        good += smear && noise ? 1 : 0;
+        log += "\nseed " + std::to_string(seed) + (smear && noise ? " ok: " : " FAILED: ") +
+               describe(r, g);
     }
-    EXPECT_TRUE(smear && noise) << describe(r, g);
+    EXPECT_GE(good, kSeeds - 1) << log;
 }
 
 }  // namespace
