@@ -1019,11 +1019,16 @@ const float* BlurStage::outputRow(int y) const noexcept {
 
 namespace {
 NVS_ROW_CLONES void applyFilterKernel(fftwf_complex* __restrict s, const float* __restrict f,
-                                      std::size_t n) noexcept {
-    float* __restrict p = reinterpret_cast<float*>(s);
-    for (std::size_t i = 0; i < n; ++i) {
-        p[2 * i] *= f[i];
-        p[2 * i + 1] *= f[i];
+                                      int rows, int n, std::ptrdiff_t stride) noexcept {
+    // rows × n complex values of a band of columns (row stride `stride` complex), each times
+    // its real MTF value.
+    for (int y = 0; y < rows; ++y) {
+        float* __restrict p = reinterpret_cast<float*>(s + y * stride);
+        const float* __restrict fy = f + y * stride;
+        for (int i = 0; i < n; ++i) {
+            p[2 * i] *= fy[i];
+            p[2 * i + 1] *= fy[i];
+        }
     }
 }
 }  // namespace
@@ -1074,10 +1079,7 @@ void BlurStage::filterColumns(RowExecutor& exec) noexcept {
         const int which = n == cb_ ? 0 : 1;
         fftwf_complex* col = fft_->spec + c0;
         fftwf_execute_dft(fft_->colFwd[which], col, col);
-        for (int y = 0; y < hp_; ++y) {
-            const std::ptrdiff_t off = static_cast<std::ptrdiff_t>(y) * wcs_ + c0;
-            applyFilterKernel(fft_->spec + off, fft_->filter + off, static_cast<std::size_t>(n));
-        }
+        applyFilterKernel(col, fft_->filter + c0, hp_, n, wcs_);
         fftwf_execute_dft(fft_->colInv[which], col, col);
     };
     forEachIndex(exec, bands, columns);
