@@ -225,6 +225,21 @@ sensor::Overrides chainEffects(const GenSpec& s, const Dataset& d, std::mt19937_
 
 }  // namespace
 
+void makeFrames(const sensor::CameraParams& cam, std::uint64_t seed,
+                const std::vector<ImageF>& seen, const std::filesystem::path& configDir,
+                Dataset& d) {
+    GammaTableCache tables;
+    sensor::IiccdChain chain(cam, seed, configDir, tables);
+    for (int f : d.stimulusOfFrame) {
+        chain.process(seen[static_cast<std::size_t>(f)].cview());
+        Plane p(static_cast<std::size_t>(d.width) * d.height);
+        for (int y = 0; y < d.height; ++y)
+            for (int x = 0; x < d.width; ++x)
+                p[static_cast<std::size_t>(y) * d.width + x] = chain.video()(x, y);
+        d.frames.push_back(std::move(p));
+    }
+}
+
 Generated generate(const GenSpec& s, const std::filesystem::path& configDir) {
     Generated g;
     Dataset& d = g.data;
@@ -266,15 +281,7 @@ Generated generate(const GenSpec& s, const std::filesystem::path& configDir) {
     const sensor::Overrides ov = chainEffects(s, d, rng, configDir, tables, g);
     FitEffects unused;
     const sensor::CameraParams cam = loadModelCamera(configDir, d.preset, ov, unused);
-    sensor::IiccdChain chain(cam, s.seed, configDir, tables);
-    for (int f : d.stimulusOfFrame) {
-        chain.process(seenLpe[static_cast<std::size_t>(f)].cview());
-        Plane p(static_cast<std::size_t>(s.width) * s.height);
-        for (int y = 0; y < s.height; ++y)
-            for (int x = 0; x < s.width; ++x)
-                p[static_cast<std::size_t>(y) * s.width + x] = chain.video()(x, y);
-        d.frames.push_back(std::move(p));
-    }
+    makeFrames(cam, s.seed, seenLpe, configDir, d);
     return g;
 }
 

@@ -47,4 +47,10 @@ const std::vector<EffectRange>& effectRanges();
 
 Generated generate(const GenSpec& spec, const std::filesystem::path& configDir);
 
+// The frames the camera `cam` makes of seen[d.stimulusOfFrame[k]], in order, appended to
+// d.frames (the chain's video output [DC]).
+void makeFrames(const sensor::CameraParams& cam, std::uint64_t seed,
+                const std::vector<ImageF>& seen, const std::filesystem::path& configDir,
+                Dataset& d);
+
 }  // namespace nvs::fit

@@ -108,16 +108,7 @@ Generated generateScene(const SceneGenSpec& s, const SceneStimulusFactory& facto
     d.stimuli = d.scene->render(d.frameNumbers, d.frameRate_Hz, model, {});
     const std::vector<ImageF> seen = d.scene->render(d.frameNumbers, d.frameRate_Hz, truth, {});
     const sensor::CameraParams cam = sensor::loadCamera(configDir, d.preset, d.settings);
-    GammaTableCache tables;
-    sensor::IiccdChain chain(cam, s.seed, configDir, tables);
-    for (const ImageF& img : seen) {
-        chain.process(img.cview());
-        Plane p(static_cast<std::size_t>(s.width) * s.height);
-        for (int y = 0; y < s.height; ++y)
-            for (int x = 0; x < s.width; ++x)
-                p[static_cast<std::size_t>(y) * s.width + x] = chain.video()(x, y);
-        d.frames.push_back(std::move(p));
-    }
+    makeFrames(cam, s.seed, seen, configDir, d);
     return g;
 }
 
