@@ -82,6 +82,7 @@ validate: .nvs-build
 	$(BUILD)/tests/sim/fit/nvs_validate_diagnose --seeds 20 --out $(VALIDATE)/diagnose.md
 	$(BUILD)/tests/rt/compose/nvs_validate_scene --seeds 20 --out $(VALIDATE)/diagnose-scene.md
 	rm -rf $(VALIDATE)/thesis && python3 tests/data/diagnose/make_thesis_datasets.py tests/data/thesis $(VALIDATE)/thesis
+	$(BUILD)/tests/rt/thesis_scene/nvs_thesis_scene_datasets tests/data/thesis $(VALIDATE)/thesis
 	@for d in $(VALIDATE)/thesis/*/; do \
 	  echo "nvstim: diagnose $$d"; \
 	  $(NVSTIM) diagnose $$d --json $${d%/}.json --report $${d%/}-report 2>/dev/null || exit 1; \
