@@ -18,7 +18,7 @@ int runCli(int argc, const char* const* argv) {
     app.set_version_flag("--version", std::string("nvstim ") + NVS_VERSION);
     app.require_subcommand(1);
     app.footer(
-        "Exit status: 0 ok, 1 run failed, 2 usage or setup error, 3 not implemented yet;\n"
+        "Exit status: 0 ok, 1 run failed, 2 usage or setup error (3 is reserved);\n"
         "`run` adds 4 when an output failed or had write errors and 8 when it was\n"
         "interrupted by SIGINT/SIGTERM (outputs closed cleanly): 4, 8 or 12.\n"
         "Run `nvstim SUBCOMMAND --help` for the options of one subcommand.");

@@ -3,7 +3,8 @@
 // parsed into a plain struct, and dispatched to its handler.
 //
 // Exit status: 0 success; 1 a run failed (a check mismatched, a device failed); 2 bad usage or
-// setup error (one line on stderr naming the argument or file:line); 3 not implemented yet.
+// setup error (one line on stderr naming the argument or file:line). 3 is reserved (it meant "not
+// implemented yet"; every subcommand is implemented, none returns it).
 
 #include <cstdint>
 #include <optional>
