@@ -128,7 +128,24 @@ void scoreTry(Work& w, const MeanModel& mm, const SceneState& s, SceneTry& t) {
     f.observable = "held-out frames, per pixel";
     f.unit = "DC";
     t.c.valid = e.fit.ok && e.fit.a > 0.0;
-    if (!t.c.valid) t.c.why = "no gain fits";
+    if (!t.c.valid) {
+        t.c.why = "no gain fits";
+    } else if (!(e.rms < s.rms)) {
+        // The paired tile score can favour an effect that makes the held-out frames worse as a
+        // whole (a few tiles much worse): a finding must lower the held-out RMS.
+        t.c.valid = false;
+        t.c.why = text("the held-out RMS does not fall (%.4g -> %.4g DC)", s.rms, e.rms);
+    }
+}
+
+// A fit at an end of its search range has not found the parameter: what the frames want lies
+// outside the effect's physical range, or is not this effect at all.
+void rejectAtRangeEnd(SceneTry& t, double v, double lo, double hi) {
+    const double tol = 1e-6 * (hi - lo);
+    if (t.c.valid && (v <= lo + tol || v >= hi - tol)) {
+        t.c.valid = false;
+        t.c.why = text("at the end of its search range %g..%g: not determined", lo, hi);
+    }
 }
 
 double sseOf(Work& w, const MeanModel& mm, const std::vector<ImageF>& stim) {
@@ -157,11 +174,13 @@ SceneTry tryLunarSky(Work& w, const MeanModel& mm, const SceneState& s) {
                         static_cast<float>(out[i](x, y) + k * (l1[i](x, y) - s.stim[i](x, y))));
         return out;
     };
-    const double k = searchLog([&](double v) { return sseOf(w, mm, at(v)); }, 0.03, 10.0, 8);
+    constexpr double kLo = 0.03, kHi = 10.0;
+    const double k = searchLog([&](double v) { return sseOf(w, mm, at(v)); }, kLo, kHi, 8);
     t.stim = at(k);
     t.fx = s.fx;
     t.fx.lunarSkyScale = k;
     scoreTry(w, mm, s, t);
+    rejectAtRangeEnd(t, k, kLo, kHi);
     t.c.finding.parameters = {{"lunar_sky_scale", k}};
     t.c.finding.cause = text(
         "the scene gets moonlight scattered by the atmosphere (%.2f of what the sky model gives), "
@@ -210,6 +229,7 @@ SceneTry renderedTry(Work& w, const MeanModel& mm, const SceneState& s, const Re
     scoreTry(w, mm, s, t);
     t.c.finding.parameters = {{r.parameter, v}};
     t.c.valid = t.c.valid && v > 0.0;
+    rejectAtRangeEnd(t, v, r.lo, r.hi);
     return t;
 }
 
