@@ -254,18 +254,28 @@ TEST_F(RunTest, AStalledConsumerDelaysNeitherTheLoopNorAnotherOutput) {
         const std::size_t at = s.find(key, from);
         return at == std::string::npos ? -1.0 : std::stod(s.substr(at + key.size()));
     };
-    EXPECT_EQ(num("\"frames_emitted\":"), 150.0) << s;
-    EXPECT_LE(num("\"deadline_misses\":"), 5.0) << s;
+    // The cadence: a frame is missing from the count only where the loop missed its deadline
+    // (on a loaded machine, by the machine, not by the consumer).
+    const double misses = num("\"deadline_misses\":");
+    EXPECT_LE(misses, 5.0) << s;
+    EXPECT_GE(num("\"frames_emitted\":"), 150.0 - misses) << s;
     const std::size_t y4m = s.find("\"name\":\"y4m:-\"");
     const std::size_t sinks = s.find("\"sinks\":[");
     ASSERT_NE(y4m, std::string::npos) << s;
     EXPECT_GT(num("\"queue_drops\":", sinks), 100.0) << s;  // y4m is the first sink
+    // The other output gets every frame the loop offered it (one per tick), none dropped.
+    const std::size_t metaSink = s.find("\"offered\":", y4m);
+    ASSERT_NE(metaSink, std::string::npos) << s;
+    const double offered = num("\"offered\":", metaSink);
+    EXPECT_EQ(num("\"written\":", metaSink), offered) << s;
+    EXPECT_EQ(num("\"queue_drops\":", metaSink), 0.0) << s;
     std::istringstream meta(slurp(dir_ / "m.jsonl"));
     std::string line;
     int n = 0;
     while (std::getline(meta, line))
         ++n;
-    EXPECT_EQ(n, 150);
+    EXPECT_EQ(n, offered);
+    EXPECT_GE(n, 150 - misses);
     // 150 frames at 60 Hz take 2.5 s; the drain gives a blocked write up to 1 s.
     EXPECT_LT(num("\"elapsed_s\":"), 3.0) << s;
 }
