@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <string>
+#include <vector>
 
 #include "sim/fit/generate.h"
 
@@ -26,10 +27,24 @@ struct SceneGenSpec {
 // The detectable range of each scenario effect's strength (docs/validation.md).
 const std::vector<EffectRange>& sceneEffectRanges();
 
-// Writes a scenario of the RIT roof at `sceneFile` with the given effects, starting at
-// utcStart; the dataset's frames set the times.
+// How a dataset of the RIT roof is taken: when, how often, which lamps burn, and where the
+// camera looks (the scene's own camera, or a [platform] pose at the site).
+struct SceneSetup {
+    std::string utcStart = "1998-09-02T03:00:00Z";
+    double framePeriod_s = 232.0;
+    double gain_V = 6.0;
+    std::vector<std::string> lampsOn;
+    bool posed = false;  // a [platform] pose: at the site, this high, turned so
+    double cameraHeight_m = 0.0, yaw_deg = 0.0, pitch_deg = 0.0;
+};
+
+// The setup of each hidden effect's datasets (docs/validation.md, "Scenario effects").
+SceneSetup sceneSetupFor(const std::string& effect);
+
+// Writes a scenario of the RIT roof at `sceneFile` with the given effects and setup; the
+// dataset's frames set the times.
 void writeSceneScenario(const std::filesystem::path& file, const std::filesystem::path& sceneFile,
-                        const SkyEffects& fx, const std::string& utcStart);
+                        const SkyEffects& fx, const SceneSetup& setup);
 
 Generated generateScene(const SceneGenSpec& spec, const SceneStimulusFactory& factory,
                         const std::filesystem::path& configDir);
