@@ -49,9 +49,14 @@ SceneSetup sceneSetupFor(const std::string& effect) {
         s.yaw_deg = 242.5;
         s.pitch_deg = 1.0;
     } else if (effect == "cloud_transmission") {
-        // The street lamp burns: lamps under the cloud are not dimmed by it, so the lamp-lit
-        // asphalt pins the camera's gain and the moonlit rest of the scene the cloud's depth.
-        s.lampsOn = {"street_lamp"};
+        // A whole night under the full Moon (Table 9-1's 97 % Moon, 1998-09-06): from 01:00 UTC
+        // (Sun −15°, Moon rising at 15.5°) over its culmination (37.5° at 05:00) to 09:22 (Moon
+        // 12° in the west), one frame every 640 s. Both halves of the dataset see the Moon's
+        // air mass change (3.7 → 1.6 and 1.6 → 4.8): the cloud's e^(−τm) in the calibration
+        // half is not a constant factor that the camera's gain absorbs.
+        s.utcStart = "1998-09-06T01:00:00Z";
+        s.framePeriod_s = 640.0;
+        s.gain_V = 5.0;  // the full Moon high: the clear-sky frames stay below the ADC's top
     }
     return s;
 }
