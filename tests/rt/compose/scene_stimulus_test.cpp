@@ -1,7 +1,8 @@
 // Scenario stimuli of measured datasets (rt/compose/scene_stimulus.h, sim/fit/scene_effects.h):
 // the renderer's lunar sky light is linear in its scale (what the fit relies on), refraction
-// raises the Moon as Bennett's formula says, a dataset with `[stimulus] scenario` round-trips and
-// refuses bad input, and hidden scenario effects are named and recovered (a few seeds; the
+// raises the Moon as Bennett's formula says, a scenario's [platform] pose is rendered as the
+// runtime renders it, a dataset with `[stimulus] scenario` round-trips and refuses bad input,
+// and hidden scenario effects are named and recovered (a few seeds; the
 // sweep is `make validate`).
 #include "rt/compose/scene_stimulus.h"
 
@@ -181,6 +182,10 @@ TEST(SceneStimulus, PlatformPoseRendersAsTheRuntime) {
     const fs::path sc = posedScenario(tempDir("posed"), 240.5, 2.5);
     const rt::Scenario scenario = rt::loadScenario(sc, kDirs.config);
     ASSERT_TRUE(scenario.platform.poseFromTelemetry);
+    // A [platform] with camera settings only keeps the scene's own camera.
+    EXPECT_FALSE(
+        rt::loadScenario(kSource / "scenarios" / "thesis-nolight" / "scenario.toml", kDirs.config)
+            .platform.poseFromTelemetry);
     auto stage = rt::SceneRenderStage::create(scenario, kDirs);
     rt::HeldPlatform held(scenario.platform);
     auto stim = stimulusOf(sc);
@@ -253,6 +258,11 @@ void expectNamed(const std::string& effect, std::uint64_t seed) {
 
 TEST(SceneStimulus, HiddenLunarSkyScatterIsNamed) {
     expectNamed("lunar_sky_scatter", 3);
+}
+
+// The Moon's disk setting in view (generate_scene.cpp): refraction moves it by 10–17 px.
+TEST(SceneStimulus, HiddenRefractionIsNamed) {
+    expectNamed("refraction", 3);
 }
 
 TEST(SceneStimulus, HiddenCloudTransmissionIsNamed) {
