@@ -2,9 +2,11 @@
 // Hidden scenario effects (DESIGN §9): datasets whose stimulus is rendered from a scenario.
 // The truth renders the scene with a random strength of one scenario effect (lunar sky light
 // scale, site pressure for refraction, cloud optical depth), the model under test is the same
-// scenario without it. The scene is the thesis's RIT roof under a setting Moon: frames every few
+// scenario without it. The scene is the thesis's RIT roof (sceneSetupFor): for the null and
+// lunar sky datasets through the scene's own camera under a setting Moon, frames every few
 // minutes for about three hours, from 23° down to the horizon (1998-09-02, the thesis's Table
-// 4-2 night), so that the effects' dependence on the Moon's altitude shows.
+// 4-2 night); for refraction the camera on the roof turned to the setting Moon's disk; for the
+// cloud a whole night under the full Moon (both halves of the dataset see the air mass change).
 
 #include <cstdint>
 #include <filesystem>
