@@ -252,6 +252,12 @@ void readPlatform(const ConfigTable& root, Scenario& sc) {
         p->fail("gate_mode", "must be 0 (continuous), 1 (gated) or 2 (auto-gated)");
     }
     sc.platform.utc_unix_s = sc.utcStart_unix_s;
+    // A [platform] that states a pose is rendered from it (rt/compose/platform_pose.h) until
+    // telemetry gives another; without one, the scene's own camera.
+    bool posed = false;
+    for (const char* key : {"lat_deg", "lon_deg", "alt_m", "yaw_deg", "pitch_deg", "roll_deg"})
+        posed = posed || (p && p->contains(key));
+    sc.platform.poseFromTelemetry = posed;
 }
 
 // [runtime]: policies, threads, real-time scheduling, the external trigger.

@@ -3,6 +3,7 @@
 #include <cmath>
 #include <string>
 
+#include "rt/compose/platform_pose.h"
 #include "rt/compose/scenario.h"
 #include "rt/compose/scene_setup.h"
 
@@ -59,6 +60,11 @@ class ScenarioStimulus final : public fit::SceneStimulus {
                          std::to_string(fx.cloudOpticalDepth));
             current_.reset();
             current_ = ScenarioRenderer::create(sc, dirs_);
+            // The camera where the runtime's render stage puts it for the scenario's platform
+            // state without telemetry (rt/render_stage): the [platform] pose when it states
+            // one, else the scene's own camera.
+            if (sc.platform.poseFromTelemetry)
+                current_->renderer().setCamera(PlatformPose(sc.scene.site).poseFor(sc.platform));
             made_ = fx;
         }
         current_->setLunarSkyScale(fx.lunarSkyScale);
@@ -80,6 +86,9 @@ std::unique_ptr<fit::SceneStimulus> makeSceneStimulus(const std::filesystem::pat
                                                       const DataDirs& dirs) {
     Scenario sc = loadScenario(scenario, dirs.config);
     if (!sc.rendered) throw SetupError(sc.file + ": the scenario has no [scene] to render");
+    if (sc.platform.poseFromTelemetry &&
+        !PlatformPose::usable(PlatformPose(sc.scene.site).poseFor(sc.platform)))
+        throw SetupError(sc.file + ": the [platform] pose is more than 1e8 m from the site");
     // The dataset's camera: its preset and settings at the frames' size.
     sc.camera.preset = presetFile.string();
     sc.camera.presetOverrides = settings;

@@ -3,8 +3,10 @@
 // docs/contracts.md "Measured dataset"): diagnose's SceneStimulus (sim/fit/dataset.h) on the
 // composition root's ScenarioRenderer. The scenario gives the scene, site, atmosphere and start
 // time; the dataset gives the camera (its preset and settings, at the frames' size) and the
-// frames' times (frame n at utc_start + n / frame_rate_hz). The scenario effects of the catalog
-// are rendered as asked: lunar sky light scaled, refraction by the site pressure, the cloud
+// frames' times (frame n at utc_start + n / frame_rate_hz). The camera stands where `nvstim run`
+// puts it without telemetry: at the [platform] pose when the scenario states one (the same
+// PlatformPose as the render stage), else at the scene's own camera. The scenario effects of the
+// catalog are rendered as asked: lunar sky light scaled, refraction by the site pressure, the cloud
 // layer's optical depth.
 
 #include <filesystem>

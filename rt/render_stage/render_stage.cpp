@@ -3,18 +3,8 @@
 #include <cmath>
 
 #include "sim/core/error.h"
-#include "sim/core/geometry.h"
-#include "sim/core/units.h"
 
 namespace nvs::rt {
-namespace {
-
-// WGS84 (NIMA TR8350.2).
-constexpr double kWgs84A_m = 6378137.0;
-constexpr double kWgs84E2 = 6.69437999014e-3;
-
-}  // namespace
-
 std::unique_ptr<SceneRenderStage> SceneRenderStage::create(const Scenario& sc,
                                                            const DataDirs& dirs) {
     auto s = std::unique_ptr<SceneRenderStage>(new SceneRenderStage());
@@ -30,13 +20,7 @@ std::unique_ptr<SceneRenderStage> SceneRenderStage::create(const Scenario& sc,
         s->heldBand_ = ImageF(sc.width, sc.height);
     }
     s->epochUnix_s_ = sc.utcStart_unix_s;
-    s->lat0_rad_ = rs.site.lat_deg * kRadPerDeg;
-    s->lon0_rad_ = rs.site.lon_deg * kRadPerDeg;
-    s->h0_m_ = rs.site.height_m;
-    const double sl = std::sin(s->lat0_rad_);
-    const double w = std::sqrt(1.0 - kWgs84E2 * sl * sl);
-    s->primeVerticalRadius_m_ = kWgs84A_m / w;
-    s->meridianRadius_m_ = kWgs84A_m * (1.0 - kWgs84E2) / (w * w * w);
+    s->pose_ = PlatformPose(rs.site);
     const auto& lamps = s->sr_->scene().lamps;
     s->lampCount_ = static_cast<int>(std::min<std::size_t>(lamps.size(), 32));
     for (int i = 0; i < s->lampCount_; ++i) {
@@ -46,29 +30,11 @@ std::unique_ptr<SceneRenderStage> SceneRenderStage::create(const Scenario& sc,
 }
 
 bool SceneRenderStage::poseUsable(const scene::CameraPose& pose) noexcept {
-    // Finite, and within 10⁸ m of the scene origin: beyond that the ray arithmetic in single
-    // precision loses the scene entirely (and the telemetry bounds allow 10⁶ m of altitude).
-    constexpr double kMaxDistance_m = 1e8;
-    for (const Vec3& v : {pose.position_m, pose.target_m, pose.up}) {
-        for (const double c : {v.x, v.y, v.z}) {
-            if (!(std::fabs(c) <= kMaxDistance_m)) return false;
-        }
-    }
-    return true;
+    return PlatformPose::usable(pose);
 }
 
 scene::CameraPose SceneRenderStage::poseFor(const PlatformState& p) const noexcept {
-    scene::CameraPose pose;
-    const double east = (p.lon_deg * kRadPerDeg - lon0_rad_) * (primeVerticalRadius_m_ + h0_m_) *
-                        std::cos(lat0_rad_);
-    const double north = (p.lat_deg * kRadPerDeg - lat0_rad_) * (meridianRadius_m_ + h0_m_);
-    pose.position_m = {east, north, p.alt_m - h0_m_};
-    const Mat3 enuFromBody = enuFromNed() * nedFromBodyYpr(p.yaw_rad, p.pitch_rad, p.roll_rad);
-    const Vec3 forward_enu = enuFromBody * Vec3{1.0, 0.0, 0.0};
-    pose.target_m = pose.position_m + forward_enu;
-    pose.up = enuFromBody * Vec3{0.0, 0.0, -1.0};
-    pose.twist_rad = 0.0;
-    return pose;
+    return pose_.poseFor(p);
 }
 
 void SceneRenderStage::render(const FrameRequest& req, RadianceTarget out,

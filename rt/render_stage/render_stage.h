@@ -8,13 +8,11 @@
 //
 // Per frame it takes from the request:
 //   time     the platform's UTC (telemetry time) if set, else the scenario epoch + t_sample_s;
-//   pose     when the pose comes from telemetry: latitude, longitude, altitude and the
-//            aerospace yaw/pitch/roll of the body, the camera looking along body x with image
-//            right = body y and image down = body z. The position is placed in the scene's
-//            local ENU frame (origin at the scenario site) through the WGS84 radii of curvature
-//            at the site (east = Δλ·(N + h)·cos φ, north = Δφ·(M + h), up = Δh), which is
-//            within 0.1 m of the exact transformation over ±1 km. Without telemetry the
-//            scene's own camera is used (a fixed camera such as the RIT roof);
+//   pose     when the platform state carries one (poseFromTelemetry: telemetry's, or the
+//            scenario's [platform] pose when it states one): latitude, longitude, altitude and
+//            the aerospace yaw/pitch/roll of the body, mapped to the scene by PlatformPose
+//            (rt/compose/platform_pose.h). Otherwise the scene's own camera is used (a fixed
+//            camera such as the RIT roof);
 //   lamps    bit i of lampMask switches lamp i (scene order) on;
 //   rows     rowParity ≥ 0 (field_rows = "own"): only that parity's rows are rendered, into the
 //            stage's own images, whose other rows keep the previous field's radiance;
@@ -26,6 +24,7 @@
 #include <memory>
 #include <string>
 
+#include "rt/compose/platform_pose.h"
 #include "rt/compose/scene_setup.h"
 #include "rt/loop/stages.h"
 #include "rt/render_stage/row_pool.h"
@@ -71,8 +70,7 @@ class SceneRenderStage final : public RenderStage {
     double epochUnix_s_ = 0.0;
     double lastGoodT_s_ = 0.0;
     std::atomic<std::int64_t> heldFrames_{0};
-    double lat0_rad_ = 0.0, lon0_rad_ = 0.0, h0_m_ = 0.0;
-    double meridianRadius_m_ = 0.0, primeVerticalRadius_m_ = 0.0;
+    PlatformPose pose_;
     std::uint32_t initialLamps_ = 0;
     int lampCount_ = 0;
     int ids_[kMaxTruthBoxes] = {};

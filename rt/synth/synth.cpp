@@ -70,7 +70,6 @@ void HeldPlatform::sample(double t_sample_s, double /*now_s*/, PlatformState& ou
     out = state_;
     out.t_sample_s = t_sample_s;
     out.utc_unix_s = state_.utc_unix_s + t_sample_s;
-    out.poseFromTelemetry = false;
     out.telemetryRx_s = -1.0;
 }
 

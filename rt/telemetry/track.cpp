@@ -153,7 +153,7 @@ void PlatformTrack::sample(double t_s, PlatformState& out) const noexcept {
         out.pitch_rad = s.b;
         out.roll_rad = s.c;
     }
-    out.poseFromTelemetry = pos_.count > 0 || att_.count > 0;
+    out.poseFromTelemetry = initial_.poseFromTelemetry || pos_.count > 0 || att_.count > 0;
     out.utc_unix_s = haveUtc_ ? utc_unix_s_ + (t_s - utcAt_s_) : initial_.utc_unix_s + t_s;
     out.stale = lastRx_s_ < 0.0 || t_s - lastRx_s_ > staleAfter_s_;
     out.telemetryRx_s = lastRx_s_;

@@ -12,10 +12,8 @@ namespace nvs::fit {
 
 namespace {
 
-// 1998-09-02 03:00 UTC (Table 4-2: the Moon 23° up at 69 %), one frame every 232 s: 48 frames
-// reach 06:02, 1.6° above the horizon by Table 4-2.
-constexpr const char* kUtcStart = "1998-09-02T03:00:00Z";
-constexpr double kFramePeriod_s = 232.0;
+// The RIT site (thesis Figure 5-8 scene node file; ground 0.218 km, Figure 5-9).
+constexpr double kSiteLat_deg = 43.16856, kSiteLon_deg = -77.61583, kSiteHeight_m = 218.0;
 
 std::string number(double v) {
     char b[64];
@@ -34,20 +32,60 @@ const std::vector<EffectRange>& sceneEffectRanges() {
     return r;
 }
 
+SceneSetup sceneSetupFor(const std::string& effect) {
+    SceneSetup s;
+    if (effect == "refraction") {
+        // The Moon's disk in view as it sets: the camera on the roof (the scene camera's
+        // 15.6 m) looking west-south-west at the horizon, one frame every 20 s from 05:57 UTC
+        // (the Moon 2.0° up at azimuth 241°) to 06:13 (its upper limb on the horizon, azimuth
+        // 244°; `nvstim ephem`). The dataset's 128 × 96 pixels of 18 µm at the photocathode see
+        // 3.7° × 3.3° through the 36 mm lens; refraction lifts the disk (18 px across) by
+        // 0.3–0.5° there, 10–17 px, and delays its setting by minutes.
+        s.utcStart = "1998-09-02T05:57:00Z";
+        s.framePeriod_s = 20.0;
+        s.gain_V = 4.0;
+        s.posed = true;
+        s.cameraHeight_m = 15.6;
+        s.yaw_deg = 242.5;
+        s.pitch_deg = 1.0;
+    } else if (effect == "cloud_transmission") {
+        // A whole night under the full Moon (Table 9-1's 97 % Moon, 1998-09-06): from 01:00 UTC
+        // (Sun −15°, Moon rising at 15.5°) over its culmination (37.5° at 05:00) to 09:22 (Moon
+        // 12° in the west), one frame every 640 s. Both halves of the dataset see the Moon's
+        // air mass change (3.7 → 1.6 and 1.6 → 4.8): the cloud's e^(−τm) in the calibration
+        // half is not a constant factor that the camera's gain absorbs.
+        s.utcStart = "1998-09-06T01:00:00Z";
+        s.framePeriod_s = 640.0;
+        s.gain_V = 5.0;  // the full Moon high: the clear-sky frames stay below the ADC's top
+    }
+    return s;
+}
+
 void writeSceneScenario(const std::filesystem::path& file, const std::filesystem::path& sceneFile,
-                        const SkyEffects& fx, const std::string& utcStart) {
+                        const SkyEffects& fx, const SceneSetup& setup) {
     std::ofstream t(file);
     t << "# The RIT roof under the Moon (written for a diagnose dataset)\n"
-      << "[scenario]\nname = \"diagnose-scene\"\nutc_start = \"" << utcStart
+      << "[scenario]\nname = \"diagnose-scene\"\nutc_start = \"" << setup.utcStart
       << "\"\nframe_rate_hz = 29.97\n\n"
-      << "[site]\nlat_deg = 43.16856\nlon_deg = -77.61583\nheight_m = 218.0\n"
+      << "[site]\nlat_deg = " << number(kSiteLat_deg) << "\nlon_deg = " << number(kSiteLon_deg)
+      << "\nheight_m = " << number(kSiteHeight_m) << "\n"
       << "pressure_hPa = " << number(fx.pressure_hPa) << "\n\n"
       << "[atmosphere]\nvisibility_km = 23.0\naerosol = \"rural\"\n"
       << "cloud_optical_depth = " << number(fx.cloudOpticalDepth) << "\n"
       << "lunar_sky_scale = " << number(fx.lunarSkyScale) << "\n\n"
-      << "[camera]\npreset = \"pulnix-ag5745ef3\"\n\n"
-      << "[scene]\nfile = \"" << std::filesystem::absolute(sceneFile).generic_string()
-      << "\"\nlamps_on = []\n";
+      << "[camera]\npreset = \"pulnix-ag5745ef3\"\n\n";
+    if (setup.posed) {
+        t << "[platform]\nlat_deg = " << number(kSiteLat_deg)
+          << "\nlon_deg = " << number(kSiteLon_deg)
+          << "\nalt_m = " << number(kSiteHeight_m + setup.cameraHeight_m)
+          << "\nyaw_deg = " << number(setup.yaw_deg) << "\npitch_deg = " << number(setup.pitch_deg)
+          << "\n\n";
+    }
+    t << "[scene]\nfile = \"" << std::filesystem::absolute(sceneFile).generic_string()
+      << "\"\nlamps_on = [";
+    for (std::size_t i = 0; i < setup.lampsOn.size(); ++i)
+        t << (i ? ", " : "") << "\"" << setup.lampsOn[i] << "\"";
+    t << "]\n";
     if (!t) throw SetupError(file.string() + ": cannot write");
 }
 
@@ -78,12 +116,13 @@ Generated generateScene(const SceneGenSpec& s, const SceneStimulusFactory& facto
         throw SetupError("no scenario effect '" + s.effect + "'");
     std::filesystem::create_directories(s.workDir);
     d.scenario = s.workDir / "scenario.toml";
-    writeSceneScenario(d.scenario, s.sceneFile, model, kUtcStart);
+    const SceneSetup setup = sceneSetupFor(s.effect);
+    writeSceneScenario(d.scenario, s.sceneFile, model, setup);
     d.preset = "pulnix-ag5745ef3";
     d.settings = {{"width", std::to_string(s.width)},
                   {"height", std::to_string(s.height)},
                   {"agc", "\"off\""},
-                  {"gain_V", "6.0"},
+                  {"gain_V", number(setup.gain_V)},
                   // The chain's halo and MCP saturation off in the frames and the model alike:
                   // diagnose's own forward models of them are approximations, and the
                   // scenario sweep is about the scene.
@@ -96,7 +135,7 @@ Generated generateScene(const SceneGenSpec& s, const SceneStimulusFactory& facto
     d.presetFile = sensor::resolveCameraPath(configDir, d.preset);
     d.width = s.width;
     d.height = s.height;
-    d.frameRate_Hz = 1.0 / kFramePeriod_s;
+    d.frameRate_Hz = 1.0 / setup.framePeriod_s;
     d.frameMax_dc = (1 << d.camera.adc_bits) - 1;
     d.unit = "pe/s/m2/sr";
     for (int k = 0; k < s.frames; ++k) {

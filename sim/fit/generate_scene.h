@@ -2,13 +2,16 @@
 // Hidden scenario effects (DESIGN §9): datasets whose stimulus is rendered from a scenario.
 // The truth renders the scene with a random strength of one scenario effect (lunar sky light
 // scale, site pressure for refraction, cloud optical depth), the model under test is the same
-// scenario without it. The scene is the thesis's RIT roof under a setting Moon: frames every few
+// scenario without it. The scene is the thesis's RIT roof (sceneSetupFor): for the null and
+// lunar sky datasets through the scene's own camera under a setting Moon, frames every few
 // minutes for about three hours, from 23° down to the horizon (1998-09-02, the thesis's Table
-// 4-2 night), so that the effects' dependence on the Moon's altitude shows.
+// 4-2 night); for refraction the camera on the roof turned to the setting Moon's disk; for the
+// cloud a whole night under the full Moon (both halves of the dataset see the air mass change).
 
 #include <cstdint>
 #include <filesystem>
 #include <string>
+#include <vector>
 
 #include "sim/fit/generate.h"
 
@@ -26,10 +29,24 @@ struct SceneGenSpec {
 // The detectable range of each scenario effect's strength (docs/validation.md).
 const std::vector<EffectRange>& sceneEffectRanges();
 
-// Writes a scenario of the RIT roof at `sceneFile` with the given effects, starting at
-// utcStart; the dataset's frames set the times.
+// How a dataset of the RIT roof is taken: when, how often, which lamps burn, and where the
+// camera looks (the scene's own camera, or a [platform] pose at the site).
+struct SceneSetup {
+    std::string utcStart = "1998-09-02T03:00:00Z";
+    double framePeriod_s = 232.0;
+    double gain_V = 6.0;
+    std::vector<std::string> lampsOn;
+    bool posed = false;  // a [platform] pose: at the site, this high, turned so
+    double cameraHeight_m = 0.0, yaw_deg = 0.0, pitch_deg = 0.0;
+};
+
+// The setup of each hidden effect's datasets (docs/validation.md, "Scenario effects").
+SceneSetup sceneSetupFor(const std::string& effect);
+
+// Writes a scenario of the RIT roof at `sceneFile` with the given effects and setup; the
+// dataset's frames set the times.
 void writeSceneScenario(const std::filesystem::path& file, const std::filesystem::path& sceneFile,
-                        const SkyEffects& fx, const std::string& utcStart);
+                        const SkyEffects& fx, const SceneSetup& setup);
 
 Generated generateScene(const SceneGenSpec& spec, const SceneStimulusFactory& factory,
                         const std::filesystem::path& configDir);

@@ -29,12 +29,14 @@ struct PlatformState {
     // used when agc is off. gate_s: photocathode gate width commanded [s] (0: the preset's).
     double gain_V = 0.0;
     double gate_s = 0.0;
-    std::int32_t gateMode = 0;       // commanded gate mode: 0 continuous, 1 gated, 2 auto-gated
-    bool agc = true;                 // commanded: the camera's automatic gain control on
-    std::uint32_t lampMask = 0;      // bit i: lamp i of the scene switched on
-    bool poseFromTelemetry = false;  // false: the scenario's initial pose is held
-    bool stale = false;              // the newest telemetry is older than the stale limit
-    double telemetryRx_s = -1.0;     // receive time of the newest sample used (run clock); <0 none
+    std::int32_t gateMode = 0;   // commanded gate mode: 0 continuous, 1 gated, 2 auto-gated
+    bool agc = true;             // commanded: the camera's automatic gain control on
+    std::uint32_t lampMask = 0;  // bit i: lamp i of the scene switched on
+    // The pose above is rendered: telemetry gave it, or the scenario's [platform] states one
+    // (held until telemetry gives another). false: the scene's own camera.
+    bool poseFromTelemetry = false;
+    bool stale = false;           // the newest telemetry is older than the stale limit
+    double telemetryRx_s = -1.0;  // receive time of the newest sample used (run clock); <0 none
 };
 
 }  // namespace nvs::msg

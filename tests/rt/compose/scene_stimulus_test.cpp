@@ -1,7 +1,8 @@
 // Scenario stimuli of measured datasets (rt/compose/scene_stimulus.h, sim/fit/scene_effects.h):
 // the renderer's lunar sky light is linear in its scale (what the fit relies on), refraction
-// raises the Moon as Bennett's formula says, a dataset with `[stimulus] scenario` round-trips and
-// refuses bad input, and hidden scenario effects are named and recovered (a few seeds; the
+// raises the Moon as Bennett's formula says, a scenario's [platform] pose is rendered as the
+// runtime renders it, a dataset with `[stimulus] scenario` round-trips and refuses bad input,
+// and hidden scenario effects are named and recovered (a few seeds; the
 // sweep is `make validate`).
 #include "rt/compose/scene_stimulus.h"
 
@@ -11,6 +12,10 @@
 #include <filesystem>
 #include <fstream>
 
+#include "rt/compose/scenario.h"
+#include "rt/compose/scene_setup.h"
+#include "rt/render_stage/render_stage.h"
+#include "rt/synth/synth.h"
 #include "sim/core/error.h"
 #include "sim/fit/diagnose.h"
 #include "sim/fit/generate_scene.h"
@@ -80,8 +85,10 @@ TEST(SceneStimulus, LunarSkyLightIsLinearInItsScale) {
 TEST(SceneStimulus, RefractionRaisesTheMoonAsBennettsFormula) {
     const fs::path dir = tempDir("refraction");
     SkyEffects fx;
+    SceneSetup setup;
+    setup.utcStart = "1998-09-07T01:00:00Z";
     writeSceneScenario(dir / "scenario.toml", kSource / "scenarios" / "rit" / "scene.toml", fx,
-                       "1998-09-07T01:00:00Z");
+                       setup);
     const sensor::CameraParams cam =
         sensor::loadCamera(kDirs.config, "pulnix-ag5745ef3", {{"width", "32"}, {"height", "24"}});
     auto s = rt::makeSceneStimulus(dir / "scenario.toml", cam,
@@ -142,6 +149,98 @@ TEST(SceneStimulus, DatasetRoundTripAndBadInput) {
     }
 }
 
+// A scenario whose [platform] states a pose: the RIT roof at 64 x 48, the camera on the roof
+// turned toward (yaw_deg, pitch_deg).
+fs::path posedScenario(const fs::path& dir, double yaw_deg, double pitch_deg) {
+    SceneSetup setup;
+    setup.utcStart = "1998-09-02T05:30:00Z";
+    setup.posed = true;
+    setup.cameraHeight_m = 15.6;
+    setup.yaw_deg = yaw_deg;
+    setup.pitch_deg = pitch_deg;
+    SkyEffects fx;
+    writeSceneScenario(dir / "scenario.toml", kSource / "scenarios" / "rit" / "scene.toml", fx,
+                       setup);
+    std::ifstream in(dir / "scenario.toml");
+    std::string text(std::istreambuf_iterator<char>(in), {});
+    // The runtime's camera is the preset with the dataset's settings: the same 64 x 48 pixels.
+    text.replace(text.find("[platform]"), 0, "set = [\"width=64\", \"height=48\"]\n\n");
+    std::ofstream(dir / "scenario.toml") << text;
+    return dir / "scenario.toml";
+}
+
+std::unique_ptr<SceneStimulus> stimulusOf(const fs::path& scenario) {
+    const sensor::Overrides size = {{"width", "64"}, {"height", "48"}};
+    return rt::makeSceneStimulus(
+        scenario, sensor::loadCamera(kDirs.config, "pulnix-ag5745ef3", size),
+        sensor::resolveCameraPath(kDirs.config, "pulnix-ag5745ef3"), size, kDirs);
+}
+
+// The stimulus of a scenario with a [platform] pose is what `nvstim run` renders for it: the
+// runtime's render stage fed by the held platform (no telemetry), at the same time.
+TEST(SceneStimulus, PlatformPoseRendersAsTheRuntime) {
+    const fs::path sc = posedScenario(tempDir("posed"), 240.5, 2.5);
+    const rt::Scenario scenario = rt::loadScenario(sc, kDirs.config);
+    ASSERT_TRUE(scenario.platform.poseFromTelemetry);
+    // A [platform] with camera settings only keeps the scene's own camera.
+    EXPECT_FALSE(
+        rt::loadScenario(kSource / "scenarios" / "thesis-nolight" / "scenario.toml", kDirs.config)
+            .platform.poseFromTelemetry);
+    auto stage = rt::SceneRenderStage::create(scenario, kDirs);
+    rt::HeldPlatform held(scenario.platform);
+    auto stim = stimulusOf(sc);
+    const double rate_Hz = 1.0 / 60.0;
+    const long long n = 12;
+    const ImageF mine = stim->render({n}, rate_Hz, stim->stated(), {}).front();
+    ImageF lpe(64, 48), band(64, 48);
+    msg::FrameRequest req;
+    held.sample(static_cast<double>(n) / rate_Hz, 0.0, req.platform);
+    ASSERT_TRUE(req.platform.poseFromTelemetry);
+    msg::FrameMeta meta;
+    stage->render(req, msg::RadianceTarget{lpe.view(), band.view()}, meta);
+    // The stage takes the time as (utc_start + t) − utc_start: equal to t within rounding.
+    double peak = 0.0;
+    for (int y = 0; y < 48; ++y)
+        for (int x = 0; x < 64; ++x) {
+            EXPECT_NEAR(mine(x, y), lpe(x, y),
+                        1e-5 * std::fabs(static_cast<double>(lpe(x, y))) + 1e-30)
+                << x << "," << y;
+            peak = std::max(peak, static_cast<double>(lpe(x, y)));
+        }
+    EXPECT_GT(peak, 0.0);
+}
+
+// Turned to where the ephemeris puts the Moon, the camera has the Moon's disk at the centre of
+// its image: the pose (position, yaw, pitch, the camera looking along body x) and the sky agree.
+TEST(SceneStimulus, CameraTurnedToTheMoonSeesItsDiskAtTheCentre) {
+    const fs::path dir = tempDir("moon-centre");
+    // 1998-09-02 05:42 UTC (frame 12 of a minute apart from 05:30): the ephemeris's apparent
+    // azimuth and altitude, from a first scenario looking anywhere.
+    auto r = rt::ScenarioRenderer::create(posedScenario(dir, 240.0, 2.0), kDirs);
+    r->prepare(12 * 60.0);
+    const double az_deg = r->sunMoon().moon.az_rad * 180.0 / M_PI;
+    const double alt_deg = r->sunMoon().moon.alt_rad * 180.0 / M_PI;
+    ASSERT_GT(alt_deg, 2.0);
+    auto stim = stimulusOf(posedScenario(dir, az_deg, alt_deg));
+    const ImageF img = stim->render({12}, 1.0 / 60.0, stim->stated(), {}).front();
+    double sx = 0.0, sy = 0.0, sw = 0.0, peak = 0.0;
+    for (int y = 0; y < 48; ++y)
+        for (int x = 0; x < 64; ++x)
+            peak = std::max(peak, static_cast<double>(img(x, y)));
+    for (int y = 0; y < 48; ++y)
+        for (int x = 0; x < 64; ++x)
+            if (static_cast<double>(img(x, y)) > 0.5 * peak) {
+                sx += x + 0.5;
+                sy += y + 0.5;
+                sw += 1.0;
+            }
+    ASSERT_GT(sw, 0.0);
+    // The disk is 0.52° across, about 17 px at this size (64 pixels of 18 µm at the
+    // photocathode behind the 36 mm lens: 1.8°).
+    EXPECT_NEAR(sx / sw, 32.0, 1.0);
+    EXPECT_NEAR(sy / sw, 24.0, 1.0);
+}
+
 // Hidden scenario effects: the top finding names the effect and recovers its strength within
 // 20 %; the null dataset gives no scenario finding.
 void expectNamed(const std::string& effect, std::uint64_t seed) {
@@ -159,6 +258,11 @@ void expectNamed(const std::string& effect, std::uint64_t seed) {
 
 TEST(SceneStimulus, HiddenLunarSkyScatterIsNamed) {
     expectNamed("lunar_sky_scatter", 3);
+}
+
+// The Moon's disk setting in view (generate_scene.cpp): refraction moves it by 10–17 px.
+TEST(SceneStimulus, HiddenRefractionIsNamed) {
+    expectNamed("refraction", 3);
 }
 
 TEST(SceneStimulus, HiddenCloudTransmissionIsNamed) {

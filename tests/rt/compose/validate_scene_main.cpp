@@ -1,7 +1,8 @@
 // The hidden scenario-effect sweep behind `make validate` (docs/validation.md, "Scenario
 // effects"): for lunar_sky_scatter, refraction, cloud_transmission and the null case, N seeds of
-// datasets rendered from the RIT roof under a setting Moon (sim/fit/generate_scene.h), diagnose
-// on the scenario without the effect; writes the table as Markdown.
+// datasets rendered from the RIT roof in each effect's setup (sim/fit/generate_scene.h: the
+// setting Moon; its disk in view for refraction; a full-Moon night for the cloud), diagnose on
+// the scenario without the effect; writes the table as Markdown.
 //
 //   nvs_validate_scene [--seeds N] [--first S] [--size WxH] [--effects a,b] [--out FILE.md] [-v]
 //   nvs_validate_scene --write DIR [--effects NAME] [--first SEED]

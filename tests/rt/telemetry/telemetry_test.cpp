@@ -51,6 +51,23 @@ TEST(PlatformTrack, InterpolatesExtrapolatesAndFlagsStale) {
     EXPECT_DOUBLE_EQ(s.telemetryRx_s, 0.1);
 }
 
+// A scenario whose [platform] states a pose: the pose is rendered before telemetry arrives,
+// and telemetry's attitude replaces its attitude.
+TEST(PlatformTrack, AStatedScenarioPoseIsHeldUntilTelemetryGivesOne) {
+    PlatformState stated;
+    stated.yaw_rad = 240.0 * kRadPerDeg;
+    stated.poseFromTelemetry = true;
+    PlatformTrack track(stated, 0.5, 0.1);
+    PlatformState s;
+    track.sample(0.0, s);
+    EXPECT_TRUE(s.poseFromTelemetry);
+    EXPECT_NEAR(s.yaw_rad * kDegPerRad, 240.0, 1e-9);
+    track.apply(yawAt(0.0, 10.0));
+    track.sample(0.0, s);
+    EXPECT_TRUE(s.poseFromTelemetry);
+    EXPECT_NEAR(s.yaw_rad * kDegPerRad, 10.0, 1e-9);
+}
+
 TEST(SerialInput, DisappearingDeviceAndBadChecksumsAreCountedNotFatal) {
     auto port = std::make_unique<drivers::FakeSerialPort>();
     drivers::FakeSerialPort* fake = port.get();
