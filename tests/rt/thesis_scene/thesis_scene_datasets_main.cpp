@@ -103,7 +103,11 @@ void writeDataset(const Context& c, const fs::path& dir, const std::string& utcS
     fs::create_directories(dir);
     fit::Dataset d;
     d.scenario = dir / "scenario.toml";
-    fit::writeSceneScenario(d.scenario, c.scene, model, utcStart);
+    fit::SceneSetup setup;  // the scene's own camera, no lamps
+    setup.utcStart = utcStart;
+    setup.framePeriod_s = kFramePeriod_s;
+    setup.gain_V = 5.5;
+    fit::writeSceneScenario(d.scenario, c.scene, model, setup);
     d.preset = "pulnix-ag5745ef3";
     // Table 18-5's gain; frame scan: each hourly frame is its own exposure.
     d.settings = {{"width", "128"},
