@@ -7,6 +7,16 @@
 
 namespace nvs::rt {
 
+namespace {
+// How long a thread spins before it sleeps: about 50 µs of pause instructions.
+constexpr int kSpinPauses = 2000;
+inline void cpuPause() {
+#if defined(__x86_64__) || defined(__i386__)
+    __builtin_ia32_pause();
+#endif
+}
+}  // namespace
+
 RowPool::RowPool(int threads, bool realtime) : n_(threads < 1 ? 1 : threads) {
     for (int i = 1; i < n_; ++i) {
         workers_.emplace_back([this, realtime] {
@@ -22,6 +32,7 @@ RowPool::~RowPool() {
         std::lock_guard<std::mutex> g(m_);
         stop_ = true;
         ++job_.generation;
+        published_.store(job_.generation, std::memory_order_release);
     }
     wake_.notify_all();
     for (auto& t : workers_)
@@ -34,6 +45,7 @@ void RowPool::run(int rows, void (*fn)(void*, int, int), void* ctx) noexcept {
         return;
     }
     Job job;
+    bool sleeping = false;
     {
         std::lock_guard<std::mutex> g(m_);
         job.generation = job_.generation + 1;
@@ -47,11 +59,16 @@ void RowPool::run(int rows, void (*fn)(void*, int, int), void* ctx) noexcept {
         finished_.store(0, std::memory_order_relaxed);
         next_.store(static_cast<std::uint64_t>(job.generation) << 32, std::memory_order_release);
         job_ = job;
+        published_.store(job.generation, std::memory_order_release);
+        sleeping = sleepers_ > 0;
     }
-    wake_.notify_all();
+    if (sleeping) wake_.notify_all();
     work(job);
     // Wait for the chunks other threads took (not for threads that took none).
-    if (finished_.load(std::memory_order_acquire) == job.chunks) return;
+    for (int i = 0; i < kSpinPauses; ++i) {
+        if (finished_.load(std::memory_order_acquire) == job.chunks) return;
+        cpuPause();
+    }
     std::unique_lock<std::mutex> l(m_);
     done_.wait(l, [&] { return finished_.load(std::memory_order_acquire) == job.chunks; });
 }
@@ -82,10 +99,17 @@ void RowPool::work(const Job& job) noexcept {
 void RowPool::loop() {
     std::uint32_t seen = 0;
     for (;;) {
+        // The next run is often a few microseconds away: spin a while before sleeping.
+        for (int i = 0; i < kSpinPauses; ++i) {
+            if (published_.load(std::memory_order_acquire) != seen) break;
+            cpuPause();
+        }
         Job job;
         {
             std::unique_lock<std::mutex> l(m_);
+            ++sleepers_;
             wake_.wait(l, [&] { return job_.generation != seen; });
+            --sleepers_;
             if (stop_) return;
             job = job_;
             seen = job.generation;

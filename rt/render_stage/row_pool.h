@@ -7,7 +7,10 @@
 // rows to the others instead of making them wait (each row's result does not depend on which
 // thread computes it, sim/render). The caller returns as soon as every chunk is done: a worker
 // that has not woken by then (a loaded machine) is not waited for, and when it wakes it finds
-// that run's chunks gone (each claim carries the run's number).
+// that run's chunks gone (each claim carries the run's number). Between runs a worker, and the
+// caller waiting for the last chunks, spin for a few tens of microseconds before they sleep:
+// the camera chain hands out six runs a field, back to back, and a futex wake-up for each was a
+// large part of its time on two threads.
 
 #include <atomic>
 #include <condition_variable>
@@ -49,6 +52,8 @@ class RowPool final : public render::RowExecutor {
     std::condition_variable wake_, done_;
     Job job_;  // the current run (under m_)
     bool stop_ = false;
+    int sleepers_ = 0;                         // workers waiting on wake_ (under m_)
+    std::atomic<std::uint32_t> published_{0};  // job_.generation, for the spinning workers
     // The next chunk to take: the run's number in the high 32 bits, the chunk in the low ones
     // (a thread of an earlier run cannot take a chunk of this one).
     std::atomic<std::uint64_t> next_{0};
