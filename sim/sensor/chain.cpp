@@ -581,7 +581,7 @@ void McpStage::begin(const FieldContext& ctx) noexcept {
     field_ = ctx.field;
 }
 
-double McpStage::applyRow(float* __restrict v, int w, int y, int slot) noexcept {
+double McpStage::applyRow(float* __restrict v, int w, int y, int slot, bool sum) noexcept {
     const double g = gain_;
     if (!noise_) return mcpMeanKernel(v, w, static_cast<float>(g));
     // The gain of one electron has mean G and variance (F − 1)G²: a Gamma(k, G/k) with
@@ -674,11 +674,11 @@ double McpStage::applyRow(float* __restrict v, int w, int y, int slot) noexcept 
     }
     if (dense) {
         std::copy(e, e + w, v);
-        return rowSumOf(v, w);
+        return sum ? rowSumOf(v, w) : 0.0;
     }
     for (int j = 0; j < m; ++j)
         v[idx[j]] = e[j];
-    return rowSumOf(e, m);
+    return sum ? rowSumOf(e, m) : 0.0;
 }
 
 namespace {
@@ -1735,7 +1735,8 @@ void IiccdChain::run(ImageView<const float> lpe, FieldContext& ctx) noexcept {
             }
             cathode_.applyRow(r, sig, w, y, b);
             if (mcp_.enabled()) {
-                const double rowOut = mcp_.applyRow(sig, w, y, b);
+                // With saturation the row's output is saturation's sum, not the MCP's.
+                const double rowOut = mcp_.applyRow(sig, w, y, b, !mcpSat_.enabled());
                 rowMcp_[y] = mcpSat_.enabled() ? mcpSat_.applyRow(sig, w, y) : rowOut;
             }
             float* dst = blur_.enabled() ? blur_.inputRow(y) : sig_.row(y);

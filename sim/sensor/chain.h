@@ -187,9 +187,10 @@ class McpStage {
     void apply(ImageView<float> pe, FieldContext& ctx) noexcept;
     // apply() by rows: begin() fixes the gain (ctx.mcpGain) and noise key, applyRow()
     // multiplies row y in place and returns its sum of electrons (`slot`: whose scratch, as in
-    // PhotocathodeStage).
+    // PhotocathodeStage; `sum` false: the sum is not wanted and 0 is returned, unless the MCP
+    // is noise-free).
     void begin(const FieldContext& ctx) noexcept;
-    double applyRow(float* pe, int w, int y, int slot = 0) noexcept;
+    double applyRow(float* pe, int w, int y, int slot = 0, bool sum = true) noexcept;
 
   private:
     bool enabled_;
