@@ -317,6 +317,45 @@ NVS_ROW_CLONES std::int64_t videoGammaKernel(const float* __restrict s, float* _
     return sum;
 }
 
+// Halo (HaloStage), in vector clones like the other row loops; each output element is
+// computed by itself, in the same order in every clone.
+// Cell sums of one pixel row: c[cx] += Σ_k r[cx·kBlock + k] over the whole cells.
+template <int B>
+inline __attribute__((always_inline)) void haloCellSumsBody(const float* __restrict r,
+                                                            float* __restrict c,
+                                                            int cells) noexcept {
+    for (int cx = 0; cx < cells; ++cx) {
+        float acc = 0.0f;
+        for (int k = 0; k < B; ++k)
+            acc += r[cx * B + k];
+        c[cx] += acc;
+    }
+}
+NVS_ROW_CLONES void haloCellSums4(const float* r, float* c, int cells) noexcept {
+    haloCellSumsBody<4>(r, c, cells);
+}
+// out[i] += k·src[i]: one tap of the halo's disk over a row of cells.
+NVS_ROW_CLONES void haloTapKernel(float* __restrict out, const float* __restrict src, float k,
+                                  int n) noexcept {
+    for (int i = 0; i < n; ++i)
+        out[i] += k * src[i];
+}
+// A pixel row back from its cells: r = keep·r + share·spread of its cell.
+template <int B>
+inline __attribute__((always_inline)) void haloAddBackBody(float* __restrict r,
+                                                           const float* __restrict sp, int cells,
+                                                           float keep, float share) noexcept {
+    for (int cx = 0; cx < cells; ++cx) {
+        const float add = share * sp[cx];
+        for (int k = 0; k < B; ++k)
+            r[cx * B + k] = keep * r[cx * B + k] + add;
+    }
+}
+NVS_ROW_CLONES void haloAddBack4(float* r, const float* sp, int cells, float keep,
+                                 float share) noexcept {
+    haloAddBackBody<4>(r, sp, cells, keep, share);
+}
+
 }  // namespace
 
 // ---- 1. Optics ------------------------------------------------------------------------------
@@ -475,6 +514,8 @@ void HaloStage::apply(ImageView<float> rate, RowExecutor& exec) noexcept {
 
 // The loops run along rows with the column index innermost and no division, so that they
 // vectorise (this stage is on every field's path).
+static_assert(HaloStage::kBlock == 4, "haloCellSums4 and haloAddBack4 are for cells of 4 pixels");
+
 void HaloStage::sumCells(ImageView<const float> rate, int cy0, int cy1) noexcept {
     // 1. Sum the rate over each cell: a cell row from its kBlock pixel rows, top to bottom.
     const int fullCells = w_ / kBlock;  // cells of kBlock whole pixels; the last may be partial
@@ -483,12 +524,7 @@ void HaloStage::sumCells(ImageView<const float> rate, int cy0, int cy1) noexcept
         std::fill(c, c + cw_, 0.0f);
         for (int y = cy * kBlock; y < std::min(h_, (cy + 1) * kBlock); ++y) {
             const float* r = rate.row(y);
-            for (int cx = 0; cx < fullCells; ++cx) {
-                float acc = 0.0f;
-                for (int k = 0; k < kBlock; ++k)
-                    acc += r[cx * kBlock + k];
-                c[cx] += acc;
-            }
+            haloCellSums4(r, c, fullCells);
             for (int x = fullCells * kBlock; x < w_; ++x)
                 c[fullCells] += r[x];
         }
@@ -512,8 +548,7 @@ void HaloStage::spread(RowExecutor& exec) noexcept {
                     const float k = kernel_[static_cast<std::size_t>((j + kr_) * n + (i + kr_))];
                     if (k == 0.0f) continue;
                     const int x0 = std::max(0, i), x1 = std::min(cw_, cw_ + i);
-                    for (int cx = x0; cx < x1; ++cx)
-                        out[cx] += k * src[cx - i];
+                    if (x1 > x0) haloTapKernel(out + x0, src + (x0 - i), k, x1 - x0);
                 }
             }
         }
@@ -527,11 +562,7 @@ void HaloStage::addBackRow(float* r, int y) noexcept {
     const float keep = 1.0f - fraction_;
     const float share = fraction_ / static_cast<float>(kBlock * kBlock);
     const float* sp = spread_.row(y / kBlock);
-    for (int cx = 0; cx < fullCells; ++cx) {
-        const float add = share * sp[cx];
-        for (int k = 0; k < kBlock; ++k)
-            r[cx * kBlock + k] = keep * r[cx * kBlock + k] + add;
-    }
+    haloAddBack4(r, sp, fullCells, keep, share);
     for (int x = fullCells * kBlock; x < w_; ++x)
         r[x] = keep * r[x] + share * sp[fullCells];
 }
