@@ -317,6 +317,21 @@ NVS_ROW_CLONES std::int64_t videoGammaKernel(const float* __restrict s, float* _
     return sum;
 }
 
+// MCP row scans (McpStage::applyRow): how many pixels draw (v > 0), and whether any draw of
+// a chunk of 16 is past the table (e < 0).
+NVS_ROW_CLONES int countPositive(const float* __restrict v, int w) noexcept {
+    int m = 0;
+    for (int x = 0; x < w; ++x)
+        m += v[x] > 0.0f ? 1 : 0;
+    return m;
+}
+NVS_ROW_CLONES int countNegative(const float* __restrict e, int n) noexcept {
+    int any = 0;
+    for (int l = 0; l < n; ++l)
+        any += e[l] < 0.0f ? 1 : 0;
+    return any;
+}
+
 // Halo (HaloStage), in vector clones like the other row loops; each output element is
 // computed by itself, in the same order in every clone.
 // Cell sums of one pixel row: c[cx] += Σ_k r[cx·kBlock + k] over the whole cells.
@@ -622,9 +637,7 @@ double McpStage::applyRow(float* __restrict v, int w, int y, int slot, bool sum)
     // noise-free photocathode passes on) Marsaglia–Tsang from the pixel's own stream, its first
     // attempt in a vector pass. The row's words are made for the whole row when many pixels
     // draw, for the drawing pixels' blocks alone when few do: the same words either way.
-    int m = 0;
-    for (int x = 0; x < w; ++x)
-        m += v[x] > 0.0f ? 1 : 0;
+    int m = countPositive(v, w);
     if (m == 0) return 0.0;
     const PixelRng rng(seed_, RngStream::McpGain, field_);
     const std::uint32_t yy = static_cast<std::uint32_t>(y);
@@ -662,12 +675,10 @@ double McpStage::applyRow(float* __restrict v, int w, int y, int slot, bool sum)
     // The pixels past the table (e = −1): rare, so the chunks without one are passed over.
     int* __restrict rest = rest_.get() + off;
     int nRest = 0;
-    for (int j0 = 0; j0 < m; j0 += 16) {
-        const int len = std::min(16, m - j0);
-        int any = 0;
-        for (int l = 0; l < len; ++l)
-            any |= static_cast<int>(e[j0 + l] < 0.0f);
-        if (!any) continue;
+    const int scan = countNegative(e, m) == 0 ? 0 : m;  // none past the table: no list
+    for (int j0 = 0; j0 < scan; j0 += 16) {
+        const int len = std::min(16, scan - j0);
+        if (countNegative(e + j0, len) == 0) continue;
         for (int l = 0; l < len; ++l) {
             rest[nRest] = j0 + l;
             nRest += e[j0 + l] < 0.0f ? 1 : 0;
