@@ -952,9 +952,9 @@ fftwf_plan planOrEstimate(MakePlan&& make, unsigned flags) {
     if (!p) throw SetupError("blur: FFTW could not plan");
     return p;
 }
-// Columns of the spectrum per band: the chain's band count, on whole 64-byte lines.
+// Columns of the spectrum per band: kBlurColumnBands bands, on whole 64-byte lines.
 int columnBandWidth(int wc) {
-    const int perBand = (wc + kChainSlots - 1) / kChainSlots;
+    const int perBand = (wc + kBlurColumnBands - 1) / kBlurColumnBands;
     return (perBand + 7) / 8 * 8;
 }
 }  // namespace
