@@ -77,7 +77,28 @@ std::string regexQuote(const std::string& text) {
     return out;
 }
 
+// The comma-separated texts of a filter (empty ones dropped).
+std::vector<std::string> filterTexts(const std::string& filter) {
+    std::vector<std::string> out;
+    std::size_t start = 0;
+    for (;;) {
+        const std::size_t comma = filter.find(',', start);
+        const std::string part = filter.substr(start, comma - start);
+        if (!part.empty()) out.push_back(part);
+        if (comma == std::string::npos) break;
+        start = comma + 1;
+    }
+    return out;
+}
+
 }  // namespace
+
+bool filterKeeps(const std::optional<std::string>& filter, const std::string& name) {
+    if (!filter) return true;
+    for (const std::string& t : filterTexts(*filter))
+        if (name.find(t) != std::string::npos) return true;
+    return false;
+}
 
 MachineInfo runTimedItems(std::vector<std::unique_ptr<TimedItem>>& items,
                           const std::optional<std::string>& filter) {
@@ -108,9 +129,14 @@ MachineInfo runTimedItems(std::vector<std::unique_ptr<TimedItem>>& items,
     }
     bool any = false;
     for (const auto& p : items)
-        any = any || !filter || p->name.find(*filter) != std::string::npos;
+        any = any || filterKeeps(filter, p->name);
     Collector collector(std::move(byName));
-    const std::string spec = filter ? regexQuote(*filter) : std::string(".");
+    // Google Benchmark's filter: the quoted texts as alternatives.
+    std::string spec = filter ? std::string() : std::string(".");
+    if (filter) {
+        for (const std::string& t : filterTexts(*filter))
+            spec += (spec.empty() ? "" : "|") + regexQuote(t);
+    }
     if (any) benchmark::RunSpecifiedBenchmarks(&collector, spec);
     benchmark::ClearRegisteredBenchmarks();
     return collector.machine;

@@ -42,8 +42,12 @@ struct MachineInfo {
     double mhz = 0.0;
 };
 
-// Registers every item and runs those whose name contains `filter` (all without one),
-// filling their results; progress and a table on stderr.
+// Whether `name` is kept by `filter`: comma-separated texts, kept if it contains any of them
+// (every name without a filter).
+bool filterKeeps(const std::optional<std::string>& filter, const std::string& name);
+
+// Registers every item and runs those `filter` keeps (filterKeeps; all without one), filling
+// their results; progress and a table on stderr.
 MachineInfo runTimedItems(std::vector<std::unique_ptr<TimedItem>>& items,
                           const std::optional<std::string>& filter);
 

@@ -148,8 +148,10 @@ int runCli(int argc, const char* const* argv) {
     BenchOptions bench;
     auto* benchCmd = app.add_subcommand("bench", "Run the performance benchmarks.");
     benchCmd->add_option("--json", bench.json, "Write results as JSON to OUT");
-    benchCmd->add_option("--filter", bench.filter,
-                         "Run only the benchmarks whose name contains TEXT (e.g. sensor_chain)");
+    benchCmd->add_option(
+        "--filter", bench.filter,
+        "Run only the benchmarks whose name contains TEXT, or any of comma-separated TEXTs "
+        "(e.g. sensor_chain,eq71)");
 
     // CLI11 reports an unknown first word only as "a subcommand is required": name it instead.
     if (argc > 1 && argv[1][0] != '-') {

@@ -476,7 +476,7 @@ int writeBenchJson(const Items& items, const std::vector<std::string>& e2e,
 
 int runBench(const BenchOptions& opts) {
     const auto wanted = [&](const std::string& name) {
-        return !opts.filter || name.find(*opts.filter) != std::string::npos;
+        return rt::bench::filterKeeps(opts.filter, name);
     };
     // The shipped scenarios lie beside config/ (in the source tree and in an installed tree).
     const DataDirs dirs = resolveDataDirs();
@@ -503,7 +503,7 @@ int runBench(const BenchOptions& opts) {
     for (const auto& it : items)
         any = any || wanted(it->name);
     if (!any && opts.filter) {
-        throw SetupError("--filter: no benchmark name contains '" + *opts.filter + "'");
+        throw SetupError("--filter: no benchmark name contains any of '" + *opts.filter + "'");
     }
     const rt::bench::MachineInfo machine = rt::bench::runTimedItems(items, opts.filter);
     return writeBenchJson(items, e2e, machine, loadStart, notes, opts);

@@ -317,6 +317,60 @@ NVS_ROW_CLONES std::int64_t videoGammaKernel(const float* __restrict s, float* _
     return sum;
 }
 
+// MCP row scans (McpStage::applyRow): how many pixels draw (v > 0), and whether any draw of
+// a chunk of 16 is past the table (e < 0).
+NVS_ROW_CLONES int countPositive(const float* __restrict v, int w) noexcept {
+    int m = 0;
+    for (int x = 0; x < w; ++x)
+        m += v[x] > 0.0f ? 1 : 0;
+    return m;
+}
+NVS_ROW_CLONES int countNegative(const float* __restrict e, int n) noexcept {
+    int any = 0;
+    for (int l = 0; l < n; ++l)
+        any += e[l] < 0.0f ? 1 : 0;
+    return any;
+}
+
+// Halo (HaloStage), in vector clones like the other row loops; each output element is
+// computed by itself, in the same order in every clone.
+// Cell sums of one pixel row: c[cx] += Σ_k r[cx·kBlock + k] over the whole cells.
+template <int B>
+inline __attribute__((always_inline)) void haloCellSumsBody(const float* __restrict r,
+                                                            float* __restrict c,
+                                                            int cells) noexcept {
+    for (int cx = 0; cx < cells; ++cx) {
+        float acc = 0.0f;
+        for (int k = 0; k < B; ++k)
+            acc += r[cx * B + k];
+        c[cx] += acc;
+    }
+}
+NVS_ROW_CLONES void haloCellSums4(const float* r, float* c, int cells) noexcept {
+    haloCellSumsBody<4>(r, c, cells);
+}
+// out[i] += k·src[i]: one tap of the halo's disk over a row of cells.
+NVS_ROW_CLONES void haloTapKernel(float* __restrict out, const float* __restrict src, float k,
+                                  int n) noexcept {
+    for (int i = 0; i < n; ++i)
+        out[i] += k * src[i];
+}
+// A pixel row back from its cells: r = keep·r + share·spread of its cell.
+template <int B>
+inline __attribute__((always_inline)) void haloAddBackBody(float* __restrict r,
+                                                           const float* __restrict sp, int cells,
+                                                           float keep, float share) noexcept {
+    for (int cx = 0; cx < cells; ++cx) {
+        const float add = share * sp[cx];
+        for (int k = 0; k < B; ++k)
+            r[cx * B + k] = keep * r[cx * B + k] + add;
+    }
+}
+NVS_ROW_CLONES void haloAddBack4(float* r, const float* sp, int cells, float keep,
+                                 float share) noexcept {
+    haloAddBackBody<4>(r, sp, cells, keep, share);
+}
+
 }  // namespace
 
 // ---- 1. Optics ------------------------------------------------------------------------------
@@ -475,6 +529,8 @@ void HaloStage::apply(ImageView<float> rate, RowExecutor& exec) noexcept {
 
 // The loops run along rows with the column index innermost and no division, so that they
 // vectorise (this stage is on every field's path).
+static_assert(HaloStage::kBlock == 4, "haloCellSums4 and haloAddBack4 are for cells of 4 pixels");
+
 void HaloStage::sumCells(ImageView<const float> rate, int cy0, int cy1) noexcept {
     // 1. Sum the rate over each cell: a cell row from its kBlock pixel rows, top to bottom.
     const int fullCells = w_ / kBlock;  // cells of kBlock whole pixels; the last may be partial
@@ -483,12 +539,7 @@ void HaloStage::sumCells(ImageView<const float> rate, int cy0, int cy1) noexcept
         std::fill(c, c + cw_, 0.0f);
         for (int y = cy * kBlock; y < std::min(h_, (cy + 1) * kBlock); ++y) {
             const float* r = rate.row(y);
-            for (int cx = 0; cx < fullCells; ++cx) {
-                float acc = 0.0f;
-                for (int k = 0; k < kBlock; ++k)
-                    acc += r[cx * kBlock + k];
-                c[cx] += acc;
-            }
+            haloCellSums4(r, c, fullCells);
             for (int x = fullCells * kBlock; x < w_; ++x)
                 c[fullCells] += r[x];
         }
@@ -512,8 +563,7 @@ void HaloStage::spread(RowExecutor& exec) noexcept {
                     const float k = kernel_[static_cast<std::size_t>((j + kr_) * n + (i + kr_))];
                     if (k == 0.0f) continue;
                     const int x0 = std::max(0, i), x1 = std::min(cw_, cw_ + i);
-                    for (int cx = x0; cx < x1; ++cx)
-                        out[cx] += k * src[cx - i];
+                    if (x1 > x0) haloTapKernel(out + x0, src + (x0 - i), k, x1 - x0);
                 }
             }
         }
@@ -527,11 +577,7 @@ void HaloStage::addBackRow(float* r, int y) noexcept {
     const float keep = 1.0f - fraction_;
     const float share = fraction_ / static_cast<float>(kBlock * kBlock);
     const float* sp = spread_.row(y / kBlock);
-    for (int cx = 0; cx < fullCells; ++cx) {
-        const float add = share * sp[cx];
-        for (int k = 0; k < kBlock; ++k)
-            r[cx * kBlock + k] = keep * r[cx * kBlock + k] + add;
-    }
+    haloAddBack4(r, sp, fullCells, keep, share);
     for (int x = fullCells * kBlock; x < w_; ++x)
         r[x] = keep * r[x] + share * sp[fullCells];
 }
@@ -581,7 +627,7 @@ void McpStage::begin(const FieldContext& ctx) noexcept {
     field_ = ctx.field;
 }
 
-double McpStage::applyRow(float* __restrict v, int w, int y, int slot) noexcept {
+double McpStage::applyRow(float* __restrict v, int w, int y, int slot, bool sum) noexcept {
     const double g = gain_;
     if (!noise_) return mcpMeanKernel(v, w, static_cast<float>(g));
     // The gain of one electron has mean G and variance (F − 1)G²: a Gamma(k, G/k) with
@@ -591,9 +637,7 @@ double McpStage::applyRow(float* __restrict v, int w, int y, int slot) noexcept 
     // noise-free photocathode passes on) Marsaglia–Tsang from the pixel's own stream, its first
     // attempt in a vector pass. The row's words are made for the whole row when many pixels
     // draw, for the drawing pixels' blocks alone when few do: the same words either way.
-    int m = 0;
-    for (int x = 0; x < w; ++x)
-        m += v[x] > 0.0f ? 1 : 0;
+    int m = countPositive(v, w);
     if (m == 0) return 0.0;
     const PixelRng rng(seed_, RngStream::McpGain, field_);
     const std::uint32_t yy = static_cast<std::uint32_t>(y);
@@ -631,12 +675,10 @@ double McpStage::applyRow(float* __restrict v, int w, int y, int slot) noexcept 
     // The pixels past the table (e = −1): rare, so the chunks without one are passed over.
     int* __restrict rest = rest_.get() + off;
     int nRest = 0;
-    for (int j0 = 0; j0 < m; j0 += 16) {
-        const int len = std::min(16, m - j0);
-        int any = 0;
-        for (int l = 0; l < len; ++l)
-            any |= static_cast<int>(e[j0 + l] < 0.0f);
-        if (!any) continue;
+    const int scan = countNegative(e, m) == 0 ? 0 : m;  // none past the table: no list
+    for (int j0 = 0; j0 < scan; j0 += 16) {
+        const int len = std::min(16, scan - j0);
+        if (countNegative(e + j0, len) == 0) continue;
         for (int l = 0; l < len; ++l) {
             rest[nRest] = j0 + l;
             nRest += e[j0 + l] < 0.0f ? 1 : 0;
@@ -674,11 +716,11 @@ double McpStage::applyRow(float* __restrict v, int w, int y, int slot) noexcept 
     }
     if (dense) {
         std::copy(e, e + w, v);
-        return rowSumOf(v, w);
+        return sum ? rowSumOf(v, w) : 0.0;
     }
     for (int j = 0; j < m; ++j)
         v[idx[j]] = e[j];
-    return rowSumOf(e, m);
+    return sum ? rowSumOf(e, m) : 0.0;
 }
 
 namespace {
@@ -910,9 +952,9 @@ fftwf_plan planOrEstimate(MakePlan&& make, unsigned flags) {
     if (!p) throw SetupError("blur: FFTW could not plan");
     return p;
 }
-// Columns of the spectrum per band: the chain's band count, on whole 64-byte lines.
+// Columns of the spectrum per band: kBlurColumnBands bands, on whole 64-byte lines.
 int columnBandWidth(int wc) {
-    const int perBand = (wc + kChainSlots - 1) / kChainSlots;
+    const int perBand = (wc + kBlurColumnBands - 1) / kBlurColumnBands;
     return (perBand + 7) / 8 * 8;
 }
 }  // namespace
@@ -1735,7 +1777,8 @@ void IiccdChain::run(ImageView<const float> lpe, FieldContext& ctx) noexcept {
             }
             cathode_.applyRow(r, sig, w, y, b);
             if (mcp_.enabled()) {
-                const double rowOut = mcp_.applyRow(sig, w, y, b);
+                // With saturation the row's output is saturation's sum, not the MCP's.
+                const double rowOut = mcp_.applyRow(sig, w, y, b, !mcpSat_.enabled());
                 rowMcp_[y] = mcpSat_.enabled() ? mcpSat_.applyRow(sig, w, y) : rowOut;
             }
             float* dst = blur_.enabled() ? blur_.inputRow(y) : sig_.row(y);

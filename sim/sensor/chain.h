@@ -35,10 +35,15 @@ namespace nvs::sensor {
 
 // Row scratch is rounded up to whole Philox blocks and vector chunks.
 inline constexpr int kRowPad_px = 32;
-// The chain splits a field into this many bands of rows (or columns), whatever the number of
-// threads that run them: each band has its own row scratch in every stage (its slot), and no
-// result depends on which thread ran a band or in what order.
-inline constexpr int kChainSlots = 8;
+// The chain splits a field into this many bands of rows, whatever the number of threads that
+// run them: each band has its own row scratch in every stage (its slot), and no result depends
+// on which thread ran a band or in what order. Sixteen, so that a thread that finishes its last
+// band early waits for at most a sixteenth of a pass (and a thread held up by the machine holds
+// back that much).
+inline constexpr int kChainSlots = 16;
+// The blur's column FFTs run in this many bands of spectrum columns (their FFTW plans, and so
+// the shipped wisdom, are made for that band width).
+inline constexpr int kBlurColumnBands = 8;
 
 // What one call did: the state of the controls and the observables a driver reports.
 struct FieldInfo {
@@ -187,9 +192,10 @@ class McpStage {
     void apply(ImageView<float> pe, FieldContext& ctx) noexcept;
     // apply() by rows: begin() fixes the gain (ctx.mcpGain) and noise key, applyRow()
     // multiplies row y in place and returns its sum of electrons (`slot`: whose scratch, as in
-    // PhotocathodeStage).
+    // PhotocathodeStage; `sum` false: the sum is not wanted and 0 is returned, unless the MCP
+    // is noise-free).
     void begin(const FieldContext& ctx) noexcept;
-    double applyRow(float* pe, int w, int y, int slot = 0) noexcept;
+    double applyRow(float* pe, int w, int y, int slot = 0, bool sum = true) noexcept;
 
   private:
     bool enabled_;
