@@ -245,12 +245,11 @@ void assembleCalls(const Work& w, const MeanModel& mm, const CallPlanes& cp,
 
 std::vector<Plane> predict(Work& w, const MeanModel& mm) {
     std::vector<Plane> S;
-    if (spreadsPerCall(w) && (mm.haloF != 0.0 || mm.glareG != 0.0)) {
+    if (spreadsPerCall(w)) {
         assembleCalls(w, mm, callPlanes(w, mm), S);
         return S;
     }
-    // Without halo or glare (or in frame scan) the pixel-wise effects and the blur may act on
-    // the assembled frames: fewer planes.
+    // Frame scan (a call is a frame) or a scenario candidate's stimulus: on the frames.
     const std::vector<char> needed = neededCalls(w);
     bool modified = false;
     const std::vector<Plane> calls = timeEffects(w, mm, needed, modified);

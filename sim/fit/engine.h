@@ -107,7 +107,9 @@ std::vector<Plane> predict(Work& w, const MeanModel& mm);
 // phosphor still glows. So in field scan the spatial effects act on the calls' planes, and
 // frames are assembled after (spreading the assembled frame lags the halo by half a call:
 // with persistence hidden too, the halo fraction came back 11-30 % low and the decay 7-33 %
-// high). `of[c]` is call c's plane (−1: not needed); a call equal to the one before shares
+// high). The saturation and the extra blur act per call too (the chain's MTF blurs each
+// field; one model for all candidates, so that a candidate is not scored for a change of
+// route). `of[c]` is call c's plane (−1: not needed); a call equal to the one before shares
 // its plane.
 struct CallPlanes {
     std::vector<Plane> planes;
