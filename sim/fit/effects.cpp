@@ -80,23 +80,26 @@ Candidate trySpread(Work& w, const Current& cur, const char* name,
     cand.finding.effect = name;
     // The current model's frames and the spread's basis B = K ⊛ Y − Y: per call and then
     // assembled where the chain spreads each field (engine.h, CallPlanes).
-    const bool perCall = spreadsPerCall(w);
+    // With an afterglow the spread acts on the distinct calls before it (they commute).
+    const bool perCall = spreadsPerCall(w), glow = perCall && cur.mm.persistW != 0.0;
     std::vector<Plane> Y0;
     CallPlanes cp;
-    if (perCall) {
+    if (glow) {
+        cp = distinctCalls(w, cur.mm);
+        assembleCalls(w, cur.mm, afterglow(w, cur.mm, cp), Y0);
+    } else if (perCall) {
         cp = callPlanes(w, cur.mm);
         assembleCalls(w, cur.mm, cp, Y0);
-        w.conv->setFrames(cp.planes);
     } else {
         Y0 = cur.Y;
-        w.conv->setFrames(cur.Y);
     }
+    w.conv->setFrames(perCall ? cp.planes : cur.Y);
     auto basis = [&](double s_um) {
         CallPlanes k{{}, cp.of};
         w.conv->convolve(kernelOf(s_um), k.planes);
         if (!perCall) return minus(k.planes, Y0);
         std::vector<Plane> S;
-        assembleCalls(w, cur.mm, k, S);
+        assembleCalls(w, cur.mm, glow ? afterglow(w, cur.mm, k) : k, S);
         return minus(S, Y0);
     };
     best_um = searchLog(

@@ -46,8 +46,11 @@ void spread2(Work& w, std::vector<Plane>& Y, double frac,
             Y[i][p] = static_cast<float>((1.0 - frac) * Y[i][p] + frac * K[i][p]);
 }
 
-// Per-call planes with bright-source protection and the added phosphor component applied.
-std::vector<Plane> perCall(const Work& w, const MeanModel& mm, const std::vector<char>& needed) {
+// Per-call planes with bright-source protection and the added phosphor component applied, of
+// the model's signal or of the calls' planes `from` (from->of[c] for every call up to the
+// last needed).
+std::vector<Plane> perCall(const Work& w, const MeanModel& mm, const std::vector<char>& needed,
+                           const CallPlanes* from = nullptr) {
     const ModelRun& m = w.m;
     const std::size_t n = static_cast<std::size_t>(w.w) * w.h;
     std::vector<Plane> out(needed.size());
@@ -62,7 +65,7 @@ std::vector<Plane> perCall(const Work& w, const MeanModel& mm, const std::vector
         double f = 1.0;
         if (mm.bspKnee_A > 0.0)
             f = 1.0 / (1.0 + std::pow(m.cathode_A[c] / mm.bspKnee_A, mm.bspExponent));
-        const Plane& X = w.signal()[c];
+        const Plane& X = from ? from->planes[static_cast<std::size_t>(from->of[c])] : w.signal()[c];
         Plane o(needed[c] ? n : 0);
         for (std::size_t p = 0; p < n; ++p) {
             const float x = static_cast<float>(X[p] * f);
@@ -196,17 +199,18 @@ bool spreadsPerCall(const Work& w) {
     return w.m.fieldScan && w.signalOverride == nullptr && !w.m.unblurred.empty();
 }
 
-CallPlanes callPlanes(Work& w, const MeanModel& mm) {
-    const std::vector<char> needed = neededCalls(w);
-    bool modified = false;
-    const std::vector<Plane> calls = timeEffects(w, mm, needed, modified);
-    const std::vector<Plane>& src = modified ? calls : w.signal();
+namespace {
+
+// The calls of `src` where take[c], a call equal to the one before (its signal and, with
+// saturation, its unblurred image) sharing its plane, with the spatial effects of mm.
+CallPlanes spatialCalls(Work& w, const MeanModel& mm, const std::vector<Plane>& src,
+                        const std::vector<char>& take) {
     const bool sat = mm.satQ_dc > 0.0;
     CallPlanes cp;
-    cp.of.assign(needed.size(), -1);
+    cp.of.assign(take.size(), -1);
     std::vector<Plane> U;
-    for (std::size_t c = 0; c < needed.size(); ++c) {
-        if (!needed[c]) continue;
+    for (std::size_t c = 0; c < take.size(); ++c) {
+        if (!take[c]) continue;
         // A call that repeats the one before (a held stimulus, no afterglow): one plane.
         if (c > 0 && cp.of[c - 1] >= 0 && src[c] == src[c - 1] &&
             (!sat || w.m.unblurred[c] == w.m.unblurred[c - 1])) {
@@ -224,6 +228,35 @@ CallPlanes callPlanes(Work& w, const MeanModel& mm) {
     if (mm.haloF != 0.0) spread2(w, cp.planes, mm.haloF, ringKernel(mm.haloR_um, w.pitchX_um));
     if (mm.glareG != 0.0) spread2(w, cp.planes, mm.glareG, expKernel(mm.glareS_um));
     return cp;
+}
+
+}  // namespace
+
+CallPlanes distinctCalls(Work& w, const MeanModel& mm) {
+    const std::vector<char> all(neededCalls(w).size(), 1);
+    return spatialCalls(w, mm, w.signal(), all);
+}
+
+CallPlanes afterglow(const Work& w, const MeanModel& mm, const CallPlanes& spatial) {
+    const std::vector<char> needed = neededCalls(w);
+    CallPlanes out;
+    out.planes = perCall(w, mm, needed, &spatial);
+    out.of.assign(needed.size(), -1);
+    for (std::size_t c = 0; c < needed.size(); ++c)
+        if (needed[c]) out.of[c] = static_cast<int>(c);
+    return out;
+}
+
+CallPlanes callPlanes(Work& w, const MeanModel& mm) {
+    // The added phosphor component is linear in time and the spatial effects act within a
+    // call, so they commute: spatial effects on the distinct calls (a held stimulus repeats),
+    // the afterglow after. The other order spreads every needed call, which the afterglow
+    // makes all distinct.
+    if (mm.persistW != 0.0) return afterglow(w, mm, distinctCalls(w, mm));
+    const std::vector<char> needed = neededCalls(w);
+    bool modified = false;
+    const std::vector<Plane> calls = timeEffects(w, mm, needed, modified);
+    return spatialCalls(w, mm, modified ? calls : w.signal(), needed);
 }
 
 void assembleCalls(const Work& w, const MeanModel& mm, const CallPlanes& cp,

@@ -120,6 +120,12 @@ struct CallPlanes {
 bool spreadsPerCall(const Work& w);
 // The planes of the calls w.sub needs, with every effect of mm but the smear.
 CallPlanes callPlanes(Work& w, const MeanModel& mm);
+// With the added phosphor component: every call's plane (up to the last one w.sub needs, equal
+// neighbours shared) with mm's spatial effects, and the afterglow (and protection) of mm over
+// such planes, for the calls w.sub needs. callPlanes(w, mm) = afterglow(w, mm,
+// distinctCalls(w, mm)) then; a spread K is added as afterglow(K ⊛ distinctCalls).
+CallPlanes distinctCalls(Work& w, const MeanModel& mm);
+CallPlanes afterglow(const Work& w, const MeanModel& mm, const CallPlanes& spatial);
 // Frames of w.sub assembled from the calls' planes as the chain's output, smear added.
 void assembleCalls(const Work& w, const MeanModel& mm, const CallPlanes& cp, std::vector<Plane>& S);
 
