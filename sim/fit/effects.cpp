@@ -80,8 +80,8 @@ Candidate trySpread(Work& w, const Current& cur, const char* name,
     cand.finding.effect = name;
     // The current model's frames and the spread's basis B = K ⊛ Y − Y: per call and then
     // assembled where the chain spreads each field (engine.h, CallPlanes).
-    // With an afterglow the spread acts on the distinct calls before it (they commute).
-    const bool perCall = spreadsPerCall(w), glow = perCall && cur.mm.persistW != 0.0;
+    // The spread acts on the distinct calls before the afterglow and protection (they commute).
+    const bool perCall = spreadsPerCall(w), glow = perCall && viaDistinctCalls(cur.mm);
     std::vector<Plane> Y0;
     CallPlanes cp;
     if (glow) {

@@ -233,11 +233,23 @@ CallPlanes spatialCalls(Work& w, const MeanModel& mm, const std::vector<Plane>& 
 }  // namespace
 
 CallPlanes distinctCalls(Work& w, const MeanModel& mm) {
+    const MeanModel& k = w.spatialKey;
+    if (w.spatialCache && k.satQ_dc == mm.satQ_dc && k.sigma_px == mm.sigma_px &&
+        k.haloF == mm.haloF && k.haloR_um == mm.haloR_um && k.glareG == mm.glareG &&
+        k.glareS_um == mm.glareS_um)
+        return *w.spatialCache;
     const std::vector<char> all(neededCalls(w).size(), 1);
-    return spatialCalls(w, mm, w.signal(), all);
+    w.spatialCache = std::make_shared<const CallPlanes>(spatialCalls(w, mm, w.signal(), all));
+    w.spatialKey = mm;
+    return *w.spatialCache;
+}
+
+bool viaDistinctCalls(const MeanModel& mm) {
+    return mm.persistW != 0.0 || mm.satQ_dc == 0.0;
 }
 
 CallPlanes afterglow(const Work& w, const MeanModel& mm, const CallPlanes& spatial) {
+    if (mm.persistW == 0.0 && !(mm.bspKnee_A > 0.0)) return spatial;  // nothing in time
     const std::vector<char> needed = neededCalls(w);
     CallPlanes out;
     out.planes = perCall(w, mm, needed, &spatial);
@@ -252,7 +264,9 @@ CallPlanes callPlanes(Work& w, const MeanModel& mm) {
     // call, so they commute: spatial effects on the distinct calls (a held stimulus repeats),
     // the afterglow after. The other order spreads every needed call, which the afterglow
     // makes all distinct.
-    if (mm.persistW != 0.0) return afterglow(w, mm, distinctCalls(w, mm));
+    // Without saturation the spatial effects are linear, and protection (a factor per call)
+    // commutes with them too.
+    if (viaDistinctCalls(mm)) return afterglow(w, mm, distinctCalls(w, mm));
     const std::vector<char> needed = neededCalls(w);
     bool modified = false;
     const std::vector<Plane> calls = timeEffects(w, mm, needed, modified);

@@ -50,6 +50,8 @@ struct Score {
     double sum = 0.0;  // Σ_t (before_t − after_t)
 };
 
+struct CallPlanes;
+
 struct Work {
     const Dataset& d;
     const ModelRun& m;
@@ -75,6 +77,9 @@ struct Work {
     // place of m.signal while set.
     const std::vector<Plane>* signalOverride = nullptr;
     const std::vector<Plane>& signal() const { return signalOverride ? *signalOverride : m.signal; }
+    // distinctCalls()'s last result and the spatial effects it was made with (engine.cpp).
+    std::shared_ptr<const CallPlanes> spatialCache;
+    MeanModel spatialKey;
     std::unique_ptr<Convolver> conv;
     std::shared_ptr<sensor::BlurStage> blur;  // the model's MTF (mcp_saturation)
     double pitchX_um = 0.0, pitchY_um = 0.0;  // a pixel at the photocathode
@@ -124,8 +129,13 @@ CallPlanes callPlanes(Work& w, const MeanModel& mm);
 // neighbours shared) with mm's spatial effects, and the afterglow (and protection) of mm over
 // such planes, for the calls w.sub needs. callPlanes(w, mm) = afterglow(w, mm,
 // distinctCalls(w, mm)) then; a spread K is added as afterglow(K ⊛ distinctCalls).
+// The last result is kept (Work::spatialCache): the searches of a time effect (afterglow,
+// protection) on top of a halo or glare reuse it.
 CallPlanes distinctCalls(Work& w, const MeanModel& mm);
 CallPlanes afterglow(const Work& w, const MeanModel& mm, const CallPlanes& spatial);
+// Whether callPlanes(w, mm) is afterglow(w, mm, distinctCalls(w, mm)): with an afterglow, or
+// without saturation (then every spatial effect is linear and commutes with protection).
+bool viaDistinctCalls(const MeanModel& mm);
 // Frames of w.sub assembled from the calls' planes as the chain's output, smear added.
 void assembleCalls(const Work& w, const MeanModel& mm, const CallPlanes& cp, std::vector<Plane>& S);
 
