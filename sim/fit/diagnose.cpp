@@ -29,15 +29,7 @@ void setCurrent(Work& w, Current& cur) {
 
 // Baseline: extra Gaussian blur (MTF) by search, gain and offset by least squares.
 void fitBaseline(Work& w, Current& cur, Result& r) {
-    auto sse = [&](double s) {
-        MeanModel mm = cur.mm;
-        mm.sigma_px = s;
-        const LinFit f = fitLinear(w, predict(w, mm), nullptr);
-        return f.ok ? f.sseCal : 1e300;
-    };
-    const double s0 = sse(0.0);
-    const double sb = searchLog(sse, 0.15, 3.0, 6);
-    if (sse(sb) < s0 * (1.0 - 1e-3)) cur.mm.sigma_px = sb;  // a real gain, not rounding
+    cur.mm.sigma_px = fitBlur(w, cur.mm);
     setCurrent(w, cur);
     r.baseline["gain_rel"] = cur.fit.a;
     r.baseline["offset_dc"] = cur.fit.b;
@@ -342,6 +334,7 @@ void diagnoseCamera(const Dataset& d, const std::filesystem::path& configDir, co
     if (!r.findings.empty()) {
         if (progress) progress("the effects found, refitted together on all frames");
         refitJointly(w, cur, r.findings);
+        r.baseline["mtf_extra_blur_px"] = cur.mm.sigma_px;  // decided again with the effects
         if (progress) progress("the model's noise again, with the effects found");
         resimulateNoise(d, m, w, cur.mm, r.findings, configDir, opt.seed);
     }

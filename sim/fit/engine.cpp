@@ -46,8 +46,11 @@ void spread2(Work& w, std::vector<Plane>& Y, double frac,
             Y[i][p] = static_cast<float>((1.0 - frac) * Y[i][p] + frac * K[i][p]);
 }
 
-// Per-call planes with bright-source protection and the added phosphor component applied.
-std::vector<Plane> perCall(const Work& w, const MeanModel& mm, const std::vector<char>& needed) {
+// Per-call planes with bright-source protection and the added phosphor component applied, of
+// the model's signal or of the calls' planes `from` (from->of[c] for every call up to the
+// last needed).
+std::vector<Plane> perCall(const Work& w, const MeanModel& mm, const std::vector<char>& needed,
+                           const CallPlanes* from = nullptr) {
     const ModelRun& m = w.m;
     const std::size_t n = static_cast<std::size_t>(w.w) * w.h;
     std::vector<Plane> out(needed.size());
@@ -62,7 +65,7 @@ std::vector<Plane> perCall(const Work& w, const MeanModel& mm, const std::vector
         double f = 1.0;
         if (mm.bspKnee_A > 0.0)
             f = 1.0 / (1.0 + std::pow(m.cathode_A[c] / mm.bspKnee_A, mm.bspExponent));
-        const Plane& X = w.signal()[c];
+        const Plane& X = from ? from->planes[static_cast<std::size_t>(from->of[c])] : w.signal()[c];
         Plane o(needed[c] ? n : 0);
         for (std::size_t p = 0; p < n; ++p) {
             const float x = static_cast<float>(X[p] * f);
@@ -79,12 +82,14 @@ std::vector<Plane> perCall(const Work& w, const MeanModel& mm, const std::vector
     return out;
 }
 
-void addSaturation(Work& w, const MeanModel& mm, std::vector<Plane>& S) {
+// S[i] += MTF ⊛ (Q(1 − e^(−U/Q)) − U), U = unblurred[i].
+void addSaturation(Work& w, const MeanModel& mm, std::vector<Plane>& S,
+                   const std::vector<Plane>& unblurred) {
     if (!w.blur)
         w.blur = std::make_shared<sensor::BlurStage>(w.cam, sensor::ChainOptions{}, w.configDir);
     const double q = mm.satQ_dc;
     for (std::size_t i = 0; i < S.size(); ++i) {
-        const Plane& U = w.unblurred[i];
+        const Plane& U = unblurred[i];
         for (int y = 0; y < w.h; ++y) {
             float* row = w.blur->inputRow(y);
             for (int x = 0; x < w.w; ++x) {
@@ -150,41 +155,162 @@ Work::Work(const Dataset& ds, const ModelRun& mr, const sensor::CameraParams& c,
         tileVar[t] = cnt[t] > 0 ? std::max(tileVar[t] / cnt[t], 0.25) : 1.0;
 }
 
-std::vector<Plane> predict(Work& w, const MeanModel& mm) {
-    const ModelRun& m = w.m;
+namespace {
+
+// The calls whose planes frames w.sub are assembled from (k and, in field scan, k − 1).
+std::vector<char> neededCalls(const Work& w) {
     int maxCall = 0;
     for (int k : w.sub)
         maxCall = std::max(maxCall, k);
     std::vector<char> needed(static_cast<std::size_t>(maxCall) + 1, 0);
     for (int k : w.sub) {
         needed[static_cast<std::size_t>(k)] = 1;
-        if (k > 0) needed[static_cast<std::size_t>(k - 1)] = 1;
+        if (k > 0 && w.m.fieldScan) needed[static_cast<std::size_t>(k - 1)] = 1;
     }
-    std::vector<Plane> calls;
-    const bool modified = mm.persistW != 0.0 || mm.bspKnee_A > 0.0;
-    if (modified) calls = perCall(w, mm, needed);
+    return needed;
+}
+
+// Y + s·(column mean of Y), the chain's interline smear.
+void addSmear(const Work& w, double smear, std::vector<Plane>& S) {
+    if (smear == 0.0) return;
+    for (Plane& p : S) {
+        std::vector<double> col(static_cast<std::size_t>(w.w), 0.0);
+        for (int y = 0; y < w.h; ++y)
+            for (int x = 0; x < w.w; ++x)
+                col[static_cast<std::size_t>(x)] += p[static_cast<std::size_t>(y) * w.w + x];
+        for (int y = 0; y < w.h; ++y)
+            for (int x = 0; x < w.w; ++x)
+                p[static_cast<std::size_t>(y) * w.w + x] +=
+                    static_cast<float>(smear * col[static_cast<std::size_t>(x)] / w.h);
+    }
+}
+
+// The calls' planes with protection and the added phosphor component (all calls; the
+// needed ones filled).
+std::vector<Plane> timeEffects(const Work& w, const MeanModel& mm, const std::vector<char>& needed,
+                               bool& modified) {
+    modified = mm.persistW != 0.0 || mm.bspKnee_A > 0.0;
+    return modified ? perCall(w, mm, needed) : std::vector<Plane>{};
+}
+
+}  // namespace
+
+bool spreadsPerCall(const Work& w) {
+    return w.m.fieldScan && w.signalOverride == nullptr && !w.m.unblurred.empty();
+}
+
+namespace {
+
+// The calls of `src` where take[c], a call equal to the one before (its signal and, with
+// saturation, its unblurred image) sharing its plane, with the spatial effects of mm.
+CallPlanes spatialCalls(Work& w, const MeanModel& mm, const std::vector<Plane>& src,
+                        const std::vector<char>& take) {
+    const bool sat = mm.satQ_dc > 0.0;
+    CallPlanes cp;
+    cp.of.assign(take.size(), -1);
+    std::vector<Plane> U;
+    for (std::size_t c = 0; c < take.size(); ++c) {
+        if (!take[c]) continue;
+        // A call that repeats the one before (a held stimulus, no afterglow): one plane.
+        if (c > 0 && cp.of[c - 1] >= 0 && src[c] == src[c - 1] &&
+            (!sat || w.m.unblurred[c] == w.m.unblurred[c - 1])) {
+            cp.of[c] = cp.of[c - 1];
+            continue;
+        }
+        cp.of[c] = static_cast<int>(cp.planes.size());
+        cp.planes.push_back(src[c]);
+        if (sat) U.push_back(w.m.unblurred[c]);
+    }
+    if (sat) addSaturation(w, mm, cp.planes, U);
+    if (mm.sigma_px > 0.0)
+        for (Plane& p : cp.planes)
+            gaussianBlur(p, w.w, w.h, mm.sigma_px);
+    if (mm.haloF != 0.0) spread2(w, cp.planes, mm.haloF, ringKernel(mm.haloR_um, w.pitchX_um));
+    if (mm.glareG != 0.0) spread2(w, cp.planes, mm.glareG, expKernel(mm.glareS_um));
+    return cp;
+}
+
+}  // namespace
+
+CallPlanes distinctCalls(Work& w, const MeanModel& mm) {
+    const MeanModel& k = w.spatialKey;
+    if (w.spatialCache && k.satQ_dc == mm.satQ_dc && k.sigma_px == mm.sigma_px &&
+        k.haloF == mm.haloF && k.haloR_um == mm.haloR_um && k.glareG == mm.glareG &&
+        k.glareS_um == mm.glareS_um)
+        return *w.spatialCache;
+    const std::vector<char> all(neededCalls(w).size(), 1);
+    w.spatialCache = std::make_shared<const CallPlanes>(spatialCalls(w, mm, w.signal(), all));
+    w.spatialKey = mm;
+    return *w.spatialCache;
+}
+
+bool viaDistinctCalls(const MeanModel& mm) {
+    return mm.persistW != 0.0 || mm.satQ_dc == 0.0;
+}
+
+CallPlanes afterglow(const Work& w, const MeanModel& mm, const CallPlanes& spatial) {
+    if (mm.persistW == 0.0 && !(mm.bspKnee_A > 0.0)) return spatial;  // nothing in time
+    const std::vector<char> needed = neededCalls(w);
+    CallPlanes out;
+    out.planes = perCall(w, mm, needed, &spatial);
+    out.of.assign(needed.size(), -1);
+    for (std::size_t c = 0; c < needed.size(); ++c)
+        if (needed[c]) out.of[c] = static_cast<int>(c);
+    return out;
+}
+
+CallPlanes callPlanes(Work& w, const MeanModel& mm) {
+    // The added phosphor component is linear in time and the spatial effects act within a
+    // call, so they commute: spatial effects on the distinct calls (a held stimulus repeats),
+    // the afterglow after. The other order spreads every needed call, which the afterglow
+    // makes all distinct.
+    // Without saturation the spatial effects are linear, and protection (a factor per call)
+    // commutes with them too.
+    if (viaDistinctCalls(mm)) return afterglow(w, mm, distinctCalls(w, mm));
+    const std::vector<char> needed = neededCalls(w);
+    bool modified = false;
+    const std::vector<Plane> calls = timeEffects(w, mm, needed, modified);
+    return spatialCalls(w, mm, modified ? calls : w.signal(), needed);
+}
+
+void assembleCalls(const Work& w, const MeanModel& mm, const CallPlanes& cp,
+                   std::vector<Plane>& S) {
+    S.resize(w.sub.size());
+    for (std::size_t i = 0; i < w.sub.size(); ++i) {
+        const int k = w.sub[i];
+        S[i].resize(static_cast<std::size_t>(w.w) * w.h);
+        for (int y = 0; y < w.h; ++y) {
+            const bool now = !w.m.fieldScan || (y & 1) == (k & 1) || k == 0;
+            const int c = cp.of[static_cast<std::size_t>(now ? k : k - 1)];
+            std::copy_n(
+                cp.planes[static_cast<std::size_t>(c)].data() + static_cast<std::size_t>(y) * w.w,
+                w.w, S[i].data() + static_cast<std::size_t>(y) * w.w);
+        }
+    }
+    addSmear(w, mm.smear, S);
+}
+
+std::vector<Plane> predict(Work& w, const MeanModel& mm) {
+    std::vector<Plane> S;
+    if (spreadsPerCall(w)) {
+        assembleCalls(w, mm, callPlanes(w, mm), S);
+        return S;
+    }
+    // Frame scan (a call is a frame) or a scenario candidate's stimulus: on the frames.
+    const std::vector<char> needed = neededCalls(w);
+    bool modified = false;
+    const std::vector<Plane> calls = timeEffects(w, mm, needed, modified);
     const std::vector<Plane>& src = modified ? calls : w.signal();
-    std::vector<Plane> S(w.sub.size());
+    S.resize(w.sub.size());
     for (std::size_t i = 0; i < w.sub.size(); ++i)
-        assembleFrame(src, w.sub[i], w.w, w.h, m.fieldScan, S[i]);
-    if (mm.satQ_dc > 0.0) addSaturation(w, mm, S);
+        assembleFrame(src, w.sub[i], w.w, w.h, w.m.fieldScan, S[i]);
+    if (mm.satQ_dc > 0.0) addSaturation(w, mm, S, w.unblurred);
     if (mm.sigma_px > 0.0)
         for (Plane& p : S)
             gaussianBlur(p, w.w, w.h, mm.sigma_px);
     if (mm.haloF != 0.0) spread2(w, S, mm.haloF, ringKernel(mm.haloR_um, w.pitchX_um));
     if (mm.glareG != 0.0) spread2(w, S, mm.glareG, expKernel(mm.glareS_um));
-    if (mm.smear != 0.0) {
-        for (Plane& p : S) {
-            std::vector<double> col(static_cast<std::size_t>(w.w), 0.0);
-            for (int y = 0; y < w.h; ++y)
-                for (int x = 0; x < w.w; ++x)
-                    col[static_cast<std::size_t>(x)] += p[static_cast<std::size_t>(y) * w.w + x];
-            for (int y = 0; y < w.h; ++y)
-                for (int x = 0; x < w.w; ++x)
-                    p[static_cast<std::size_t>(y) * w.w + x] +=
-                        static_cast<float>(mm.smear * col[static_cast<std::size_t>(x)] / w.h);
-        }
-    }
+    addSmear(w, mm.smear, S);
     return S;
 }
 
@@ -309,6 +435,18 @@ Score pairedScore(const std::vector<double>& before, const std::vector<double>& 
     s.z = std::min(s.z, 1e3);
     s.score = (s.z > 0.0 ? s.z * s.z : 0.0) - k * std::log(static_cast<double>(n));
     return s;
+}
+
+double fitBlur(Work& w, const MeanModel& mm) {
+    auto sse = [&](double s) {
+        MeanModel m = mm;
+        m.sigma_px = s;
+        const LinFit f = fitLinear(w, predict(w, m), nullptr);
+        return f.ok ? f.sseCal : 1e300;
+    };
+    const double s0 = sse(0.0);
+    const double sb = searchLog(sse, 0.15, 3.0, 6);
+    return sse(sb) < s0 * (1.0 - 1e-3) ? sb : 0.0;  // a real gain, not rounding
 }
 
 double searchLog(const std::function<double(double)>& f, double lo, double hi, int n) {

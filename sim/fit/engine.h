@@ -50,6 +50,8 @@ struct Score {
     double sum = 0.0;  // Σ_t (before_t − after_t)
 };
 
+struct CallPlanes;
+
 struct Work {
     const Dataset& d;
     const ModelRun& m;
@@ -75,6 +77,9 @@ struct Work {
     // place of m.signal while set.
     const std::vector<Plane>* signalOverride = nullptr;
     const std::vector<Plane>& signal() const { return signalOverride ? *signalOverride : m.signal; }
+    // distinctCalls()'s last result and the spatial effects it was made with (engine.cpp).
+    std::shared_ptr<const CallPlanes> spatialCache;
+    MeanModel spatialKey;
     std::unique_ptr<Convolver> conv;
     std::shared_ptr<sensor::BlurStage> blur;  // the model's MTF (mcp_saturation)
     double pitchX_um = 0.0, pitchY_um = 0.0;  // a pixel at the photocathode
@@ -102,6 +107,38 @@ struct Work {
 // The mean model's signal above offset [model DC] for the frames of w.sub.
 std::vector<Plane> predict(Work& w, const MeanModel& mm);
 
+// The chain spreads a halo or glare over each call's image (a field in field scan), and an
+// output frame takes its rows from two calls, which differ wherever the scene changed or the
+// phosphor still glows. So in field scan the spatial effects act on the calls' planes, and
+// frames are assembled after (spreading the assembled frame lags the halo by half a call:
+// with persistence hidden too, the halo fraction came back 11-30 % low and the decay 7-33 %
+// high). The saturation and the extra blur act per call too (the chain's MTF blurs each
+// field; one model for all candidates, so that a candidate is not scored for a change of
+// route). `of[c]` is call c's plane (−1: not needed); a call equal to the one before shares
+// its plane.
+struct CallPlanes {
+    std::vector<Plane> planes;
+    std::vector<int> of;
+};
+// Whether halo and glare are spread per call: field scan, the dataset's own stimulus (a
+// scenario candidate's is spread over the assembled frames) and the unblurred run present.
+bool spreadsPerCall(const Work& w);
+// The planes of the calls w.sub needs, with every effect of mm but the smear.
+CallPlanes callPlanes(Work& w, const MeanModel& mm);
+// With the added phosphor component: every call's plane (up to the last one w.sub needs, equal
+// neighbours shared) with mm's spatial effects, and the afterglow (and protection) of mm over
+// such planes, for the calls w.sub needs. callPlanes(w, mm) = afterglow(w, mm,
+// distinctCalls(w, mm)) then; a spread K is added as afterglow(K ⊛ distinctCalls).
+// The last result is kept (Work::spatialCache): the searches of a time effect (afterglow,
+// protection) on top of a halo or glare reuse it.
+CallPlanes distinctCalls(Work& w, const MeanModel& mm);
+CallPlanes afterglow(const Work& w, const MeanModel& mm, const CallPlanes& spatial);
+// Whether callPlanes(w, mm) is afterglow(w, mm, distinctCalls(w, mm)): with an afterglow, or
+// without saturation (then every spatial effect is linear and commutes with protection).
+bool viaDistinctCalls(const MeanModel& mm);
+// Frames of w.sub assembled from the calls' planes as the chain's output, smear added.
+void assembleCalls(const Work& w, const MeanModel& mm, const CallPlanes& cp, std::vector<Plane>& S);
+
 // b + a·Y + c·B on the calibration frames (B may be null).
 LinFit fitLinear(const Work& w, const std::vector<Plane>& Y, const std::vector<Plane>* B);
 // Held-out squared error per tile of b + a·Y + c·B (clipped to the ADC range) over the tile's
@@ -111,6 +148,10 @@ std::vector<double> heldoutTileSse(const Work& w, const std::vector<Plane>& Y,
 // Paired test over tiles: d_t = before_t − after_t; z = mean/se; score = z² − k·ln(tiles).
 Score pairedScore(const std::vector<double>& before, const std::vector<double>& after,
                   double rmsBefore, double rmsAfter, int k);
+
+// The extra Gaussian blur σ [px] (the MTF) of the mean model mm that fits best on the fit
+// frames (searched over 0.15-3 px), or 0 where it lowers the squared error by 0.1 % or less.
+double fitBlur(Work& w, const MeanModel& mm);
 
 // Minimises f over [lo, hi] on a log grid of n points, then by golden section.
 double searchLog(const std::function<double(double)>& f, double lo, double hi, int n);
