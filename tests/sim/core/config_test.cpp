@@ -5,17 +5,10 @@
 
 #include <string>
 
+#include "tests/sim/core/test_errors.h"
+
 namespace nvs {
 namespace {
-
-std::string errorOf(const std::function<void()>& f) {
-    try {
-        f();
-    } catch (const SetupError& e) {
-        return e.what();
-    }
-    return "";
-}
 
 constexpr const char* kCamera = R"(# a camera preset
 name = "test"
@@ -33,7 +26,7 @@ TEST(Config, MisspelledKeyNamesKeyLineAndSuggestion) {
     EXPECT_EQ(root.get<double>("f_number", 1.4), 1.4);  // absent: the default
     EXPECT_EQ(root.get<int>("width", 0), 768);
     EXPECT_EQ(root.table("mcp").get<double>("gain_V", 0.0), 4.4);
-    const std::string msg = errorOf([&] { doc.finish(); });
+    const std::string msg = nvs::test::setupErrorOf([&] { doc.finish(); });
     EXPECT_EQ(msg, "camera.toml:3:1: unknown key 'f_numbr' (did you mean 'f_number'?)") << msg;
 }
 
@@ -56,7 +49,7 @@ wide = 3
         roi.get<int>("x", 0);
         roi.get<int>("w", 0);
     }
-    const std::string msg = errorOf([&] { doc.finish(); });
+    const std::string msg = nvs::test::setupErrorOf([&] { doc.finish(); });
     EXPECT_NE(msg.find("s.toml:4:1: unknown key 'mcp.gamma'"), std::string::npos) << msg;
     EXPECT_NE(msg.find("1 more unknown key ('roi[0].wide' at line 9)"), std::string::npos) << msg;
 }
@@ -64,22 +57,23 @@ wide = 3
 TEST(Config, UnreadTableIsAnUnknownKey) {
     const ConfigDocument doc = ConfigDocument::parseString("a = 1\n[extra]\nb = 2\n", "t.toml");
     doc.root().get<int>("a", 0);
-    EXPECT_EQ(errorOf([&] { doc.finish(); }), "t.toml:2:2: unknown key 'extra'");
+    EXPECT_EQ(nvs::test::setupErrorOf([&] { doc.finish(); }), "t.toml:2:2: unknown key 'extra'");
 }
 
 TEST(Config, WrongTypeNamesKeyAndPlace) {
     const ConfigDocument doc =
         ConfigDocument::parseString("[optics]\nf_number = \"fast\"\n", "c.toml");
     const std::string msg =
-        errorOf([&] { doc.root().table("optics").get<double>("f_number", 1.0); });
+        nvs::test::setupErrorOf([&] { doc.root().table("optics").get<double>("f_number", 1.0); });
     EXPECT_EQ(msg, "c.toml:2:12: key 'optics.f_number': must be a number, found a string");
 }
 
 TEST(Config, IntegerAcceptedAsNumberButNotViceVersa) {
     const ConfigDocument doc = ConfigDocument::parseString("a = 3\nb = 2.5\n", "n.toml");
     EXPECT_EQ(doc.root().get<double>("a", 0.0), 3.0);
-    EXPECT_NE(errorOf([&] { doc.root().get<int>("b", 0); }).find("must be an integer"),
-              std::string::npos);
+    EXPECT_NE(
+        nvs::test::setupErrorOf([&] { doc.root().get<int>("b", 0); }).find("must be an integer"),
+        std::string::npos);
 }
 
 TEST(Config, ArraysAreTypedElementwise) {
@@ -87,7 +81,7 @@ TEST(Config, ArraysAreTypedElementwise) {
         ConfigDocument::parseString("tau = [0.001, 2, 3e-3]\nbad = [1, \"x\"]\n", "a.toml");
     EXPECT_EQ(doc.root().get<std::vector<double>>("tau", {}),
               (std::vector<double>{0.001, 2.0, 3e-3}));
-    EXPECT_NE(errorOf([&] {
+    EXPECT_NE(nvs::test::setupErrorOf([&] {
                   doc.root().get<std::vector<double>>("bad", {});
               }).find("a.toml:2:7: key 'bad': must be an array of a numbers"),
               std::string::npos);
@@ -96,15 +90,15 @@ TEST(Config, ArraysAreTypedElementwise) {
 TEST(Config, MissingRequiredKeyAndTable) {
     const ConfigDocument doc = ConfigDocument::parseString("[site]\nlat_deg = 43.2\n", "r.toml");
     const ConfigTable site = doc.root().table("site");
-    EXPECT_EQ(errorOf([&] { site.require<double>("lon_deg"); }),
+    EXPECT_EQ(nvs::test::setupErrorOf([&] { site.require<double>("lon_deg"); }),
               "r.toml:1:1: missing required key 'site.lon_deg' (a number)");
-    EXPECT_EQ(errorOf([&] { doc.root().table("camera"); }),
+    EXPECT_EQ(nvs::test::setupErrorOf([&] { doc.root().table("camera"); }),
               "r.toml:1:1: missing required table [camera]");
 }
 
 TEST(Config, SyntaxErrorHasLineAndColumn) {
-    const std::string msg =
-        errorOf([] { ConfigDocument::parseString("a = 1\nb = = 2\n", "bad.toml"); });
+    const std::string msg = nvs::test::setupErrorOf(
+        [] { ConfigDocument::parseString("a = 1\nb = = 2\n", "bad.toml"); });
     EXPECT_EQ(msg.rfind("bad.toml:2:", 0), 0u) << msg;
     EXPECT_NE(msg.find("TOML syntax"), std::string::npos);
 }
@@ -113,7 +107,7 @@ TEST(Config, FailNamesTheValue) {
     const ConfigDocument doc = ConfigDocument::parseString("\n\nwidth = -5\n", "v.toml");
     const ConfigTable root = doc.root();
     const int w = root.get<int>("width", 640);
-    const std::string msg = errorOf([&] {
+    const std::string msg = nvs::test::setupErrorOf([&] {
         if (w <= 0) root.fail("width", "must be positive, is " + std::to_string(w));
     });
     EXPECT_EQ(msg, "v.toml:3:9: key 'width': must be positive, is -5");
@@ -130,7 +124,7 @@ TEST(Config, CompleteFileFinishesCleanly) {
 }
 
 TEST(Config, MissingFileNamesThePath) {
-    EXPECT_EQ(errorOf([] { ConfigDocument::parseFile("/nonexistent/x.toml"); }),
+    EXPECT_EQ(nvs::test::setupErrorOf([] { ConfigDocument::parseFile("/nonexistent/x.toml"); }),
               "/nonexistent/x.toml: cannot open configuration file: No such file or directory");
 }
 

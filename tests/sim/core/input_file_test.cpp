@@ -14,34 +14,32 @@
 #include "sim/core/config.h"
 #include "sim/core/csv.h"
 #include "sim/core/error.h"
+#include "tests/sim/core/test_errors.h"
 
 namespace nvs {
 namespace {
-
-std::string errorOf(const std::function<void()>& f) {
-    try {
-        f();
-    } catch (const SetupError& e) {
-        return e.what();
-    }
-    return "";
-}
 
 TEST(InputFile, OnlyRegularFilesAreRead) {
     const std::string fifo = ::testing::TempDir() + "nvs_input_fifo";
     ::unlink(fifo.c_str());
     ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
-    EXPECT_NE(errorOf([&] { readInputFile(fifo, 1024, "test input"); }).find("a FIFO"),
-              std::string::npos);
-    EXPECT_NE(errorOf([&] { ConfigDocument::parseFile(fifo); }).find(fifo + ": configuration"),
+    EXPECT_NE(
+        nvs::test::setupErrorOf([&] { readInputFile(fifo, 1024, "test input"); }).find("a FIFO"),
+        std::string::npos);
+    EXPECT_NE(nvs::test::setupErrorOf([&] {
+                  ConfigDocument::parseFile(fifo);
+              }).find(fifo + ": configuration"),
               std::string::npos);
     ::unlink(fifo.c_str());
-    EXPECT_NE(errorOf([] { CsvTable::load("/dev/zero"); }).find("character device"),
+    EXPECT_NE(nvs::test::setupErrorOf([] { CsvTable::load("/dev/zero"); }).find("character device"),
               std::string::npos);
-    EXPECT_NE(errorOf([] { readInputFile("/tmp", 1024, "test input"); }).find("a directory"),
+    EXPECT_NE(nvs::test::setupErrorOf([] {
+                  readInputFile("/tmp", 1024, "test input");
+              }).find("a directory"),
               std::string::npos);
-    EXPECT_NE(errorOf([] { requireRegularFile("/dev/null", "x"); }).find("/dev/null: x:"),
-              std::string::npos);
+    EXPECT_NE(
+        nvs::test::setupErrorOf([] { requireRegularFile("/dev/null", "x"); }).find("/dev/null: x:"),
+        std::string::npos);
 }
 
 TEST(InputFile, LimitAndContent) {
@@ -49,7 +47,9 @@ TEST(InputFile, LimitAndContent) {
     std::ofstream(path) << std::string(5000, 'a') << "b";
     EXPECT_EQ(readInputFile(path, 5001, "t").size(), 5001u);
     EXPECT_EQ(readInputFile(path, 5001, "t").back(), 'b');
-    EXPECT_NE(errorOf([&] { readInputFile(path, 5000, "t"); }).find("more than the limit"),
+    EXPECT_NE(nvs::test::setupErrorOf([&] {
+                  readInputFile(path, 5000, "t");
+              }).find("more than the limit"),
               std::string::npos);
     std::ofstream(path, std::ios::trunc).flush();
     EXPECT_TRUE(readInputFile(path, 10, "t").empty());

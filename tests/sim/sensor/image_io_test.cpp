@@ -13,18 +13,10 @@
 #include <string>
 
 #include "sim/core/error.h"
+#include "tests/sim/core/test_errors.h"
 
 namespace nvs::sensor {
 namespace {
-
-std::string errorOf(const std::function<void()>& f) {
-    try {
-        f();
-    } catch (const SetupError& e) {
-        return e.what();
-    }
-    return "<no error>";
-}
 
 TEST(ImageInput, PfmHeaderClaimingMoreThanTheFileHoldsIsRefusedBeforeAllocating) {
     const std::string path = ::testing::TempDir() + "nvs_huge_claim.pfm";
@@ -32,12 +24,12 @@ TEST(ImageInput, PfmHeaderClaimingMoreThanTheFileHoldsIsRefusedBeforeAllocating)
     bytes.resize(36, '\0');
     std::ofstream(path, std::ios::binary) << bytes;
     // The default limits (16384²) refuse it from the header alone, ...
-    EXPECT_NE(errorOf([&] { readRadiance(path); }).find("larger than the limit"),
+    EXPECT_NE(nvs::test::setupErrorOf([&] { readRadiance(path); }).find("larger than the limit"),
               std::string::npos);
     // ... and with a larger limit, the file's 16 bytes of samples refuse it.
     ImageLimits wide;
     wide.maxWidth = wide.maxHeight = 20000;
-    const std::string e = errorOf([&] { readRadiance(path, wide); });
+    const std::string e = nvs::test::setupErrorOf([&] { readRadiance(path, wide); });
     EXPECT_NE(e.find("header promises 1600000000 bytes of samples, the file holds 16"),
               std::string::npos)
         << e;
@@ -45,7 +37,7 @@ TEST(ImageInput, PfmHeaderClaimingMoreThanTheFileHoldsIsRefusedBeforeAllocating)
     ImageLimits cam;
     cam.maxWidth = 768;
     cam.maxHeight = 494;
-    EXPECT_NE(errorOf([&] { readRadiance(path, cam); }).find("limit of 768x494"),
+    EXPECT_NE(nvs::test::setupErrorOf([&] { readRadiance(path, cam); }).find("limit of 768x494"),
               std::string::npos);
 }
 
@@ -66,15 +58,18 @@ TEST(ImageInput, HeaderNumbersAreBounded) {
     // std::stoi threw std::out_of_range on the first; the others are not sizes at all.
     for (const char* h : {"P5\n99999999999 1\n255\n", "P5\n-3 1\n255\n", "P5\n2 1\n70000\n",
                           "P5\n1e3 1\n255\n", "P5\n"}) {
-        EXPECT_NE(errorOf([&] { parsePgm(h, "b.pgm", ImageLimits{}); }).find("b.pgm"),
-                  std::string::npos)
+        EXPECT_NE(
+            nvs::test::setupErrorOf([&] { parsePgm(h, "b.pgm", ImageLimits{}); }).find("b.pgm"),
+            std::string::npos)
             << h;
     }
-    EXPECT_NE(errorOf([] {
+    EXPECT_NE(nvs::test::setupErrorOf([] {
                   parsePfm("Pf\n1 1\nnan\n\0\0\0\0", "c.pfm", ImageLimits{});
               }).find("bad scale"),
               std::string::npos);
-    EXPECT_NE(errorOf([] { parseExr("not an exr", "d.exr", ImageLimits{}); }).find("d.exr"),
+    EXPECT_NE(nvs::test::setupErrorOf([] {
+                  parseExr("not an exr", "d.exr", ImageLimits{});
+              }).find("d.exr"),
               std::string::npos);
 }
 
@@ -94,11 +89,11 @@ TEST(ImageInput, ExrHeaderIsWalkedBeforeOpenExrAllocates) {
     EXPECT_EQ(parseExr(seed("r_half_rle_5x2_offset.exr"), "b.exr", ImageLimits{}).image.width(), 5);
     // Found by the image fuzz target: a 360-byte header whose string attribute claims 1.9 GB,
     // which OpenEXR 3.1 allocated before reading it.
-    const std::string e =
-        errorOf([] { parseExr(seed("crash-exr-attribute-size-1.9GB"), "c.exr", ImageLimits{}); });
+    const std::string e = nvs::test::setupErrorOf(
+        [] { parseExr(seed("crash-exr-attribute-size-1.9GB"), "c.exr", ImageLimits{}); });
     EXPECT_NE(e.find("larger than the file"), std::string::npos) << e;
     // The data window against the limits, before OpenEXR sizes its line table from it.
-    EXPECT_NE(errorOf([] {
+    EXPECT_NE(nvs::test::setupErrorOf([] {
                   ImageLimits l;
                   l.maxWidth = l.maxHeight = 3;
                   parseExr(seed("y_none_4x3.exr"), "d.exr", l);
