@@ -89,6 +89,26 @@ void writeSceneScenario(const std::filesystem::path& file, const std::filesystem
     if (!t) throw SetupError(file.string() + ": cannot write");
 }
 
+void prepareSceneDataset(Dataset& d, const std::string& preset, const sensor::Overrides& settings,
+                         int width, int height, int frames, double framePeriod_s,
+                         const SceneStimulusFactory& factory,
+                         const std::filesystem::path& configDir) {
+    d.preset = preset;
+    d.settings = settings;
+    d.camera = loadModelCamera(configDir, d.preset, d.settings, d.cameraExtra);
+    d.presetFile = sensor::resolveCameraPath(configDir, d.preset);
+    d.width = width;
+    d.height = height;
+    d.frameRate_Hz = 1.0 / framePeriod_s;
+    d.frameMax_dc = (1 << d.camera.adc_bits) - 1;
+    d.unit = "pe/s/m2/sr";
+    for (int k = 0; k < frames; ++k) {
+        d.frameNumbers.push_back(k);
+        d.stimulusOfFrame.push_back(k);
+    }
+    d.scene = factory(d.scenario, d.camera, d.presetFile, d.settings);
+}
+
 Generated generateScene(const SceneGenSpec& s, const SceneStimulusFactory& factory,
                         const std::filesystem::path& configDir) {
     Generated g;
@@ -118,31 +138,20 @@ Generated generateScene(const SceneGenSpec& s, const SceneStimulusFactory& facto
     d.scenario = s.workDir / "scenario.toml";
     const SceneSetup setup = sceneSetupFor(s.effect);
     writeSceneScenario(d.scenario, s.sceneFile, model, setup);
-    d.preset = "pulnix-ag5745ef3";
-    d.settings = {{"width", std::to_string(s.width)},
-                  {"height", std::to_string(s.height)},
-                  {"agc", "\"off\""},
-                  {"gain_V", number(setup.gain_V)},
-                  // The chain's halo and MCP saturation off in the frames and the model alike:
-                  // diagnose's own forward models of them are approximations, and the
-                  // scenario sweep is about the scene.
-                  {"halo.enabled", "false"},
-                  {"mcp_saturation.enabled", "false"},
-                  // Each frame of a time-lapse is its own exposure: frame scan, so that no frame
-                  // holds a field of the one taken minutes before.
-                  {"video.scan", "\"frame\""}};
-    d.camera = loadModelCamera(configDir, d.preset, d.settings, d.cameraExtra);
-    d.presetFile = sensor::resolveCameraPath(configDir, d.preset);
-    d.width = s.width;
-    d.height = s.height;
-    d.frameRate_Hz = 1.0 / setup.framePeriod_s;
-    d.frameMax_dc = (1 << d.camera.adc_bits) - 1;
-    d.unit = "pe/s/m2/sr";
-    for (int k = 0; k < s.frames; ++k) {
-        d.frameNumbers.push_back(k);
-        d.stimulusOfFrame.push_back(k);
-    }
-    d.scene = factory(d.scenario, d.camera, d.presetFile, d.settings);
+    prepareSceneDataset(d, "pulnix-ag5745ef3",
+                        {{"width", std::to_string(s.width)},
+                         {"height", std::to_string(s.height)},
+                         {"agc", "\"off\""},
+                         {"gain_V", number(setup.gain_V)},
+                         // The chain's halo and MCP saturation off in the frames and the model
+                         // alike: diagnose's own forward models of them are approximations, and the
+                         // scenario sweep is about the scene.
+                         {"halo.enabled", "false"},
+                         {"mcp_saturation.enabled", "false"},
+                         // Each frame of a time-lapse is its own exposure: frame scan, so that no
+                         // frame holds a field of the one taken minutes before.
+                         {"video.scan", "\"frame\""}},
+                        s.width, s.height, s.frames, setup.framePeriod_s, factory, configDir);
     d.sceneEffects = d.scene->stated();
     d.stimuli = d.scene->render(d.frameNumbers, d.frameRate_Hz, model, {});
     const std::vector<ImageF> seen = d.scene->render(d.frameNumbers, d.frameRate_Hz, truth, {});

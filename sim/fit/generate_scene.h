@@ -48,6 +48,14 @@ SceneSetup sceneSetupFor(const std::string& effect);
 void writeSceneScenario(const std::filesystem::path& file, const std::filesystem::path& sceneFile,
                         const SkyEffects& fx, const SceneSetup& setup);
 
+// The parts of a generated scenario dataset other than its stimuli and frames, for the scenario
+// already at d.scenario: the camera (`preset` with `settings`, whose width and height must be
+// `width` × `height`), frame k at k · framePeriod_s, and the scene's renderer.
+void prepareSceneDataset(Dataset& d, const std::string& preset, const sensor::Overrides& settings,
+                         int width, int height, int frames, double framePeriod_s,
+                         const SceneStimulusFactory& factory,
+                         const std::filesystem::path& configDir);
+
 Generated generateScene(const SceneGenSpec& spec, const SceneStimulusFactory& factory,
                         const std::filesystem::path& configDir);
 

@@ -6,8 +6,8 @@
 // night, a frame every 15 minutes, and realised through the PULNiX camera: every frame's radiance
 // is nvstim's rendering of that instant scaled so that the scene's horizontal illuminance is the
 // table's. The scene's light then keeps nvstim's spatial pattern (shadows, the direct/sky split);
-// what the frames carry from the table is its level at the table's instants (hourly or two-
-// hourly); frames between them take the realisation factor interpolated linearly in time.
+// what the frames carry from the table is its level at the table's instants (an hour or two
+// apart); frames between them take the realisation factor interpolated linearly in time.
 //
 //   t8-2_night_illuminance  Tables 8-2 and 10-1: the full-moon night of 9/6/98, 9 PM - 4 AM EDT.
 //                           make_adb's total (direct Moon + 0.0012 lx night sky, no lunar sky
@@ -51,8 +51,11 @@ namespace fs = std::filesystem;
 constexpr double kFramePeriod_s = 900.0;  // a frame every 15 minutes
 constexpr double kSiteHeight_m = 218.0;   // as fit::writeSceneScenario's site
 constexpr double kVisibility_km = 23.0;   // thesis §9.1: clear sky, 23 km
-// 9 PM to 4 AM EDT (Table 8-2's night rows).
+// Table 8-2's night: 9 PM to 4 AM EDT.
+constexpr const char* kNightStart = "1998-09-07T01:00:00Z";  // 9/6/98 9 PM EDT
 constexpr int kNightFrames = 29;
+// Table 18-5's gain.
+constexpr double kGain_V = 5.5;
 
 // One instant of a table: its time (seconds after the dataset's start) and the level the
 // frame's realisation needs there (meaning per dataset).
@@ -94,7 +97,7 @@ sky::HorizontalTerms horizontalAt(const Context& c, const std::string& iso,
     return c.sky.horizontal(sky::SkyModel::kLuxBand, s.moon);
 }
 
-// Renders the scenario (the model's effects `model`) for `frames` hourly frames from utcStart
+// Renders the scenario (the model's effects `model`) for `frames` frames from utcStart
 // and writes the dataset whose frame k is the camera's video of realise(k, L0, L1), where L0 is
 // the rendering with the lunar sky light left out and L1 with it (nvstim's own).
 void writeDataset(const Context& c, const fs::path& dir, const std::string& utcStart, int frames,
@@ -106,27 +109,18 @@ void writeDataset(const Context& c, const fs::path& dir, const std::string& utcS
     fit::SceneSetup setup;  // the scene's own camera, no lamps
     setup.utcStart = utcStart;
     setup.framePeriod_s = kFramePeriod_s;
-    setup.gain_V = 5.5;
+    setup.gain_V = kGain_V;
     fit::writeSceneScenario(d.scenario, c.scene, model, setup);
-    d.preset = "pulnix-ag5745ef3";
-    // Table 18-5's gain; frame scan: each hourly frame is its own exposure.
-    d.settings = {{"width", "128"},
-                  {"height", "96"},
-                  {"agc", "\"off\""},
-                  {"gain_V", "5.5"},
-                  {"video.scan", "\"frame\""}};
-    d.camera = fit::loadModelCamera(c.config, d.preset, d.settings, d.cameraExtra);
-    d.presetFile = sensor::resolveCameraPath(c.config, d.preset);
-    d.width = 128;
-    d.height = 96;
-    d.frameRate_Hz = 1.0 / kFramePeriod_s;
-    d.frameMax_dc = (1 << d.camera.adc_bits) - 1;
-    d.unit = "pe/s/m2/sr";
-    for (int k = 0; k < frames; ++k) {
-        d.frameNumbers.push_back(k);
-        d.stimulusOfFrame.push_back(k);
-    }
-    d.scene = c.factory(d.scenario, d.camera, d.presetFile, d.settings);
+    char gain[32];
+    std::snprintf(gain, sizeof gain, "%g", kGain_V);
+    // Frame scan: each frame of the night is its own exposure.
+    fit::prepareSceneDataset(d, "pulnix-ag5745ef3",
+                             {{"width", "128"},
+                              {"height", "96"},
+                              {"agc", "\"off\""},
+                              {"gain_V", gain},
+                              {"video.scan", "\"frame\""}},
+                             128, 96, frames, kFramePeriod_s, c.factory, c.config);
     fit::SkyEffects without = model, with = model;
     without.lunarSkyScale = 0.0;
     with.lunarSkyScale = 1.0;
@@ -150,8 +144,7 @@ void writeDataset(const Context& c, const fs::path& dir, const std::string& utcS
 
 // Table 8-2's night rows (Moon up, Sun below -12°: the 6 AM row's 0.61 lx of twilight is out
 // of the night sky model's scope): time and make_adb's total illuminance.
-std::vector<Row> table8_2Night(const CsvTable& t, const std::string& utcStart, const Context& c,
-                               std::vector<double>* adbTotal) {
+std::vector<Row> table8_2Night(const CsvTable& t, const std::string& utcStart, const Context& c) {
     const auto cTime = t.column("time_local_iso_edt_assumed");
     const auto cSun = t.column("sun_elevation_deg");
     const auto cMoon = t.column("moon_elevation_deg");
@@ -163,31 +156,28 @@ std::vector<Row> table8_2Night(const CsvTable& t, const std::string& utcStart, c
         const sky::HorizontalTerms h = horizontalAt(c, iso);
         const double adb = t.number(r, cTotal);
         ratio.push_back({secondsBetween(utcStart, iso), adb / (h.moonDirect + h.nightSky)});
-        if (adbTotal) adbTotal->push_back(adb);
         std::printf("  %s make_adb %.4f lx, nvstim direct + night sky %.4f lx, lunar sky %.4f lx\n",
                     iso.c_str(), adb, h.moonDirect + h.nightSky, h.moonSky);
     }
     return ratio;
 }
 
-void night8_2(const Context& c, const fs::path& thesis, const fs::path& out) {
-    const CsvTable t = CsvTable::load(thesis / "table8-2_illuminance_timeline_make_adb.csv");
-    const std::string start = "1998-09-07T01:00:00Z";  // 9/6/98 9 PM EDT
-    std::printf("t8-2_night_illuminance (Tables 8-2, 10-1):\n");
-    const std::vector<Row> k = table8_2Night(t, start, c, nullptr);
+// `k`: Table 8-2's night as table8_2Night gives it.
+void night8_2(const Context& c, const std::vector<Row>& k, const fs::path& out) {
+    std::printf("t8-2_night_illuminance (Tables 8-2, 10-1)\n");
     fit::SkyEffects model;
     model.lunarSkyScale = 0.0;
-    writeDataset(c, out / "t8-2_night_illuminance", start, kNightFrames, model,
+    writeDataset(c, out / "t8-2_night_illuminance", kNightStart, kNightFrames, model,
                  [&](int f, float l0, float) {
                      return static_cast<float>(interpolate(k, f * kFramePeriod_s)) * l0;
                  });
 }
 
-void lunarScattering8_3(const Context& c, const fs::path& thesis, const fs::path& out) {
-    const CsvTable t8_2 = CsvTable::load(thesis / "table8-2_illuminance_timeline_make_adb.csv");
+// `k`: Table 8-2's night as table8_2Night gives it.
+void lunarScattering8_3(const Context& c, const std::vector<Row>& k, const fs::path& thesis,
+                        const fs::path& out) {
     const CsvTable t8_3 =
         CsvTable::load(thesis / "table8-3_illuminance_literature_vs_make_adb.csv");
-    const std::string start = "1998-09-07T01:00:00Z";  // 9/6/98 9 PM EDT
     std::printf("t8-3_lunar_scattering (Tables 8-2, 8-3):\n");
     // The full-moon row: make_adb's range and the thesis's estimate with lunar scattering.
     std::size_t full = t8_3.rowCount();
@@ -198,16 +188,12 @@ void lunarScattering8_3(const Context& c, const fs::path& thesis, const fs::path
                           t8_3.number(full, t8_3.column("make_adb_low_lux"));
     const double addHigh = t8_3.number(full, t8_3.column("with_est_lunar_scattering_high_lux")) -
                            t8_3.number(full, t8_3.column("make_adb_high_lux"));
-    const std::vector<Row> k = table8_2Night(t8_2, start, c, nullptr);
     // The estimate's two ends at the night's lowest (first row) and highest Moon; the added
     // light linear in the Moon's altitude between them; its share of nvstim's lunar sky light.
+    const astro::AstroTime t0 = astro::astroTimeFromUtc(astro::parseIsoUtc(kNightStart));
     std::vector<double> altitude_deg, share;
     for (int f = 0; f < kNightFrames; ++f) {
-        const astro::MoonState m =
-            c.ephemeris
-                .compute(astro::astroTimeFromUtc(astro::parseIsoUtc(start, start))
-                             .plusSeconds(f * kFramePeriod_s))
-                .moon;
+        const astro::MoonState m = c.ephemeris.compute(t0.plusSeconds(f * kFramePeriod_s)).moon;
         altitude_deg.push_back(m.alt_rad * kDegPerRad);
         share.push_back(c.sky.horizontal(sky::SkyModel::kLuxBand, m).moonSky);
     }
@@ -222,7 +208,7 @@ void lunarScattering8_3(const Context& c, const fs::path& thesis, const fs::path
     }
     fit::SkyEffects model;
     model.lunarSkyScale = 0.0;
-    writeDataset(c, out / "t8-3_lunar_scattering", start, kNightFrames, model,
+    writeDataset(c, out / "t8-3_lunar_scattering", kNightStart, kNightFrames, model,
                  [&](int f, float l0, float l1) {
                      const double kf = interpolate(k, f * kFramePeriod_s);
                      return static_cast<float>(
@@ -290,8 +276,11 @@ int main(int argc, char** argv) {
                   astro::Ephemeris(site),
                   sky::SkyModel::create(skyConfig, dirs)};
         const fs::path thesis = argv[1], out = argv[2];
-        night8_2(c, thesis, out);
-        lunarScattering8_3(c, thesis, out);
+        std::printf("Table 8-2's night:\n");
+        const std::vector<Row> k = table8_2Night(
+            CsvTable::load(thesis / "table8-2_illuminance_timeline_make_adb.csv"), kNightStart, c);
+        night8_2(c, k, out);
+        lunarScattering8_3(c, k, thesis, out);
         ephemeris4_2(c, thesis, out);
     } catch (const std::exception& e) {
         std::fprintf(stderr, "nvs_thesis_scene_datasets: %s\n", e.what());
