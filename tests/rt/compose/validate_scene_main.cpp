@@ -21,6 +21,7 @@
 #include "rt/compose/scene_stimulus.h"
 #include "sim/fit/diagnose.h"
 #include "sim/fit/generate_scene.h"
+#include "tests/sim/fit/sweep_log.h"
 
 namespace {
 
@@ -124,17 +125,7 @@ int main(int argc, char** argv) {
                 row.worstErr = std::max(row.worstErr, err);
             }
             if (verbose) {
-                std::fprintf(stderr, "%s seed %d:", c.c_str(), s);
-                for (const auto& [k, v] : g.truth)
-                    std::fprintf(stderr, " %s=%.4g", k.c_str(), v);
-                std::fprintf(stderr, " ->");
-                for (const auto& f : r.findings) {
-                    std::fprintf(stderr, " [%s z=%.1f", f.effect.c_str(), f.z);
-                    for (const auto& [k, v] : f.parameters)
-                        std::fprintf(stderr, " %s=%.4g", k.c_str(), v);
-                    std::fprintf(stderr, "]");
-                }
-                std::fprintf(stderr, "\n");
+                fit::test::logSeed(c, s, g.truth, r);
                 for (const auto& t : r.trials)
                     if (t.effect == "lunar_sky_scatter" || t.effect == "refraction" ||
                         t.effect == "cloud_transmission")

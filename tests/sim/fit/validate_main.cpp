@@ -20,6 +20,7 @@
 
 #include "sim/fit/diagnose.h"
 #include "sim/fit/generate.h"
+#include "tests/sim/fit/sweep_log.h"
 
 namespace {
 
@@ -151,17 +152,7 @@ int main(int argc, char** argv) {
                 row.worstErr = std::max(row.worstErr, all ? err : 0.0);
             }
             if (verbose) {
-                std::fprintf(stderr, "%s seed %d:", c.c_str(), s);
-                for (const auto& [k, v] : g.truth)
-                    std::fprintf(stderr, " %s=%.4g", k.c_str(), v);
-                std::fprintf(stderr, " ->");
-                for (const auto& f : r.findings) {
-                    std::fprintf(stderr, " [%s z=%.1f", f.effect.c_str(), f.z);
-                    for (const auto& [k, v] : f.parameters)
-                        std::fprintf(stderr, " %s=%.4g", k.c_str(), v);
-                    std::fprintf(stderr, "]");
-                }
-                std::fprintf(stderr, "\n");
+                nvs::fit::test::logSeed(c, s, g.truth, r);
                 if (verbose && argc > 0 && std::getenv("NVS_VALIDATE_TRIALS")) {
                     for (const auto& t : r.trials)
                         std::fprintf(stderr, "    %s z=%.2f score=%.1f rms %.4f->%.4f %s\n",
