@@ -4,23 +4,14 @@
 #include <cmath>
 #include <cstdio>
 
+#include "sim/fit/text.h"
+
 namespace nvs::fit {
 
 namespace {
 
-// printf-style text of up to three numbers.
-template <typename... A>
-std::string fmtText(const char* f, A... a) {
-    char buf[320];
-#pragma GCC diagnostic push
-#pragma GCC diagnostic ignored "-Wformat-nonliteral"
-    std::snprintf(buf, sizeof buf, f, a...);
-#pragma GCC diagnostic pop
-    return buf;
-}
-
 std::string num(double v) {
-    return fmtText("%.6g", v);
+    return textf("%.6g", v);
 }
 
 // Scores a candidate b + a·Y + c·B against the current model on the held-out frames.
@@ -66,8 +57,8 @@ Candidate& material(Candidate& c) {
     const double share = b > 0.0 ? 1.0 - (a * a) / (b * b) : 0.0;
     if (c.valid && share < kMinErrorShare) {
         c.valid = false;
-        c.why = fmtText("explains %.3g %% of the held-out squared error (at least %.2g %% needed)",
-                        100.0 * share, 100.0 * kMinErrorShare);
+        c.why = textf("explains %.3g %% of the held-out squared error (at least %.2g %% needed)",
+                      100.0 * share, 100.0 * kMinErrorShare);
     }
     return c;
 }
@@ -117,7 +108,7 @@ Candidate trySpread(Work& w, const Current& cur, const char* name,
     const bool inside = best_um > 1.05 * lo_um && best_um < 0.95 * hi_um;
     cand.valid = cand.fit.ok && frac > 0.0 && frac < 1.0 && inside;
     if (!cand.valid)
-        cand.why = fmtText(
+        cand.why = textf(
             "fraction %.3g (must be in (0, 1)), scale %.4g um (must be inside "
             "%.4g..%.4g um)",
             frac, best_um, lo_um, hi_um);
@@ -142,7 +133,7 @@ Candidate tryHalo(Work& w, const Current& cur) {
     c.mm = cur.mm;
     c.mm.haloF = f;
     c.mm.haloR_um = r_um;
-    c.finding.cause = fmtText(
+    c.finding.cause = textf(
         "light around bright points on a ring of %.0f um (%.1f px): %.1f %% of the photoelectrons "
         "return to the photocathode a ring away (electron back-scatter off the MCP input), which "
         "the model lacks",
@@ -163,7 +154,7 @@ Candidate tryGlare(Work& w, const Current& cur) {
     c.mm = cur.mm;
     c.mm.glareG = g;
     c.mm.glareS_um = s_um;
-    c.finding.cause = fmtText(
+    c.finding.cause = textf(
         "a broad veil around bright areas (scale %.0f um, %.1f px): %.1f %% of the light is "
         "scattered by the optics or tube window over the frame, which the model lacks",
         s_um, s_um / w.pitchX_um, 100.0 * g);
@@ -183,12 +174,12 @@ Candidate trySmear(Work& w, const Current& cur) {
     score(w, cur, c, cur.Y, &B, 1);
     const double s = c.fit.a != 0.0 ? c.fit.c / c.fit.a : 0.0;
     c.valid = c.fit.ok && s > 0.0;
-    if (!c.valid) c.why = fmtText("smear %.3g is not > 0", s);
+    if (!c.valid) c.why = textf("smear %.3g is not > 0", s);
     c.mm = cur.mm;
     c.mm.smear += s;
     const double total = w.cam.smear_rel + c.mm.smear;
     c.finding.parameters = {{"smear_rel", total}};
-    c.finding.cause = fmtText(
+    c.finding.cause = textf(
         "columns carry a share of their own mean signal (%.2f %% of the column mean): charge "
         "collected while the column is shifted out, which the model lacks",
         100.0 * s);
@@ -218,12 +209,12 @@ Candidate tryPersistence(Work& w, const Current& cur) {
     score(w, cur, c, cur.Y, &B, 2);
     const double wgt = c.fit.a != 0.0 ? c.fit.c / c.fit.a : 0.0;
     c.valid = c.fit.ok && wgt > 0.0 && wgt < 1.0 && cur.mm.persistW == 0.0;
-    if (!c.valid) c.why = fmtText("weight %.3g is not in (0, 1)", wgt);
+    if (!c.valid) c.why = textf("weight %.3g is not in (0, 1)", wgt);
     c.mm = cur.mm;
     c.mm.persistW = wgt;
     c.mm.persistTau_s = tau;
     c.finding.parameters = {{"weight", wgt}, {"decay_s", tau}};
-    c.finding.cause = fmtText(
+    c.finding.cause = textf(
         "frames lag the stimulus: %.1f %% of the screen's light comes from a phosphor decay "
         "of %.1f ms (%.1f frame periods), which the model's phosphor lacks",
         100.0 * wgt, 1e3 * tau, tau / T);
@@ -272,10 +263,10 @@ Candidate tryBsp(Work& w, const Current& cur) {
     score(w, cur, c, Y, nullptr, 1);
     c.valid = c.fit.ok && knee < 0.9 * hi && w.cam.agc != sensor::AgcMode::Bsp;
     if (!c.valid)
-        c.why = fmtText("knee %.3g A at the search's edge or the model already has it", knee);
+        c.why = textf("knee %.3g A at the search's edge or the model already has it", knee);
     c.mm = mm;
     c.finding.parameters = {{"knee_A", knee}, {"exponent", mm.bspExponent}};
-    c.finding.cause = fmtText(
+    c.finding.cause = textf(
         "the gain falls as the whole scene brightens (halved at a cathode current of %.3g A; "
         "frames span %.3g..%.3g A): bright-source protection, which the model has off",
         knee, I.front(), I.back());
@@ -331,11 +322,11 @@ Candidate trySaturation(Work& w, const Current& cur) {
     c.fit = fitLinear(w, Y, nullptr);
     score(w, cur, c, Y, nullptr, 1);
     c.valid = c.fit.ok && q < 0.9 * hi && cur.mm.satQ_dc == 0.0;
-    if (!c.valid) c.why = fmtText("charge %.3g DC at the search's edge", q);
+    if (!c.valid) c.why = textf("charge %.3g DC at the search's edge", q);
     c.mm = mm;
     const double q_e = q / w.m.dcPerMcpElectron;
     c.finding.parameters = {{"pixel_charge_e", q_e}, {"recharge_s", 1e-3}};
-    c.finding.cause = fmtText(
+    c.finding.cause = textf(
         "bright spots come out flattened: the MCP gives at most about %.3g output electrons per "
         "CCD pixel area in a field (%.1f DC before the MTF), which the model lacks",
         q_e, q);

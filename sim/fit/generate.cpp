@@ -8,6 +8,7 @@
 #include "sim/core/gamma_table.h"
 #include "sim/fit/conv.h"
 #include "sim/fit/engine.h"
+#include "sim/fit/text.h"
 #include "sim/sensor/chain.h"
 
 namespace nvs::fit {
@@ -171,38 +172,33 @@ sensor::Overrides chainEffects(const GenSpec& s, const Dataset& d, std::mt19937_
                                const std::filesystem::path& configDir, GammaTableCache& tables,
                                Generated& g) {
     sensor::Overrides ov = d.settings;
-    auto text = [](double v) {
-        char b[64];
-        std::snprintf(b, sizeof b, "%.9g", v);
-        return std::string(b);
-    };
     if (has(s, "phosphor_persistence")) {
         const double w = draw(rng, "phosphor_persistence", "weight");
         const double tau = draw(rng, "phosphor_persistence", "decay_s");
-        ov["phosphor.decay_s"] = "[1.0e-4, " + text(tau) + "]";
-        ov["phosphor.weight"] = "[" + text(1.0 - w) + ", " + text(w) + "]";
+        ov["phosphor.decay_s"] = "[1.0e-4, " + tomlNumber(tau) + "]";
+        ov["phosphor.weight"] = "[" + tomlNumber(1.0 - w) + ", " + tomlNumber(w) + "]";
         g.truth["phosphor_persistence.weight"] = w;
         g.truth["phosphor_persistence.decay_s"] = tau;
     }
     if (has(s, "fixed_pattern_noise")) {
         const double p = draw(rng, "fixed_pattern_noise", "prnu_rel");
-        ov["ccd.prnu_rel"] = text(p);
+        ov["ccd.prnu_rel"] = tomlNumber(p);
         g.truth["fixed_pattern_noise.prnu_rel"] = p;
     }
     if (has(s, "vertical_smear")) {
         const double p = draw(rng, "vertical_smear", "smear_rel");
-        ov["ccd.smear_rel"] = text(p);
+        ov["ccd.smear_rel"] = tomlNumber(p);
         g.truth["vertical_smear.smear_rel"] = p;
     }
     if (has(s, "ebi_background")) {
         const double p = draw(rng, "ebi_background", "ebi_lm_cm2");
-        ov["photocathode.ebi_lm_cm2"] = text(p);
+        ov["photocathode.ebi_lm_cm2"] = tomlNumber(p);
         g.truth["ebi_background.ebi_lm_cm2"] = p;
     }
     if (has(s, "excess_noise")) {
         const double F =
             d.camera.mcp_noise_factor * draw(rng, "excess_noise", "noise_factor_ratio");
-        ov["mcp.noise_factor"] = text(F);
+        ov["mcp.noise_factor"] = tomlNumber(F);
         g.truth["excess_noise.noise_factor"] = F;
     }
     if (has(s, "bright_source_protection")) {
@@ -217,7 +213,7 @@ sensor::Overrides chainEffects(const GenSpec& s, const Dataset& d, std::mt19937_
         const double knee =
             I[I.size() / 2] * draw(rng, "bright_source_protection", "knee_over_median_current");
         ov["agc"] = "\"bsp\"";
-        ov["bsp.knee_A"] = text(knee);
+        ov["bsp.knee_A"] = tomlNumber(knee);
         g.truth["bright_source_protection.knee_A"] = knee;
     }
     return ov;

@@ -6,6 +6,7 @@
 
 #include "sim/core/error.h"
 #include "sim/core/gamma_table.h"
+#include "sim/fit/text.h"
 #include "sim/sensor/chain.h"
 
 namespace nvs::fit {
@@ -14,12 +15,6 @@ namespace {
 
 // The RIT site (thesis Figure 5-8 scene node file; ground 0.218 km, Figure 5-9).
 constexpr double kSiteLat_deg = 43.16856, kSiteLon_deg = -77.61583, kSiteHeight_m = 218.0;
-
-std::string number(double v) {
-    char b[64];
-    std::snprintf(b, sizeof b, "%.9g", v);
-    return b;
-}
 
 }  // namespace
 
@@ -67,19 +62,20 @@ void writeSceneScenario(const std::filesystem::path& file, const std::filesystem
     t << "# The RIT roof under the Moon (written for a diagnose dataset)\n"
       << "[scenario]\nname = \"diagnose-scene\"\nutc_start = \"" << setup.utcStart
       << "\"\nframe_rate_hz = 29.97\n\n"
-      << "[site]\nlat_deg = " << number(kSiteLat_deg) << "\nlon_deg = " << number(kSiteLon_deg)
-      << "\nheight_m = " << number(kSiteHeight_m) << "\n"
-      << "pressure_hPa = " << number(fx.pressure_hPa) << "\n\n"
+      << "[site]\nlat_deg = " << tomlNumber(kSiteLat_deg)
+      << "\nlon_deg = " << tomlNumber(kSiteLon_deg) << "\nheight_m = " << tomlNumber(kSiteHeight_m)
+      << "\n"
+      << "pressure_hPa = " << tomlNumber(fx.pressure_hPa) << "\n\n"
       << "[atmosphere]\nvisibility_km = 23.0\naerosol = \"rural\"\n"
-      << "cloud_optical_depth = " << number(fx.cloudOpticalDepth) << "\n"
-      << "lunar_sky_scale = " << number(fx.lunarSkyScale) << "\n\n"
+      << "cloud_optical_depth = " << tomlNumber(fx.cloudOpticalDepth) << "\n"
+      << "lunar_sky_scale = " << tomlNumber(fx.lunarSkyScale) << "\n\n"
       << "[camera]\npreset = \"pulnix-ag5745ef3\"\n\n";
     if (setup.posed) {
-        t << "[platform]\nlat_deg = " << number(kSiteLat_deg)
-          << "\nlon_deg = " << number(kSiteLon_deg)
-          << "\nalt_m = " << number(kSiteHeight_m + setup.cameraHeight_m)
-          << "\nyaw_deg = " << number(setup.yaw_deg) << "\npitch_deg = " << number(setup.pitch_deg)
-          << "\n\n";
+        t << "[platform]\nlat_deg = " << tomlNumber(kSiteLat_deg)
+          << "\nlon_deg = " << tomlNumber(kSiteLon_deg)
+          << "\nalt_m = " << tomlNumber(kSiteHeight_m + setup.cameraHeight_m)
+          << "\nyaw_deg = " << tomlNumber(setup.yaw_deg)
+          << "\npitch_deg = " << tomlNumber(setup.pitch_deg) << "\n\n";
     }
     t << "[scene]\nfile = \"" << std::filesystem::absolute(sceneFile).generic_string()
       << "\"\nlamps_on = [";
@@ -142,7 +138,7 @@ Generated generateScene(const SceneGenSpec& s, const SceneStimulusFactory& facto
                         {{"width", std::to_string(s.width)},
                          {"height", std::to_string(s.height)},
                          {"agc", "\"off\""},
-                         {"gain_V", number(setup.gain_V)},
+                         {"gain_V", tomlNumber(setup.gain_V)},
                          // The chain's halo and MCP saturation off in the frames and the model
                          // alike: diagnose's own forward models of them are approximations, and the
                          // scenario sweep is about the scene.

@@ -2,24 +2,16 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdarg>
 #include <cstdio>
 #include <functional>
 #include <string>
+
+#include "sim/fit/text.h"
 
 namespace nvs::fit {
 namespace {
 
 constexpr double kInf = 1e300;
-
-__attribute__((format(printf, 1, 2))) std::string text(const char* f, ...) {
-    char b[512];
-    va_list a;
-    va_start(a, f);
-    std::vsnprintf(b, sizeof b, f, a);
-    va_end(a);
-    return b;
-}
 
 // The mean prediction of the frames of w.sub for another stimulus sequence, with the camera's
 // gain and offset fitted again; the held-out error per tile when `heldOut`.
@@ -134,7 +126,7 @@ void scoreTry(Work& w, const MeanModel& mm, const SceneState& s, SceneTry& t) {
         // The paired tile score can favour an effect that makes the held-out frames worse as a
         // whole (a few tiles much worse): a finding must lower the held-out RMS.
         t.c.valid = false;
-        t.c.why = text("the held-out RMS does not fall (%.4g -> %.4g DC)", s.rms, e.rms);
+        t.c.why = textf("the held-out RMS does not fall (%.4g -> %.4g DC)", s.rms, e.rms);
     }
 }
 
@@ -144,7 +136,7 @@ void rejectAtRangeEnd(SceneTry& t, double v, double lo, double hi) {
     const double tol = 1e-6 * (hi - lo);
     if (t.c.valid && (v <= lo + tol || v >= hi - tol)) {
         t.c.valid = false;
-        t.c.why = text("at the end of its search range %g..%g: not determined", lo, hi);
+        t.c.why = textf("at the end of its search range %g..%g: not determined", lo, hi);
     }
 }
 
@@ -182,7 +174,7 @@ SceneTry tryLunarSky(Work& w, const MeanModel& mm, const SceneState& s) {
     scoreTry(w, mm, s, t);
     rejectAtRangeEnd(t, k, kLo, kHi);
     t.c.finding.parameters = {{"lunar_sky_scale", k}};
-    t.c.finding.cause = text(
+    t.c.finding.cause = textf(
         "the scene gets moonlight scattered by the atmosphere (%.2f of what the sky model gives), "
         "which the scenario leaves out ([atmosphere] lunar_sky_scale = 0)",
         k);
@@ -199,7 +191,7 @@ std::string lowestMoon(Work& w, const SkyEffects& without, const SkyEffects& wit
             raise = w.d.scene->moonAltitude_deg(n, w.d.frameRate_Hz, with) - a0;
         }
     }
-    return text("%.3f deg at the Moon's lowest (%.2f deg)", raise, lowest);
+    return textf("%.3f deg at the Moon's lowest (%.2f deg)", raise, lowest);
 }
 
 // An effect the scene must be rendered again for: its parameter (member `key` of SkyEffects)
@@ -240,7 +232,7 @@ SceneTry tryRefraction(Work& w, const MeanModel& mm, const SceneState& s) {
     t.c.finding.cause =
         "the Moon stands higher than the scenario puts it: atmospheric refraction "
         "for a site pressure of " +
-        text("%.0f hPa raises it by ", t.fx.pressure_hPa) + lowestMoon(w, s.fx, t.fx) +
+        textf("%.0f hPa raises it by ", t.fx.pressure_hPa) + lowestMoon(w, s.fx, t.fx) +
         " ([site] pressure_hPa = 0 leaves refraction out)";
     return t;
 }
@@ -251,7 +243,7 @@ SceneTry tryCloud(Work& w, const MeanModel& mm, const SceneState& s) {
     SceneTry t = renderedTry(w, mm, s,
                              {"cloud_transmission", "cloud_optical_depth",
                               &SkyEffects::cloudOpticalDepth, 0.03, 30.0, 7, true, 5});
-    t.c.finding.cause = text(
+    t.c.finding.cause = textf(
         "less moonlight than the scenario's clear sky, dimmed more at high air mass and spread "
         "into shadows: a cloud layer of optical depth %.3g ([atmosphere] cloud_optical_depth = 0 "
         "in the scenario)",
@@ -277,11 +269,11 @@ SceneFit trySceneEffects(Work& w, const Current& base, Result& r, const RecordTr
     };
     std::vector<Entry> catalog = {
         {"lunar_sky_scatter", tryLunarSky, s.fx.lunarSkyScale != 0.0,
-         text("lunar_sky_scale = %g", s.fx.lunarSkyScale)},
+         textf("lunar_sky_scale = %g", s.fx.lunarSkyScale)},
         {"refraction", tryRefraction, s.fx.pressure_hPa != 0.0,
-         text("pressure_hPa = %g", s.fx.pressure_hPa)},
+         textf("pressure_hPa = %g", s.fx.pressure_hPa)},
         {"cloud_transmission", tryCloud, s.fx.cloudOpticalDepth != 0.0,
-         text("cloud_optical_depth = %g", s.fx.cloudOpticalDepth)},
+         textf("cloud_optical_depth = %g", s.fx.cloudOpticalDepth)},
     };
     std::vector<bool> taken(catalog.size(), false);
     bool found = false;
