@@ -237,6 +237,16 @@ void makeFrames(const sensor::CameraParams& cam, std::uint64_t seed,
 }
 
 Generated generate(const GenSpec& s, const std::filesystem::path& configDir) {
+    for (const std::string& e : s.effects) {
+        std::string known;
+        bool found = false;
+        for (const EffectRange& r : effectRanges()) {
+            found = found || e == r.effect;
+            if (known.find(r.effect) == std::string::npos)
+                known += (known.empty() ? "" : ", ") + std::string(r.effect);
+        }
+        if (!found) throw SetupError("unknown effect '" + e + "' to hide (known: " + known + ")");
+    }
     Generated g;
     Dataset& d = g.data;
     std::mt19937_64 rng(s.seed * 0x9E3779B97F4A7C15ull + 0x1234567ull);

@@ -18,6 +18,7 @@
 #include <string>
 #include <vector>
 
+#include "sim/core/error.h"
 #include "sim/fit/diagnose.h"
 #include "sim/fit/generate.h"
 #include "tests/sim/fit/sweep_log.h"
@@ -52,9 +53,7 @@ double paramError(const nvs::fit::Finding& f, const std::map<std::string, double
     return worst;
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
+int run(int argc, char** argv) {
     int seeds = 20, w = 128, h = 96, blocks = 8, hold = 6;
     bool verbose = false;
     std::string out, only;
@@ -187,4 +186,15 @@ int main(int argc, char** argv) {
     std::printf("%s", md.str().c_str());
     if (!out.empty()) std::ofstream(out) << md.str();
     return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    try {
+        return run(argc, argv);
+    } catch (const nvs::SetupError& e) {
+        std::fprintf(stderr, "nvs_validate_diagnose: %s\n", e.what());
+        return 2;
+    }
 }
