@@ -8,6 +8,7 @@
 //                         [--blocks B] [--hold H]   (B stimuli held H frames each)
 //       writes one generated dataset (seed SEED) to DIR and prints its hidden truth
 
+#include <CLI/CLI.hpp>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -56,32 +57,29 @@ double paramError(const nvs::fit::Finding& f, const std::map<std::string, double
 int run(int argc, char** argv) {
     int seeds = 20, w = 128, h = 96, blocks = 8, hold = 6;
     bool verbose = false;
-    std::string out, only;
-    for (int i = 1; i < argc; ++i) {
-        const std::string a = argv[i];
-        if (a == "--seeds" && i + 1 < argc)
-            seeds = std::atoi(argv[++i]);
-        else if (a == "--size" && i + 1 < argc)
-            std::sscanf(argv[++i], "%dx%d", &w, &h);
-        else if (a == "--out" && i + 1 < argc)
-            out = argv[++i];
-        else if (a == "--effects" && i + 1 < argc)
-            only = argv[++i];
-        else if (a == "--blocks" && i + 1 < argc)
-            blocks = std::atoi(argv[++i]);
-        else if (a == "--hold" && i + 1 < argc)
-            hold = std::atoi(argv[++i]);
-        else if (a == "--write" && i + 1 < argc)
-            out = std::string("write:") + argv[++i];
-        else if (a == "-v")
-            verbose = true;
-        else {
-            std::fprintf(stderr,
-                         "usage: %s [--seeds N] [--size WxH] [--effects a,b] [--out F] [-v]\n",
-                         argv[0]);
-            return 2;
-        }
+    std::string out, only, size, writeDir;
+    CLI::App app{"The hidden-effect sweep of nvstim diagnose (docs/validation.md)"};
+    app.add_option("--seeds", seeds, "seeds per case (with --write: the seed)")
+        ->check(CLI::Range(1, 100000));
+    app.add_option("--size", size, "frame size WxH (128x96)");
+    app.add_option("--out", out, "write the table as Markdown to this file");
+    app.add_option("--effects", only, "cases, comma-separated; a pair as a+b; null: none hidden");
+    app.add_option("--blocks", blocks, "with --write: stimuli")->check(CLI::Range(1, 10000));
+    app.add_option("--hold", hold, "with --write: frames per stimulus")
+        ->check(CLI::Range(1, 10000));
+    app.add_option("--write", writeDir, "write one generated dataset to this folder");
+    app.add_flag("-v", verbose, "one line per seed");
+    try {
+        app.parse(argc, argv);
+    } catch (const CLI::ParseError& e) {
+        return app.exit(e) == 0 ? 0 : 2;
     }
+    if (!size.empty()) {
+        char tail = 0;
+        if (std::sscanf(size.c_str(), "%dx%d%c", &w, &h, &tail) != 2 || w < 16 || h < 16)
+            throw nvs::SetupError("--size: expected WxH, at least 16x16, got '" + size + "'");
+    }
+    if (!writeDir.empty()) out = "write:" + writeDir;
     const std::filesystem::path config = NVS_SOURCE_DIR "/config";
     if (out.rfind("write:", 0) == 0) {
         // One generated dataset written to a folder (seed 1, the first case of --effects).
