@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <functional>
 #include <set>
 #include <sstream>
 
@@ -258,27 +259,33 @@ void resimulateNoise(const Dataset& d, ModelRun& m, const Work& w, const MeanMod
         for (int y = 0; y < w.h; ++y)
             for (int x = 0; x < w.w; ++x)
                 p[static_cast<std::size_t>(y) * w.w + x] = in(x, y);
-        if (mm.satQ_dc > 0.0) {
+        // The camera's order (engine.cpp, spatialEffects): glare and halo spread the light,
+        // the MCP saturates what reaches it; the saturation as a factor per pixel of the
+        // unblurred signal spread the same way.
+        const bool sat = mm.satQ_dc > 0.0;
+        Plane u;
+        if (sat) {
             std::size_t k = 0;
             while (d.stimulusOfFrame[k] != static_cast<int>(s))
                 ++k;
-            const Plane& u = m.unblurred[k];
+            u = m.unblurred[k];
+        }
+        Plane o;
+        auto spread = [&](Plane& q, double frac, const std::function<double(double)>& kernel) {
+            w.conv->convolveOne(q, kernel, o);
+            for (std::size_t i = 0; i < q.size(); ++i)
+                q[i] = static_cast<float>((1.0 - frac) * q[i] + frac * o[i]);
+        };
+        for (Plane* q : {&p, sat ? &u : nullptr}) {
+            if (q == nullptr) continue;
+            if (mm.haloF != 0.0) spread(*q, mm.haloF, ringKernel(mm.haloR_um, w.pitchX_um));
+            if (mm.glareG != 0.0) spread(*q, mm.glareG, expKernel(mm.glareS_um));
+        }
+        if (sat)
             for (std::size_t i = 0; i < p.size(); ++i)
                 if (u[i] > 0.0f)
                     p[i] = static_cast<float>(
                         p[i] * (-mm.satQ_dc * std::expm1(-u[i] / mm.satQ_dc)) / u[i]);
-        }
-        Plane o;
-        if (mm.haloF != 0.0) {
-            w.conv->convolveOne(p, ringKernel(mm.haloR_um, w.pitchX_um), o);
-            for (std::size_t i = 0; i < p.size(); ++i)
-                p[i] = static_cast<float>((1.0 - mm.haloF) * p[i] + mm.haloF * o[i]);
-        }
-        if (mm.glareG != 0.0) {
-            w.conv->convolveOne(p, expKernel(mm.glareS_um), o);
-            for (std::size_t i = 0; i < p.size(); ++i)
-                p[i] = static_cast<float>((1.0 - mm.glareG) * p[i] + mm.glareG * o[i]);
-        }
         ImageF img(w.w, w.h);
         for (int y = 0; y < w.h; ++y)
             for (int x = 0; x < w.w; ++x)

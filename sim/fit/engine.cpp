@@ -106,6 +106,34 @@ void addSaturation(Work& w, const MeanModel& mm, std::vector<Plane>& S,
     }
 }
 
+// The spatial effects in the camera's order: veiling glare (in the lens) and the halo (at the
+// MCP's input) spread the light, the MCP saturates what reaches it, the chain's MTF blurs that,
+// and the baseline's extra blur acts on the whole image. Spreads and blurs are linear and
+// commute, so the signal is spread as it is and the saturation's change is computed on the
+// unblurred image spread the same way:
+//   S ← L(S) + MTF ⊛ (Q(1 − e^(−L(U)/Q)) − L(U)),   L = glare ∘ halo.
+// `unblurred` holds U for each plane of S (used with saturation only).
+void spatialEffects(Work& w, const MeanModel& mm, std::vector<Plane>& S,
+                    const std::vector<Plane>& unblurred) {
+    auto spreads = [&](std::vector<Plane>& P) {
+        if (mm.haloF != 0.0) spread2(w, P, mm.haloF, ringKernel(mm.haloR_um, w.pitchX_um));
+        if (mm.glareG != 0.0) spread2(w, P, mm.glareG, expKernel(mm.glareS_um));
+    };
+    spreads(S);
+    if (mm.satQ_dc > 0.0) {
+        if (mm.haloF != 0.0 || mm.glareG != 0.0) {
+            std::vector<Plane> U = unblurred;
+            spreads(U);
+            addSaturation(w, mm, S, U);
+        } else {
+            addSaturation(w, mm, S, unblurred);
+        }
+    }
+    if (mm.sigma_px > 0.0)
+        for (Plane& p : S)
+            gaussianBlur(p, w.w, w.h, mm.sigma_px);
+}
+
 }  // namespace
 
 Work::Work(const Dataset& ds, const ModelRun& mr, const sensor::CameraParams& c, Options o,
@@ -221,12 +249,7 @@ CallPlanes spatialCalls(Work& w, const MeanModel& mm, const std::vector<Plane>& 
         cp.planes.push_back(src[c]);
         if (sat) U.push_back(w.m.unblurred[c]);
     }
-    if (sat) addSaturation(w, mm, cp.planes, U);
-    if (mm.sigma_px > 0.0)
-        for (Plane& p : cp.planes)
-            gaussianBlur(p, w.w, w.h, mm.sigma_px);
-    if (mm.haloF != 0.0) spread2(w, cp.planes, mm.haloF, ringKernel(mm.haloR_um, w.pitchX_um));
-    if (mm.glareG != 0.0) spread2(w, cp.planes, mm.glareG, expKernel(mm.glareS_um));
+    spatialEffects(w, mm, cp.planes, U);
     return cp;
 }
 
@@ -304,12 +327,7 @@ std::vector<Plane> predict(Work& w, const MeanModel& mm) {
     S.resize(w.sub.size());
     for (std::size_t i = 0; i < w.sub.size(); ++i)
         assembleFrame(src, w.sub[i], w.w, w.h, w.m.fieldScan, S[i]);
-    if (mm.satQ_dc > 0.0) addSaturation(w, mm, S, w.unblurred);
-    if (mm.sigma_px > 0.0)
-        for (Plane& p : S)
-            gaussianBlur(p, w.w, w.h, mm.sigma_px);
-    if (mm.haloF != 0.0) spread2(w, S, mm.haloF, ringKernel(mm.haloR_um, w.pitchX_um));
-    if (mm.glareG != 0.0) spread2(w, S, mm.glareG, expKernel(mm.glareS_um));
+    spatialEffects(w, mm, S, w.unblurred);
     addSmear(w, mm.smear, S);
     return S;
 }

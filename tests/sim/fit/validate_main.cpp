@@ -107,6 +107,7 @@ int run(int argc, char** argv) {
                                       "ebi_background",
                                       "excess_noise",
                                       "halo+phosphor_persistence",
+                                      "halo+mcp_saturation",
                                       "vertical_smear+excess_noise"};
     if (!only.empty()) cases = split(only, ',');
     std::vector<Row> rows;
