@@ -113,21 +113,51 @@ void addSaturation(Work& w, const MeanModel& mm, std::vector<Plane>& S,
 // unblurred image spread the same way:
 //   S ← L(S) + MTF ⊛ (Q(1 − e^(−L(U)/Q)) − L(U)),   L = glare ∘ halo.
 // `unblurred` holds U for each plane of S (used with saturation only).
+// FNV-1a over the planes' bytes: identifies the planes a spread was made of (Work::SpreadMemo).
+std::uint64_t planesHash(const std::vector<Plane>& P) {
+    std::uint64_t h = 0xcbf29ce484222325ull;
+    for (const Plane& p : P) {
+        const auto* b = reinterpret_cast<const unsigned char*>(p.data());
+        for (std::size_t i = 0; i < p.size() * sizeof(float); ++i)
+            h = (h ^ b[i]) * 0x100000001b3ull;
+        h = (h ^ p.size()) * 0x100000001b3ull;
+    }
+    return h;
+}
+
 void spatialEffects(Work& w, const MeanModel& mm, std::vector<Plane>& S,
                     const std::vector<Plane>& unblurred) {
     auto spreads = [&](std::vector<Plane>& P) {
         if (mm.haloF != 0.0) spread2(w, P, mm.haloF, ringKernel(mm.haloR_um, w.pitchX_um));
         if (mm.glareG != 0.0) spread2(w, P, mm.glareG, expKernel(mm.glareS_um));
     };
-    spreads(S);
-    if (mm.satQ_dc > 0.0) {
-        if (mm.haloF != 0.0 || mm.glareG != 0.0) {
-            std::vector<Plane> U = unblurred;
-            spreads(U);
-            addSaturation(w, mm, S, U);
-        } else {
-            addSaturation(w, mm, S, unblurred);
+    const bool sat = mm.satQ_dc > 0.0, spread = mm.haloF != 0.0 || mm.glareG != 0.0;
+    if (!sat || !spread) {
+        spreads(S);
+        if (sat) addSaturation(w, mm, S, unblurred);
+    } else {
+        const std::uint64_t hs = planesHash(S), hu = planesHash(unblurred);
+        Work::SpreadMemo* memo = w.spreadMemo.get();
+        if (memo == nullptr || memo->haloF != mm.haloF || memo->haloR_um != mm.haloR_um ||
+            memo->glareG != mm.glareG || memo->glareS_um != mm.glareS_um || memo->hashS != hs ||
+            memo->hashU != hu) {
+            auto m = std::make_shared<Work::SpreadMemo>();
+            m->haloF = mm.haloF;
+            m->haloR_um = mm.haloR_um;
+            m->glareG = mm.glareG;
+            m->glareS_um = mm.glareS_um;
+            m->hashS = hs;
+            m->hashU = hu;
+            m->S = S;
+            m->U = unblurred;
+            w.spreadMemo.reset();  // its planes freed before the new ones are spread
+            spreads(m->S);
+            spreads(m->U);
+            w.spreadMemo = m;
+            memo = m.get();
         }
+        S = memo->S;
+        addSaturation(w, mm, S, memo->U);
     }
     if (mm.sigma_px > 0.0)
         for (Plane& p : S)

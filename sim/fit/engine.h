@@ -80,6 +80,15 @@ struct Work {
     // distinctCalls()'s last result and the spatial effects it was made with (engine.cpp).
     std::shared_ptr<const CallPlanes> spatialCache;
     MeanModel spatialKey;
+    // The last glare and halo spreads of a signal and its unblurred image (spatialEffects,
+    // engine.cpp): a saturation search on top of a halo spreads the same planes at every
+    // charge it tries. Keyed by the spreads' parameters and a hash of the planes spread.
+    struct SpreadMemo {
+        double haloF = 0.0, haloR_um = 0.0, glareG = 0.0, glareS_um = 0.0;
+        std::uint64_t hashS = 0, hashU = 0;
+        std::vector<Plane> S, U;
+    };
+    std::shared_ptr<SpreadMemo> spreadMemo;
     std::unique_ptr<Convolver> conv;
     std::shared_ptr<sensor::BlurStage> blur;  // the model's MTF (mcp_saturation)
     double pitchX_um = 0.0, pitchY_um = 0.0;  // a pixel at the photocathode
