@@ -18,6 +18,14 @@ with a fixed seed, and each says which statistic it realises and what it assumes
                       8 frames with that split, per pixel, white. The stimulus is not given:
                       uniform, at the radiance the thesis's gain/bias model (Table 18-6, 6 V,
                       40e6 DC per W m-2 sr-1 at f/5.6, bias 36.4 DC) maps to 129.8 DC.
+  t18-6_gain_6p0V,    Table 18-6: the image gain (DC per W m-2 sr-1 at f/11) and bias at each
+  t18-6_gain_6p5V     measured tube gain setting other than 5.5 V (Table 18-5's own; 5.0 V is
+                      marked estimated in the source and left out): uniform frames at Table
+                      18-5's radiance ladder, mean bias + gain x L, the levels under 240 DC, 3
+                      frames each (frame scan). Noise: Table 18-5's variance against signal
+                      above Table 18-6's 5.5 V bias (a least-squares line through its rows:
+                      4.14 DC^2 + 0.733 DC per DC) with the part that grows with signal scaled
+                      by the gain over 5.5 V's, white.
   t18-2_mtf           Table 18-2: bar targets at eight image frequencies; the output modulation
                       as a sinusoid of the row's image frequency (cycles/mm at the photocathode,
                       the thesis's contrast transfer taken as the MTF), mean 100 DC, 2 DC of
@@ -181,6 +189,45 @@ def truth_panels(thesis, out, rng):
                band="")
 
 
+def gain_series(thesis, out, rng):
+    t185 = rows(thesis, "table18-5_radiometric_calibration_gain5p5V.csv")
+    ladder = sorted({float(r["reduced_radiance_W_m-2_sr-1"]) for r in t185})
+    table = rows(thesis, "table18-6_camera_gain_vs_image_gain.csv")
+    row55 = next(r for r in table if float(r["camera_gain_V"]) == 5.5)
+    g55 = float(row55["image_gain_f11_DC_per_W_m-2_sr-1"])
+    # Table 18-5's temporal variance against signal above bias: var = a + b * signal.
+    xs = [float(r["mean_DC"]) - float(row55["image_bias_DC"]) for r in t185]
+    ys = [float(r["stddev_DC"]) ** 2 for r in t185]
+    n, sx, sy = len(xs), sum(xs), sum(ys)
+    sxx, sxy = sum(x * x for x in xs), sum(x * y for x, y in zip(xs, ys))
+    b = (n * sxy - sx * sy) / (n * sxx - sx * sx)
+    a = (sy - b * sx) / n
+    for r in table:
+        volts = float(r["camera_gain_V"])
+        if r["estimated"] == "yes" or volts == 5.5:
+            continue
+        gain, bias = float(r["image_gain_f11_DC_per_W_m-2_sr-1"]), float(r["image_bias_DC"])
+        d = folders(out, "t18-6_gain_%sV" % ("%.1f" % volts).replace(".", "p"))
+        index, k = [], 0
+        levels = [L for L in ladder if bias + gain * L < 240.0]
+        for i, L in enumerate(levels):
+            write_pfm(os.path.join(d, "radiance", "%06d.pfm" % i), W, H, lambda x, y: L)
+            m = bias + gain * L
+            s = math.sqrt(a + b * (gain / g55) * (m - bias))
+            for _ in range(3):
+                write_pgm(os.path.join(d, "frames", "%06d.pgm" % k), W, H,
+                          [rng.gauss(m, s) for _ in range(W * H)])
+                index.append(i)
+                k += 1
+        write_toml(d, "pulnix-ag5745ef3",
+                   [("width", W), ("height", H), ("gain_V", volts), ("f_number", 11.0),
+                    ('video.scan', '"frame"')],
+                   "W/m2/sr", "blackbody:2856", index, k,
+                   comment="Thesis Table 18-6 at %.1f V (make_thesis_datasets.py): gain %.3g "
+                           "DC per W m-2 sr-1, bias %.5g DC, on Table 18-5's radiance ladder"
+                           % (volts, gain, bias))
+
+
 def main():
     if len(sys.argv) != 3:
         sys.stderr.write("usage: make_thesis_datasets.py THESIS_CSV_DIR OUT_DIR\n")
@@ -189,6 +236,7 @@ def main():
     rng = random.Random(1999)
     calibration(thesis, out, rng)
     averaging(thesis, out, rng)
+    gain_series(thesis, out, rng)
     mtf(thesis, out, rng)
     truth_panels(thesis, out, rng)
     return 0
