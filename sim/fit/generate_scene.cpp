@@ -23,6 +23,7 @@ const std::vector<EffectRange>& sceneEffectRanges() {
         {"lunar_sky_scatter", "lunar_sky_scale", 0.5, 2.0},
         {"refraction", "pressure_hPa", 700.0, 1050.0},
         {"cloud_transmission", "cloud_optical_depth", 0.3, 3.0},
+        {"aerosol_extinction", "visibility_km", 40.0, 150.0},
     };
     return r;
 }
@@ -66,7 +67,8 @@ void writeSceneScenario(const std::filesystem::path& file, const std::filesystem
       << "\nlon_deg = " << tomlNumber(kSiteLon_deg) << "\nheight_m = " << tomlNumber(kSiteHeight_m)
       << "\n"
       << "pressure_hPa = " << tomlNumber(fx.pressure_hPa) << "\n\n"
-      << "[atmosphere]\nvisibility_km = 23.0\naerosol = \"rural\"\n"
+      << "[atmosphere]\nvisibility_km = " << tomlNumber(fx.visibility_km)
+      << "\naerosol = \"rural\"\n"
       << "cloud_optical_depth = " << tomlNumber(fx.cloudOpticalDepth) << "\n"
       << "lunar_sky_scale = " << tomlNumber(fx.lunarSkyScale) << "\n\n"
       << "[camera]\npreset = \"pulnix-ag5745ef3\"\n\n";
@@ -124,6 +126,8 @@ Generated generateScene(const SceneGenSpec& s, const SceneStimulusFactory& facto
         } else if (s.effect == "refraction") {
             truth.pressure_hPa = v;
             model.pressure_hPa = 0.0;
+        } else if (s.effect == "aerosol_extinction") {
+            truth.visibility_km = v;  // the model keeps the scenario's 23 km
         } else {
             truth.cloudOpticalDepth = v;
         }

@@ -269,12 +269,17 @@ TEST(SceneStimulus, HiddenCloudTransmissionIsNamed) {
     expectNamed("cloud_transmission", 3);
 }
 
+// The setting Moon (23° to 1.6°) under clearer air than the scenario's 23 km.
+TEST(SceneStimulus, HiddenAerosolExtinctionIsNamed) {
+    expectNamed("aerosol_extinction", 3);
+}
+
 TEST(SceneStimulus, NullDatasetHasNoScenarioFinding) {
     const Generated g = generateScene(spec("", 4, tempDir("null")), factory(), kDirs.config);
     const Result r = diagnose(g.data, kDirs.config);
     for (const Finding& f : r.findings)
         EXPECT_TRUE(f.effect != "lunar_sky_scatter" && f.effect != "refraction" &&
-                    f.effect != "cloud_transmission")
+                    f.effect != "cloud_transmission" && f.effect != "aerosol_extinction")
             << f.effect;
 }
 

@@ -1,8 +1,9 @@
 // The hidden scenario-effect sweep behind `make validate` (docs/validation.md, "Scenario
-// effects"): for lunar_sky_scatter, refraction, cloud_transmission and the null case, N seeds of
-// datasets rendered from the RIT roof in each effect's setup (sim/fit/generate_scene.h: the
-// setting Moon; its disk in view for refraction; a full-Moon night for the cloud), diagnose on
-// the scenario without the effect; writes the table as Markdown.
+// effects"): for lunar_sky_scatter, refraction, cloud_transmission, aerosol_extinction and the
+// null case, N seeds of datasets rendered from the RIT roof in each effect's setup
+// (sim/fit/generate_scene.h: the setting Moon; its disk in view for refraction; a full-Moon night
+// for the cloud), diagnose on the scenario without the effect (for the aerosol: at the scenario's
+// 23 km visibility); writes the table as Markdown.
 //
 //   nvs_validate_scene [--seeds N] [--first S] [--size WxH] [--effects a,b] [--out FILE.md] [-v]
 //   nvs_validate_scene --write DIR [--effects NAME] [--first SEED]
@@ -101,7 +102,7 @@ int main(int argc, char** argv) {
         return 0;
     }
     std::vector<std::string> cases = {"null", "lunar_sky_scatter", "refraction",
-                                      "cloud_transmission"};
+                                      "cloud_transmission", "aerosol_extinction"};
     if (!only.empty()) cases = split(only);
     const std::filesystem::path work = std::filesystem::path(NVS_BINARY_DIR) / "validate-scene";
     std::vector<Row> rows;
@@ -128,7 +129,7 @@ int main(int argc, char** argv) {
                 fit::test::logSeed(c, s, g.truth, r);
                 for (const auto& t : r.trials)
                     if (t.effect == "lunar_sky_scatter" || t.effect == "refraction" ||
-                        t.effect == "cloud_transmission")
+                        t.effect == "cloud_transmission" || t.effect == "aerosol_extinction")
                         std::fprintf(stderr, "    %s z=%.2f rms %.4f->%.4f %s\n", t.effect.c_str(),
                                      t.z, t.before, t.after, t.why.c_str());
             }
