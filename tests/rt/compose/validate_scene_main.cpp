@@ -109,7 +109,8 @@ int main(int argc, char** argv) {
     if (!only.empty()) cases = split(only);
     // Two sweeps at once need two work folders (each dataset's scenario is written there).
     const std::filesystem::path work =
-        workDir.empty() ? std::filesystem::path(NVS_BINARY_DIR) / "validate-scene" : workDir;
+        workDir.empty() ? std::filesystem::path(NVS_BINARY_DIR) / "validate-scene"
+                        : std::filesystem::path(workDir);
     std::vector<Row> rows;
     for (const std::string& c : cases) {
         Row row;
