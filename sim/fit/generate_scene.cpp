@@ -23,7 +23,7 @@ const std::vector<EffectRange>& sceneEffectRanges() {
         {"lunar_sky_scatter", "lunar_sky_scale", 0.5, 2.0},
         {"refraction", "pressure_hPa", 700.0, 1050.0},
         {"cloud_transmission", "cloud_optical_depth", 0.3, 3.0},
-        {"aerosol_extinction", "visibility_km", 40.0, 150.0},
+        {"aerosol_extinction", "visibility_km", 35.0, 100.0},
     };
     return r;
 }
