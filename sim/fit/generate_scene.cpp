@@ -53,6 +53,15 @@ SceneSetup sceneSetupFor(const std::string& effect) {
         s.utcStart = "1998-09-06T01:00:00Z";
         s.framePeriod_s = 640.0;
         s.gain_V = 5.0;  // the full Moon high: the clear-sky frames stay below the ADC's top
+    } else if (effect == "aerosol_extinction") {
+        // The rising Moon (90 %, 1998-09-09, `nvstim ephem`): from 01:27 UTC (2.6° up, air mass
+        // 16.6, Sun −20°) to 04:30 (34°, 1.8), one frame every 229 s. The visibility is fitted
+        // on the calibration half, which here spans air mass 12.5 → 3.3 (frames 2–23): the
+        // setting Moon's calibration half (23° → 14°, 2.5 → 4.1) left 20 % of a visibility near
+        // 80 km at about 2 % of the frames' light, and 1 of 9 seeds came back 24 % high.
+        s.utcStart = "1998-09-09T01:27:00Z";
+        s.framePeriod_s = 229.0;
+        s.gain_V = 5.0;  // the Moon brighter and higher than the setting Moon's 23°
     }
     return s;
 }
