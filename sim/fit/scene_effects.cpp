@@ -17,9 +17,9 @@ constexpr double kInf = 1e300;
 // camera's mean effects must (effects.cpp): z measures how consistently a candidate helps over
 // the tiles, not how much. aerosol_extinction, whose parameter the scenario always states, is
 // fitted near the stated visibility on data without the effect and can then help every tile a
-// little: on Table 4-2's dataset 23.4 km for 23 at z 4.8, 0.018 % of the error; on a null
-// dataset 22.9 km at z 3.1, 0.004 %. The weakest hidden scenario effect named in the sweep
-// takes several per cent (docs/validation.md, "Scenario effects: the sweep").
+// little: on Table 4-2's dataset 23.4 km for 23 at z 4.8, 0.018 % of the error; on 1 of 20 null
+// datasets of the sweep 23.4 km at z 4.3, 0.02 %. The hidden scenario effects named in the
+// sweep take far more (docs/validation.md, "Scenario effects: the sweep").
 constexpr double kMinErrorShare = 1e-3;
 
 // The mean prediction of the frames of w.sub for another stimulus sequence, with the camera's

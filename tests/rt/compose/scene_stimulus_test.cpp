@@ -326,7 +326,7 @@ TEST(SceneStimulus, HiddenCloudTransmissionIsNamed) {
     expectNamed("cloud_transmission", 3);
 }
 
-// The setting Moon (23° to 1.6°) under clearer air than the scenario's 23 km.
+// The rising Moon (2.6° to 34°) under clearer air than the scenario's 23 km.
 TEST(SceneStimulus, HiddenAerosolExtinctionIsNamed) {
     expectNamed("aerosol_extinction", 3);
 }
