@@ -1,9 +1,9 @@
 // Scenario stimuli of measured datasets (rt/compose/scene_stimulus.h, sim/fit/scene_effects.h):
 // the renderer's lunar sky light is linear in its scale (what the fit relies on), refraction
-// raises the Moon as Bennett's formula says, a scenario's [platform] pose is rendered as the
-// runtime renders it, a dataset with `[stimulus] scenario` round-trips and refuses bad input,
-// and hidden scenario effects are named and recovered (a few seeds; the
-// sweep is `make validate`).
+// raises the Moon as Bennett's formula says, the visibility's extinction of the moonlight
+// follows Beer–Lambert, a scenario's [platform] pose is rendered as the runtime renders it, a
+// dataset with `[stimulus] scenario` round-trips and refuses bad input, and hidden scenario
+// effects are named and recovered (a few seeds; the sweep is `make validate`).
 #include "rt/compose/scene_stimulus.h"
 
 #include <gtest/gtest.h>
