@@ -6,6 +6,7 @@
 #include "rt/compose/platform_pose.h"
 #include "rt/compose/scenario.h"
 #include "rt/compose/scene_setup.h"
+#include "sim/fit/text.h"
 
 namespace nvs::rt {
 namespace {
@@ -19,6 +20,7 @@ class ScenarioStimulus final : public fit::SceneStimulus {
         fx.lunarSkyScale = base_.scene.lunarSkyScale;
         fx.pressure_hPa = base_.scene.site.pressure_hPa;
         fx.cloudOpticalDepth = base_.scene.atmosphere.cloudOpticalDepth;
+        fx.visibility_km = base_.scene.atmosphere.visibility_km;
         return fx;
     }
 
@@ -47,17 +49,20 @@ class ScenarioStimulus final : public fit::SceneStimulus {
     }
 
   private:
-    // One renderer, made again when the site pressure or the cloud layer changes (the
-    // ephemeris and the atmosphere table depend on them; the table is cached on disk).
+    // One renderer, made again when the site pressure, the cloud layer or the visibility
+    // changes (the ephemeris and the atmosphere table depend on them; the table is cached on
+    // disk).
     ScenarioRenderer& rendererFor(const fit::SkyEffects& fx, const fit::Progress& progress) {
-        if (!current_ || fx.pressure_hPa != made_.pressure_hPa ||
-            fx.cloudOpticalDepth != made_.cloudOpticalDepth) {
+        const bool newAtmosphere = fx.cloudOpticalDepth != made_.cloudOpticalDepth ||
+                                   fx.visibility_km != made_.visibility_km;
+        if (!current_ || fx.pressure_hPa != made_.pressure_hPa || newAtmosphere) {
             Scenario sc = base_;
             sc.scene.site.pressure_hPa = fx.pressure_hPa;
             sc.scene.atmosphere.cloudOpticalDepth = fx.cloudOpticalDepth;
-            if (progress && fx.cloudOpticalDepth != made_.cloudOpticalDepth)
-                progress("atmosphere with cloud optical depth " +
-                         std::to_string(fx.cloudOpticalDepth));
+            sc.scene.atmosphere.visibility_km = fx.visibility_km;
+            if (progress && newAtmosphere)
+                progress(fit::textf("atmosphere with cloud optical depth %g, visibility %g km",
+                                    fx.cloudOpticalDepth, fx.visibility_km));
             current_.reset();
             current_ = ScenarioRenderer::create(sc, dirs_);
             // The camera where the runtime's render stage puts it for the scenario's platform

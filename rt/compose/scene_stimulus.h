@@ -7,7 +7,7 @@
 // puts it without telemetry: at the [platform] pose when the scenario states one (the same
 // PlatformPose as the render stage), else at the scene's own camera. The scenario effects of the
 // catalog are rendered as asked: lunar sky light scaled, refraction by the site pressure, the cloud
-// layer's optical depth.
+// layer's optical depth, the aerosol's extinction by the visibility.
 
 #include <filesystem>
 #include <memory>

@@ -50,6 +50,7 @@ struct SkyEffects {
     double lunarSkyScale = 1.0;      // [atmosphere] lunar_sky_scale (0: no lunar sky light)
     double pressure_hPa = 1013.25;   // [site] pressure_hPa (0: no refraction)
     double cloudOpticalDepth = 0.0;  // [atmosphere] cloud_optical_depth
+    double visibility_km = 23.0;     // [atmosphere] visibility_km (aerosol extinction)
 };
 
 // A stimulus rendered from a scenario (`[stimulus] scenario`). sim/fit does not render: the

@@ -356,7 +356,8 @@ void diagnoseCamera(const Dataset& d, const std::filesystem::path& configDir, co
         if (significant(c, opt, std::max(meanFound, r.findings.size())))
             r.findings.push_back(c.finding);
     }
-    for (const char* e : {"lunar_sky_scatter", "refraction", "cloud_transmission"}) {
+    for (const char* e :
+         {"lunar_sky_scatter", "refraction", "cloud_transmission", "aerosol_extinction"}) {
         if (d.scene) break;  // tried on the scenario (trySceneEffects)
         Candidate c;
         c.finding.effect = e;

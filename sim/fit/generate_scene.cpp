@@ -23,6 +23,7 @@ const std::vector<EffectRange>& sceneEffectRanges() {
         {"lunar_sky_scatter", "lunar_sky_scale", 0.5, 2.0},
         {"refraction", "pressure_hPa", 700.0, 1050.0},
         {"cloud_transmission", "cloud_optical_depth", 0.3, 3.0},
+        {"aerosol_extinction", "visibility_km", 35.0, 100.0},
     };
     return r;
 }
@@ -52,6 +53,15 @@ SceneSetup sceneSetupFor(const std::string& effect) {
         s.utcStart = "1998-09-06T01:00:00Z";
         s.framePeriod_s = 640.0;
         s.gain_V = 5.0;  // the full Moon high: the clear-sky frames stay below the ADC's top
+    } else if (effect == "aerosol_extinction") {
+        // The rising Moon (90 %, 1998-09-09, `nvstim ephem`): from 01:27 UTC (2.6° up, air mass
+        // 16.6, Sun −20°) to 04:30 (34°, 1.8), one frame every 229 s. The visibility is fitted
+        // on the calibration half, which here spans air mass 12.5 → 3.3 (frames 2–23): the
+        // setting Moon's calibration half (23° → 14°, 2.5 → 4.1) left 20 % of a visibility near
+        // 80 km at about 2 % of the frames' light, and 1 of 9 seeds came back 24 % high.
+        s.utcStart = "1998-09-09T01:27:00Z";
+        s.framePeriod_s = 229.0;
+        s.gain_V = 5.0;  // the Moon brighter and higher than the setting Moon's 23°
     }
     return s;
 }
@@ -66,7 +76,8 @@ void writeSceneScenario(const std::filesystem::path& file, const std::filesystem
       << "\nlon_deg = " << tomlNumber(kSiteLon_deg) << "\nheight_m = " << tomlNumber(kSiteHeight_m)
       << "\n"
       << "pressure_hPa = " << tomlNumber(fx.pressure_hPa) << "\n\n"
-      << "[atmosphere]\nvisibility_km = 23.0\naerosol = \"rural\"\n"
+      << "[atmosphere]\nvisibility_km = " << tomlNumber(fx.visibility_km)
+      << "\naerosol = \"rural\"\n"
       << "cloud_optical_depth = " << tomlNumber(fx.cloudOpticalDepth) << "\n"
       << "lunar_sky_scale = " << tomlNumber(fx.lunarSkyScale) << "\n\n"
       << "[camera]\npreset = \"pulnix-ag5745ef3\"\n\n";
@@ -124,6 +135,8 @@ Generated generateScene(const SceneGenSpec& s, const SceneStimulusFactory& facto
         } else if (s.effect == "refraction") {
             truth.pressure_hPa = v;
             model.pressure_hPa = 0.0;
+        } else if (s.effect == "aerosol_extinction") {
+            truth.visibility_km = v;  // the model keeps the scenario's 23 km
         } else {
             truth.cloudOpticalDepth = v;
         }

@@ -6,7 +6,9 @@
 // lunar sky datasets through the scene's own camera under a setting Moon, frames every few
 // minutes for about three hours, from 23° down to the horizon (1998-09-02, the thesis's Table
 // 4-2 night); for refraction the camera on the roof turned to the setting Moon's disk; for the
-// cloud a whole night under the full Moon (both halves of the dataset see the air mass change).
+// cloud a whole night under the full Moon (both halves of the dataset see the air mass change);
+// for the visibility (the truth's, the model keeping the scenario's 23 km) the rising Moon, from
+// 2.6° up.
 
 #include <cstdint>
 #include <filesystem>

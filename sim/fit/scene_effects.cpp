@@ -13,6 +13,16 @@ namespace {
 
 constexpr double kInf = 1e300;
 
+// A scenario finding must explain at least this share of the held-out squared error, as the
+// camera's mean effects must (effects.cpp): z measures how consistently a candidate helps over
+// the tiles, not how much. aerosol_extinction, whose parameter the scenario always states, is
+// fitted near the stated visibility on data without the effect and can then help every tile a
+// little: on Table 4-2's dataset 23.4 km for 23 at z 4.8, 0.018 % of the error; on 1 of 20 null
+// datasets of the sweep 23.4 km at z 4.3, 0.02 %; after the lunar sky light on one hidden
+// lunar_sky_scatter dataset 23.4 km at z 7.5, 0.036 %. The hidden scenario effects named in
+// the sweep take 1.8 % or more (docs/validation.md, "Scenario effects: the sweep").
+constexpr double kMinErrorShare = 1e-3;
+
 // The mean prediction of the frames of w.sub for another stimulus sequence, with the camera's
 // gain and offset fitted again; the held-out error per tile when `heldOut`.
 struct Eval {
@@ -127,6 +137,11 @@ void scoreTry(Work& w, const MeanModel& mm, const SceneState& s, SceneTry& t) {
         // whole (a few tiles much worse): a finding must lower the held-out RMS.
         t.c.valid = false;
         t.c.why = textf("the held-out RMS does not fall (%.4g -> %.4g DC)", s.rms, e.rms);
+    } else if (const double share = 1.0 - (e.rms * e.rms) / (s.rms * s.rms);
+               share < kMinErrorShare) {
+        t.c.valid = false;
+        t.c.why = textf("explains %.3g %% of the held-out squared error (at least %.2g %% needed)",
+                        100.0 * share, 100.0 * kMinErrorShare);
     }
 }
 
@@ -251,6 +266,22 @@ SceneTry tryCloud(Work& w, const MeanModel& mm, const SceneState& s) {
     return t;
 }
 
+SceneTry tryAerosol(Work& w, const MeanModel& mm, const SceneState& s) {
+    // Log grid 2–300 km (nodes the same for every dataset, their atmosphere tables cached), then
+    // golden-section steps. Above about 340 km Koschmieder's 3.912/V is the molecules' own
+    // extinction and the aerosol is gone (sim/sky/atmosphere.cpp): 300 km is the clearest air.
+    SceneTry t = renderedTry(w, mm, s,
+                             {"aerosol_extinction", "visibility_km", &SkyEffects::visibility_km,
+                              2.0, 300.0, 7, true, 6});
+    const double stated = s.fx.visibility_km, v = t.fx.visibility_km;
+    t.c.finding.cause = textf(
+        "the atmosphere transmits as %.3g km visibility, not %.3g: %s aerosol than the scenario's, "
+        "the Moon's beam dimmed %s the lower it stands ([atmosphere] visibility_km = %g in the "
+        "scenario)",
+        v, stated, v > stated ? "less" : "more", v > stated ? "less" : "more", stated);
+    return t;
+}
+
 }  // namespace
 
 SceneFit trySceneEffects(Work& w, const Current& base, Result& r, const RecordTrial& record,
@@ -274,6 +305,9 @@ SceneFit trySceneEffects(Work& w, const Current& base, Result& r, const RecordTr
          textf("pressure_hPa = %g", s.fx.pressure_hPa)},
         {"cloud_transmission", tryCloud, s.fx.cloudOpticalDepth != 0.0,
          textf("cloud_optical_depth = %g", s.fx.cloudOpticalDepth)},
+        // Every scenario states a visibility (23 km when it does not say): the fit asks whether
+        // the frames want another one.
+        {"aerosol_extinction", tryAerosol, false, ""},
     };
     std::vector<bool> taken(catalog.size(), false);
     bool found = false;

@@ -8,6 +8,9 @@
 //                       ([site] pressure_hPa = 0 in the model): the scene rendered again
 //   cloud_transmission  a grey cloud layer of optical depth τ ([atmosphere]
 //                       cloud_optical_depth = 0 in the model): the scene rendered again
+//   aerosol_extinction  the aerosol's extinction for another meteorological range V
+//                       ([atmosphere] visibility_km, Koschmieder; tried whatever the
+//                       scenario states): the scene rendered again
 // Each is fitted on the calibration frames (the camera's gain and offset refitted with it) and
 // scored on the held-out frames like the camera's mean effects. They change the stimulus, so
 // they are tried first, on the baseline; the camera's effects are then tried on the stimulus
@@ -28,7 +31,7 @@ struct SceneFit {
 // Records an effect's trial in the result (tried or not, and why).
 using RecordTrial = std::function<void(const Candidate&, bool tried)>;
 
-// Greedy over the three (best significant first, the others tried again on top of it); each
+// Greedy over the four (best significant first, the others tried again on top of it); each
 // trial passed to `record`, each finding appended to r.findings.
 SceneFit trySceneEffects(Work& w, const Current& base, Result& r, const RecordTrial& record,
                          const Progress& progress);

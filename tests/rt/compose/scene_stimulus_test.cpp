@@ -1,13 +1,14 @@
 // Scenario stimuli of measured datasets (rt/compose/scene_stimulus.h, sim/fit/scene_effects.h):
 // the renderer's lunar sky light is linear in its scale (what the fit relies on), refraction
-// raises the Moon as Bennett's formula says, a scenario's [platform] pose is rendered as the
-// runtime renders it, a dataset with `[stimulus] scenario` round-trips and refuses bad input,
-// and hidden scenario effects are named and recovered (a few seeds; the
-// sweep is `make validate`).
+// raises the Moon as Bennett's formula says, the visibility's extinction of the moonlight
+// follows Beer–Lambert, a scenario's [platform] pose is rendered as the runtime renders it, a
+// dataset with `[stimulus] scenario` round-trips and refuses bad input, and hidden scenario
+// effects are named and recovered (a few seeds; the sweep is `make validate`).
 #include "rt/compose/scene_stimulus.h"
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -16,9 +17,12 @@
 #include "rt/compose/scene_setup.h"
 #include "rt/render_stage/render_stage.h"
 #include "rt/synth/synth.h"
+#include "sim/astro/ephemeris.h"
+#include "sim/astro/time.h"
 #include "sim/core/error.h"
 #include "sim/fit/diagnose.h"
 #include "sim/fit/generate_scene.h"
+#include "sim/sky/sky_model.h"
 
 namespace nvs::fit {
 namespace {
@@ -105,6 +109,59 @@ TEST(SceneStimulus, RefractionRaisesTheMoonAsBennettsFormula) {
         EXPECT_NEAR(h - h0, bennett_deg * (1013.25 / 1010.0) * (283.0 / 288.0), 0.1 * bennett_deg)
             << "frame " << frame << " h " << h;
     }
+}
+
+// Kasten & Young (1989): the relative air mass at apparent altitude h [deg].
+double airMass(double h_deg) {
+    return 1.0 / (std::sin(h_deg * M_PI / 180.0) + 0.50572 * std::pow(h_deg + 6.07995, -1.6364));
+}
+
+// The visibility's extinction follows Beer–Lambert along the Moon's slant path: between
+// visibilities V1 and V2 the aerosol's vertical optical depth at 550 nm differs by
+// Δτ = 3.912·H·(1/V1 − 1/V2) (Koschmieder, aerosol scale height H = 1.2 km; the molecules'
+// share cancels), so the direct moonlight changes by e^(Δτ·m), m the Moon's air mass (in the
+// photopic band, centred near 555 nm, Δτ within a few per cent of 550 nm's). The sky model the
+// renderer uses does so; the rendered scene changes with the visibility by a factor that is not
+// the same over the night (the aerosol also scatters moonlight into the sky): not a gain.
+TEST(SceneStimulus, VisibilityDimsTheLowMoonByItsAirMass) {
+    astro::Site site;
+    site.lat_deg = 43.16856;
+    site.lon_deg = -77.61583;
+    site.height_m = 218.0;
+    sky::SkyModelConfig cfg;
+    cfg.atmosphere.siteAltitude_m = site.height_m;
+    cfg.atmosphere.visibility_km = 23.0;
+    const sky::SkyModel hazySky = sky::SkyModel::create(cfg, kDirs);
+    cfg.atmosphere.visibility_km = 80.0;
+    const sky::SkyModel clearSky = sky::SkyModel::create(cfg, kDirs);
+    const double dTau550 = 3.912 * 1.2 * (1.0 / 23.0 - 1.0 / 80.0);
+    astro::MoonState moon =
+        astro::Ephemeris(site)
+            .compute(astro::astroTimeFromUtc(astro::parseIsoUtc("1998-09-02T03:00:00Z")))
+            .moon;
+    // From 5° up: lower, the sky model's refraction of the path (a few tenths of a degree) moves
+    // the air mass by more than the tolerance.
+    for (double h_deg : {40.0, 23.0, 10.0, 5.0}) {
+        moon.alt_rad = h_deg * M_PI / 180.0;
+        const double ratio = clearSky.horizontal(sky::SkyModel::kLuxBand, moon).moonDirect /
+                             hazySky.horizontal(sky::SkyModel::kLuxBand, moon).moonDirect;
+        EXPECT_NEAR(std::log(ratio) / airMass(h_deg), dTau550, 0.05 * dTau550) << h_deg;
+    }
+    // The rendered scene of the setting Moon (23° to 1.6°): the change is not one factor.
+    const Generated g = generateScene(spec("", 1, tempDir("visibility")), factory(), kDirs.config);
+    SkyEffects hazy = g.data.sceneEffects, clear = hazy;
+    ASSERT_DOUBLE_EQ(hazy.visibility_km, 23.0);  // the scenario's
+    clear.visibility_km = 80.0;
+    const std::vector<long long> frames = {0, 24, 40, 46};
+    const auto l23 = g.data.scene->render(frames, g.data.frameRate_Hz, hazy, {});
+    const auto l80 = g.data.scene->render(frames, g.data.frameRate_Hz, clear, {});
+    double lo = 1e300, hi = 0.0;
+    for (std::size_t i = 0; i < frames.size(); ++i) {
+        const double r = meanOf(l80[i]) / meanOf(l23[i]);
+        lo = std::min(lo, r);
+        hi = std::max(hi, r);
+    }
+    EXPECT_GT(hi / lo, 1.1);
 }
 
 TEST(SceneStimulus, DatasetRoundTripAndBadInput) {
@@ -269,12 +326,17 @@ TEST(SceneStimulus, HiddenCloudTransmissionIsNamed) {
     expectNamed("cloud_transmission", 3);
 }
 
+// The rising Moon (2.6° to 34°) under clearer air than the scenario's 23 km.
+TEST(SceneStimulus, HiddenAerosolExtinctionIsNamed) {
+    expectNamed("aerosol_extinction", 3);
+}
+
 TEST(SceneStimulus, NullDatasetHasNoScenarioFinding) {
     const Generated g = generateScene(spec("", 4, tempDir("null")), factory(), kDirs.config);
     const Result r = diagnose(g.data, kDirs.config);
     for (const Finding& f : r.findings)
         EXPECT_TRUE(f.effect != "lunar_sky_scatter" && f.effect != "refraction" &&
-                    f.effect != "cloud_transmission")
+                    f.effect != "cloud_transmission" && f.effect != "aerosol_extinction")
             << f.effect;
 }
 

@@ -1,10 +1,12 @@
 // The hidden scenario-effect sweep behind `make validate` (docs/validation.md, "Scenario
-// effects"): for lunar_sky_scatter, refraction, cloud_transmission and the null case, N seeds of
-// datasets rendered from the RIT roof in each effect's setup (sim/fit/generate_scene.h: the
-// setting Moon; its disk in view for refraction; a full-Moon night for the cloud), diagnose on
-// the scenario without the effect; writes the table as Markdown.
+// effects"): for lunar_sky_scatter, refraction, cloud_transmission, aerosol_extinction and the
+// null case, N seeds of datasets rendered from the RIT roof in each effect's setup
+// (sim/fit/generate_scene.h: the setting Moon; its disk in view for refraction; a full-Moon night
+// for the cloud), diagnose on the scenario without the effect (for the aerosol: at the scenario's
+// 23 km visibility); writes the table as Markdown.
 //
-//   nvs_validate_scene [--seeds N] [--first S] [--size WxH] [--effects a,b] [--out FILE.md] [-v]
+//   nvs_validate_scene [--seeds N] [--first S] [--size WxH] [--effects a,b] [--out FILE.md]
+//                      [--work DIR] [-v]
 //   nvs_validate_scene --write DIR [--effects NAME] [--first SEED]
 //       writes one dataset (frames, dataset.toml, its scenario) to DIR and prints the truth
 
@@ -54,7 +56,7 @@ std::vector<std::string> split(const std::string& s) {
 int main(int argc, char** argv) {
     int seeds = 20, first = 1, w = 128, h = 96;
     bool verbose = false;
-    std::string out, only, write;
+    std::string out, only, write, workDir;
     for (int i = 1; i < argc; ++i) {
         const std::string a = argv[i];
         if (a == "--seeds" && i + 1 < argc)
@@ -69,12 +71,14 @@ int main(int argc, char** argv) {
             only = argv[++i];
         else if (a == "--write" && i + 1 < argc)
             write = argv[++i];
+        else if (a == "--work" && i + 1 < argc)
+            workDir = argv[++i];
         else if (a == "-v")
             verbose = true;
         else {
             std::fprintf(stderr,
                          "usage: %s [--seeds N] [--first S] [--size WxH] [--effects a,b] "
-                         "[--out F] [-v] | --write DIR\n",
+                         "[--out F] [--work DIR] [-v] | --write DIR\n",
                          argv[0]);
             return 2;
         }
@@ -101,9 +105,12 @@ int main(int argc, char** argv) {
         return 0;
     }
     std::vector<std::string> cases = {"null", "lunar_sky_scatter", "refraction",
-                                      "cloud_transmission"};
+                                      "cloud_transmission", "aerosol_extinction"};
     if (!only.empty()) cases = split(only);
-    const std::filesystem::path work = std::filesystem::path(NVS_BINARY_DIR) / "validate-scene";
+    // Two sweeps at once need two work folders (each dataset's scenario is written there).
+    const std::filesystem::path work =
+        workDir.empty() ? std::filesystem::path(NVS_BINARY_DIR) / "validate-scene"
+                        : std::filesystem::path(workDir);
     std::vector<Row> rows;
     for (const std::string& c : cases) {
         Row row;
@@ -128,7 +135,7 @@ int main(int argc, char** argv) {
                 fit::test::logSeed(c, s, g.truth, r);
                 for (const auto& t : r.trials)
                     if (t.effect == "lunar_sky_scatter" || t.effect == "refraction" ||
-                        t.effect == "cloud_transmission")
+                        t.effect == "cloud_transmission" || t.effect == "aerosol_extinction")
                         std::fprintf(stderr, "    %s z=%.2f rms %.4f->%.4f %s\n", t.effect.c_str(),
                                      t.z, t.before, t.after, t.why.c_str());
             }
