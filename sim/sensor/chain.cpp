@@ -881,6 +881,7 @@ void PhosphorStage::applyRow(const float* in, float* out, int w, int y) noexcept
 
 struct BlurStage::Fft {
     float* real = nullptr;
+    float* slotRows = nullptr;  // kChainSlots rows of wp_ floats, one a band (slotRow)
     fftwf_complex* spec = nullptr;
     float* filter = nullptr;
     fftwf_plan rowFwd = nullptr;  // one row, r2c, real row → spectrum row
@@ -891,6 +892,7 @@ struct BlurStage::Fft {
         for (fftwf_plan p : {rowFwd, rowInv, colFwd[0], colFwd[1], colInv[0], colInv[1]})
             if (p) fftwf_destroy_plan(p);
         fftwf_free(real);
+        fftwf_free(slotRows);
         fftwf_free(spec);
         fftwf_free(filter);
     }
@@ -980,8 +982,14 @@ BlurStage::BlurStage(const CameraParams& c, const ChainOptions& opt,
     fft_->real = fftwf_alloc_real(nr);
     fft_->spec = fftwf_alloc_complex(nc);
     fft_->filter = fftwf_alloc_real(nc);
-    if (!fft_->real || !fft_->spec || !fft_->filter) throw SetupError("blur: out of memory");
+    slotStride_ = (wp_ + 15) / 16 * 16;  // whole 64-byte lines: every slot row as aligned
+    const std::size_t ns =
+        static_cast<std::size_t>(kChainSlots) * static_cast<std::size_t>(slotStride_);
+    fft_->slotRows = fftwf_alloc_real(ns);
+    if (!fft_->real || !fft_->spec || !fft_->filter || !fft_->slotRows)
+        throw SetupError("blur: out of memory");
     std::fill(fft_->real, fft_->real + nr, 0.0f);
+    std::fill(fft_->slotRows, fft_->slotRows + ns, 0.0f);
     std::fill(fft_->filter, fft_->filter + nc, 0.0f);
     // Plans: from the shipped wisdom where it holds the problem (deterministic, and as fast as
     // FFTW_PATIENT), else FFTW_ESTIMATE (deterministic); FFTW_MEASURE / FFTW_PATIENT on request
@@ -1099,7 +1107,16 @@ void BlurStage::filter(RowExecutor& exec) noexcept {
 }
 
 void BlurStage::forwardRow(int y) noexcept {
-    float* row = fft_->real + static_cast<std::ptrdiff_t>(y) * wp_;
+    forwardRow(fft_->real + static_cast<std::ptrdiff_t>(y) * wp_, y);
+}
+
+float* BlurStage::slotRow(int slot) noexcept {
+    return fft_->slotRows + static_cast<std::ptrdiff_t>(slot) * slotStride_;
+}
+
+void BlurStage::forwardRow(float* row, int y) noexcept {
+    // `row` has the alignment the plan was made for: the slot rows start whole 64-byte lines
+    // from an fftwf_alloc_real base, as the real buffer's first row does.
     for (int x = w_; x < wp_; ++x)
         row[x] = row[padIndex(x, w_, wp_)];
     fftwf_execute_dft_r2c(fft_->rowFwd, row, fft_->spec + static_cast<std::ptrdiff_t>(y) * wcs_);
@@ -1128,8 +1145,11 @@ void BlurStage::filterColumns(RowExecutor& exec) noexcept {
 }
 
 void BlurStage::inverseRow(int y) noexcept {
-    fftwf_execute_dft_c2r(fft_->rowInv, fft_->spec + static_cast<std::ptrdiff_t>(y) * wcs_,
-                          fft_->real + static_cast<std::ptrdiff_t>(y) * wp_);
+    inverseRow(y, fft_->real + static_cast<std::ptrdiff_t>(y) * wp_);
+}
+
+void BlurStage::inverseRow(int y, float* row) noexcept {
+    fftwf_execute_dft_c2r(fft_->rowInv, fft_->spec + static_cast<std::ptrdiff_t>(y) * wcs_, row);
 }
 
 // ---- 8. CCD ---------------------------------------------------------------------------------
@@ -1781,12 +1801,12 @@ void IiccdChain::run(ImageView<const float> lpe, FieldContext& ctx) noexcept {
                 const double rowOut = mcp_.applyRow(sig, w, y, b, !mcpSat_.enabled());
                 rowMcp_[y] = mcpSat_.enabled() ? mcpSat_.applyRow(sig, w, y) : rowOut;
             }
-            float* dst = blur_.enabled() ? blur_.inputRow(y) : sig_.row(y);
+            float* dst = blur_.enabled() ? blur_.slotRow(b) : sig_.row(y);
             if (phosphor_.enabled())
                 phosphor_.applyRow(sig, dst, w, y);
             else
                 std::copy(sig, sig + w, dst);
-            if (blur_.enabled()) blur_.forwardRow(y);  // 7's row transform, the row in cache
+            if (blur_.enabled()) blur_.forwardRow(dst, y);  // 7's row transform, the row in cache
         }
     };
     forEachIndex(*exec_, kChainSlots, rows);
@@ -1832,9 +1852,10 @@ void IiccdChain::readOut(const FieldContext& ctx) noexcept {
     if (blur_.enabled()) {
         ccd_.beginLoad();
         auto load = [&](int b) {
+            float* row = blur_.slotRow(b);
             for (int y = bandStart(b, h); y < bandStart(b + 1, h); ++y) {
-                blur_.inverseRow(y);
-                ccd_.loadRowMax(blur_.outputRow(y), sig_.row(y), y, b);
+                blur_.inverseRow(y, row);
+                ccd_.loadRowMax(row, sig_.row(y), y, b);
             }
         };
         forEachIndex(*exec_, kChainSlots, load);

@@ -314,6 +314,14 @@ class BlurStage {
     void forwardRow(int y) noexcept;
     void filterColumns(RowExecutor& exec) noexcept;
     void inverseRow(int y) noexcept;
+    // The same steps with the real row in a band's own scratch row (slotRow(slot), paddedWidth()
+    // floats) instead of the whole padded image: the row is written, padded and transformed
+    // while in cache, and the image-sized real buffer is not streamed through memory. The
+    // same plans, alignment and arithmetic, so the same bits. forwardRow pads `row` in place;
+    // inverseRow writes the blurred row y into `row`.
+    float* slotRow(int slot) noexcept;
+    void forwardRow(float* row, int y) noexcept;
+    void inverseRow(int y, float* row) noexcept;
     // Writes the wisdom FFTW's planner holds (every plan made so far in this process) to
     // `file` (tests/sim/sensor/fftw_wisdom.cpp makes config/fftw/wisdom-single.txt with it).
     // Returns false if it could not be written.
@@ -325,9 +333,10 @@ class BlurStage {
     void planTransforms(unsigned flags);
     bool enabled_;
     int w_ = 0, h_ = 0, wp_ = 0, hp_ = 0;
-    int wc_ = 0;   // complex columns of the half spectrum, wp/2 + 1
-    int wcs_ = 0;  // its row stride (whole 64-byte lines)
-    int cb_ = 0;   // columns per column band
+    int wc_ = 0;          // complex columns of the half spectrum, wp/2 + 1
+    int wcs_ = 0;         // its row stride (whole 64-byte lines)
+    int cb_ = 0;          // columns per column band
+    int slotStride_ = 0;  // floats between slot rows (wp_ rounded up to 64-byte lines)
     std::unique_ptr<Fft> fft_;
 };
 
