@@ -356,19 +356,24 @@ NVS_ROW_CLONES void haloTapKernel(float* __restrict out, const float* __restrict
         out[i] += k * src[i];
 }
 // A pixel row back from its cells: r = keep·r + share·spread of its cell.
+// In place (out = r) or into another row (the image row read, not written back).
 template <int B>
-inline __attribute__((always_inline)) void haloAddBackBody(float* __restrict r,
+inline __attribute__((always_inline)) void haloAddBackBody(const float* r, float* out,
                                                            const float* __restrict sp, int cells,
                                                            float keep, float share) noexcept {
     for (int cx = 0; cx < cells; ++cx) {
         const float add = share * sp[cx];
         for (int k = 0; k < B; ++k)
-            r[cx * B + k] = keep * r[cx * B + k] + add;
+            out[cx * B + k] = keep * r[cx * B + k] + add;
     }
 }
 NVS_ROW_CLONES void haloAddBack4(float* r, const float* sp, int cells, float keep,
                                  float share) noexcept {
-    haloAddBackBody<4>(r, sp, cells, keep, share);
+    haloAddBackBody<4>(r, r, sp, cells, keep, share);
+}
+NVS_ROW_CLONES void haloAddBack4To(const float* __restrict r, float* __restrict out,
+                                   const float* sp, int cells, float keep, float share) noexcept {
+    haloAddBackBody<4>(r, out, sp, cells, keep, share);
 }
 
 }  // namespace
@@ -572,14 +577,21 @@ void HaloStage::spread(RowExecutor& exec) noexcept {
 }
 
 void HaloStage::addBackRow(float* r, int y) noexcept {
+    addBackRow(r, r, y);
+}
+
+void HaloStage::addBackRow(const float* r, float* out, int y) noexcept {
     // 3. Back onto the pixels: a cell's halo share evenly over its pixels.
     const int fullCells = w_ / kBlock;
     const float keep = 1.0f - fraction_;
     const float share = fraction_ / static_cast<float>(kBlock * kBlock);
     const float* sp = spread_.row(y / kBlock);
-    haloAddBack4(r, sp, fullCells, keep, share);
+    if (r == out)
+        haloAddBack4(out, sp, fullCells, keep, share);
+    else
+        haloAddBack4To(r, out, sp, fullCells, keep, share);
     for (int x = fullCells * kBlock; x < w_; ++x)
-        r[x] = keep * r[x] + share * sp[fullCells];
+        out[x] = keep * r[x] + share * sp[fullCells];
 }
 
 BspStage::BspStage(const CameraParams& c)
@@ -729,11 +741,13 @@ namespace {
 // out)·keep.
 // One channel: out = Q·(1 − e^(−D/Q)); a drained one (Q = 0) gives nothing (u held at 87
 // gives Q·1 = 0, with no branch).
+// kSmall: the caller knows u < 1/2.
+template <bool kSmall>
 __attribute__((always_inline)) inline float mcpSaturationPixel(float& d, float& q, float qMax,
                                                                float keep) noexcept {
     const float avail = q;
     const float u = std::min(d / std::max(avail, 1e-30f), 87.0f);
-    const float out = avail * oneMinusExpNeg(u);
+    const float out = avail * (kSmall ? oneMinusExpNegSmall(u) : oneMinusExpNeg(u));
     d = out;
     q = qMax - (qMax - avail + out) * keep;
     return out;
@@ -744,11 +758,23 @@ NVS_ROW_CLONES double mcpSaturationKernel(float* __restrict e, float* __restrict
     constexpr int kL = 16;
     float acc[kL] = {};
     int x = 0;
-    for (; x + kL <= w; x += kL)
+    for (; x + kL <= w; x += kL) {
+        // Where no channel of the 16 takes half its charge or more (u < 1/2, the usual case
+        // below saturation), 1 − e^(−u) is its Taylor branch alone: the same values without
+        // forming the exponential branch.
+        int big = 0;
         for (int j = 0; j < kL; ++j)
-            acc[j] += mcpSaturationPixel(e[x + j], q[x + j], qMax, keep);
+            big += e[x + j] >= 0.5f * q[x + j] ? 1 : 0;
+        if (big == 0) {
+            for (int j = 0; j < kL; ++j)
+                acc[j] += mcpSaturationPixel<true>(e[x + j], q[x + j], qMax, keep);
+        } else {
+            for (int j = 0; j < kL; ++j)
+                acc[j] += mcpSaturationPixel<false>(e[x + j], q[x + j], qMax, keep);
+        }
+    }
     for (; x < w; ++x)
-        acc[x % kL] += mcpSaturationPixel(e[x], q[x], qMax, keep);
+        acc[x % kL] += mcpSaturationPixel<false>(e[x], q[x], qMax, keep);
     double sum = 0.0;
     for (int j = 0; j < kL; ++j)
         sum += static_cast<double>(acc[j]);
@@ -1790,7 +1816,11 @@ void IiccdChain::run(ImageView<const float> lpe, FieldContext& ctx) noexcept {
         float* sig = rowSig_.get() + off;
         for (int y = bandStart(b, h); y < bandStart(b + 1, h); ++y) {
             const float* r = rate_.row(y);
-            if (halo) halo_.addBackRow(rate_.row(y), y);
+            if (halo) {
+                // Into the band's row: the image row is only read (no write-back stream).
+                halo_.addBackRow(r, rate, y);
+                r = rate;
+            }
             if (!opticsFirst) {
                 rowBad_[y] = optics_.applyRow(lpe.row(y), rate, y, rowOptics_[y]);
                 r = rate;

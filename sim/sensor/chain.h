@@ -155,6 +155,8 @@ class HaloStage {
     void sumCells(ImageView<const float> rate, int cy0, int cy1) noexcept;
     void spread(RowExecutor& exec) noexcept;
     void addBackRow(float* rateRow, int y) noexcept;
+    // The same into `out` (another row of the image's width; rateRow is only read).
+    void addBackRow(const float* rateRow, float* out, int y) noexcept;
     // The kernel on the cell grid (odd size, sums to 1), for tests.
     const std::vector<float>& kernel() const { return kernel_; }
     int kernelRadiusCells() const { return kr_; }
