@@ -1,8 +1,14 @@
 #include "sim/sensor/chain.h"
 
+#if defined(__x86_64__) && defined(__GNUC__)
+#include <immintrin.h>
+#define NVS_PHOSPHOR_AVX512 1
+#endif
+
 #include <fftw3.h>
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <filesystem>
 
@@ -10,6 +16,7 @@
 #include "sim/core/input_file.h"
 #include "sim/core/rng.h"
 #include "sim/core/units.h"
+#include "sim/sensor/half.h"
 #include "sim/sensor/mtf.h"
 
 namespace nvs::sensor {
@@ -377,6 +384,97 @@ NVS_ROW_CLONES void haloAddBack4To(const float* __restrict r, float* __restrict 
 }
 
 }  // namespace
+
+namespace detail {
+
+// ---- The phosphor's state in binary16 (PhosphorStage::boundInput) ----
+// One block of the half-precision state: as phosphorBlock (the same operations in the same
+// order), the stores as binary16 of store·inv[j] (inv = 1/scale, powers of two: exact).
+static void phosphorBlockHalf(const float* __restrict in, float* __restrict out,
+                              std::uint16_t* __restrict s, int n, int m, float nowEta,
+                              const float* k, const float* dc, const float* em, const float* scale,
+                              const float* inv) noexcept {
+    constexpr int B = kPhosphorBlock;
+    for (int x = 0; x < n; ++x) {
+        const float e = in[x];
+        float o = e * nowEta;
+        for (int j = 0; j < m; ++j) {
+            const float a = floatFromHalf(s[j * B + x]) * scale[j];
+            o += a * em[j];
+            const float next = a * dc[j] + e * k[j];
+            s[j * B + x] = halfFromFloat((next < kPhosphorFloor_e ? 0.0f : next) * inv[j]);
+        }
+        out[x] = o;
+    }
+}
+
+void phosphorRowHalf(const float* in, float* out, std::uint16_t* st, int w, int m, float nowEta,
+                     const float* k, const float* dc, const float* em, const float* scale,
+                     const float* inv) noexcept {
+    constexpr int B = kPhosphorBlock;
+    for (int b = 0; b < w; b += B)
+        phosphorBlockHalf(in + b, out + b, st + static_cast<std::ptrdiff_t>(b) * m,
+                          std::min(B, w - b), m, nowEta, k, dc, em, scale, inv);
+}
+
+#ifdef NVS_PHOSPHOR_AVX512
+// GCC 12's AVX-512 headers trip -Wmaybe-uninitialized on their own pass-through operands.
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+// The same with 16 pixels a vector and the hardware's conversions (vcvtph2ps / vcvtps2ph,
+// round to nearest even): the same bits as phosphorRowHalf. Whole blocks here, the last
+// partial one by phosphorBlockHalf.
+__attribute__((target("avx512f"))) void phosphorRowHalfAvx512(
+    const float* in, float* out, std::uint16_t* st, int w, int m, float nowEta, const float* k,
+    const float* dc, const float* em, const float* scale, const float* inv) noexcept {
+    constexpr int B = kPhosphorBlock;
+    static_assert(B == 16, "one vector a block");
+    const __m512 vNow = _mm512_set1_ps(nowEta);
+    const __m512 vFloor = _mm512_set1_ps(kPhosphorFloor_e);
+    int b = 0;
+    for (; b + B <= w; b += B) {
+        const __m512 e = _mm512_loadu_ps(in + b);
+        __m512 o = _mm512_mul_ps(e, vNow);
+        std::uint16_t* s = st + static_cast<std::ptrdiff_t>(b) * m;
+        for (int j = 0; j < m; ++j) {
+            __m256i* sj = reinterpret_cast<__m256i*>(s + j * B);
+            const __m512 a =
+                _mm512_mul_ps(_mm512_cvtph_ps(_mm256_loadu_si256(sj)), _mm512_set1_ps(scale[j]));
+            o = _mm512_add_ps(o, _mm512_mul_ps(a, _mm512_set1_ps(em[j])));
+            __m512 next = _mm512_add_ps(_mm512_mul_ps(a, _mm512_set1_ps(dc[j])),
+                                        _mm512_mul_ps(e, _mm512_set1_ps(k[j])));
+            next = _mm512_maskz_mov_ps(_mm512_cmp_ps_mask(next, vFloor, _CMP_NLT_UQ), next);
+            next = _mm512_mul_ps(next, _mm512_set1_ps(inv[j]));
+            _mm256_storeu_si256(
+                sj, _mm512_cvtps_ph(next, _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC));
+        }
+        _mm512_storeu_ps(out + b, o);
+    }
+    if (b < w)
+        phosphorBlockHalf(in + b, out + b, st + static_cast<std::ptrdiff_t>(b) * m, w - b, m,
+                          nowEta, k, dc, em, scale, inv);
+}
+#pragma GCC diagnostic pop
+
+bool phosphorHasAvx512() noexcept {
+    static const bool has = [] {
+        __builtin_cpu_init();
+        return __builtin_cpu_supports("avx512f") != 0;
+    }();
+    return has;
+}
+#else
+void phosphorRowHalfAvx512(const float* in, float* out, std::uint16_t* st, int w, int m,
+                           float nowEta, const float* k, const float* dc, const float* em,
+                           const float* scale, const float* inv) noexcept {
+    phosphorRowHalf(in, out, st, w, m, nowEta, k, dc, em, scale, inv);
+}
+bool phosphorHasAvx512() noexcept {
+    return false;
+}
+#endif
+
+}  // namespace detail
 
 // ---- 1. Optics ------------------------------------------------------------------------------
 
@@ -820,7 +918,9 @@ double PhosphorStage::inPeriodFraction(double tau_s, double gate_s, double perio
 }
 
 PhosphorStage::PhosphorStage(const CameraParams& c)
-    : enabled_(c.phosphor_enabled), eta_(c.ccdElectronsPerMcpElectron()) {
+    : enabled_(c.phosphor_enabled),
+      eta_(c.ccdElectronsPerMcpElectron()),
+      period_s_(c.integrationPeriod_s()) {
     if (!enabled_) return;
     n_ = static_cast<int>(c.phosphor_decay_s.size());
     for (int i = 0; i < n_; ++i) {
@@ -845,6 +945,30 @@ PhosphorStage::PhosphorStage(const CameraParams& c)
 
 void PhosphorStage::reset() noexcept {
     if (!state_.empty()) state_.fill(0.0f);
+    if (!half_.empty()) half_.fill(0);
+}
+
+void PhosphorStage::boundInput(double maxIn) {
+    if (state_.empty() || !(maxIn > 0.0)) return;
+    // Component i's store after any number of periods: s ← s·d + e·k with e ≤ maxIn and
+    // k = w(1 − f)·η ≤ w·η, so s ≤ maxIn·w·η/(1 − d) (d = e^(−T/τ), the period fixed). Its
+    // scale: the power of two that puts that bound at or below 2^14 (a quarter of binary16's
+    // range: room for the roundings); below 2^−14·scale the half values are subnormal, an
+    // absolute step of 2^−24·scale.
+    int m = 0;
+    for (int i = 0; i < n_; ++i) {
+        if (!stored_[i]) continue;
+        double d = std::exp(-period_s_ / tau_s_[i]);
+        if (d < 1e-20) d = 0.0;
+        const double bound = maxIn * weight_[i] * eta_ / (1.0 - d);
+        const int e2 = bound > 0.0 ? static_cast<int>(std::ceil(std::log2(bound / 16384.0))) : 0;
+        scale_[m] = std::ldexp(1.0f, e2);
+        invScale_[m] = std::ldexp(1.0f, -e2);
+        ++m;
+    }
+    half_ = ImageU16(state_.width(), state_.height());
+    half_.fill(0);
+    state_ = ImageF();
 }
 
 void PhosphorStage::apply(ImageView<float> s, const FieldContext& ctx) noexcept {
@@ -883,6 +1007,19 @@ void PhosphorStage::begin(const FieldContext& ctx) noexcept {
 }
 
 void PhosphorStage::applyRow(const float* in, float* out, int w, int y) noexcept {
+    if (!half_.empty()) {
+        std::uint16_t* st = half_.row(y);
+#ifdef NVS_PHOSPHOR_AVX512
+        if (detail::phosphorHasAvx512()) {
+            detail::phosphorRowHalfAvx512(in, out, st, w, m_, nowEta_, keepEta_, decay_, emit_,
+                                          scale_, invScale_);
+            return;
+        }
+#endif
+        detail::phosphorRowHalf(in, out, st, w, m_, nowEta_, keepEta_, decay_, emit_, scale_,
+                                invScale_);
+        return;
+    }
     float* st = state_.empty() ? nullptr : state_.row(y);
     switch (m_) {
         case 0:
@@ -1680,6 +1817,9 @@ IiccdChain::IiccdChain(const CameraParams& cam, std::uint64_t seed,
       rowBad_(static_cast<std::size_t>(cam_.height), 0),
       rowLevel_(static_cast<std::size_t>(cam_.height), 0) {
     counts_.fill(static_cast<float>(std::clamp(cam_.video_offset_dc, 0.0, 65535.0)));
+    // The phosphor's input is MCP saturation's output, at most a channel's full charge: its
+    // afterglow store is bounded and kept in binary16 (PhosphorStage::boundInput).
+    if (cam_.mcp_enabled && cam_.mcpsat_enabled) phosphor_.boundInput(cam_.mcpsat_pixel_charge_e);
 }
 
 IiccdChain::~IiccdChain() = default;
