@@ -17,14 +17,19 @@ namespace nvs {
 // with n = round(u·log₂e), f = u − n·ln 2 with ln 2 in two parts (Cody & Waite; the split of
 // Cephes' expf) and e^(−f), |f| ≤ ln2/2, by its Taylor series to f⁷ (< 2e-8); u is held at 87
 // (e^(−87) is below float's epsilon against 1). Within 1e-7 relative of expm1 (test).
-__attribute__((always_inline)) inline float oneMinusExpNeg(float u) {
-    const float t =
-        u *
-        (1.0f -
-         u * (0.5f - u * (1.0f / 6.0f -
+// oneMinusExpNeg's value for u < 1/2 (its Taylor branch alone: the same bits there), for a
+// loop that knows all its u are below 1/2 and need not form the other branch.
+__attribute__((always_inline)) inline float oneMinusExpNegSmall(float u) {
+    return u * (1.0f -
+                u * (0.5f -
+                     u * (1.0f / 6.0f -
                           u * (1.0f / 24.0f -
                                u * (1.0f / 120.0f -
                                     u * (1.0f / 720.0f - u * (1.0f / 5040.0f - u / 40320.0f)))))));
+}
+
+__attribute__((always_inline)) inline float oneMinusExpNeg(float u) {
+    const float t = oneMinusExpNegSmall(u);
     const float v = std::min(u, 87.0f);
     const float nf = std::nearbyint(v * 1.44269504f);
     const float f = (v - nf * 0.693359375f) + nf * 2.12194440e-4f;  // ln 2 = hi − lo

@@ -1,8 +1,14 @@
 #include "sim/sensor/chain.h"
 
+#if defined(__x86_64__) && defined(__GNUC__)
+#include <immintrin.h>
+#define NVS_PHOSPHOR_AVX512 1
+#endif
+
 #include <fftw3.h>
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <filesystem>
 
@@ -10,6 +16,7 @@
 #include "sim/core/input_file.h"
 #include "sim/core/rng.h"
 #include "sim/core/units.h"
+#include "sim/sensor/half.h"
 #include "sim/sensor/mtf.h"
 
 namespace nvs::sensor {
@@ -356,22 +363,118 @@ NVS_ROW_CLONES void haloTapKernel(float* __restrict out, const float* __restrict
         out[i] += k * src[i];
 }
 // A pixel row back from its cells: r = keep·r + share·spread of its cell.
+// In place (out = r) or into another row (the image row read, not written back).
 template <int B>
-inline __attribute__((always_inline)) void haloAddBackBody(float* __restrict r,
+inline __attribute__((always_inline)) void haloAddBackBody(const float* r, float* out,
                                                            const float* __restrict sp, int cells,
                                                            float keep, float share) noexcept {
     for (int cx = 0; cx < cells; ++cx) {
         const float add = share * sp[cx];
         for (int k = 0; k < B; ++k)
-            r[cx * B + k] = keep * r[cx * B + k] + add;
+            out[cx * B + k] = keep * r[cx * B + k] + add;
     }
 }
 NVS_ROW_CLONES void haloAddBack4(float* r, const float* sp, int cells, float keep,
                                  float share) noexcept {
-    haloAddBackBody<4>(r, sp, cells, keep, share);
+    haloAddBackBody<4>(r, r, sp, cells, keep, share);
+}
+NVS_ROW_CLONES void haloAddBack4To(const float* __restrict r, float* __restrict out,
+                                   const float* sp, int cells, float keep, float share) noexcept {
+    haloAddBackBody<4>(r, out, sp, cells, keep, share);
 }
 
 }  // namespace
+
+namespace detail {
+
+// ---- The phosphor's state in binary16 (PhosphorStage::boundInput) ----
+// One block of the half-precision state: as phosphorBlock (the same operations in the same
+// order), the stores as binary16 of store·inv[j] (inv = 1/scale, powers of two: exact).
+static void phosphorBlockHalf(const float* __restrict in, float* __restrict out,
+                              std::uint16_t* __restrict s, int n, int m, float nowEta,
+                              const float* k, const float* dc, const float* em, const float* scale,
+                              const float* inv) noexcept {
+    constexpr int B = kPhosphorBlock;
+    for (int x = 0; x < n; ++x) {
+        const float e = in[x];
+        float o = e * nowEta;
+        for (int j = 0; j < m; ++j) {
+            const float a = floatFromHalf(s[j * B + x]) * scale[j];
+            o += a * em[j];
+            const float next = a * dc[j] + e * k[j];
+            s[j * B + x] = halfFromFloat((next < kPhosphorFloor_e ? 0.0f : next) * inv[j]);
+        }
+        out[x] = o;
+    }
+}
+
+void phosphorRowHalf(const float* in, float* out, std::uint16_t* st, int w, int m, float nowEta,
+                     const float* k, const float* dc, const float* em, const float* scale,
+                     const float* inv) noexcept {
+    constexpr int B = kPhosphorBlock;
+    for (int b = 0; b < w; b += B)
+        phosphorBlockHalf(in + b, out + b, st + static_cast<std::ptrdiff_t>(b) * m,
+                          std::min(B, w - b), m, nowEta, k, dc, em, scale, inv);
+}
+
+#ifdef NVS_PHOSPHOR_AVX512
+// GCC 12's AVX-512 headers trip -Wmaybe-uninitialized on their own pass-through operands.
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+// The same with 16 pixels a vector and the hardware's conversions (vcvtph2ps / vcvtps2ph,
+// round to nearest even): the same bits as phosphorRowHalf. Whole blocks here, the last
+// partial one by phosphorBlockHalf.
+__attribute__((target("avx512f"))) void phosphorRowHalfAvx512(
+    const float* in, float* out, std::uint16_t* st, int w, int m, float nowEta, const float* k,
+    const float* dc, const float* em, const float* scale, const float* inv) noexcept {
+    constexpr int B = kPhosphorBlock;
+    static_assert(B == 16, "one vector a block");
+    const __m512 vNow = _mm512_set1_ps(nowEta);
+    const __m512 vFloor = _mm512_set1_ps(kPhosphorFloor_e);
+    int b = 0;
+    for (; b + B <= w; b += B) {
+        const __m512 e = _mm512_loadu_ps(in + b);
+        __m512 o = _mm512_mul_ps(e, vNow);
+        std::uint16_t* s = st + static_cast<std::ptrdiff_t>(b) * m;
+        for (int j = 0; j < m; ++j) {
+            __m256i* sj = reinterpret_cast<__m256i*>(s + j * B);
+            const __m512 a =
+                _mm512_mul_ps(_mm512_cvtph_ps(_mm256_loadu_si256(sj)), _mm512_set1_ps(scale[j]));
+            o = _mm512_add_ps(o, _mm512_mul_ps(a, _mm512_set1_ps(em[j])));
+            __m512 next = _mm512_add_ps(_mm512_mul_ps(a, _mm512_set1_ps(dc[j])),
+                                        _mm512_mul_ps(e, _mm512_set1_ps(k[j])));
+            next = _mm512_maskz_mov_ps(_mm512_cmp_ps_mask(next, vFloor, _CMP_NLT_UQ), next);
+            next = _mm512_mul_ps(next, _mm512_set1_ps(inv[j]));
+            _mm256_storeu_si256(
+                sj, _mm512_cvtps_ph(next, _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC));
+        }
+        _mm512_storeu_ps(out + b, o);
+    }
+    if (b < w)
+        phosphorBlockHalf(in + b, out + b, st + static_cast<std::ptrdiff_t>(b) * m, w - b, m,
+                          nowEta, k, dc, em, scale, inv);
+}
+#pragma GCC diagnostic pop
+
+bool phosphorHasAvx512() noexcept {
+    static const bool has = [] {
+        __builtin_cpu_init();
+        return __builtin_cpu_supports("avx512f") != 0;
+    }();
+    return has;
+}
+#else
+void phosphorRowHalfAvx512(const float* in, float* out, std::uint16_t* st, int w, int m,
+                           float nowEta, const float* k, const float* dc, const float* em,
+                           const float* scale, const float* inv) noexcept {
+    phosphorRowHalf(in, out, st, w, m, nowEta, k, dc, em, scale, inv);
+}
+bool phosphorHasAvx512() noexcept {
+    return false;
+}
+#endif
+
+}  // namespace detail
 
 // ---- 1. Optics ------------------------------------------------------------------------------
 
@@ -572,14 +675,21 @@ void HaloStage::spread(RowExecutor& exec) noexcept {
 }
 
 void HaloStage::addBackRow(float* r, int y) noexcept {
+    addBackRow(r, r, y);
+}
+
+void HaloStage::addBackRow(const float* r, float* out, int y) noexcept {
     // 3. Back onto the pixels: a cell's halo share evenly over its pixels.
     const int fullCells = w_ / kBlock;
     const float keep = 1.0f - fraction_;
     const float share = fraction_ / static_cast<float>(kBlock * kBlock);
     const float* sp = spread_.row(y / kBlock);
-    haloAddBack4(r, sp, fullCells, keep, share);
+    if (r == out)
+        haloAddBack4(out, sp, fullCells, keep, share);
+    else
+        haloAddBack4To(r, out, sp, fullCells, keep, share);
     for (int x = fullCells * kBlock; x < w_; ++x)
-        r[x] = keep * r[x] + share * sp[fullCells];
+        out[x] = keep * r[x] + share * sp[fullCells];
 }
 
 BspStage::BspStage(const CameraParams& c)
@@ -729,11 +839,13 @@ namespace {
 // out)·keep.
 // One channel: out = Q·(1 − e^(−D/Q)); a drained one (Q = 0) gives nothing (u held at 87
 // gives Q·1 = 0, with no branch).
+// kSmall: the caller knows u < 1/2.
+template <bool kSmall>
 __attribute__((always_inline)) inline float mcpSaturationPixel(float& d, float& q, float qMax,
                                                                float keep) noexcept {
     const float avail = q;
     const float u = std::min(d / std::max(avail, 1e-30f), 87.0f);
-    const float out = avail * oneMinusExpNeg(u);
+    const float out = avail * (kSmall ? oneMinusExpNegSmall(u) : oneMinusExpNeg(u));
     d = out;
     q = qMax - (qMax - avail + out) * keep;
     return out;
@@ -744,11 +856,23 @@ NVS_ROW_CLONES double mcpSaturationKernel(float* __restrict e, float* __restrict
     constexpr int kL = 16;
     float acc[kL] = {};
     int x = 0;
-    for (; x + kL <= w; x += kL)
+    for (; x + kL <= w; x += kL) {
+        // Where no channel of the 16 takes half its charge or more (u < 1/2, the usual case
+        // below saturation), 1 − e^(−u) is its Taylor branch alone: the same values without
+        // forming the exponential branch.
+        int big = 0;
         for (int j = 0; j < kL; ++j)
-            acc[j] += mcpSaturationPixel(e[x + j], q[x + j], qMax, keep);
+            big += e[x + j] >= 0.5f * q[x + j] ? 1 : 0;
+        if (big == 0) {
+            for (int j = 0; j < kL; ++j)
+                acc[j] += mcpSaturationPixel<true>(e[x + j], q[x + j], qMax, keep);
+        } else {
+            for (int j = 0; j < kL; ++j)
+                acc[j] += mcpSaturationPixel<false>(e[x + j], q[x + j], qMax, keep);
+        }
+    }
     for (; x < w; ++x)
-        acc[x % kL] += mcpSaturationPixel(e[x], q[x], qMax, keep);
+        acc[x % kL] += mcpSaturationPixel<false>(e[x], q[x], qMax, keep);
     double sum = 0.0;
     for (int j = 0; j < kL; ++j)
         sum += static_cast<double>(acc[j]);
@@ -794,7 +918,9 @@ double PhosphorStage::inPeriodFraction(double tau_s, double gate_s, double perio
 }
 
 PhosphorStage::PhosphorStage(const CameraParams& c)
-    : enabled_(c.phosphor_enabled), eta_(c.ccdElectronsPerMcpElectron()) {
+    : enabled_(c.phosphor_enabled),
+      eta_(c.ccdElectronsPerMcpElectron()),
+      period_s_(c.integrationPeriod_s()) {
     if (!enabled_) return;
     n_ = static_cast<int>(c.phosphor_decay_s.size());
     for (int i = 0; i < n_; ++i) {
@@ -819,6 +945,30 @@ PhosphorStage::PhosphorStage(const CameraParams& c)
 
 void PhosphorStage::reset() noexcept {
     if (!state_.empty()) state_.fill(0.0f);
+    if (!half_.empty()) half_.fill(0);
+}
+
+void PhosphorStage::boundInput(double maxIn) {
+    if (state_.empty() || !(maxIn > 0.0)) return;
+    // Component i's store after any number of periods: s ← s·d + e·k with e ≤ maxIn and
+    // k = w(1 − f)·η ≤ w·η, so s ≤ maxIn·w·η/(1 − d) (d = e^(−T/τ), the period fixed). Its
+    // scale: the power of two that puts that bound at or below 2^14 (a quarter of binary16's
+    // range: room for the roundings); below 2^−14·scale the half values are subnormal, an
+    // absolute step of 2^−24·scale.
+    int m = 0;
+    for (int i = 0; i < n_; ++i) {
+        if (!stored_[i]) continue;
+        double d = std::exp(-period_s_ / tau_s_[i]);
+        if (d < 1e-20) d = 0.0;
+        const double bound = maxIn * weight_[i] * eta_ / (1.0 - d);
+        const int e2 = bound > 0.0 ? static_cast<int>(std::ceil(std::log2(bound / 16384.0))) : 0;
+        scale_[m] = std::ldexp(1.0f, e2);
+        invScale_[m] = std::ldexp(1.0f, -e2);
+        ++m;
+    }
+    half_ = ImageU16(state_.width(), state_.height());
+    half_.fill(0);
+    state_ = ImageF();
 }
 
 void PhosphorStage::apply(ImageView<float> s, const FieldContext& ctx) noexcept {
@@ -857,6 +1007,19 @@ void PhosphorStage::begin(const FieldContext& ctx) noexcept {
 }
 
 void PhosphorStage::applyRow(const float* in, float* out, int w, int y) noexcept {
+    if (!half_.empty()) {
+        std::uint16_t* st = half_.row(y);
+#ifdef NVS_PHOSPHOR_AVX512
+        if (detail::phosphorHasAvx512()) {
+            detail::phosphorRowHalfAvx512(in, out, st, w, m_, nowEta_, keepEta_, decay_, emit_,
+                                          scale_, invScale_);
+            return;
+        }
+#endif
+        detail::phosphorRowHalf(in, out, st, w, m_, nowEta_, keepEta_, decay_, emit_, scale_,
+                                invScale_);
+        return;
+    }
     float* st = state_.empty() ? nullptr : state_.row(y);
     switch (m_) {
         case 0:
@@ -881,6 +1044,7 @@ void PhosphorStage::applyRow(const float* in, float* out, int w, int y) noexcept
 
 struct BlurStage::Fft {
     float* real = nullptr;
+    float* slotRows = nullptr;  // kChainSlots rows of wp_ floats, one a band (slotRow)
     fftwf_complex* spec = nullptr;
     float* filter = nullptr;
     fftwf_plan rowFwd = nullptr;  // one row, r2c, real row → spectrum row
@@ -891,6 +1055,7 @@ struct BlurStage::Fft {
         for (fftwf_plan p : {rowFwd, rowInv, colFwd[0], colFwd[1], colInv[0], colInv[1]})
             if (p) fftwf_destroy_plan(p);
         fftwf_free(real);
+        fftwf_free(slotRows);
         fftwf_free(spec);
         fftwf_free(filter);
     }
@@ -980,8 +1145,14 @@ BlurStage::BlurStage(const CameraParams& c, const ChainOptions& opt,
     fft_->real = fftwf_alloc_real(nr);
     fft_->spec = fftwf_alloc_complex(nc);
     fft_->filter = fftwf_alloc_real(nc);
-    if (!fft_->real || !fft_->spec || !fft_->filter) throw SetupError("blur: out of memory");
+    slotStride_ = (wp_ + 15) / 16 * 16;  // whole 64-byte lines: every slot row as aligned
+    const std::size_t ns =
+        static_cast<std::size_t>(kChainSlots) * static_cast<std::size_t>(slotStride_);
+    fft_->slotRows = fftwf_alloc_real(ns);
+    if (!fft_->real || !fft_->spec || !fft_->filter || !fft_->slotRows)
+        throw SetupError("blur: out of memory");
     std::fill(fft_->real, fft_->real + nr, 0.0f);
+    std::fill(fft_->slotRows, fft_->slotRows + ns, 0.0f);
     std::fill(fft_->filter, fft_->filter + nc, 0.0f);
     // Plans: from the shipped wisdom where it holds the problem (deterministic, and as fast as
     // FFTW_PATIENT), else FFTW_ESTIMATE (deterministic); FFTW_MEASURE / FFTW_PATIENT on request
@@ -1099,7 +1270,16 @@ void BlurStage::filter(RowExecutor& exec) noexcept {
 }
 
 void BlurStage::forwardRow(int y) noexcept {
-    float* row = fft_->real + static_cast<std::ptrdiff_t>(y) * wp_;
+    forwardRow(fft_->real + static_cast<std::ptrdiff_t>(y) * wp_, y);
+}
+
+float* BlurStage::slotRow(int slot) noexcept {
+    return fft_->slotRows + static_cast<std::ptrdiff_t>(slot) * slotStride_;
+}
+
+void BlurStage::forwardRow(float* row, int y) noexcept {
+    // `row` has the alignment the plan was made for: the slot rows start whole 64-byte lines
+    // from an fftwf_alloc_real base, as the real buffer's first row does.
     for (int x = w_; x < wp_; ++x)
         row[x] = row[padIndex(x, w_, wp_)];
     fftwf_execute_dft_r2c(fft_->rowFwd, row, fft_->spec + static_cast<std::ptrdiff_t>(y) * wcs_);
@@ -1128,8 +1308,11 @@ void BlurStage::filterColumns(RowExecutor& exec) noexcept {
 }
 
 void BlurStage::inverseRow(int y) noexcept {
-    fftwf_execute_dft_c2r(fft_->rowInv, fft_->spec + static_cast<std::ptrdiff_t>(y) * wcs_,
-                          fft_->real + static_cast<std::ptrdiff_t>(y) * wp_);
+    inverseRow(y, fft_->real + static_cast<std::ptrdiff_t>(y) * wp_);
+}
+
+void BlurStage::inverseRow(int y, float* row) noexcept {
+    fftwf_execute_dft_c2r(fft_->rowInv, fft_->spec + static_cast<std::ptrdiff_t>(y) * wcs_, row);
 }
 
 // ---- 8. CCD ---------------------------------------------------------------------------------
@@ -1634,6 +1817,9 @@ IiccdChain::IiccdChain(const CameraParams& cam, std::uint64_t seed,
       rowBad_(static_cast<std::size_t>(cam_.height), 0),
       rowLevel_(static_cast<std::size_t>(cam_.height), 0) {
     counts_.fill(static_cast<float>(std::clamp(cam_.video_offset_dc, 0.0, 65535.0)));
+    // The phosphor's input is MCP saturation's output, at most a channel's full charge: its
+    // afterglow store is bounded and kept in binary16 (PhosphorStage::boundInput).
+    if (cam_.mcp_enabled && cam_.mcpsat_enabled) phosphor_.boundInput(cam_.mcpsat_pixel_charge_e);
 }
 
 IiccdChain::~IiccdChain() = default;
@@ -1770,7 +1956,11 @@ void IiccdChain::run(ImageView<const float> lpe, FieldContext& ctx) noexcept {
         float* sig = rowSig_.get() + off;
         for (int y = bandStart(b, h); y < bandStart(b + 1, h); ++y) {
             const float* r = rate_.row(y);
-            if (halo) halo_.addBackRow(rate_.row(y), y);
+            if (halo) {
+                // Into the band's row: the image row is only read (no write-back stream).
+                halo_.addBackRow(r, rate, y);
+                r = rate;
+            }
             if (!opticsFirst) {
                 rowBad_[y] = optics_.applyRow(lpe.row(y), rate, y, rowOptics_[y]);
                 r = rate;
@@ -1781,12 +1971,12 @@ void IiccdChain::run(ImageView<const float> lpe, FieldContext& ctx) noexcept {
                 const double rowOut = mcp_.applyRow(sig, w, y, b, !mcpSat_.enabled());
                 rowMcp_[y] = mcpSat_.enabled() ? mcpSat_.applyRow(sig, w, y) : rowOut;
             }
-            float* dst = blur_.enabled() ? blur_.inputRow(y) : sig_.row(y);
+            float* dst = blur_.enabled() ? blur_.slotRow(b) : sig_.row(y);
             if (phosphor_.enabled())
                 phosphor_.applyRow(sig, dst, w, y);
             else
                 std::copy(sig, sig + w, dst);
-            if (blur_.enabled()) blur_.forwardRow(y);  // 7's row transform, the row in cache
+            if (blur_.enabled()) blur_.forwardRow(dst, y);  // 7's row transform, the row in cache
         }
     };
     forEachIndex(*exec_, kChainSlots, rows);
@@ -1832,9 +2022,10 @@ void IiccdChain::readOut(const FieldContext& ctx) noexcept {
     if (blur_.enabled()) {
         ccd_.beginLoad();
         auto load = [&](int b) {
+            float* row = blur_.slotRow(b);
             for (int y = bandStart(b, h); y < bandStart(b + 1, h); ++y) {
-                blur_.inverseRow(y);
-                ccd_.loadRowMax(blur_.outputRow(y), sig_.row(y), y, b);
+                blur_.inverseRow(y, row);
+                ccd_.loadRowMax(row, sig_.row(y), y, b);
             }
         };
         forEachIndex(*exec_, kChainSlots, load);

@@ -155,6 +155,8 @@ class HaloStage {
     void sumCells(ImageView<const float> rate, int cy0, int cy1) noexcept;
     void spread(RowExecutor& exec) noexcept;
     void addBackRow(float* rateRow, int y) noexcept;
+    // The same into `out` (another row of the image's width; rateRow is only read).
+    void addBackRow(const float* rateRow, float* out, int y) noexcept;
     // The kernel on the cell grid (odd size, sums to 1), for tests.
     const std::vector<float>& kernel() const { return kernel_; }
     int kernelRadiusCells() const { return kr_; }
@@ -259,6 +261,13 @@ class PhosphorStage {
     // MCP electrons `in` into CCD electrons `out` (distinct rows) and updates the state.
     void begin(const FieldContext& ctx) noexcept;
     void applyRow(const float* in, float* out, int w, int y) noexcept;
+    // The input is never above maxIn (MCP electrons a pixel and period: IiccdChain passes MCP
+    // saturation's channel charge): the stored afterglow is then bounded, and is kept from here
+    // on in binary16 times a power-of-two scale per component, the scale putting the store's
+    // bound at 2^14 (half the memory stream of float stores, read and written every period).
+    // Error of a store: 2^−12 relative, and below 2^−27 of the bound (the subnormal halves) at
+    // most 2^−38 of the bound absolute (PULNiX: 3e-6 CCD electrons). Setup only; resets the store.
+    void boundInput(double maxIn);
     // Fraction of an excitation spread over a gate of length g at the start of a period T
     // that component τ emits within that period (docs/sensor.md, step 6).
     static double inPeriodFraction(double tau_s, double gate_s, double period_s);
@@ -274,6 +283,12 @@ class PhosphorStage {
     // in blocks of 16, each block the 16 values of the first stored component, then of the
     // second, … (one memory stream for the per-pixel loop).
     ImageF state_;
+    // The same in binary16 after boundInput() (state_ then empty), each component's values
+    // times invScale_ (powers of two).
+    ImageU16 half_;
+    float scale_[4] = {1.0f, 1.0f, 1.0f, 1.0f};
+    float invScale_[4] = {1.0f, 1.0f, 1.0f, 1.0f};
+    double period_s_ = 0.0;
     // This field's coefficients (begin()): m_ stored components idx_[], each keeping
     // keepEta_ of the excitation, decaying by decay_ and emitting emit_ of its store; nowEta_
     // of the excitation is emitted at once.
@@ -285,6 +300,19 @@ class PhosphorStage {
     float emit_[4] = {};
     std::unique_ptr<float[]> row_;  // in-place apply(): a copy of the row
 };
+
+// The phosphor's rows with a binary16 store (PhosphorStage::boundInput): the portable form and
+// the AVX-512 one (hardware conversions), the same bits; exposed for the test that checks so.
+// w pixels in blocks of 16, m stored components, the store of a block as PhosphorStage::state_.
+namespace detail {
+void phosphorRowHalf(const float* in, float* out, std::uint16_t* st, int w, int m, float nowEta,
+                     const float* k, const float* dc, const float* em, const float* scale,
+                     const float* inv) noexcept;
+void phosphorRowHalfAvx512(const float* in, float* out, std::uint16_t* st, int w, int m,
+                           float nowEta, const float* k, const float* dc, const float* em,
+                           const float* scale, const float* inv) noexcept;
+bool phosphorHasAvx512() noexcept;  // false where phosphorRowHalfAvx512 is not built or runnable
+}  // namespace detail
 
 // ---- 7. Blur (MTF) --------------------------------------------------------------------------
 class BlurStage {
@@ -314,6 +342,14 @@ class BlurStage {
     void forwardRow(int y) noexcept;
     void filterColumns(RowExecutor& exec) noexcept;
     void inverseRow(int y) noexcept;
+    // The same steps with the real row in a band's own scratch row (slotRow(slot), paddedWidth()
+    // floats) instead of the whole padded image: the row is written, padded and transformed
+    // while in cache, and the image-sized real buffer is not streamed through memory. The
+    // same plans, alignment and arithmetic, so the same bits. forwardRow pads `row` in place;
+    // inverseRow writes the blurred row y into `row`.
+    float* slotRow(int slot) noexcept;
+    void forwardRow(float* row, int y) noexcept;
+    void inverseRow(int y, float* row) noexcept;
     // Writes the wisdom FFTW's planner holds (every plan made so far in this process) to
     // `file` (tests/sim/sensor/fftw_wisdom.cpp makes config/fftw/wisdom-single.txt with it).
     // Returns false if it could not be written.
@@ -325,9 +361,10 @@ class BlurStage {
     void planTransforms(unsigned flags);
     bool enabled_;
     int w_ = 0, h_ = 0, wp_ = 0, hp_ = 0;
-    int wc_ = 0;   // complex columns of the half spectrum, wp/2 + 1
-    int wcs_ = 0;  // its row stride (whole 64-byte lines)
-    int cb_ = 0;   // columns per column band
+    int wc_ = 0;          // complex columns of the half spectrum, wp/2 + 1
+    int wcs_ = 0;         // its row stride (whole 64-byte lines)
+    int cb_ = 0;          // columns per column band
+    int slotStride_ = 0;  // floats between slot rows (wp_ rounded up to 64-byte lines)
     std::unique_ptr<Fft> fft_;
 };
 
