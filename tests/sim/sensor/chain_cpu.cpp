@@ -18,6 +18,7 @@
 #include "sim/core/gamma_table.h"
 #include "sim/sensor/camera.h"
 #include "sim/sensor/chain.h"
+#include "tests/sim/sensor/chain_inputs.h"
 
 namespace {
 double threadCpu_s() {
@@ -36,15 +37,7 @@ int main(int argc, char** argv) {
     const int fields = argc > 2 ? std::max(1, std::atoi(argv[2])) : 200;
     const nvs::sensor::CameraParams cam = nvs::sensor::loadCamera(config, "pulnix-ag5745ef3");
     for (const bool lamp : {false, true}) {
-        nvs::ImageF lpe(cam.width, cam.height);
-        lpe.fill(1e13f);
-        if (lamp) {
-            for (int y = 0; y < cam.height; ++y)
-                for (int x = 0; x < cam.width; ++x) {
-                    const int dx = x - 300, dy = y - 200;
-                    if (dx * dx + dy * dy < 144) lpe.row(y)[x] = 1e17f;
-                }
-        }
+        const nvs::ImageF lpe = nvs::sensor::chainTimingInput(cam, lamp);
         nvs::GammaTableCache tables;
         nvs::sensor::IiccdChain chain(cam, 1, config, tables);
         for (int i = 0; i < 10; ++i)

@@ -17,6 +17,7 @@
 #include "sim/core/row_executor.h"
 #include "sim/sensor/camera.h"
 #include "sim/sensor/chain.h"
+#include "tests/sim/sensor/chain_inputs.h"
 
 namespace {
 double wall_s() {
@@ -76,15 +77,7 @@ int main(int argc, char** argv) {
     nvs::rt::RowPool pool(2);
     nvs::SerialExecutor serial;
     for (const bool lamp : {false, true}) {
-        nvs::ImageF lpe(cam.width, cam.height);
-        lpe.fill(1e13f);
-        if (lamp) {
-            for (int y = 0; y < cam.height; ++y)
-                for (int x = 0; x < cam.width; ++x) {
-                    const int dx = x - 300, dy = y - 200;
-                    if (dx * dx + dy * dy < 144) lpe.row(y)[x] = 1e17f;
-                }
-        }
+        const nvs::ImageF lpe = nvs::sensor::chainTimingInput(cam, lamp);
         for (const int threads : {1, 2}) {
             nvs::GammaTableCache tables;
             nvs::sensor::IiccdChain chain(cam, 1, config, tables);
