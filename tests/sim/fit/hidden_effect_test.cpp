@@ -80,8 +80,8 @@ INSTANTIATE_TEST_SUITE_P(Catalog, HiddenEffect,
 
 // The excess noise fitted to a null dataset, whose camera is the model's: the measured temporal
 // noise over the model's (variance_ratio_to_model, from the trial's record) must be 1 within
-// its scatter. It was 1.04-1.16 on 20 of 20 null seeds when the model's noise statistics were
-// smoothed with weights from their own noisy values (docs/diagnose.md §2).
+// its scatter. It was 1.04-1.16 on 19 of 20 null seeds (one 0.996) when the model's noise
+// statistics were smoothed with weights from their own noisy values (docs/diagnose.md §2).
 double nullVarianceRatio(const Result& r) {
     for (const Trial& t : r.trials) {
         const std::size_t at = t.why.find("variance_ratio_to_model = ");
