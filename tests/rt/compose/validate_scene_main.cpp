@@ -10,6 +10,7 @@
 //   nvs_validate_scene --write DIR [--effects NAME] [--first SEED]
 //       writes one dataset (frames, dataset.toml, its scenario) to DIR and prints the truth
 
+#include <CLI/CLI.hpp>
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -21,6 +22,7 @@
 #include <vector>
 
 #include "rt/compose/scene_stimulus.h"
+#include "sim/core/error.h"
 #include "sim/fit/diagnose.h"
 #include "sim/fit/generate_scene.h"
 #include "tests/sim/fit/sweep_log.h"
@@ -51,38 +53,26 @@ std::vector<std::string> split(const std::string& s) {
     return out;
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
+int run(int argc, char** argv) {
     int seeds = 20, first = 1, w = 128, h = 96;
     bool verbose = false;
-    std::string out, only, write, workDir;
-    for (int i = 1; i < argc; ++i) {
-        const std::string a = argv[i];
-        if (a == "--seeds" && i + 1 < argc)
-            seeds = std::atoi(argv[++i]);
-        else if (a == "--first" && i + 1 < argc)
-            first = std::atoi(argv[++i]);
-        else if (a == "--size" && i + 1 < argc)
-            std::sscanf(argv[++i], "%dx%d", &w, &h);
-        else if (a == "--out" && i + 1 < argc)
-            out = argv[++i];
-        else if (a == "--effects" && i + 1 < argc)
-            only = argv[++i];
-        else if (a == "--write" && i + 1 < argc)
-            write = argv[++i];
-        else if (a == "--work" && i + 1 < argc)
-            workDir = argv[++i];
-        else if (a == "-v")
-            verbose = true;
-        else {
-            std::fprintf(stderr,
-                         "usage: %s [--seeds N] [--first S] [--size WxH] [--effects a,b] "
-                         "[--out F] [--work DIR] [-v] | --write DIR\n",
-                         argv[0]);
-            return 2;
-        }
+    std::string out, only, write, workDir, size;
+    CLI::App app{"The hidden scenario-effect sweep of nvstim diagnose (docs/validation.md)"};
+    app.add_option("--seeds", seeds, "seeds per case")->check(CLI::Range(1, 100000));
+    app.add_option("--first", first, "the first seed (with --write: the seed)")
+        ->check(CLI::Range(1, 1000000));
+    app.add_option("--size", size, "frame size WxH (128x96; refraction's setup needs 128x96)");
+    app.add_option("--out", out, "write the table as Markdown to this file");
+    app.add_option("--effects", only, "cases, comma-separated; null: none hidden");
+    app.add_option("--work", workDir, "folder for the generated scenarios (one per sweep)");
+    app.add_option("--write", write, "write one generated dataset to this folder");
+    app.add_flag("-v", verbose, "one line per seed, and the scenario effects' trials");
+    try {
+        app.parse(argc, argv);
+    } catch (const CLI::ParseError& e) {
+        return app.exit(e) == 0 ? 0 : 2;
     }
+    if (!size.empty()) fit::test::parseFrameSize(size, w, h);
     const std::filesystem::path src = NVS_SOURCE_DIR;
     const DataDirs dirs{src / "config", std::filesystem::path(NVS_BINARY_DIR) / "nvstim-cache"};
     const auto make = factory(dirs);
@@ -162,4 +152,15 @@ int main(int argc, char** argv) {
     std::printf("%s", md.str().c_str());
     if (!out.empty()) std::ofstream(out) << md.str();
     return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    try {
+        return run(argc, argv);
+    } catch (const nvs::SetupError& e) {
+        std::fprintf(stderr, "nvs_validate_scene: %s\n", e.what());
+        return 2;
+    }
 }

@@ -1,11 +1,13 @@
 #pragma once
-// The per-seed line of the hidden-effect sweeps (`-v`): the hidden truth, then each finding with
-// its z and parameters, on stderr.
+// What the two hidden-effect sweep tools (nvs_validate_diagnose, nvs_validate_scene) share: the
+// per-seed line (`-v`: the hidden truth, then each finding with its z and parameters, on
+// stderr) and the --size parser.
 
 #include <cstdio>
 #include <map>
 #include <string>
 
+#include "sim/core/error.h"
 #include "sim/fit/diagnose.h"
 
 namespace nvs::fit::test {
@@ -23,6 +25,13 @@ inline void logSeed(const std::string& hidden, int seed, const std::map<std::str
         std::fprintf(stderr, "]");
     }
     std::fprintf(stderr, "\n");
+}
+
+// "WxH", each at least 16; anything else is a setup error naming the option.
+inline void parseFrameSize(const std::string& text, int& w, int& h) {
+    char tail = 0;
+    if (std::sscanf(text.c_str(), "%dx%d%c", &w, &h, &tail) != 2 || w < 16 || h < 16)
+        throw SetupError("--size: expected WxH, at least 16x16, got '" + text + "'");
 }
 
 }  // namespace nvs::fit::test

@@ -74,11 +74,7 @@ int run(int argc, char** argv) {
     } catch (const CLI::ParseError& e) {
         return app.exit(e) == 0 ? 0 : 2;
     }
-    if (!size.empty()) {
-        char tail = 0;
-        if (std::sscanf(size.c_str(), "%dx%d%c", &w, &h, &tail) != 2 || w < 16 || h < 16)
-            throw nvs::SetupError("--size: expected WxH, at least 16x16, got '" + size + "'");
-    }
+    if (!size.empty()) nvs::fit::test::parseFrameSize(size, w, h);
     if (!writeDir.empty()) out = "write:" + writeDir;
     const std::filesystem::path config = NVS_SOURCE_DIR "/config";
     if (out.rfind("write:", 0) == 0) {
