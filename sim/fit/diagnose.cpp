@@ -276,16 +276,18 @@ void resimulateNoise(const Dataset& d, ModelRun& m, const Work& w, const MeanMod
             for (std::size_t i = 0; i < q.size(); ++i)
                 q[i] = static_cast<float>((1.0 - frac) * q[i] + frac * o[i]);
         };
-        for (Plane* q : {&p, sat ? &u : nullptr}) {
-            if (q == nullptr) continue;
-            if (mm.haloF != 0.0) spread(*q, mm.haloF, ringKernel(mm.haloR_um, w.pitchX_um));
-            if (mm.glareG != 0.0) spread(*q, mm.glareG, expKernel(mm.glareS_um));
-        }
-        if (sat)
+        auto spreads = [&](Plane& q) {
+            if (mm.haloF != 0.0) spread(q, mm.haloF, ringKernel(mm.haloR_um, w.pitchX_um));
+            if (mm.glareG != 0.0) spread(q, mm.glareG, expKernel(mm.glareS_um));
+        };
+        spreads(p);
+        if (sat) {
+            spreads(u);
             for (std::size_t i = 0; i < p.size(); ++i)
                 if (u[i] > 0.0f)
                     p[i] = static_cast<float>(
                         p[i] * (-mm.satQ_dc * std::expm1(-u[i] / mm.satQ_dc)) / u[i]);
+        }
         ImageF img(w.w, w.h);
         for (int y = 0; y < w.h; ++y)
             for (int x = 0; x < w.w; ++x)

@@ -45,9 +45,11 @@ std::vector<Plane> minus(const std::vector<Plane>& a, const std::vector<Plane>& 
 
 constexpr double kInf = 1e300;
 
-// A mean effect must explain at least this share of the held-out squared error. z measures
-// how consistently a candidate helps over the tiles, not how much: on null datasets (the
-// model is the camera) a 0.4 % veiling glare over 700 um took 0.03 % of the error at z 4.4,
+}  // namespace
+
+// The share of the held-out squared error a finding must explain (effects.h, material). z
+// measures how consistently a candidate helps over the tiles, not how much: on null datasets
+// (the model is the camera) a 0.4 % veiling glare over 700 um took 0.03 % of the error at z 4.4,
 // a systematic difference between the chain's mean run and its noisy frames at that level.
 // The weakest hidden effect named in the sweep took 0.43 % (docs/validation.md, "diagnose").
 constexpr double kMinErrorShare = 1e-3;
@@ -62,6 +64,8 @@ Candidate& material(Candidate& c) {
     }
     return c;
 }
+
+namespace {
 
 // A linear spatial effect (1 − f)·Y + f·K_s ⊛ Y: B = K_s ⊛ Y − Y, f = c/a, s searched.
 Candidate trySpread(Work& w, const Current& cur, const char* name,

@@ -43,6 +43,11 @@ struct Current {
     double rms = 0.0;
 };
 
+// A valid candidate that explains less than 0.1 % of the held-out squared error (from its
+// finding's held-out RMS before and after) is made invalid, with the reason in `why`. Camera
+// mean effects and scenario effects alike.
+Candidate& material(Candidate& c);
+
 Candidate tryPersistence(Work& w, const Current& cur);
 Candidate tryHalo(Work& w, const Current& cur);
 Candidate tryGlare(Work& w, const Current& cur);

@@ -106,13 +106,6 @@ void addSaturation(Work& w, const MeanModel& mm, std::vector<Plane>& S,
     }
 }
 
-// The spatial effects in the camera's order: veiling glare (in the lens) and the halo (at the
-// MCP's input) spread the light, the MCP saturates what reaches it, the chain's MTF blurs that,
-// and the baseline's extra blur acts on the whole image. Spreads and blurs are linear and
-// commute, so the signal is spread as it is and the saturation's change is computed on the
-// unblurred image spread the same way:
-//   S ← L(S) + MTF ⊛ (Q(1 − e^(−L(U)/Q)) − L(U)),   L = glare ∘ halo.
-// `unblurred` holds U for each plane of S (used with saturation only).
 // FNV-1a over the planes' bytes: identifies the planes a spread was made of (Work::SpreadMemo).
 std::uint64_t planesHash(const std::vector<Plane>& P) {
     std::uint64_t h = 0xcbf29ce484222325ull;
@@ -125,6 +118,13 @@ std::uint64_t planesHash(const std::vector<Plane>& P) {
     return h;
 }
 
+// The spatial effects in the camera's order: veiling glare (in the lens) and the halo (at the
+// MCP's input) spread the light, the MCP saturates what reaches it, the chain's MTF blurs that,
+// and the baseline's extra blur acts on the whole image. Spreads and blurs are linear and
+// commute, so the signal is spread as it is and the saturation's change is computed on the
+// unblurred image spread the same way:
+//   S ← L(S) + MTF ⊛ (Q(1 − e^(−L(U)/Q)) − L(U)),   L = glare ∘ halo.
+// `unblurred` holds U for each plane of S (used with saturation only).
 void spatialEffects(Work& w, const MeanModel& mm, std::vector<Plane>& S,
                     const std::vector<Plane>& unblurred) {
     auto spreads = [&](std::vector<Plane>& P) {

@@ -238,14 +238,15 @@ void makeFrames(const sensor::CameraParams& cam, std::uint64_t seed,
 
 Generated generate(const GenSpec& s, const std::filesystem::path& configDir) {
     for (const std::string& e : s.effects) {
+        const auto& ranges = effectRanges();
+        if (std::any_of(ranges.begin(), ranges.end(),
+                        [&](const EffectRange& r) { return e == r.effect; }))
+            continue;
         std::string known;
-        bool found = false;
-        for (const EffectRange& r : effectRanges()) {
-            found = found || e == r.effect;
+        for (const EffectRange& r : ranges)
             if (known.find(r.effect) == std::string::npos)
                 known += (known.empty() ? "" : ", ") + std::string(r.effect);
-        }
-        if (!found) throw SetupError("unknown effect '" + e + "' to hide (known: " + known + ")");
+        throw SetupError("unknown effect '" + e + "' to hide (known: " + known + ")");
     }
     Generated g;
     Dataset& d = g.data;

@@ -13,16 +13,6 @@ namespace {
 
 constexpr double kInf = 1e300;
 
-// A scenario finding must explain at least this share of the held-out squared error, as the
-// camera's mean effects must (effects.cpp): z measures how consistently a candidate helps over
-// the tiles, not how much. aerosol_extinction, whose parameter the scenario always states, is
-// fitted near the stated visibility on data without the effect and can then help every tile a
-// little: on Table 4-2's dataset 23.4 km for 23 at z 4.8, 0.018 % of the error; on 1 of 20 null
-// datasets of the sweep 23.4 km at z 4.3, 0.02 %; after the lunar sky light on one hidden
-// lunar_sky_scatter dataset 23.4 km at z 7.5, 0.036 %. The hidden scenario effects named in
-// the sweep take 1.8 % or more (docs/validation.md, "Scenario effects: the sweep").
-constexpr double kMinErrorShare = 1e-3;
-
 // The mean prediction of the frames of w.sub for another stimulus sequence, with the camera's
 // gain and offset fitted again; the held-out error per tile when `heldOut`.
 struct Eval {
@@ -137,11 +127,15 @@ void scoreTry(Work& w, const MeanModel& mm, const SceneState& s, SceneTry& t) {
         // whole (a few tiles much worse): a finding must lower the held-out RMS.
         t.c.valid = false;
         t.c.why = textf("the held-out RMS does not fall (%.4g -> %.4g DC)", s.rms, e.rms);
-    } else if (const double share = 1.0 - (e.rms * e.rms) / (s.rms * s.rms);
-               share < kMinErrorShare) {
-        t.c.valid = false;
-        t.c.why = textf("explains %.3g %% of the held-out squared error (at least %.2g %% needed)",
-                        100.0 * share, 100.0 * kMinErrorShare);
+    } else {
+        // The 0.1 % floor of the camera's mean effects (effects.h, material). aerosol_extinction,
+        // whose parameter the scenario always states, is fitted near the stated visibility on
+        // data without the effect and can then help every tile a little: on Table 4-2's dataset
+        // 23.4 km for 23 at z 4.8, 0.018 % of the error; on 1 of 20 null datasets of the sweep
+        // 23.4 km at z 4.3, 0.02 %; after the lunar sky light on one hidden lunar_sky_scatter
+        // dataset 23.4 km at z 7.5, 0.036 %. The hidden scenario effects named in the sweep
+        // take 1.8 % or more (docs/validation.md, "Scenario effects: the sweep").
+        material(t.c);
     }
 }
 

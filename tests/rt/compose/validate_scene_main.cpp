@@ -22,7 +22,6 @@
 #include <vector>
 
 #include "rt/compose/scene_stimulus.h"
-#include "sim/core/error.h"
 #include "sim/fit/diagnose.h"
 #include "sim/fit/generate_scene.h"
 #include "tests/sim/fit/sweep_log.h"
@@ -157,10 +156,5 @@ int run(int argc, char** argv) {
 }  // namespace
 
 int main(int argc, char** argv) {
-    try {
-        return run(argc, argv);
-    } catch (const nvs::SetupError& e) {
-        std::fprintf(stderr, "nvs_validate_scene: %s\n", e.what());
-        return 2;
-    }
+    return nvs::fit::test::mainOf("nvs_validate_scene", run, argc, argv);
 }

@@ -1,7 +1,7 @@
 #pragma once
 // What the two hidden-effect sweep tools (nvs_validate_diagnose, nvs_validate_scene) share: the
 // per-seed line (`-v`: the hidden truth, then each finding with its z and parameters, on
-// stderr) and the --size parser.
+// stderr), the --size parser and their main().
 
 #include <cstdio>
 #include <map>
@@ -32,6 +32,16 @@ inline void parseFrameSize(const std::string& text, int& w, int& h) {
     char tail = 0;
     if (std::sscanf(text.c_str(), "%dx%d%c", &w, &h, &tail) != 2 || w < 16 || h < 16)
         throw SetupError("--size: expected WxH, at least 16x16, got '" + text + "'");
+}
+
+// A sweep tool's main(): run(argc, argv), a setup error (bad input) as one line, exit status 2.
+inline int mainOf(const char* tool, int (*run)(int, char**), int argc, char** argv) {
+    try {
+        return run(argc, argv);
+    } catch (const SetupError& e) {
+        std::fprintf(stderr, "%s: %s\n", tool, e.what());
+        return 2;
+    }
 }
 
 }  // namespace nvs::fit::test

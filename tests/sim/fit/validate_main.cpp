@@ -19,7 +19,6 @@
 #include <string>
 #include <vector>
 
-#include "sim/core/error.h"
 #include "sim/fit/diagnose.h"
 #include "sim/fit/generate.h"
 #include "tests/sim/fit/sweep_log.h"
@@ -186,10 +185,5 @@ int run(int argc, char** argv) {
 }  // namespace
 
 int main(int argc, char** argv) {
-    try {
-        return run(argc, argv);
-    } catch (const nvs::SetupError& e) {
-        std::fprintf(stderr, "nvs_validate_diagnose: %s\n", e.what());
-        return 2;
-    }
+    return nvs::fit::test::mainOf("nvs_validate_diagnose", run, argc, argv);
 }
