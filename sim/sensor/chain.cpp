@@ -213,17 +213,19 @@ NVS_PHOSPHOR_ROW(3)
 NVS_PHOSPHOR_ROW(4)
 #undef NVS_PHOSPHOR_ROW
 
-// CCD load: max(src, 0)·(1 + PRNU) + dark, the column maxima and the column sums.
-NVS_ROW_CLONES void ccdLoadKernel(const float* __restrict src, const float* __restrict prnu,
-                                  float* __restrict dst, float* __restrict cmax,
-                                  float* __restrict csum, int w, float dark) noexcept {
+// CCD load: max(src, 0)·(1 + PRNU) + dark and the column maxima; with kSums also the
+// column sums (smear). One body, two vector-cloned kernels (as the phosphor rows above).
+template <bool kSums>
+inline __attribute__((always_inline)) void ccdLoadBody(
+    const float* __restrict src, const float* __restrict prnu, float* __restrict dst,
+    float* __restrict cmax, float* __restrict csum, int w, float dark) noexcept {
     if (prnu) {
         for (int x = 0; x < w; ++x) {
             const float s = src[x];
             const float v = (s < 0.0f ? 0.0f : s) * prnu[x] + dark;
             dst[x] = v;
             cmax[x] = cmax[x] < v ? v : cmax[x];
-            csum[x] += v;
+            if constexpr (kSums) csum[x] += v;
         }
     } else {
         for (int x = 0; x < w; ++x) {
@@ -231,30 +233,19 @@ NVS_ROW_CLONES void ccdLoadKernel(const float* __restrict src, const float* __re
             const float v = (s < 0.0f ? 0.0f : s) + dark;
             dst[x] = v;
             cmax[x] = cmax[x] < v ? v : cmax[x];
-            csum[x] += v;
+            if constexpr (kSums) csum[x] += v;
         }
     }
 }
-
-// CCD load without the column sums: max(src, 0)·(1 + PRNU) + dark, and the column maxima.
+NVS_ROW_CLONES void ccdLoadKernel(const float* __restrict src, const float* __restrict prnu,
+                                  float* __restrict dst, float* __restrict cmax,
+                                  float* __restrict csum, int w, float dark) noexcept {
+    ccdLoadBody<true>(src, prnu, dst, cmax, csum, w, dark);
+}
 NVS_ROW_CLONES void ccdLoadMaxKernel(const float* __restrict src, const float* __restrict prnu,
                                      float* __restrict dst, float* __restrict cmax, int w,
                                      float dark) noexcept {
-    if (prnu) {
-        for (int x = 0; x < w; ++x) {
-            const float s = src[x];
-            const float v = (s < 0.0f ? 0.0f : s) * prnu[x] + dark;
-            dst[x] = v;
-            cmax[x] = cmax[x] < v ? v : cmax[x];
-        }
-    } else {
-        for (int x = 0; x < w; ++x) {
-            const float s = src[x];
-            const float v = (s < 0.0f ? 0.0f : s) + dark;
-            dst[x] = v;
-            cmax[x] = cmax[x] < v ? v : cmax[x];
-        }
-    }
+    ccdLoadBody<false>(src, prnu, dst, cmax, nullptr, w, dark);
 }
 
 // Column sums of a row: cs += v.
