@@ -819,7 +819,7 @@ void buildStatic(const Ctx& c, int count, const std::size_t* idx, Counts& n) noe
         n.shadow += static_cast<std::uint64_t>(lampFactors(im, *c.cfg, need, count, p, nn, fac));
         for (int k = 0; k < count; ++k)
             std::copy(fac + static_cast<std::size_t>(k) * nl,
-                      fac + static_cast<std::size_t>(k + 1) * nl, &im.sLamp[idx[k] * nl]);
+                      fac + static_cast<std::size_t>(k + 1) * nl, im.sLamp.data() + idx[k] * nl);
     }
     // Mirror rays of the specular pixels among them.
     alignas(64) int valid[kPacket];  // Embree: a packet's valid mask is 64-byte aligned
@@ -876,7 +876,7 @@ void buildStatic(const Ctx& c, int count, const std::size_t* idx, Counts& n) noe
         n.secondary += static_cast<std::uint64_t>(lampFactors(im, *c.cfg, need, nh, q, nq, fac));
         for (int h = 0; h < nh; ++h)
             std::copy(fac + static_cast<std::size_t>(h) * nl,
-                      fac + static_cast<std::size_t>(h + 1) * nl, &im.sqLamp[qi[h] * nl]);
+                      fac + static_cast<std::size_t>(h + 1) * nl, im.sqLamp.data() + qi[h] * nl);
     }
 }
 
@@ -920,7 +920,7 @@ void shadeBatch(const Ctx& c, int count, const std::size_t* idx, bool withSky,
     for (int k = 0; k < count; ++k) {
         const std::size_t i = idx[k];
         const std::size_t m = im.gMat[i];
-        const float* fl = &im.sLamp[i * nl];
+        const float* fl = im.sLamp.data() + i * nl;  // no lamps: empty, data() + 0
         const std::uint16_t qm = im.sqMat[i];
         float specL[kBands] = {0.0f, 0.0f};
         if (qm != kNotSpecular && im.kSpec[m * kBands] != 0.0f) {
@@ -928,7 +928,7 @@ void shadeBatch(const Ctx& c, int count, const std::size_t* idx, bool withSky,
                 skyLookup(c, &im.sqPos[3 * i], im.sqNrm[3 * i], im.sqNrm[3 * i + 1],
                           &specL[kBandPe], &specL[kBandW]);
             } else {
-                const float* ql = &im.sqLamp[i * nl];
+                const float* ql = im.sqLamp.data() + i * nl;
                 for (std::size_t b = 0; b < kBands; ++b) {
                     const std::size_t mb = qm * std::size_t{kBands} + b;
                     float l = im.kMoon[mb] * moonQ[k] + im.kSky[mb] * im.sqSvf[i];
