@@ -9,7 +9,9 @@
 //                   peak RSS, operator new calls per field in steady state
 //   stages          Google Benchmark items (rt/bench/timed_items.h): ephemeris, sky lookup,
 //                   render (RIT stlamp, full and coarse f = 4, 1 and 2 threads, fixed and moving
-//                   camera; the vehicle-drive truck), the camera chain (one field)
+//                   camera; the vehicle-drive truck), the camera chain (one field); the
+//                   airborne pass flown along its log (a field at 768×494; 1280×1024 full rate,
+//                   coarse, its primary pass alone, and its camera chain)
 //   references      Embree's own single-ray and 16-packet rates on the render's primary rays,
 //                   the plain eq. 7.1 model (rt/bench/eq71_reference.h) on the camera chain's
 //                   frames, a frame-sized memcpy
@@ -30,8 +32,11 @@
 #include "rt/bench/timed_items.h"
 #include "rt/cli/commands.h"
 #include "rt/cli/data_dirs.h"
+#include "rt/compose/platform_pose.h"
 #include "rt/compose/scene_setup.h"
 #include "rt/render_stage/row_pool.h"
+#include "rt/run/run.h"
+#include "rt/run/telemetry_factory.h"
 #include "sim/astro/ephemeris.h"
 #include "sim/core/error.h"
 #include "sim/core/units.h"
@@ -217,6 +222,124 @@ void addTruckItems(Items& items, const DataDirs& dirs, const std::filesystem::pa
             shared->sr->renderer().render(sky, shared->pe.view(), shared->band.view(), **pool);
         };
         it.after = [shared](TimedItem& self) { addRayRate(self, shared->sr->renderer()); };
+    }
+}
+
+// The airborne pass over its scene, the camera moving along the flight log as `nvstim run` moves
+// it: the scenario's [telemetry] replay through the runtime's telemetry source, sampled a field
+// (768×494 interlaced, scenarios/airborne-pass) or a frame (1280×1024 progressive,
+// airborne-pass-sxga) apart over the log's first 2 s, and placed by PlatformPose. Each iteration
+// takes the next pose (the poses are sampled at setup; the track is not run backwards). On two
+// threads: a field's own rows at 768×494; every row at 1280×1024, full rate and coarse f = 4,
+// and its primary pass alone (Embree's packets: the geometry buffer, rebuilt each frame under a
+// moving camera); then the SXGA camera's chain, one frame on one thread (the runtime's camera
+// thread), on the first pose's render. What a progressive 1280×1024 frame costs where its time
+// goes: docs/performance.md.
+struct Flight {
+    std::filesystem::path file;
+    DataDirs dirs;
+    int coarse = 1;
+    double period_s = 1.0 / 30.0;  // between poses
+    std::unique_ptr<rt::ScenarioRenderer> sr;
+    std::vector<scene::CameraPose> poses;
+    std::size_t next = 0;
+    ImageF pe, band;
+    std::unique_ptr<rt::RowPool> pool;
+    rt::ScenarioRenderer& get() {
+        if (sr) return *sr;
+        sr = rt::ScenarioRenderer::create(file, dirs, coarse);
+        const rt::Scenario& sc = sr->scenario();
+        if (!sc.telemetry) throw SetupError(file.string() + ": no [telemetry] to fly");
+        rt::Spec spec = rt::parseSpec(*sc.telemetry, "[telemetry] source");
+        const std::unique_ptr<rt::PlatformSource> src = rt::makeTelemetrySource(
+            spec, sc, rt::ClockKind::Sim, "[telemetry] source", dirs.config);
+        const rt::PlatformPose place(sc.scene.site);
+        for (double t = 0.0; t < 2.0; t += period_s) {
+            msg::PlatformState st = sc.platform;
+            src->sample(t, t, st);
+            poses.push_back(place.poseFor(st));
+        }
+        pe = ImageF(sc.width, sc.height);
+        band = ImageF(sc.width, sc.height);
+        pool = std::make_unique<rt::RowPool>(2);
+        return *sr;
+    }
+    // Renders the next pose's frame, or its field of parity `rowParity` (-1: every row).
+    void renderNext(int rowParity) {
+        const std::size_t k = next++ % poses.size();
+        const render::FrameSky sky = sr->prepare(static_cast<double>(k) * period_s);
+        sr->renderer().setCamera(poses[k]);
+        sr->renderer().render(sky, pe.view(), band.view(), *pool, rowParity);
+    }
+};
+
+void addAirborneItems(Items& items, const DataDirs& dirs, const std::filesystem::path& scenarios) {
+    const std::filesystem::path air = scenarios / "airborne-pass" / "scenario.toml";
+    const std::filesystem::path sxga = scenarios / "airborne-pass-sxga" / "scenario.toml";
+    auto flight = [&dirs](const std::filesystem::path& file, int coarse, double period_s) {
+        auto f = std::make_shared<Flight>();
+        f->file = file;
+        f->dirs = dirs;
+        f->coarse = coarse;
+        f->period_s = period_s;
+        return f;
+    };
+    if (std::filesystem::exists(air)) {
+        auto f = flight(air, 1, 1001.0 / 60000.0);
+        TimedItem& it = add(items, "render_air_field_2t",
+                            "airborne pass 768x494 interlaced, 2 threads, one field's rows, camera "
+                            "moving along the flight log",
+                            std::nullopt, 1.5);
+        it.setup = [f] { f->get(); };
+        it.iteration = [f] { f->renderNext(static_cast<int>(f->next % 2)); };
+        it.after = [f](TimedItem& self) { addRayRate(self, f->sr->renderer()); };
+    }
+    if (!std::filesystem::exists(sxga)) return;
+    for (const int coarse : {1, 4}) {
+        auto f = flight(sxga, coarse, 1.0 / 30.0);
+        TimedItem& it =
+            add(items, coarse == 1 ? "render_air_sxga_full_2t" : "render_air_sxga_coarse4_2t",
+                std::string("airborne pass 1280x1024 progressive, 2 threads, ") +
+                    (coarse == 1 ? "full rate" : "coarse f = 4") +
+                    ", camera moving along the flight log",
+                std::nullopt, 1.5);
+        it.setup = [f] { f->get(); };
+        it.iteration = [f] { f->renderNext(-1); };
+        it.after = [f](TimedItem& self) { addRayRate(self, f->sr->renderer()); };
+        if (coarse != 1) continue;
+        TimedItem& p = add(items, "primary_air_sxga_2t",
+                           "airborne pass 1280x1024, 2 threads, the primary pass alone (Embree "
+                           "packets: the whole geometry buffer), camera moving",
+                           std::nullopt, 1.5);
+        p.setup = [f] { f->get(); };
+        p.iteration = [f] {
+            // Zero repetitions: the one untimed pass of measurePrimaryPasses, timed here.
+            f->sr->renderer().setCamera(f->poses[f->next++ % f->poses.size()]);
+            (void)f->sr->renderer().measurePrimaryPasses(*f->pool, 0);
+        };
+        struct Chain {
+            GammaTableCache gammaTables;
+            std::unique_ptr<sensor::IiccdChain> chain;
+        };
+        auto c = std::make_shared<Chain>();
+        TimedItem& ch = add(items, "sensor_chain_air_sxga",
+                            "IICCD chain of airborne-pass-sxga, one 1280x1024 frame, one thread, "
+                            "the flight's first frame",
+                            std::nullopt, 2.0);
+        ch.setup = [f, c] {
+            f->get();
+            if (c->chain) return;
+            f->next = 0;
+            f->renderNext(-1);
+            // The camera as the runtime's camera stage makes it: the scenario's (its size).
+            const rt::Scenario& sc = f->sr->scenario();
+            c->chain = std::make_unique<sensor::IiccdChain>(sc.camera.params, sc.camera.seed,
+                                                            f->dirs.config, c->gammaTables);
+        };
+        ch.iteration = [f, c] { c->chain->process(f->pe.cview()); };
+        ch.after = [f, c](TimedItem& self) {
+            self.extra.emplace_back("mean_pe_per_px", c->chain->process(f->pe.cview()).mean_pe);
+        };
     }
 }
 
@@ -498,6 +621,7 @@ int runBench(const BenchOptions& opts) {
         notes.push_back("RIT scenario not found at " + rit.string());
     }
     if (std::filesystem::exists(drive)) addTruckItems(items, dirs, drive);
+    addAirborneItems(items, dirs, scenarios);
     addMemcpyItems(items);
     bool any = !e2e.empty();
     for (const auto& it : items)

@@ -206,5 +206,29 @@ TEST(Cli, BenchWritesJsonWithTheContractKeys) {
     EXPECT_EQ(std::count(none.out.begin(), none.out.end(), '\n'), 1) << none.out;
 }
 
+// nvstim bench --filter sensor_chain_air: the 1280×1024 airborne camera's chain runs on a frame
+// of the scenario's own size rendered at the flight log's first pose (a chain made at the
+// preset's 768×494 would refuse the frame: no photoelectrons, and no time).
+TEST(Cli, BenchFliesTheSxgaChainOnItsOwnFrames) {
+    namespace fs = std::filesystem;
+    const fs::path json =
+        fs::temp_directory_path() / ("nvs_cli_bench_air_" + std::to_string(::getpid()) + ".json");
+    const std::string cmd = std::string(NVSTIM_EXE) + " bench --filter sensor_chain_air --json " +
+                            json.string() + " > /dev/null 2>&1";
+    const int st = std::system(cmd.c_str());
+    ASSERT_TRUE(WIFEXITED(st) && WEXITSTATUS(st) == 0) << cmd;
+    const std::string check =
+        "python3 -c \"import json,sys\n"
+        "d = json.load(open(sys.argv[1]))\n"
+        "b = d['benchmarks']\n"
+        "assert [x['name'] for x in b] == ['sensor_chain_air_sxga'], b\n"
+        "assert b[0]['mean_pe_per_px'] > 0.05, b[0]\n"
+        "assert b[0]['target_s'] is None and b[0]['iterations'] > 0, b[0]\n"
+        "\" " +
+        json.string();
+    EXPECT_EQ(std::system(check.c_str()), 0) << check;
+    fs::remove(json);
+}
+
 }  // namespace
 }  // namespace nvs
