@@ -282,8 +282,11 @@ TEST(CanInput, AnInterfaceThatGoesDownIsReopenedWithBackoff) {
     };
     auto owned = std::make_unique<drivers::FakeCanBus>();
     drivers::FakeCanBus& bus = *owned;
+    // No extrapolation: a frame's run-clock receive time is the sample's now less the frame's
+    // real age, so under load (a few ms between the push and the sample) the 40° frame would
+    // land just before 0.75 s and the 30° → 40° rate would carry the state past 40°.
     TelemetryPlatform platform(std::make_unique<CanInput>(std::move(owned), "can0", false, db, ""),
-                               PlatformState{}, 100.0, 0.1, false);
+                               PlatformState{}, 100.0, 0.0, false);
     const double now_s = static_cast<double>(realtimeNow_ns()) * 1e-9;
     bus.push(yawFrame(30.0), now_s);
     bus.pushError(ENETDOWN);
