@@ -250,9 +250,12 @@ TEST(FrameLoop, WallClockHoldsCadenceWhenAFrameIsLate) {
         EXPECT_GE(c.deadlineMisses, 1) << "policy " << static_cast<int>(policy);
         EXPECT_LE(c.deadlineMisses, 10);
         if (policy == LatePolicy::Repeat) {
-            EXPECT_EQ(c.repeats, c.deadlineMisses - c.skippedTicks);
-            // A repeat is not a drop: every missed tick showed the previous frame.
-            EXPECT_EQ(c.droppedFrames, 0);
+            // A repeat is not a drop: every missed tick showed the previous frame, but for the
+            // ticks before the first frame (nothing to repeat yet: none unless the machine is
+            // loaded enough to miss tick 0; seen once under the sanitizer suites).
+            ASSERT_GT(sink.n, 0);
+            EXPECT_EQ(c.droppedFrames, sink.tick[0]);
+            EXPECT_EQ(c.repeats + c.droppedFrames, c.deadlineMisses - c.skippedTicks);
         } else {
             EXPECT_EQ(c.repeats, 0);
             EXPECT_EQ(c.droppedFrames, c.deadlineMisses - c.skippedTicks);
