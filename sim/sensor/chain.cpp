@@ -213,9 +213,9 @@ NVS_PHOSPHOR_ROW(3)
 NVS_PHOSPHOR_ROW(4)
 #undef NVS_PHOSPHOR_ROW
 
-// CCD load: max(src, 0)·(1 + PRNU) + dark and the column maxima; with kSums also the
+// CCD load: max(src, 0)·(1 + PRNU) + dark and the column maxima; WithSums: also the
 // column sums (smear). One body, two vector-cloned kernels (as the phosphor rows above).
-template <bool kSums>
+template <bool WithSums>
 inline __attribute__((always_inline)) void ccdLoadBody(
     const float* __restrict src, const float* __restrict prnu, float* __restrict dst,
     float* __restrict cmax, float* __restrict csum, int w, float dark) noexcept {
@@ -225,7 +225,7 @@ inline __attribute__((always_inline)) void ccdLoadBody(
             const float v = (s < 0.0f ? 0.0f : s) * prnu[x] + dark;
             dst[x] = v;
             cmax[x] = cmax[x] < v ? v : cmax[x];
-            if constexpr (kSums) csum[x] += v;
+            if constexpr (WithSums) csum[x] += v;
         }
     } else {
         for (int x = 0; x < w; ++x) {
@@ -233,7 +233,7 @@ inline __attribute__((always_inline)) void ccdLoadBody(
             const float v = (s < 0.0f ? 0.0f : s) + dark;
             dst[x] = v;
             cmax[x] = cmax[x] < v ? v : cmax[x];
-            if constexpr (kSums) csum[x] += v;
+            if constexpr (WithSums) csum[x] += v;
         }
     }
 }
