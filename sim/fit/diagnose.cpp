@@ -252,6 +252,7 @@ void resimulateNoise(const Dataset& d, ModelRun& m, const Work& w, const MeanMod
                 ov[k] = v;
     FitEffects unused;
     const sensor::CameraParams cam = loadModelCamera(configDir, d.presetFile.string(), ov, unused);
+    const std::vector<LightSpread> light = lightSpreads(w, mm);
     std::vector<ImageF> stim;
     for (std::size_t s = 0; s < d.stimuli.size(); ++s) {
         const ImageF& in = d.stimuli[s];
@@ -277,8 +278,8 @@ void resimulateNoise(const Dataset& d, ModelRun& m, const Work& w, const MeanMod
                 q[i] = static_cast<float>((1.0 - frac) * q[i] + frac * o[i]);
         };
         auto spreads = [&](Plane& q) {
-            if (mm.haloF != 0.0) spread(q, mm.haloF, ringKernel(mm.haloR_um, w.pitchX_um));
-            if (mm.glareG != 0.0) spread(q, mm.glareG, expKernel(mm.glareS_um));
+            for (const LightSpread& l : light)
+                spread(q, l.fraction, l.kernel);
         };
         spreads(p);
         if (sat) {

@@ -34,6 +34,13 @@ std::function<double(double)> expKernel(double s_um) {
     return [s_um](double r) { return std::exp(-r / s_um); };
 }
 
+std::vector<LightSpread> lightSpreads(const Work& w, const MeanModel& mm) {
+    std::vector<LightSpread> s;
+    if (mm.haloF != 0.0) s.push_back({mm.haloF, ringKernel(mm.haloR_um, w.pitchX_um)});
+    if (mm.glareG != 0.0) s.push_back({mm.glareG, expKernel(mm.glareS_um)});
+    return s;
+}
+
 namespace {
 
 void spread2(Work& w, std::vector<Plane>& Y, double frac,
@@ -127,12 +134,13 @@ std::uint64_t planesHash(const std::vector<Plane>& P) {
 // `unblurred` holds U for each plane of S (used with saturation only).
 void spatialEffects(Work& w, const MeanModel& mm, std::vector<Plane>& S,
                     const std::vector<Plane>& unblurred) {
+    const std::vector<LightSpread> light = lightSpreads(w, mm);
     auto spreads = [&](std::vector<Plane>& P) {
-        if (mm.haloF != 0.0) spread2(w, P, mm.haloF, ringKernel(mm.haloR_um, w.pitchX_um));
-        if (mm.glareG != 0.0) spread2(w, P, mm.glareG, expKernel(mm.glareS_um));
+        for (const LightSpread& l : light)
+            spread2(w, P, l.fraction, l.kernel);
     };
-    const bool sat = mm.satQ_dc > 0.0, spread = mm.haloF != 0.0 || mm.glareG != 0.0;
-    if (!sat || !spread) {
+    const bool sat = mm.satQ_dc > 0.0;
+    if (!sat || light.empty()) {
         spreads(S);
         if (sat) addSaturation(w, mm, S, unblurred);
     } else {

@@ -116,6 +116,16 @@ struct Work {
 // The mean model's signal above offset [model DC] for the frames of w.sub.
 std::vector<Plane> predict(Work& w, const MeanModel& mm);
 
+// The spreads of the light in the mean model, in the order both the forward model
+// (spatialEffects, engine.cpp) and the noisy re-run (diagnose.cpp) apply them: the halo, then
+// veiling glare, each Y ← (1 − fraction)·Y + fraction·K ⊛ Y with its radial kernel K. Empty
+// when the model has neither.
+struct LightSpread {
+    double fraction;
+    std::function<double(double)> kernel;
+};
+std::vector<LightSpread> lightSpreads(const Work& w, const MeanModel& mm);
+
 // The chain spreads a halo or glare over each call's image (a field in field scan), and an
 // output frame takes its rows from two calls, which differ wherever the scene changed or the
 // phosphor still glows. So in field scan the spatial effects act on the calls' planes, and
