@@ -830,13 +830,13 @@ namespace {
 // out)·keep.
 // One channel: out = Q·(1 − e^(−D/Q)); a drained one (Q = 0) gives nothing (u held at 87
 // gives Q·1 = 0, with no branch).
-// kSmall: the caller knows u < 1/2.
-template <bool kSmall>
+// Small: the caller knows u < 1/2.
+template <bool Small>
 __attribute__((always_inline)) inline float mcpSaturationPixel(float& d, float& q, float qMax,
                                                                float keep) noexcept {
     const float avail = q;
     const float u = std::min(d / std::max(avail, 1e-30f), 87.0f);
-    const float out = avail * (kSmall ? oneMinusExpNegSmall(u) : oneMinusExpNeg(u));
+    const float out = avail * (Small ? oneMinusExpNegSmall(u) : oneMinusExpNeg(u));
     d = out;
     q = qMax - (qMax - avail + out) * keep;
     return out;
@@ -999,16 +999,10 @@ void PhosphorStage::begin(const FieldContext& ctx) noexcept {
 
 void PhosphorStage::applyRow(const float* in, float* out, int w, int y) noexcept {
     if (!half_.empty()) {
+        // phosphorHasAvx512() is false where the AVX-512 form is not built or cannot run.
         std::uint16_t* st = half_.row(y);
-#ifdef NVS_PHOSPHOR_AVX512
-        if (detail::phosphorHasAvx512()) {
-            detail::phosphorRowHalfAvx512(in, out, st, w, m_, nowEta_, keepEta_, decay_, emit_,
-                                          scale_, invScale_);
-            return;
-        }
-#endif
-        detail::phosphorRowHalf(in, out, st, w, m_, nowEta_, keepEta_, decay_, emit_, scale_,
-                                invScale_);
+        (detail::phosphorHasAvx512() ? detail::phosphorRowHalfAvx512 : detail::phosphorRowHalf)(
+            in, out, st, w, m_, nowEta_, keepEta_, decay_, emit_, scale_, invScale_);
         return;
     }
     float* st = state_.empty() ? nullptr : state_.row(y);
