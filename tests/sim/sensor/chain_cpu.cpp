@@ -11,7 +11,6 @@
 #include <algorithm>
 #include <cstdint>
 #include <cstdio>
-#include <cstdlib>
 #include <filesystem>
 #include <vector>
 
@@ -29,21 +28,16 @@ double threadCpu_s() {
 }  // namespace
 
 int main(int argc, char** argv) {
-    if (argc < 2) {
-        std::fprintf(stderr, "usage: nvs_chain_cpu CONFIG_DIR [FIELDS]\n");
-        return 2;
-    }
-    const std::filesystem::path config = argv[1];
-    const int fields = argc > 2 ? std::max(1, std::atoi(argv[2])) : 200;
-    const nvs::sensor::CameraParams cam = nvs::sensor::loadCamera(config, "pulnix-ag5745ef3");
+    nvs::sensor::ChainToolArgs args;
+    if (!nvs::sensor::chainToolArgs(argc, argv, "nvs_chain_cpu", &args)) return 2;
     for (const bool lamp : {false, true}) {
-        const nvs::ImageF lpe = nvs::sensor::chainTimingInput(cam, lamp);
+        const nvs::ImageF lpe = nvs::sensor::chainTimingInput(args.cam, lamp);
         nvs::GammaTableCache tables;
-        nvs::sensor::IiccdChain chain(cam, 1, config, tables);
+        nvs::sensor::IiccdChain chain(args.cam, 1, args.config, tables);
         for (int i = 0; i < 10; ++i)
             chain.process(lpe.cview());
         std::vector<double> t_s;
-        for (int i = 0; i < fields; ++i) {
+        for (int i = 0; i < args.fields; ++i) {
             const double t0 = threadCpu_s();
             chain.process(lpe.cview());
             t_s.push_back(threadCpu_s() - t0);

@@ -8,7 +8,6 @@
 #include <algorithm>
 #include <cstdint>
 #include <cstdio>
-#include <cstdlib>
 #include <filesystem>
 #include <vector>
 
@@ -67,20 +66,15 @@ class TimedExecutor final : public nvs::RowExecutor {
 }  // namespace
 
 int main(int argc, char** argv) {
-    if (argc < 2) {
-        std::fprintf(stderr, "usage: nvs_chain_passes CONFIG_DIR [FIELDS]\n");
-        return 2;
-    }
-    const std::filesystem::path config = argv[1];
-    const int fields = argc > 2 ? std::max(1, std::atoi(argv[2])) : 200;
-    const nvs::sensor::CameraParams cam = nvs::sensor::loadCamera(config, "pulnix-ag5745ef3");
+    nvs::sensor::ChainToolArgs args;
+    if (!nvs::sensor::chainToolArgs(argc, argv, "nvs_chain_passes", &args)) return 2;
     nvs::rt::RowPool pool(2);
     nvs::SerialExecutor serial;
     for (const bool lamp : {false, true}) {
-        const nvs::ImageF lpe = nvs::sensor::chainTimingInput(cam, lamp);
+        const nvs::ImageF lpe = nvs::sensor::chainTimingInput(args.cam, lamp);
         for (const int threads : {1, 2}) {
             nvs::GammaTableCache tables;
-            nvs::sensor::IiccdChain chain(cam, 1, config, tables);
+            nvs::sensor::IiccdChain chain(args.cam, 1, args.config, tables);
             TimedExecutor timed(threads == 1 ? static_cast<nvs::RowExecutor&>(serial)
                                              : static_cast<nvs::RowExecutor&>(pool));
             chain.setExecutor(&timed);
@@ -88,7 +82,7 @@ int main(int argc, char** argv) {
                 chain.process(lpe.cview());
             timed.clear();
             std::vector<double> t_s;
-            for (int i = 0; i < fields; ++i) {
+            for (int i = 0; i < args.fields; ++i) {
                 timed.startField();
                 const double t0 = wall_s();
                 chain.process(lpe.cview());
@@ -99,7 +93,7 @@ int main(int argc, char** argv) {
             std::printf("%-8s %d thread(s): median %.3f ms  min %.3f ms\n",
                         lamp ? "lamp" : "uniform", threads, 1e3 * t_s[t_s.size() / 2],
                         1e3 * t_s[0]);
-            timed.print(fields);
+            timed.print(args.fields);
         }
     }
     return 0;
