@@ -1,9 +1,11 @@
 #include "rt/compose/scene_setup.h"
 
 #include <algorithm>
+#include <cstdlib>
 #include <thread>
 #include <vector>
 
+#include "sim/core/cpu_isa.h"
 #include "sim/sensor/mtf.h"
 #include "sim/sky/frame_sky.h"
 #include "sim/sky/night_sky.h"
@@ -26,6 +28,9 @@ RenderConfig renderConfigFor(const sensor::CameraParams& cam, int width, int hei
     const Spectrum beta = sensor::cameraResponse(cam);
     c.bandWeight[kBandPe] = sky::photoelectronWeight(beta * cam.qe_peak);
     c.bandWeight[kBandW] = beta;
+    // Embree's kernel set, pinned from the environment for tests of each set (cpu_isa.h).
+    const char* isa = std::getenv(kEmbreeIsaEnv);
+    c.embreeIsa = isa == nullptr ? "" : isa;
     return c;
 }
 

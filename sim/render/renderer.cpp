@@ -11,6 +11,7 @@
 #include <numeric>
 #include <string>
 
+#include "sim/core/cpu_isa.h"
 #include "sim/render/gl_visibility.h"
 
 namespace nvs::render {
@@ -252,8 +253,13 @@ Renderer::Renderer(const scene::Scene& sc, const RenderConfig& config)
     }
     Impl& im = *impl_;
     im.materials = sc.materials;
-    im.device = rtcNewDevice(nullptr);
-    if (im.device == nullptr) throw SetupError("render: cannot create an Embree device");
+    // Embree's kernel set: its own choice, or the pinned one (sim/core/cpu_isa.h).
+    const std::string deviceConfig = embreeDeviceConfig(config.embreeIsa);
+    im.device = rtcNewDevice(deviceConfig.empty() ? nullptr : deviceConfig.c_str());
+    if (im.device == nullptr) {
+        throw SetupError("render: cannot create an Embree device" +
+                         (deviceConfig.empty() ? std::string() : " (" + deviceConfig + ")"));
+    }
     im.scene = rtcNewScene(im.device);
     // A static scene gets Embree's highest-quality BVH (SAH with spatial splits: about 40 %
     // more coherent packet throughput on the RIT scene than MEDIUM); with moving objects the
@@ -618,6 +624,35 @@ inline void setLane(RTCRay16& r, int k, const Vec3& o, const Vec3& d, float tfar
     r.flags[k] = 0;
 }
 
+// A lane Embree must skip, with every field defined. The valid mask alone is not enough: where
+// the CPU has no native 16-wide kernels (AVX2: two 8-wide halves; SSE: four 4-wide quarters)
+// Embree traces the packet as a ray stream, which reads every lane and takes a lane as inactive
+// only when tnear > tfar (Embree 3 manual, rtcIntersect1M: "A ray in a ray stream is considered
+// inactive if its tnear value is larger than its tfar value"); its debug checks assert that
+// each lane it traces is a valid ray. So an unused lane is a finite ray with tfar = -∞ < tnear.
+inline void disableLane(RTCRay16& r, int k) {
+    r.org_x[k] = 0.0f;
+    r.org_y[k] = 0.0f;
+    r.org_z[k] = 0.0f;
+    r.dir_x[k] = 0.0f;
+    r.dir_y[k] = 0.0f;
+    r.dir_z[k] = 1.0f;
+    r.tnear[k] = 0.0f;
+    r.tfar[k] = -kInf;
+    r.time[k] = 0.0f;
+    r.mask[k] = 0u;
+    r.id[k] = 0;
+    r.flags[k] = 0;
+}
+
+// Every lane of a packet disabled, with its valid flag 0: callers then set the lanes they use.
+inline void clearPacket(RTCRay16& r, int* valid) {
+    for (int k = 0; k < kPacket; ++k) {
+        valid[k] = 0;
+        disableLane(r, k);
+    }
+}
+
 inline void initHits(RTCRayHit16& rh) {
     for (int k = 0; k < kPacket; ++k) {
         rh.hit.geomID[k] = RTC_INVALID_GEOMETRY_ID;
@@ -693,9 +728,8 @@ int lampFactors(const Renderer::Impl& im, const RenderConfig& cfg, std::uint64_t
         for (int g = 0; g < nv; ++g) {
             float part[kPacket];
             int any = 0;
-            for (int k = 0; k < kPacket; ++k) {
-                valid[k] = 0;
-                if (k >= count) continue;
+            clearPacket(r, valid);
+            for (int k = 0; k < count; ++k) {
                 double sum = 0.0;
                 if (!ld.aperture) {
                     const Vec3 d = ld.position - o[k];
@@ -750,9 +784,8 @@ int moonFactors(const Ctx& c, int count, const Vec3* p, const Vec3* n, const boo
     alignas(64) int valid[kPacket];  // Embree: a packet's valid mask is 64-byte aligned
     RTCRay16 r;
     int any = 0;
-    for (int k = 0; k < kPacket; ++k) {
-        valid[k] = 0;
-        if (k >= count) continue;
+    clearPacket(r, valid);
+    for (int k = 0; k < count; ++k) {
         out[k] = 0.0f;
         if (!use[k]) continue;
         const double ct = dot(n[k], md);
@@ -827,8 +860,7 @@ void buildStatic(const Ctx& c, int count, const std::size_t* idx, Counts& n) noe
     Vec3 o[kPacket], r[kPacket];
     RTCRayHit16 rh;
     initHits(rh);
-    for (int k = 0; k < kPacket; ++k)
-        valid[k] = 0;
+    clearPacket(rh.ray, valid);
     for (int k = 0; k < count; ++k) {
         const std::size_t i = idx[k];
         im.sValid[i] = 1;
@@ -987,9 +1019,9 @@ void primaryRows(void* vctx, int y0, int y1) {
             Vec3 d[kPacket];
             RTCRayHit16 rh;
             initHits(rh);
-            for (int k = 0; k < kPacket; ++k) {
-                valid[k] = k < count ? -1 : 0;
-                if (k >= count) continue;
+            clearPacket(rh.ray, valid);
+            for (int k = 0; k < count; ++k) {
+                valid[k] = -1;
                 d[k] = im.pixelDir(x0 + k + 0.5, y + 0.5, cam);
                 setLane(rh.ray, k, im.camPos, d[k], kInf);
             }
@@ -1673,9 +1705,11 @@ double Renderer::measureEmbreePacketRate(int repetitions) const {
                 alignas(64) int valid[kPacket];  // Embree: a packet's valid mask is 64-byte aligned
                 RTCRayHit16 rh;
                 initHits(rh);
+                clearPacket(rh.ray, valid);
                 for (int k = 0; k < kPacket; ++k) {
                     const int x = x0 + k % kTileW, y = y0 + k / kTileW;
-                    valid[k] = x < im.W && y < im.H ? -1 : 0;
+                    if (x >= im.W || y >= im.H) continue;
+                    valid[k] = -1;
                     setLane(rh.ray, k, im.camPos, im.pixelDir(x + 0.5, y + 0.5, cam), kInf);
                 }
                 RTCIntersectContext ctx = coherentContext();

@@ -84,6 +84,9 @@ struct RenderConfig {
     int lampShadowRays = 1;                   // per lamp with an aperture, per point
     bool specular = true;
     PrimaryVisibility primaryVisibility = PrimaryVisibility::kEmbree;
+    // Embree's kernel set: "" for Embree's choice (the best the CPU has), else a pin
+    // (sim/core/cpu_isa.h: sse2, sse4.2, avx, avx2, avx512; the runtime reads NVS_EMBREE_ISA).
+    std::string embreeIsa;
 };
 
 // The row executors live in sim/core (the camera chain uses them too).

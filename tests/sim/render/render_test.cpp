@@ -11,6 +11,7 @@
 #include "sim/render/exr_out.h"
 #include "sim/render/renderer.h"
 #include "tests/sim/core/test_paths.h"
+#include "tests/sim/render/embree_pin.h"
 
 namespace nvs::render {
 namespace {
@@ -72,6 +73,7 @@ RenderConfig baseConfig(int w, int h, double fov_rad) {
     c.bandWeight[kBandW] = Spectrum(1.0);
     c.moonShape = Spectrum(1.0);
     c.nightSkyShape = Spectrum(1.0);
+    c.embreeIsa = embreeIsaPin();
     return c;
 }
 
@@ -209,6 +211,7 @@ struct Falloff {
     scene::Scene s;
     RenderConfig cfg;
     Falloff() {
+        cfg.embreeIsa = embreeIsaPin();
         s.materials = {grey("grass", 0.35), grey("white_panel", 0.80)};
         s.objects = {quad("grass", -20, 20, -20, 20, 0.0, 0),
                      quad("panel", 30 * kInch_m, 100 * kInch_m, -0.3, 1.0, 0.001, 1)};

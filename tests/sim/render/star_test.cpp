@@ -18,6 +18,7 @@
 #include "sim/render/renderer.h"
 #include "sim/render/stars.h"
 #include "tests/sim/core/test_paths.h"
+#include "tests/sim/render/embree_pin.h"
 
 namespace nvs::render {
 using rt::renderConfigFor;
@@ -165,6 +166,7 @@ struct Bench {
         cfg.bandWeight[kBandW] = Spectrum(1.0);
         cfg.moonShape = Spectrum(1.0);
         cfg.nightSkyShape = Spectrum(1.0);
+        cfg.embreeIsa = embreeIsaPin();
     }
     // Sum over the image of radiance × Ω_pixel with the camera looking along `look` and a star
     // in direction `star`.
