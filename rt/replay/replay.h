@@ -36,8 +36,18 @@ struct ReplayResult {
 
 inline constexpr int kReplayBlock_px = 8;
 
-// The fingerprint of this build: what must match for digests to be comparable.
+// The fingerprint of this build: what must match for digests to be comparable. On x86-64,
+// "gcc VERSION x86_64+ISA BUILD_TYPE glibc VERSION", ISA as isaFingerprint() names it.
 std::string buildFingerprint();
+
+// The instruction-set level this process runs at: the CPU's (sim/core/cpu_isa.h hostIsa, with
+// AVX-512 written "avx512f"), followed by "/embree-LEVEL" where NVS_EMBREE_ISA pins Embree to
+// a lower one.
+std::string isaFingerprint();
+
+// A fingerprint with its ISA left out: two runs whose fingerprints agree here differ only in
+// the CPU's (or Embree's) instruction set.
+std::string fingerprintWithoutIsa(const std::string& fingerprint);
 
 // A new private folder under $TMPDIR (mkdtemp: mode 0700, a name no other run can have): two
 // replays at once never share one. --check and --bless remove theirs; plain replay keeps it.

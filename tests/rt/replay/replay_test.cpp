@@ -75,6 +75,7 @@ TEST(Replay, BlessThenCheckPassesBitExact) {
     EXPECT_TRUE(r.passed) << r.report;
     EXPECT_NE(r.report.find("all 30 frames and the metadata are identical"), std::string::npos)
         << r.report;
+    EXPECT_NE(r.report.find("checked: digests (bit-exact"), std::string::npos) << r.report;
     EXPECT_FALSE(fs::exists(d / "check-failures"));
 }
 
@@ -114,8 +115,49 @@ TEST(Replay, OtherBuildFallsBackToStatistics) {
     std::ofstream(d / "expected" / "digest.toml") << digest;
     const ReplayResult r = checkScenario(d, NVSTIM_EXE);
     EXPECT_TRUE(r.passed) << r.report;
-    EXPECT_NE(r.report.find("digests are not comparable, the statistics decide"), std::string::npos)
+    EXPECT_NE(r.report.find("checked: statistics only (blessed on \"other compiler\""),
+              std::string::npos)
         << r.report;
+}
+
+// Blessed on the same build but another instruction set (here: a CPU with only SSE4.2): the
+// report says the digests were not the check, and that only the ISA differs.
+TEST(Replay, OtherIsaSaysStatisticsDecided) {
+    const fs::path d = makeScenario("nvs_replay_isa", kScenario);
+    blessScenario(d, NVSTIM_EXE);
+    std::string digest = readFile(d / "expected" / "digest.toml");
+    const std::string mine = buildFingerprint();
+    ASSERT_NE(digest.find(mine), std::string::npos) << digest;
+    const std::string other =
+        std::regex_replace(mine, std::regex("x86_64\\+[^ ]+"), "x86_64+sse4.2");
+    ASSERT_NE(other, mine);
+    EXPECT_EQ(fingerprintWithoutIsa(other), fingerprintWithoutIsa(mine));
+    digest.replace(digest.find(mine), mine.size(), other);
+    std::ofstream(d / "expected" / "digest.toml") << digest;
+    const ReplayResult same = checkScenario(d, NVSTIM_EXE);
+    EXPECT_TRUE(same.passed) << same.report;
+    EXPECT_NE(same.report.find("where the digests need not hold, and they hold"), std::string::npos)
+        << same.report;
+    digest = std::regex_replace(digest, std::regex("frame_sha256 = \\[\n  \"[0-9a-f]+\""),
+                                "frame_sha256 = [\n  \"" + std::string(64, '0') + "\"");
+    std::ofstream(d / "expected" / "digest.toml") << digest;
+    const ReplayResult r = checkScenario(d, NVSTIM_EXE);
+    EXPECT_TRUE(r.passed) << r.report;
+    EXPECT_NE(r.report.find("checked: statistics only"), std::string::npos) << r.report;
+    EXPECT_NE(r.report.find("same build on ISA \"" + isaFingerprint() + "\""), std::string::npos)
+        << r.report;
+}
+
+TEST(Replay, FingerprintNamesTheIsa) {
+    const std::string fp = buildFingerprint();
+    EXPECT_NE(fp.find("+" + isaFingerprint() + " "), std::string::npos) << fp;
+    EXPECT_EQ(fingerprintWithoutIsa("gcc 12.2.0 x86_64+avx2 RelWithDebInfo glibc 2.36"),
+              "gcc 12.2.0 x86_64 RelWithDebInfo glibc 2.36");
+    EXPECT_EQ(
+        fingerprintWithoutIsa("gcc 12.2.0 x86_64+avx512f RelWithDebInfo glibc 2.36"),
+        fingerprintWithoutIsa("gcc 12.2.0 x86_64+sse2/embree-sse2 RelWithDebInfo glibc 2.36"));
+    EXPECT_NE(fingerprintWithoutIsa("gcc 12.2.0 x86_64+avx2 Debug glibc 2.36"),
+              fingerprintWithoutIsa("gcc 12.2.0 x86_64+avx2 RelWithDebInfo glibc 2.36"));
 }
 
 TEST(Replay, BadFoldersAreClearErrors) {

@@ -2,6 +2,7 @@
 // Appendix I).
 
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <cmath>
 #include <filesystem>
@@ -294,7 +295,8 @@ TEST(Render, ThesisAppendixIApertureFactorFromExtendedSource) {
 TEST(Render, ExrCarriesUnitsAndTime) {
     ImageF img(8, 4);
     img.view()(3, 2) = 42.0f;
-    const auto path = std::filesystem::temp_directory_path() / "nvs_render_test.exr";
+    const auto path = std::filesystem::temp_directory_path() /
+                      ("nvs_render_test-" + std::to_string(::getpid()) + ".exr");
     writeRadianceExr(path, img.cview(), {{"nvstim.unit", "pe/s/m2/sr"}, {"nvstim.utc", "x"}});
     std::vector<std::pair<std::string, std::string>> attrs;
     const ImageF back = readRadianceExr(path, &attrs);

@@ -5,6 +5,7 @@
 // gives for the same state.
 
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <cstring>
 #include <filesystem>
@@ -89,7 +90,10 @@ TEST(StaticData, ReusedStateGivesTheImageOfAFreshRenderer) {
 // only the pixels the truck's old and new bounds cover and the static data of rays that cross
 // them, and every frame must be bit for bit the one a fresh renderer gives at that time.
 TEST(StaticData, MovingObjectGivesTheImageOfAFreshRenderer) {
-    const auto dir = std::filesystem::temp_directory_path() / "nvs_static_moving";
+    // A folder of this process's own: the test program may run twice at once (ctest's
+    // isa.native.* entries run it with each Embree kernel set).
+    const auto dir = std::filesystem::temp_directory_path() /
+                     ("nvs_static_moving-" + std::to_string(::getpid()));
     std::filesystem::create_directories(dir);
     const auto path = dir / "drive_lamp.toml";
     std::ofstream(path) << "[scenario]\nname = \"drive-lamp\"\n"
