@@ -1079,8 +1079,13 @@ inline int padIndex(int i, int n, int np) {
 namespace {
 // The wisdom in config/fftw/wisdom-single.txt, made by `nvs_fftw_wisdom` (tests/sim/sensor:
 // FFTW_PATIENT plans of the blur's row and column transforms for the shipped presets' sizes).
-// FFTW uses it only where its solvers exist on this CPU (FFTW_WISDOM_ONLY gives no plan
-// otherwise), and falls back to FFTW_ESTIMATE: deterministic either way.
+// The same plan gives the same bits on every CPU, but a plan made on one CPU names the SIMD
+// codelets that CPU has, and FFTW uses wisdom only where its solvers exist (FFTW_WISDOM_ONLY
+// gives no plan otherwise): wisdom made on an AVX CPU gave a CPU with SSE4.2 only another plan,
+// and the blur other bits. So the shipped wisdom is made as an SSE4.2 CPU (qemu-user, -cpu
+// Nehalem-v2): its plans use SSE2 codelets, which every x86-64 CPU has (docs/portability.md).
+// A size the wisdom lacks falls back to FFTW_ESTIMATE without SIMD codelets, for the same
+// reason: the estimate's choice among SIMD solvers depends on the CPU.
 // Imported by every BlurStage before it plans, from the config folder it was given: the wisdom
 // lives in FFTW's own planner, and importing the same file again replaces each entry with
 // itself (FFTW's hash table overwrites an entry of the same problem and flags), so repeating it
@@ -1094,11 +1099,12 @@ void importShippedWisdom(const std::filesystem::path& configDir) {
 
 namespace {
 // A plan from the flags asked for; with FFTW_WISDOM_ONLY and no wisdom for the problem,
-// FFTW_ESTIMATE's (deterministic).
+// FFTW_ESTIMATE's among the solvers every CPU has (FFTW_NO_SIMD, one of fftw3.h's planner
+// flags): the same plan, and so the same bits, on every CPU.
 template <class MakePlan>
 fftwf_plan planOrEstimate(MakePlan&& make, unsigned flags) {
     fftwf_plan p = make(flags);
-    if (!p && (flags & FFTW_WISDOM_ONLY)) p = make(FFTW_ESTIMATE);
+    if (!p && (flags & FFTW_WISDOM_ONLY)) p = make(FFTW_ESTIMATE | FFTW_NO_SIMD);
     if (!p) throw SetupError("blur: FFTW could not plan");
     return p;
 }
@@ -1139,8 +1145,9 @@ BlurStage::BlurStage(const CameraParams& c, const ChainOptions& opt,
     std::fill(fft_->real, fft_->real + nr, 0.0f);
     std::fill(fft_->slotRows, fft_->slotRows + ns, 0.0f);
     std::fill(fft_->filter, fft_->filter + nc, 0.0f);
-    // Plans: from the shipped wisdom where it holds the problem (deterministic, and as fast as
-    // FFTW_PATIENT), else FFTW_ESTIMATE (deterministic); FFTW_MEASURE / FFTW_PATIENT on request
+    // Plans: from the shipped wisdom where it holds the problem (the same on every CPU, and as
+    // fast as FFTW_PATIENT among SSE2 codelets), else FFTW_ESTIMATE without SIMD (the same on
+    // every CPU); FFTW_MEASURE / FFTW_PATIENT on request
     // only (a measured plan can differ from run to run and so break bit-exact replay).
     importShippedWisdom(configDir);
     const unsigned flags = opt.patientFft   ? FFTW_PATIENT

@@ -3,7 +3,13 @@
 // with no wisdom loaded, exported to OUT. Plans made from wisdom are the same in every run (a
 // measured plan is not), so the replay digests stay fixed while the blur runs at the speed of
 // a patient plan.
-//   nvs_fftw_wisdom CONFIG_DIR OUT_FILE [WxH …]   (WxH: more frame sizes, e.g. a scenario's)
+//   nvs_fftw_wisdom [--measure] CONFIG_DIR OUT_FILE [WxH …]
+// WxH: more frame sizes, e.g. a scenario's. --measure: FFTW_MEASURE plans instead (a planner an
+// emulator slows down 10-40 times finishes in minutes rather than hours).
+// The shipped file is made as a CPU with SSE4.2 only, so that its plans use codelets every
+// x86-64 CPU has (docs/portability.md):
+//   qemu-x86_64 -cpu Nehalem-v2 build/release/tests/sim/sensor/nvs_fftw_wisdom --measure
+//       config config/fftw/wisdom-single.txt 1280x1024
 
 #include <cstdio>
 #include <filesystem>
@@ -13,13 +19,19 @@
 #include "sim/sensor/chain.h"
 
 int main(int argc, char** argv) {
+    nvs::sensor::ChainOptions opt;
+    opt.patientFft = true;
+    if (argc > 1 && std::string(argv[1]) == "--measure") {
+        opt.patientFft = false;
+        opt.measureFft = true;
+        ++argv;
+        --argc;
+    }
     if (argc < 3) {
-        std::fprintf(stderr, "usage: nvs_fftw_wisdom CONFIG_DIR OUT_FILE [WxH ...]\n");
+        std::fprintf(stderr, "usage: nvs_fftw_wisdom [--measure] CONFIG_DIR OUT_FILE [WxH ...]\n");
         return 2;
     }
     const std::filesystem::path config = argv[1];
-    nvs::sensor::ChainOptions opt;
-    opt.patientFft = true;
     for (int i = 3; i < argc; ++i) {
         nvs::sensor::CameraParams cam;
         if (std::sscanf(argv[i], "%dx%d", &cam.width, &cam.height) != 2) {
