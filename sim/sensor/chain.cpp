@@ -1077,30 +1077,38 @@ inline int padIndex(int i, int n, int np) {
 }  // namespace
 
 namespace {
-// The wisdom in config/fftw/wisdom-single.txt, made by `nvs_fftw_wisdom` (tests/sim/sensor:
-// FFTW_PATIENT plans of the blur's row and column transforms for the shipped presets' sizes).
-// The same plan gives the same bits on every CPU, but a plan made on one CPU names the SIMD
-// codelets that CPU has, and FFTW uses wisdom only where its solvers exist (FFTW_WISDOM_ONLY
-// gives no plan otherwise): wisdom made on an AVX CPU gave a CPU with SSE4.2 only another plan,
-// and the blur other bits. So the shipped wisdom is made as an SSE4.2 CPU (qemu-user, -cpu
-// Nehalem-v2): its plans use SSE2 codelets, which every x86-64 CPU has (docs/portability.md).
-// A size the wisdom lacks falls back to FFTW_ESTIMATE without SIMD codelets, for the same
-// reason: the estimate's choice among SIMD solvers depends on the CPU.
+// The shipped wisdom (config/fftw/, made by tests/sim/sensor/make_wisdom.sh): the blur's plans
+// for the shipped presets' sizes and 1280 x 1024, the same plans on every x86-64 CPU, so that
+// the blur gives the same bits everywhere (docs/portability.md). Two facts of FFTW shape it:
+// - a plan names codelets, and wisdom that names AVX codelets gives no plan on a CPU without
+//   AVX: the plans are made as a CPU with SSE4.2 only (qemu-user, -cpu Nehalem-v2), so they use
+//   SSE2 codelets, which every x86-64 CPU has;
+// - FFTW takes a wisdom file only when its header's hash of the solvers registered matches the
+//   running CPU's, and CPUs with AVX register other solvers than CPUs without: the same plans
+//   ship twice, under each header (wisdom-single.txt for CPUs with AVX, wisdom-single-sse.txt
+//   for those without); FFTW rejects the other file whole.
+// Where no wisdom holds the problem (another size), FFTW_ESTIMATE among the scalar solvers
+// (FFTW_NO_SIMD, one of fftw3.h's planner flags): the estimate among SIMD solvers depends on
+// the CPU. Measured on this machine's AVX2 CPU against qemu-user as Nehalem-v2: plans from AVX
+// wisdom, or SSE2 wisdom under one header only, gave frames a few pixels apart by one count;
+// these gave identical frames (tests/isa).
 // Imported by every BlurStage before it plans, from the config folder it was given: the wisdom
 // lives in FFTW's own planner, and importing the same file again replaces each entry with
 // itself (FFTW's hash table overwrites an entry of the same problem and flags), so repeating it
 // changes no plan; it also puts back the shipped entries should an FFTW_MEASURE plan have
 // replaced one. Not thread-safe, like FFTW's planner itself: chains are made on one thread.
 void importShippedWisdom(const std::filesystem::path& configDir) {
-    const std::filesystem::path file = configDir / "fftw" / "wisdom-single.txt";
-    if (pathExists(file)) fftwf_import_wisdom_from_filename(file.c_str());
+    for (const char* name : {"wisdom-single.txt", "wisdom-single-sse.txt"}) {
+        const std::filesystem::path file = configDir / "fftw" / name;
+        if (pathExists(file)) fftwf_import_wisdom_from_filename(file.c_str());
+    }
 }
 }  // namespace
 
 namespace {
 // A plan from the flags asked for; with FFTW_WISDOM_ONLY and no wisdom for the problem,
-// FFTW_ESTIMATE's among the solvers every CPU has (FFTW_NO_SIMD, one of fftw3.h's planner
-// flags): the same plan, and so the same bits, on every CPU.
+// FFTW_ESTIMATE's among the scalar solvers (above): the same plan, and so the same bits, on
+// every CPU.
 template <class MakePlan>
 fftwf_plan planOrEstimate(MakePlan&& make, unsigned flags) {
     fftwf_plan p = make(flags);
@@ -1145,9 +1153,8 @@ BlurStage::BlurStage(const CameraParams& c, const ChainOptions& opt,
     std::fill(fft_->real, fft_->real + nr, 0.0f);
     std::fill(fft_->slotRows, fft_->slotRows + ns, 0.0f);
     std::fill(fft_->filter, fft_->filter + nc, 0.0f);
-    // Plans: from the shipped wisdom where it holds the problem (the same on every CPU, and as
-    // fast as FFTW_PATIENT among SSE2 codelets), else FFTW_ESTIMATE without SIMD (the same on
-    // every CPU); FFTW_MEASURE / FFTW_PATIENT on request
+    // Plans: from the shipped wisdom where it holds the problem (SSE2 codelets, the same on
+    // every CPU), else FFTW_ESTIMATE's among scalar solvers; FFTW_MEASURE / FFTW_PATIENT on request
     // only (a measured plan can differ from run to run and so break bit-exact replay).
     importShippedWisdom(configDir);
     const unsigned flags = opt.patientFft   ? FFTW_PATIENT

@@ -8,7 +8,7 @@
 # Exit 0 pass, 1 fail, 77 skipped (ctest SKIP_RETURN_CODE) with the reason on stdout: no QEMU
 # or a tool missing, or Debian's kernel packages cannot be fetched. Environment: NVS_HIL_CACHE
 # (kernel layer cache), NVS_HIL_QEMU (the emulator, default qemu-system-x86_64),
-# NVS_HIL_VM_TIMEOUT_S (default 420).
+# NVS_HIL_VM_TIMEOUT_S (default 540).
 #
 # Steps: (1) the kernel layer (tests/hil/make_kernel.sh, cached under NVS_HIL_CACHE, default
 # ~/.cache/nvstim/hil); (2) the host reference: the same nvstim, scenarios and candump log
@@ -29,7 +29,7 @@ FULL_FRAMES=2
 FRAMES=90          # 3 s at 30 Hz
 KILL_AFTER=20      # frames the first client takes before it is killed
 KILL_TAIL=20       # frames the second client then takes
-VM_TIMEOUT_S=${NVS_HIL_VM_TIMEOUT_S:-420}
+VM_TIMEOUT_S=${NVS_HIL_VM_TIMEOUT_S:-540}
 
 skip() { echo "hil: SKIPPED: $*"; exit 77; }
 fail() { echo "hil: FAILED: $*"; exit 1; }

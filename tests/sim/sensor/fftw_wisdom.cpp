@@ -1,15 +1,16 @@
-// Makes the FFTW wisdom the blur stage ships with (config/fftw/wisdom-single.txt):
-// FFTW_PATIENT plans of the row and column transforms of every preset in CONFIG/cameras, made
-// with no wisdom loaded, exported to OUT. Plans made from wisdom are the same in every run (a
-// measured plan is not), so the replay digests stay fixed while the blur runs at the speed of
-// a patient plan.
+// Makes the FFTW wisdom the blur stage ships with (config/fftw/): FFTW_PATIENT plans of the
+// row and column transforms of every preset in CONFIG/cameras, made with no wisdom loaded,
+// exported to OUT. Plans made from wisdom are the same in every run (a measured plan is not),
+// so the replay digests stay fixed while the blur runs at the speed of a planned transform.
 //   nvs_fftw_wisdom [--measure] CONFIG_DIR OUT_FILE [WxH …]
+//   nvs_fftw_wisdom --signature
 // WxH: more frame sizes, e.g. a scenario's. --measure: FFTW_MEASURE plans instead (a planner an
 // emulator slows down 10-40 times finishes in minutes rather than hours).
-// The shipped file is made as a CPU with SSE4.2 only, so that its plans use codelets every
-// x86-64 CPU has (docs/portability.md):
-//   qemu-x86_64 -cpu Nehalem-v2 build/release/tests/sim/sensor/nvs_fftw_wisdom --measure
-//       config config/fftw/wisdom-single.txt 1280x1024
+// --signature: prints the header FFTW gives this CPU's wisdom (its hash of the solvers it
+// registers). tests/sim/sensor/make_wisdom.sh makes the shipped files with both (as a CPU with
+// SSE4.2 only, under qemu-user: sim/sensor/chain.cpp says why).
+
+#include <fftw3.h>
 
 #include <cstdio>
 #include <filesystem>
@@ -19,6 +20,14 @@
 #include "sim/sensor/chain.h"
 
 int main(int argc, char** argv) {
+    if (argc == 2 && std::string(argv[1]) == "--signature") {
+        // The header of this CPU's wisdom: FFTW's hash of the solvers it has here.
+        char* w = fftwf_export_wisdom_to_string();
+        const std::string text = w != nullptr ? w : "";
+        fftwf_free(w);
+        std::printf("%s\n", text.substr(0, text.find('\n')).c_str());
+        return 0;
+    }
     nvs::sensor::ChainOptions opt;
     opt.patientFft = true;
     if (argc > 1 && std::string(argv[1]) == "--measure") {
