@@ -8,6 +8,7 @@
 #include <set>
 #include <sstream>
 
+#include "sim/core/error.h"
 #include "sim/fit/effects.h"
 #include "sim/fit/model.h"
 #include "sim/fit/scene_effects.h"
@@ -391,6 +392,13 @@ SceneFit diagnoseScene(const Dataset& d, const std::filesystem::path& configDir,
 
 Result diagnose(const Dataset& d, const std::filesystem::path& configDir, const Options& opt,
                 const Progress& progress) {
+    // Frames 0 and 1 warm the chain up; of the rest, the first half calibrates and the second
+    // half is held out: with fewer, one of them is empty and the fit would report nothing.
+    if (d.frameCount() < static_cast<std::size_t>(kMinDatasetFrames)) {
+        throw SetupError(d.dir.string() + ": " + std::to_string(d.frameCount()) +
+                         " frames; diagnose needs at least " + std::to_string(kMinDatasetFrames) +
+                         " (2 warm-up, then at least 2 calibration and 2 held-out frames)");
+    }
     Result r;
     if (d.scene) {
         SceneFit sf = diagnoseScene(d, configDir, opt, progress, r);

@@ -77,9 +77,21 @@ TEST(Diagnose, NamesAHiddenHaloAndItsPresetLeavesNothingToFind) {
     const WorkDir work;
     const fs::path& dir = work.path;
     const fs::path ds = writeHalo(dir);
+    // Links where the temporaries used to go (OUT.tmp) are neither followed nor replaced.
+    std::ofstream(dir / "victim.txt") << "keep me";
+    fs::create_symlink(dir / "victim.txt", dir / "out.json.tmp");
+    fs::create_symlink(dir / "victim.txt", dir / "fitted.toml.tmp");
     const CliRun r = nvstim("diagnose " + ds.string() + " --json " + (dir / "out.json").string() +
                             " --write-preset " + (dir / "fitted.toml").string());
     ASSERT_EQ(r.status, 0) << r.err;
+    {
+        std::ifstream v(dir / "victim.txt");
+        EXPECT_EQ(std::string(std::istreambuf_iterator<char>(v), {}), "keep me");
+    }
+    EXPECT_TRUE(fs::is_regular_file(fs::symlink_status(dir / "out.json")));
+    EXPECT_TRUE(fs::is_regular_file(fs::symlink_status(dir / "fitted.toml")));
+    for (const auto& e : fs::directory_iterator(dir))
+        EXPECT_EQ(e.path().string().find(".nvstim-"), std::string::npos) << e.path();
     EXPECT_NE(r.out.find("{\"baseline\":{"), std::string::npos) << r.out;
     EXPECT_NE(r.out.find("\"findings\":[{\"effect\":\"halo\""), std::string::npos) << r.out;
     for (const char* key : {"\"parameters\"", "\"heldout_rms_before\"", "\"heldout_rms_after\"",
@@ -113,12 +125,18 @@ TEST(Diagnose, ReportHasItsPlots) {
     const WorkDir work;
     const fs::path& dir = work.path;
     const fs::path ds = writeHalo(dir);
+    // A folder of the user's where the temporary report used to go stays as it is.
+    fs::create_directories(dir / "report.tmp");
+    std::ofstream(dir / "report.tmp" / "sentinel.txt") << "keep me";
     const CliRun r = nvstim("diagnose " + ds.string() + " --report " + (dir / "report").string());
     ASSERT_EQ(r.status, 0) << r.err;
     for (const char* f : {"report.md", "photon_transfer.png", "linearity.png", "radial_profile.png",
-                          "residual_heldout_before.png", "residual_heldout_after.png"})
+                          "residual_heldout_before.png", "residual_heldout_after.png",
+                          ".nvstim-diagnose-report"})
         EXPECT_TRUE(fs::exists(dir / "report" / f)) << f;
-    EXPECT_FALSE(fs::exists(dir / "report.tmp"));
+    EXPECT_TRUE(fs::exists(dir / "report.tmp" / "sentinel.txt"));
+    for (const auto& e : fs::directory_iterator(dir))
+        EXPECT_EQ(e.path().string().find(".nvstim-"), std::string::npos) << e.path();
 }
 
 TEST(Diagnose, BadDatasetExitsTwoWithOneLineAndWritesNothing) {
@@ -132,7 +150,8 @@ TEST(Diagnose, BadDatasetExitsTwoWithOneLineAndWritesNothing) {
     };
     for (const Case& c : {Case{"preset = \"pulnix-ag5745ef3\"", "preset = \"no-such\"", "no-such"},
                           Case{"unit = \"pe/s/m2/sr\"", "unit = \"lux\"", "'lux'"},
-                          Case{"count = 48", "count = 49", "frame 48 is missing"}}) {
+                          Case{"count = 48", "count = 49", "frame 48 is missing"},
+                          Case{"count = 48", "count = 6", "'output.count': must be in [8,"}}) {
         std::string t = good;
         t.replace(t.find(c.from), c.from.size(), c.to);
         std::ofstream(ds / "dataset.toml") << t;
