@@ -16,22 +16,13 @@
 #include <system_error>
 
 #include "sim/core/error.h"
+#include "sim/core/input_file.h"
 
 namespace nvs {
 
 namespace fs = std::filesystem;
 
 namespace {
-
-const char* kindOf(mode_t mode) {
-    if (S_ISDIR(mode)) return "a folder";
-    if (S_ISCHR(mode)) return "a character device";
-    if (S_ISBLK(mode)) return "a block device";
-    if (S_ISFIFO(mode)) return "a FIFO";
-    if (S_ISSOCK(mode)) return "a socket";
-    if (S_ISLNK(mode)) return "a symbolic link";
-    return "not a regular file";
-}
 
 // "OPTION PATH: why" (or "PATH: why" without an option): the one line of a setup error.
 [[noreturn]] void refuse(const std::string& option, const fs::path& path, const std::string& why) {

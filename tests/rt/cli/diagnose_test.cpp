@@ -15,55 +15,16 @@
 #include "rt/cli/cli.h"
 #include "sim/fit/dataset.h"
 #include "sim/fit/generate.h"
+#include "tests/rt/cli/cli_run.h"
 
 namespace nvs {
 namespace {
 
 namespace fs = std::filesystem;
 
-struct CliRun {
-    int status = -1;
-    std::string out, err;
-};
-
-// Each test's own folder: ctest runs the tests of this file in parallel processes.
-fs::path testPath(const std::string& what) {
-    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    return fs::path(NVS_BINARY_DIR) /
-           ("test-diagnose-" + std::string(info->name()) + "-" + std::to_string(::getpid()) + what);
-}
-
-CliRun nvstim(const std::string& args) {
-    CliRun r;
-    const fs::path errFile = testPath("-stderr.txt");
-    const std::string cmd = std::string(NVSTIM_EXE) + " " + args + " 2>" + errFile.string();
-    FILE* p = popen(cmd.c_str(), "r");
-    if (p == nullptr) return r;
-    std::array<char, 4096> buf{};
-    std::size_t n = 0;
-    while ((n = fread(buf.data(), 1, buf.size(), p)) > 0)
-        r.out.append(buf.data(), n);
-    const int st = pclose(p);
-    r.status = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
-    {
-        std::ifstream e(errFile);
-        r.err.assign(std::istreambuf_iterator<char>(e), std::istreambuf_iterator<char>());
-    }
-    fs::remove(errFile);
-    return r;
-}
-
-// The test's folder, empty at the start and removed at the end.
-struct WorkDir {
-    fs::path path = testPath("");
-    WorkDir() {
-        fs::remove_all(path);
-        fs::create_directories(path);
-    }
-    ~WorkDir() { fs::remove_all(path); }
-    WorkDir(const WorkDir&) = delete;
-    WorkDir& operator=(const WorkDir&) = delete;
-};
+using test::CliRun;
+using test::nvstim;
+using test::WorkDir;
 
 fs::path writeHalo(const fs::path& dir) {
     fit::GenSpec s;

@@ -19,54 +19,16 @@
 #include <vector>
 
 #include "rt/cli/cli.h"
+#include "tests/rt/cli/cli_run.h"
 
 namespace nvs {
 namespace {
 
 namespace fs = std::filesystem;
 
-struct CliRun {
-    int status = -1;
-    std::string out, err;
-};
-
-// Each test's own folder: ctest runs the tests of this file in parallel processes.
-fs::path testPath(const std::string& what) {
-    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    return fs::path(NVS_BINARY_DIR) /
-           ("test-outputs-" + std::string(info->name()) + "-" + std::to_string(::getpid()) + what);
-}
-
-// Runs `nvstim ARGS` (in `cwd` when given) with stdout and stderr apart.
-CliRun nvstim(const std::string& args, const fs::path& cwd = {}) {
-    CliRun r;
-    const fs::path errFile = testPath("-stderr.txt");
-    const std::string cmd = (cwd.empty() ? "" : "cd " + cwd.string() + " && ") +
-                            std::string(NVSTIM_EXE) + " " + args + " 2>" + errFile.string();
-    FILE* p = popen(cmd.c_str(), "r");
-    if (p == nullptr) return r;
-    std::array<char, 4096> buf{};
-    std::size_t n = 0;
-    while ((n = fread(buf.data(), 1, buf.size(), p)) > 0)
-        r.out.append(buf.data(), n);
-    const int st = pclose(p);
-    r.status = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
-    std::ifstream e(errFile);
-    r.err.assign(std::istreambuf_iterator<char>(e), std::istreambuf_iterator<char>());
-    fs::remove(errFile);
-    return r;
-}
-
-struct WorkDir {
-    fs::path path = testPath("");
-    WorkDir() {
-        fs::remove_all(path);
-        fs::create_directories(path);
-    }
-    ~WorkDir() { fs::remove_all(path); }
-    WorkDir(const WorkDir&) = delete;
-    WorkDir& operator=(const WorkDir&) = delete;
-};
+using test::CliRun;
+using test::nvstim;
+using test::WorkDir;
 
 std::string readFile(const fs::path& p) {
     std::ifstream in(p, std::ios::binary);

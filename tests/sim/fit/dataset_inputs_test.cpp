@@ -19,29 +19,18 @@
 #include "sim/fit/dataset.h"
 #include "sim/fit/generate.h"
 #include "sim/sensor/image_io.h"
+#include "tests/sim/fit/fit_test_data.h"
 
 namespace nvs::fit {
 namespace {
 
 namespace fs = std::filesystem;
-const fs::path kConfig = NVS_SOURCE_DIR "/config";
+using test::kConfig;
+using test::tempDir;
 
-fs::path tempDir(const std::string& name) {
-    const fs::path p = fs::path(NVS_BINARY_DIR) / "test-fit-inputs" / name;
-    fs::remove_all(p);
-    fs::create_directories(p);
-    return p;
-}
-
+// One generated dataset for every case (each writes its own copy and spoils it).
 const Generated& small() {
-    static const Generated g = [] {
-        GenSpec s;
-        s.width = 48;
-        s.height = 32;
-        s.stimuli = 3;
-        s.hold = 4;
-        return generate(s, kConfig);
-    }();
+    static const Generated g = test::small();
     return g;
 }
 
@@ -89,14 +78,8 @@ std::string forgedPng(std::uint32_t side) {
            chunk("IDAT", std::string("\x78\x9c\x03\x00\x00\x00\x00\x01", 8)) + chunk("IEND", "");
 }
 
-struct Case {
-    const char* what;
-    std::function<void(const fs::path&)> spoil;
-    const char* named;
-};
-
 TEST(DatasetInputs, HostileInputIsOneSetupErrorNamingIt) {
-    const std::vector<Case> cases = {
+    const std::vector<test::SpoilCase> cases = {
         {"preset a FIFO",
          [](const fs::path& d) {
              ::mkfifo((d / "p.toml").c_str(), 0600);
@@ -206,22 +189,7 @@ TEST(DatasetInputs, HostileInputIsOneSetupErrorNamingIt) {
          "carry no signal: every sample is 0 or full scale (255)"},
     };
     ASSERT_EQ(small().data.frames.size(), 12u);
-    for (const Case& c : cases) {
-        const fs::path dir = tempDir("bad");
-        writeDataset(small().data, dir);
-        c.spoil(dir);
-        try {
-            (void)loadDataset(dir, kConfig);
-            ADD_FAILURE() << c.what << ": no error";
-        } catch (const SetupError& e) {
-            const std::string m = e.what();
-            EXPECT_NE(m.find(c.named), std::string::npos) << c.what << ": " << m;
-            EXPECT_EQ(m.find('\n'), std::string::npos) << c.what << ": " << m;
-        } catch (const std::exception& e) {
-            ADD_FAILURE() << c.what << ": not a SetupError: " << e.what();
-        }
-    }
-    fs::remove_all(tempDir("bad"));
+    test::expectEachSetupError(small().data, cases, "inputs-bad");
 }
 
 // Writes `img` as a 16-bit grey PNG, Adam7-interlaced when `interlaced`.
@@ -252,7 +220,7 @@ void writePng16(const fs::path& p, const ImageU16& img, bool interlaced) {
 }
 
 TEST(DatasetInputs, InterlacedSixteenBitPngReadsAsItsPlainTwin) {
-    const fs::path dir = tempDir("adam7");
+    const fs::path dir = tempDir("inputs-adam7");
     ImageU16 img(13, 9);
     for (int y = 0; y < 9; ++y)
         for (int x = 0; x < 13; ++x)
@@ -269,7 +237,7 @@ TEST(DatasetInputs, InterlacedSixteenBitPngReadsAsItsPlainTwin) {
 }
 
 TEST(DatasetInputs, ASettingsStringKeepsItsQuote) {
-    const fs::path dir = tempDir("quote");
+    const fs::path dir = tempDir("inputs-quote");
     writeDataset(small().data, dir);
     edit(dir / "dataset.toml", "[camera.settings]\n",
          "[camera.settings]\n\"name\" = \"pulnix \\\"night\\\" \\\\ test\"\n");
