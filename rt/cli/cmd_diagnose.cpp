@@ -102,7 +102,7 @@ int runDiagnose(const DiagnoseOptions& opts) {
     const std::string json = fit::toJson(r);
     {
         // All outputs or none; a signal meanwhile leaves none and no temporary.
-        const SignalHold hold;
+        outputs.holdSignals();
         if (opts.json) outputs.writeText(*opts.json, json + "\n");
         if (opts.writePreset)
             outputs.writeText(*opts.writePreset, fit::presetWithFindings(d.presetFile, r));

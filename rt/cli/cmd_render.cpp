@@ -74,7 +74,7 @@ int runRender(const RenderOptions& opts) {
     bandAttrs.push_back({"nvstim.unit", "W/m2/sr"});
     bandAttrs.push_back({"nvstim.band", "camera relative response beta"});
     {
-        const SignalHold hold;  // both outputs or none, and no temporary left
+        outputs.holdSignals();  // both outputs or none, and no temporary left
         outputs.writeWith(out, [&](const std::filesystem::path& tmp) {
             render::writeRadianceExr(tmp, pe.cview(), peAttrs);
         });

@@ -141,7 +141,7 @@ int runSensor(const SensorOptions& opts) {
     sensor::IiccdChain chain(cam, opts.seed ? *opts.seed : 0, dirs.config, gammaTables);
 
     // ---- Run.
-    const SignalHold hold;  // a signal stops the run with no output and no temporary left
+    outputs.holdSignals();  // a signal stops the run with no output and no temporary left
     std::string json =
         "{\"camera\":\"" + cam.name + "\",\"frames\":" + std::to_string(frames) + ",\"fields\":[";
     for (long long k = 0; k < frames; ++k) {

@@ -392,7 +392,7 @@ void blessScenario(const fs::path& dir, const fs::path& nvstimExe) {
     for (const auto& f : files)
         d << "  " << tomlString(sha256File(f)) << ",\n";
     d << "]\n";
-    const SignalHold hold;
+    outputs.holdSignals();
     outputs.writeText(exp / "digest.toml", d.str());
 
     std::ostringstream s;

@@ -7,6 +7,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
@@ -131,7 +132,10 @@ sigset_t heldSet() {
 
 // ---- OutputFiles -------------------------------------------------------------------------------
 
-OutputFiles::~OutputFiles() { discard(); }
+OutputFiles::~OutputFiles() {
+    discard();
+    hold_.reset();  // a held signal is delivered only now, with nothing left behind
+}
 
 void OutputFiles::addInput(const fs::path& path) {
     struct stat st {};
@@ -393,20 +397,39 @@ void OutputFiles::discard() noexcept {
 
 // ---- SignalHold, runChild ----------------------------------------------------------------------
 
+namespace {
+
+volatile std::sig_atomic_t gHeldSignal = 0;
+std::atomic<bool> gHolding{false};
+
+extern "C" void noteSignal(int sig) { gHeldSignal = sig; }
+
+}  // namespace
+
 SignalHold::SignalHold() {
-    const sigset_t s = heldSet();
-    ::pthread_sigmask(SIG_BLOCK, &s, &old_);
+    if (gHolding.exchange(true)) throw std::logic_error("SignalHold: one at a time");
+    gHeldSignal = 0;
+    struct sigaction sa {};
+    sa.sa_handler = noteSignal;
+    sigemptyset(&sa.sa_mask);
+    sa.sa_flags = SA_RESTART;
+    for (int i = 0; i < 4; ++i) {
+        ::sigaction(kHeld[i], nullptr, &old_[i]);
+        // A signal the process ignores (nohup, a background job's SIGINT) stays ignored.
+        if (old_[i].sa_handler != SIG_IGN) ::sigaction(kHeld[i], &sa, nullptr);
+    }
 }
 
-SignalHold::~SignalHold() { ::pthread_sigmask(SIG_SETMASK, &old_, nullptr); }
-
-bool SignalHold::pending() noexcept {
-    sigset_t p;
-    if (::sigpending(&p) != 0) return false;
-    for (int sig : kHeld)
-        if (sigismember(&p, sig) == 1) return true;
-    return false;
+SignalHold::~SignalHold() {
+    for (int i = 0; i < 4; ++i)
+        ::sigaction(kHeld[i], &old_[i], nullptr);
+    const int sig = gHeldSignal;
+    gHeldSignal = 0;
+    gHolding.store(false);
+    if (sig != 0) ::raise(sig);
 }
+
+bool SignalHold::pending() noexcept { return gHolding.load() && gHeldSignal != 0; }
 
 int runChild(const std::vector<std::string>& argv) {
     if (argv.empty()) return -1;
@@ -414,34 +437,36 @@ int runChild(const std::vector<std::string>& argv) {
     for (const std::string& a : argv)
         args.push_back(const_cast<char*>(a.c_str()));
     args.push_back(nullptr);
-    const sigset_t held = heldSet();
     const pid_t pid = ::fork();
     if (pid < 0) return -1;
     if (pid == 0) {
+        // The child starts with the usual dispositions (a caught signal's handler is reset by
+        // exec; a blocked one would stay blocked).
+        const sigset_t held = heldSet();
         ::pthread_sigmask(SIG_UNBLOCK, &held, nullptr);
         ::execvp(args[0], args.data());
         ::_exit(127);
     }
-    sigset_t blocked;
-    ::pthread_sigmask(SIG_SETMASK, nullptr, &blocked);
-    const bool holding = sigismember(&blocked, SIGTERM) == 1;
     for (;;) {
         int status = 0;
-        const pid_t w = ::waitpid(pid, &status, holding ? WNOHANG : 0);
+        const pid_t w = ::waitpid(pid, &status, WNOHANG);
         if (w == pid) return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
         if (w < 0 && errno != EINTR) return -1;
-        if (!holding) continue;
-        const timespec slice{0, 50'000'000};
-        siginfo_t info{};
-        const int sig = ::sigtimedwait(&held, &info, &slice);
-        if (sig > 0) {
+        if (SignalHold::pending()) {
             ::kill(pid, SIGTERM);
             while (::waitpid(pid, &status, 0) < 0 && errno == EINTR) {
             }
-            ::raise(sig);  // held: stays pending for commit() and the end of the hold
             return -1;
         }
+        const timespec slice{0, 20'000'000};
+        ::nanosleep(&slice, nullptr);
     }
+}
+
+// ---- OutputFiles' hold -------------------------------------------------------------------------
+
+void OutputFiles::holdSignals() {
+    if (!hold_) hold_.emplace();
 }
 
 }  // namespace nvs

@@ -17,15 +17,16 @@
 //     report with one atomic exchange). Until then, and on any failure, nothing final is
 //     touched, and the destructor removes every temporary: all outputs or none.
 //
-// While outputs are staged, SIGINT, SIGTERM, SIGHUP and SIGQUIT are held (SignalHold): a signal
-// that arrives then makes commit() refuse, the temporaries are removed, and the signal takes its
-// usual effect once the hold ends.
+// While outputs are staged (holdSignals), SIGINT, SIGTERM, SIGHUP and SIGQUIT are caught and
+// held (SignalHold): one that arrives then makes commit() refuse and runChild() stop its child;
+// the temporaries are removed, and only then the signal takes its usual effect.
 
 #include <sys/types.h>
 
 #include <csignal>
 #include <filesystem>
 #include <map>
+#include <optional>
 #include <set>
 #include <stdexcept>
 #include <string>
@@ -34,6 +35,23 @@
 #include <vector>
 
 namespace nvs {
+
+// Catches SIGINT, SIGTERM, SIGHUP and SIGQUIT for its lifetime with a handler that only notes
+// the signal (process-wide, so threads started earlier cannot be killed by them either). When
+// it ends, the previous handlers are put back and a signal that arrived is raised again, so it
+// takes its usual effect then. One at a time.
+class SignalHold {
+  public:
+    SignalHold();
+    ~SignalHold();
+    SignalHold(const SignalHold&) = delete;
+    SignalHold& operator=(const SignalHold&) = delete;
+    // Whether a signal arrived while a SignalHold is in force.
+    static bool pending() noexcept;
+
+  private:
+    struct sigaction old_[4] {};
+};
 
 class OutputFiles {
   public:
@@ -74,6 +92,9 @@ class OutputFiles {
     void commit();
     // Removes every temporary not committed (the destructor calls it).
     void discard() noexcept;
+    // Holds the signals (SignalHold) until this object is destroyed: its temporaries are
+    // removed first, then a held signal is delivered.
+    void holdSignals();
 
   private:
     struct Output {
@@ -92,6 +113,7 @@ class OutputFiles {
     void checkFolderTarget(const Output& o) const;
     void add(Output o);
 
+    std::optional<SignalHold> hold_;
     std::vector<Output> outputs_;
     std::map<std::filesystem::path, std::size_t> outputIndex_;  // by key
     std::map<FileId, std::size_t> outputIds_;                   // existing file outputs
@@ -102,25 +124,9 @@ class OutputFiles {
     std::vector<std::filesystem::path> inputFolders_;
 };
 
-// Holds SIGINT, SIGTERM, SIGHUP and SIGQUIT (blocked) for its lifetime; they are delivered when
-// it ends. pending() says whether one arrived meanwhile. Child processes are started with them
-// unblocked (runChild).
-class SignalHold {
-  public:
-    SignalHold();
-    ~SignalHold();
-    SignalHold(const SignalHold&) = delete;
-    SignalHold& operator=(const SignalHold&) = delete;
-    static bool pending() noexcept;
-
-  private:
-    sigset_t old_{};
-};
-
-// Runs argv[0] with `args` as a child process and waits for it; returns its exit status, or -1
-// when it could not be started or was killed. Under a SignalHold a held signal that arrives while
-// it runs is passed on to the child (SIGTERM), the child is waited for, and the signal stays
-// pending (so commit() refuses); returns -1 then.
+// Runs argv[0] with argv[1..] as a child process and waits for it; returns its exit status, or
+// -1 when it could not be started or was killed. Under a SignalHold a signal that arrives while
+// it runs stops the child (SIGTERM), which is waited for; returns -1 then (and commit() refuses).
 int runChild(const std::vector<std::string>& argv);
 
 }  // namespace nvs

@@ -8,10 +8,12 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <chrono>
 #include <csignal>
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "sim/core/error.h"
@@ -130,30 +132,67 @@ TEST(OutputFiles, AReportFolderIsReplacedOnlyWithItsMarker) {
     EXPECT_EQ(names(d.path), std::vector<std::string>{"rep"});
 }
 
+// Counts SIGTERMs, standing in for the signal's usual effect (which would end the test).
+volatile std::sig_atomic_t gTerms = 0;
+extern "C" void countTerm(int) { gTerms = gTerms + 1; }
+
+struct CountTerms {
+    struct sigaction old {};
+    CountTerms() {
+        gTerms = 0;
+        struct sigaction sa {};
+        sa.sa_handler = countTerm;
+        sigemptyset(&sa.sa_mask);
+        ::sigaction(SIGTERM, &sa, &old);
+    }
+    ~CountTerms() { ::sigaction(SIGTERM, &old, nullptr); }
+};
+
 TEST(OutputFiles, AHeldSignalLeavesNoOutputAndNoTemporary) {
     const Dir d;
+    const CountTerms terms;
     std::ofstream(d.path / "a.json") << "old";
     {
-        const SignalHold hold;
-        {
-            OutputFiles out;
-            out.addFile("--a", d.path / "a.json");
-            out.addFolder("--report", d.path / "rep", ".marker");
-            out.writeText(d.path / "a.json", "new");
-            (void)out.stage(d.path / "rep");
-            ::raise(SIGTERM);  // held: pending until the hold ends
-            EXPECT_TRUE(SignalHold::pending());
-            EXPECT_THROW(out.commit(), std::runtime_error);
-        }
-        EXPECT_EQ(read(d.path / "a.json"), "old");
-        EXPECT_EQ(names(d.path), std::vector<std::string>{"a.json"});
-        // Take the pending signal before the hold ends (it would end the test).
-        sigset_t s;
-        sigemptyset(&s);
-        sigaddset(&s, SIGTERM);
-        int sig = 0;
-        ASSERT_EQ(::sigwait(&s, &sig), 0);
+        OutputFiles out;
+        out.addFile("--a", d.path / "a.json");
+        out.addFolder("--report", d.path / "rep", ".marker");
+        out.holdSignals();
+        out.writeText(d.path / "a.json", "new");
+        (void)out.stage(d.path / "rep");
+        ::raise(SIGTERM);  // held: noted, not delivered
+        EXPECT_TRUE(SignalHold::pending());
+        EXPECT_EQ(gTerms, 0);
+        EXPECT_THROW(out.commit(), std::runtime_error);
+        EXPECT_EQ(gTerms, 0);
     }
+    // Delivered once the temporaries were gone.
+    EXPECT_EQ(gTerms, 1);
+    EXPECT_FALSE(SignalHold::pending());
+    EXPECT_EQ(read(d.path / "a.json"), "old");
+    EXPECT_EQ(names(d.path), std::vector<std::string>{"a.json"});
+}
+
+// A signal while a child runs (the report's plotter) stops the child at once; it is waited for.
+TEST(OutputFiles, AHeldSignalStopsTheChildProcess) {
+    const CountTerms terms;
+    const auto t0 = std::chrono::steady_clock::now();
+    int rc = 0;
+    {
+        const SignalHold hold;
+        // Sent from another thread while the child sleeps: process-wide, caught by the hold.
+        std::thread sender([] {
+            std::this_thread::sleep_for(std::chrono::milliseconds(200));
+            ::kill(::getpid(), SIGTERM);
+        });
+        rc = runChild({"sleep", "30"});
+        sender.join();
+        EXPECT_TRUE(SignalHold::pending());
+    }
+    EXPECT_EQ(rc, -1);
+    EXPECT_LT(std::chrono::steady_clock::now() - t0, std::chrono::seconds(10));
+    EXPECT_EQ(gTerms, 1);
+    EXPECT_EQ(runChild({"true"}), 0);
+    EXPECT_EQ(runChild({"false"}), 1);
 }
 
 TEST(OutputFiles, OutputsMustDifferFromEachOtherAndTheInputs) {
