@@ -415,6 +415,25 @@ Result diagnose(const Dataset& d, const std::filesystem::path& configDir, const 
     return r;
 }
 
+namespace {
+
+// A JSON string: quotes, backslashes and control characters escaped.
+std::string quoted(const std::string& t) {
+    std::string s = "\"";
+    for (char c : t) {
+        if (static_cast<unsigned char>(c) < 0x20) {
+            char b[8];
+            std::snprintf(b, sizeof b, "\\u%04x", static_cast<unsigned>(c));
+            s += b;
+        } else {
+            s += c == '"' || c == '\\' ? std::string("\\") + c : std::string(1, c);
+        }
+    }
+    return s + "\"";
+}
+
+}  // namespace
+
 std::string toJson(const Result& r) {
     std::string s = "{\"baseline\":{";
     bool first = true;
@@ -437,18 +456,11 @@ std::string toJson(const Result& r) {
             s += c == '"' ? std::string("\\\"") : std::string(1, c);
         s += "\"}";
     }
-    s += "],\"camera\":\"" + r.camera + "\"}";
+    s += "],\"camera\":" + quoted(r.camera) + "}";
     return s;
 }
 
 namespace {
-
-std::string quoted(const std::string& t) {
-    std::string s = "\"";
-    for (char c : t)
-        s += c == '"' || c == '\\' ? std::string("\\") + c : std::string(1, c);
-    return s + "\"";
-}
 
 std::string numbers(const std::vector<double>& v) {
     std::string s = "[";

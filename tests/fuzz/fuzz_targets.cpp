@@ -1,5 +1,7 @@
 #include "tests/fuzz/fuzz_targets.h"
 
+#include <stdlib.h>
+
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -17,6 +19,7 @@
 #include "rt/telemetry/track.h"
 #include "sim/core/csv.h"
 #include "sim/core/error.h"
+#include "sim/fit/dataset.h"
 #include "sim/scene/scene.h"
 #include "sim/sensor/camera.h"
 #include "sim/sensor/image_io.h"
@@ -263,6 +266,69 @@ int image(const std::uint8_t* data, std::size_t size) {
             const sensor::RadianceFile r = sensor::parseExr(bytes, "fuzz.exr", limits);
             require(r.image.width() <= 512 && r.image.height() <= 512);
         }
+    });
+}
+
+// A dataset folder from one input: parts separated by a line "%%"; the first is dataset.toml,
+// each other part a file named by its magic (Pf/PF: radiance/NNNNNN.pfm; \x89PNG:
+// frames/NNNNNN.png; anything else frames/NNNNNN.pgm), numbered in order from 0. Written to a
+// private folder (emptied for each input) and read by fit::loadDataset with the shipped
+// presets; a dataset accepted keeps the loader's promises.
+int dataset(const std::uint8_t* data, std::size_t size) {
+    namespace fs = std::filesystem;
+    static const fs::path dir = [] {
+        std::string t = (fs::temp_directory_path() / "nvs-fuzz-dataset-XXXXXX").string();
+        if (::mkdtemp(t.data()) == nullptr) std::abort();
+        return fs::path(t);
+    }();
+    std::error_code ec;
+    for (const char* sub : {"frames", "radiance"}) {
+        fs::remove_all(dir / sub, ec);
+        fs::create_directories(dir / sub, ec);
+    }
+    const std::string_view all(reinterpret_cast<const char*>(data), size);
+    int frames = 0, radiances = 0;
+    std::size_t at = 0;
+    for (int part = 0; at <= all.size() && part < 64; ++part) {
+        std::size_t end = all.find("\n%%\n", at);
+        if (end == std::string_view::npos) end = all.size();
+        const std::string_view bytes = all.substr(at, end - at);
+        fs::path name;
+        if (part == 0)
+            name = dir / "dataset.toml";
+        else if (bytes.substr(0, 2) == "Pf" || bytes.substr(0, 2) == "PF")
+            name = dir / "radiance" / sensor::expandFramePattern("{frame:06d}.pfm", radiances++);
+        else if (bytes.substr(0, 4) == "\x89PNG")
+            name = dir / "frames" / sensor::expandFramePattern("{frame:06d}.png", frames++);
+        else
+            name = dir / "frames" / sensor::expandFramePattern("{frame:06d}.pgm", frames++);
+        std::FILE* f = std::fopen(name.c_str(), "wb");
+        if (f == nullptr) std::abort();
+        std::fwrite(bytes.data(), 1, bytes.size(), f);
+        std::fclose(f);
+        at = end + 4;
+    }
+    return expectSetupError([&] {
+        const fit::Dataset d = fit::loadDataset(dir, configDir());
+        require(d.frameCount() >= static_cast<std::size_t>(fit::kMinDatasetFrames));
+        require(d.frameCount() <= static_cast<std::size_t>(fit::kMaxDatasetFrames));
+        require(d.width == d.camera.width && d.height == d.camera.height);
+        require(d.frameMax_dc >= 1 && ((d.frameMax_dc + 1) & d.frameMax_dc) == 0);
+        require(d.stimulusOfFrame.size() == d.frameCount());
+        bool signal = false;
+        for (const fit::Plane& p : d.frames) {
+            require(p.size() == static_cast<std::size_t>(d.width) * d.height);
+            for (const float v : p) {
+                require(v >= 0.0f && v <= static_cast<float>(d.frameMax_dc));
+                signal = signal || (v > 0.0f && v < static_cast<float>(d.frameMax_dc));
+            }
+        }
+        require(signal);
+        for (const fit::Roi& r : d.rois)
+            require(r.x >= 0 && r.y >= 0 && r.w > 0 && r.h > 0 &&
+                    std::int64_t{r.x} + r.w <= d.width && std::int64_t{r.y} + r.h <= d.height);
+        for (const int s : d.stimulusOfFrame)
+            require(s >= 0 && static_cast<std::size_t>(s) < d.stimuli.size());
     });
 }
 
