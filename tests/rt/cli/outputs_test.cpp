@@ -263,6 +263,15 @@ TEST(Outputs, RenderFrameBeyondTheTimeLimitIsRefused) {
     EXPECT_FALSE(fs::exists(dir / "r.exr"));
 }
 
+// bench --json into a folder: refused before the benchmarks run.
+TEST(Outputs, BenchJsonCheckedBeforeTheBenchmarks) {
+    const WorkDir work;
+    fs::create_directories(work.path / "folder");
+    const CliRun r = nvstim("bench --filter memcpy --json " + (work.path / "folder").string());
+    expectOneLine(r, cli::kExitUsage, "--json " + (work.path / "folder").string(), "bench");
+    EXPECT_TRUE(fs::is_empty(work.path / "folder"));
+}
+
 TEST(Outputs, ReplayBlessOfANonScenarioCreatesNothing) {
     const WorkDir work;
     const fs::path& dir = work.path;
