@@ -333,7 +333,7 @@ namespace {
 fs::path expectedFolder(const fs::path& dir) {
     if (!fs::is_directory(dir)) throw SetupError(dir.string() + ": not a scenario folder");
     if (!fs::exists(dir / "scenario.toml")) throw SetupError(dir.string() + ": no scenario.toml");
-    const fs::path exp = dir / "expected";
+    fs::path exp = dir / "expected";
     const fs::file_status st = fs::symlink_status(exp);
     if (fs::is_symlink(st)) {
         throw SetupError(exp.string() +

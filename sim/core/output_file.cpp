@@ -84,8 +84,7 @@ std::string randomSuffix() {
 fs::path createTemporary(const fs::path& final, bool folder, int& err) {
     const fs::path dir = final.parent_path().empty() ? fs::path(".") : final.parent_path();
     for (int attempt = 0; attempt < 64; ++attempt) {
-        const fs::path t =
-            dir / (final.filename().string() + ".nvstim-" + randomSuffix() + ".tmp");
+        fs::path t = dir / (final.filename().string() + ".nvstim-" + randomSuffix() + ".tmp");
         if (folder) {
             if (::mkdir(t.c_str(), 0777) == 0) return t;
         } else {
@@ -278,7 +277,7 @@ fs::path OutputFiles::stage(const fs::path& path) {
     if (!o.temp.empty()) throw std::logic_error(path.string() + ": staged twice");
     int err = 0;
     // The temporary lies beside the final path as it resolved at setup.
-    const fs::path t = createTemporary(o.key, o.folder, err);
+    fs::path t = createTemporary(o.key, o.folder, err);
     if (t.empty()) failed(o.path, "cannot create a temporary beside it", err);
     struct stat st {};
     if (::lstat(t.c_str(), &st) != 0) failed(t, "cannot stat", errno);
@@ -434,6 +433,7 @@ bool SignalHold::pending() noexcept { return gHolding.load() && gHeldSignal != 0
 int runChild(const std::vector<std::string>& argv) {
     if (argv.empty()) return -1;
     std::vector<char*> args;
+    args.reserve(argv.size() + 1);
     for (const std::string& a : argv)
         args.push_back(const_cast<char*>(a.c_str()));
     args.push_back(nullptr);

@@ -347,6 +347,14 @@ void readPngBytes(png_structp png, png_bytep out, png_size_t n) {
     src->left -= n;
 }
 
+// libpng's errors and warnings kept for the one-line error instead of printed on stderr.
+void pngError(png_structp png, png_const_charp message) {
+    *static_cast<std::string*>(png_get_error_ptr(png)) = message;
+    png_longjmp(png, 1);
+}
+
+void pngWarning(png_structp, png_const_charp) {}
+
 // Largest inflation a PNG's zlib stream can give (deflate's limit is about 1032:1): a header
 // that promises more samples than that from the file's size is refused before any allocation.
 constexpr std::uint64_t kMaxPngInflation = 1100;
@@ -376,7 +384,7 @@ Plane readFrame(const fs::path& path, int& width, int& height, int& maxValue) {
     png_image im{};
     im.version = PNG_IMAGE_VERSION;
     if (!png_image_begin_read_from_memory(&im, bytes.data(), bytes.size()))
-        fail(path, "not a readable PNG");
+        fail(path, std::string("not a readable PNG: ") + im.message);
     const sensor::ImageLimits limits;
     const std::uint64_t samples = std::uint64_t{im.width} * im.height;
     if (im.width == 0 || im.height == 0 || im.width > static_cast<unsigned>(limits.maxWidth) ||
@@ -396,7 +404,7 @@ Plane readFrame(const fs::path& path, int& width, int& height, int& maxValue) {
         im.format = PNG_FORMAT_GRAY;
         std::vector<unsigned char> buf(PNG_IMAGE_SIZE(im));
         if (!png_image_finish_read(&im, nullptr, buf.data(), 0, nullptr))
-            fail(path, "PNG read failed");
+            fail(path, std::string("PNG read failed: ") + im.message);
         for (std::size_t i = 0; i < p.size(); ++i)
             p[i] = buf[i];
         maxValue = 255;
@@ -407,7 +415,9 @@ Plane readFrame(const fs::path& path, int& width, int& height, int& maxValue) {
     // pass of an interlaced (Adam7) file into the whole image.
     png_image_free(&im);
     PngBytes src{reinterpret_cast<const unsigned char*>(bytes.data()), bytes.size()};
-    png_structp png = png_create_read_struct(PNG_LIBPNG_VER_STRING, nullptr, nullptr, nullptr);
+    std::string pngMessage;
+    png_structp png =
+        png_create_read_struct(PNG_LIBPNG_VER_STRING, &pngMessage, pngError, pngWarning);
     png_infop info = png ? png_create_info_struct(png) : nullptr;
     if (!png || !info) {
         png_destroy_read_struct(&png, &info, nullptr);
@@ -416,7 +426,7 @@ Plane readFrame(const fs::path& path, int& width, int& height, int& maxValue) {
     std::vector<unsigned char> raw(static_cast<std::size_t>(width) * height * 2);
     if (setjmp(png_jmpbuf(png))) {
         png_destroy_read_struct(&png, &info, nullptr);
-        fail(path, "PNG read failed");
+        fail(path, "PNG read failed: " + pngMessage);
     }
     png_set_read_fn(png, &src, readPngBytes);
     png_read_info(png, info);

@@ -125,6 +125,22 @@ TEST(DatasetInputs, HostileInputIsOneSetupErrorNamingIt) {
                             forgedPng(30000));
          },
          "PNG header claims 30000x30000"},
+        {"16-bit PNG with a corrupt IDAT",
+         [](const fs::path& d) {
+             edit(d / "dataset.toml", "{frame:06d}.pgm", "{frame:06d}.png");
+             ImageU16 img(48, 32);
+             for (int y = 0; y < 32; ++y)
+                 for (int x = 0; x < 48; ++x)
+                     img(x, y) = static_cast<std::uint16_t>(1000 * x + y);
+             for (int k = 0; k < 12; ++k)
+                 sensor::writePng(d / "frames" / sensor::expandFramePattern("{frame:06d}.png", k),
+                                  img.cview(), 65535);
+             std::string png = readText(d / "frames" / "000000.png");
+             const std::size_t idat = png.find("IDAT");
+             png[idat + 40] = static_cast<char>(png[idat + 40] ^ 0x5a);
+             writeBytes(d / "frames" / "000000.png", png);
+         },
+         "000000.png: PNG read failed: "},
         {"count 10^12",
          [](const fs::path& d) { edit(d / "dataset.toml", "count = 12", "count = 1000000000000"); },
          "'output.count': must be in [8, 100000]"},
