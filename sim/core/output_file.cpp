@@ -1,6 +1,5 @@
 #include "sim/core/output_file.h"
 
-#include <dirent.h>
 #include <fcntl.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
@@ -61,10 +60,8 @@ fs::path keyOf(const fs::path& given) {
 bool within(const fs::path& outer, const fs::path& inner) {
     auto o = outer.begin();
     auto i = inner.begin();
-    for (; o != outer.end(); ++o, ++i) {
-        if (o->empty() && std::next(o) == outer.end()) break;  // a trailing "" component
+    for (; o != outer.end(); ++o, ++i)
         if (i == inner.end() || *o != *i) return false;
-    }
     return true;
 }
 
@@ -80,11 +77,14 @@ std::string randomSuffix() {
 }
 
 // A new file or folder beside `final`, never one that was there (O_EXCL: a name taken by a
-// file or a symbolic link is skipped). Returns its path; -errno in `err` on failure.
+// file or a symbolic link is skipped). Returns its path; errno in `err` on failure.
 fs::path createTemporary(const fs::path& final, bool folder, int& err) {
     const fs::path dir = final.parent_path().empty() ? fs::path(".") : final.parent_path();
+    // Within NAME_MAX (255) with the 21 characters added.
+    std::string base = final.filename().string();
+    if (base.size() > 200) base.resize(200);
     for (int attempt = 0; attempt < 64; ++attempt) {
-        fs::path t = dir / (final.filename().string() + ".nvstim-" + randomSuffix() + ".tmp");
+        fs::path t = dir / (base + ".nvstim-" + randomSuffix() + ".tmp");
         if (folder) {
             if (::mkdir(t.c_str(), 0777) == 0) return t;
         } else {
