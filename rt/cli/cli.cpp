@@ -2,10 +2,10 @@
 
 #include <CLI/CLI.hpp>
 #include <charconv>
-#include <optional>
-#include <string>
 #include <cstdio>
 #include <exception>
+#include <optional>
+#include <string>
 
 #include "rt/cli/commands.h"
 #include "sim/core/error.h"

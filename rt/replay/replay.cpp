@@ -403,9 +403,9 @@ void blessScenario(const fs::path& dir, const fs::path& nvstimExe) {
     for (const auto& [first, count] : windows) {
         const WindowStats w = computeWindow(files, first, count);
         const std::string stem = "w" + std::to_string(i);
-        for (const auto& [kind, img] : {std::pair{"_mean.pfm", &w.mean},
-                                        std::pair{"_meanvar.pfm", &w.meanVar},
-                                        std::pair{"_pixvar.pfm", &w.pixVar}}) {
+        for (const auto& [kind, img] :
+             {std::pair{"_mean.pfm", &w.mean}, std::pair{"_meanvar.pfm", &w.meanVar},
+              std::pair{"_pixvar.pfm", &w.pixVar}}) {
             outputs.writeWith(exp / (stem + kind),
                               [&](const fs::path& tmp) { sensor::writePfm(tmp, img->cview()); });
         }

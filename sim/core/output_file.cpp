@@ -88,8 +88,8 @@ fs::path createTemporary(const fs::path& final, bool folder, int& err) {
         if (folder) {
             if (::mkdir(t.c_str(), 0777) == 0) return t;
         } else {
-            const int fd = ::open(t.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC,
-                                  0666);
+            const int fd =
+                ::open(t.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0666);
             if (fd >= 0) {
                 ::close(fd);
                 return t;
@@ -174,7 +174,8 @@ void OutputFiles::checkAgainst(const Output& o, const FileId* id) const {
     if (inputKeys_.count(o.key) != 0 || (id != nullptr && inputIds_.count(*id) != 0))
         refuse(o.option, o.path, "is an input of this command");
     for (const fs::path& in : inputFolders_)
-        if (within(in, o.key)) refuse(o.option, o.path, "lies inside the input folder " + in.string());
+        if (within(in, o.key))
+            refuse(o.option, o.path, "lies inside the input folder " + in.string());
     if (o.folder)
         for (const fs::path& in : inputKeys_)
             if (within(o.key, in))
@@ -218,8 +219,8 @@ void OutputFiles::addFile(const std::string& option, const fs::path& path) {
         int err = 0;
         const fs::path probe = createTemporary(o.key, false, err);
         if (probe.empty()) {
-            refuse(option, path, "cannot create a file in " + dir.string() + ": " +
-                                     std::strerror(err));
+            refuse(option, path,
+                   "cannot create a file in " + dir.string() + ": " + std::strerror(err));
         }
         ::unlink(probe.c_str());
         probedFolders_.insert(dir);
@@ -259,8 +260,8 @@ void OutputFiles::addFolder(const std::string& option, const fs::path& path,
     int err = 0;
     const fs::path probe = createTemporary(o.key, true, err);
     if (probe.empty()) {
-        refuse(option, o.path, "cannot create a folder in " + dir.string() + ": " +
-                                   std::strerror(err));
+        refuse(option, o.path,
+               "cannot create a folder in " + dir.string() + ": " + std::strerror(err));
     }
     ::rmdir(probe.c_str());
     add(std::move(o));
@@ -401,7 +402,9 @@ namespace {
 volatile std::sig_atomic_t gHeldSignal = 0;
 std::atomic<bool> gHolding{false};
 
-extern "C" void noteSignal(int sig) { gHeldSignal = sig; }
+extern "C" void noteSignal(int sig) {
+    gHeldSignal = sig;
+}
 
 }  // namespace
 
@@ -428,7 +431,9 @@ SignalHold::~SignalHold() {
     if (sig != 0) ::raise(sig);
 }
 
-bool SignalHold::pending() noexcept { return gHolding.load() && gHeldSignal != 0; }
+bool SignalHold::pending() noexcept {
+    return gHolding.load() && gHeldSignal != 0;
+}
 
 int runChild(const std::vector<std::string>& argv) {
     if (argv.empty()) return -1;

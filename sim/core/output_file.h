@@ -50,7 +50,7 @@ class SignalHold {
     static bool pending() noexcept;
 
   private:
-    struct sigaction old_[4] {};
+    struct sigaction old_[4]{};
 };
 
 class OutputFiles {

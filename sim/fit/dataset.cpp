@@ -6,9 +6,9 @@
 #include <algorithm>
 #include <cctype>
 #include <charconv>
-#include <cstring>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <fstream>
 #include <map>
 #include <memory>
@@ -210,8 +210,7 @@ FrameList listFrames(const ConfigTable& out, const fs::path& dir, const fs::path
     if (fl.files.empty()) fail(tomlPath, "[output] frames: no frame files found");
     if (fl.files.size() < static_cast<std::size_t>(kMinDatasetFrames)) {
         fail(tomlPath, "[output] frames: " + std::to_string(fl.files.size()) +
-                           " frames; diagnose needs at least " +
-                           std::to_string(kMinDatasetFrames) +
+                           " frames; diagnose needs at least " + std::to_string(kMinDatasetFrames) +
                            " (2 warm-up, then at least 2 calibration and 2 held-out frames)");
     }
     for (std::size_t i = 0; i < fl.files.size(); ++i)
@@ -392,9 +391,9 @@ Plane readFrame(const fs::path& path, int& width, int& height, int& maxValue) {
         samples > kMaxPngInflation * bytes.size()) {
         png_image_free(&im);
         fail(path, "PNG header claims " + std::to_string(im.width) + "x" +
-                       std::to_string(im.height) + ", more than a " +
-                       std::to_string(bytes.size()) + "-byte file can hold or above " +
-                       std::to_string(limits.maxWidth) + "x" + std::to_string(limits.maxHeight));
+                       std::to_string(im.height) + ", more than a " + std::to_string(bytes.size()) +
+                       "-byte file can hold or above " + std::to_string(limits.maxWidth) + "x" +
+                       std::to_string(limits.maxHeight));
     }
     const bool wide = PNG_IMAGE_SAMPLE_COMPONENT_SIZE(im.format) == 2;
     width = static_cast<int>(im.width);
@@ -600,15 +599,15 @@ Dataset loadDataset(const fs::path& dir, const fs::path& configDir, const Progre
             inRange = inRange || (v > 0.0f && v < static_cast<float>(d.frameMax_dc));
         }
     if (!varies || !inRange) {
-        fail(tomlPath, "[output] frames carry no signal: every sample is " +
-                           (varies ? std::string("0 or full scale (") +
-                                         std::to_string(d.frameMax_dc) + ")"
-                                   : std::to_string(static_cast<int>(v0))));
+        fail(tomlPath,
+             "[output] frames carry no signal: every sample is " +
+                 (varies ? std::string("0 or full scale (") + std::to_string(d.frameMax_dc) + ")"
+                         : std::to_string(static_cast<int>(v0))));
     }
     for (const Roi& r : d.rois)
         // In 64 bits: x + w of two large ints must not wrap past the check.
-        if (r.w <= 0 || r.h <= 0 || r.x < 0 || r.y < 0 ||
-            std::int64_t{r.x} + r.w > d.width || std::int64_t{r.y} + r.h > d.height) {
+        if (r.w <= 0 || r.h <= 0 || r.x < 0 || r.y < 0 || std::int64_t{r.x} + r.w > d.width ||
+            std::int64_t{r.y} + r.h > d.height) {
             fail(tomlPath, "[[roi]] '" + r.name + "' lies outside the frame");
         }
     const bool scenario = st.contains("scenario");

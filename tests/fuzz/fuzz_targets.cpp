@@ -449,12 +449,12 @@ int outputPaths(const std::uint8_t* data, std::size_t size) {
     require(fs::is_fifo(fs::symlink_status(dir / "fifo")));
     require(fs::is_symlink(fs::symlink_status(dir / "loop")));
     // A temporary is "NAME.nvstim-XXXXXXXX.tmp"; an output may itself be named so.
-    for (auto it = fs::recursive_directory_iterator(dir, ec); it != fs::recursive_directory_iterator();
-         it.increment(ec)) {
+    for (auto it = fs::recursive_directory_iterator(dir, ec);
+         it != fs::recursive_directory_iterator(); it.increment(ec)) {
         if (ec) break;
         const std::string name = it->path().filename().string();
-        const bool temporary = name.find(".nvstim-") != std::string::npos &&
-                               name.size() > 4 && name.compare(name.size() - 4, 4, ".tmp") == 0;
+        const bool temporary = name.find(".nvstim-") != std::string::npos && name.size() > 4 &&
+                               name.compare(name.size() - 4, 4, ".tmp") == 0;
         bool output = false;
         for (const Declared& d : accepted)
             output = output || (d.kind != 'i' && d.path == it->path());

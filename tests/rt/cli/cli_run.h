@@ -23,8 +23,8 @@ struct CliRun {
 inline std::filesystem::path testPath(const std::string& what) {
     const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
     return std::filesystem::path(NVS_BINARY_DIR) /
-           ("test-" + std::string(info->test_suite_name()) + "-" + std::string(info->name()) +
-            "-" + std::to_string(::getpid()) + what);
+           ("test-" + std::string(info->test_suite_name()) + "-" + std::string(info->name()) + "-" +
+            std::to_string(::getpid()) + what);
 }
 
 // Runs `nvstim ARGS` (in `cwd` when given).

@@ -91,9 +91,9 @@ TEST(Diagnose, ReportHasItsPlots) {
     std::ofstream(dir / "report.tmp" / "sentinel.txt") << "keep me";
     const CliRun r = nvstim("diagnose " + ds.string() + " --report " + (dir / "report").string());
     ASSERT_EQ(r.status, 0) << r.err;
-    for (const char* f : {"report.md", "photon_transfer.png", "linearity.png", "radial_profile.png",
-                          "residual_heldout_before.png", "residual_heldout_after.png",
-                          ".nvstim-diagnose-report"})
+    for (const char* f :
+         {"report.md", "photon_transfer.png", "linearity.png", "radial_profile.png",
+          "residual_heldout_before.png", "residual_heldout_after.png", ".nvstim-diagnose-report"})
         EXPECT_TRUE(fs::exists(dir / "report" / f)) << f;
     EXPECT_TRUE(fs::exists(dir / "report.tmp" / "sentinel.txt"));
     for (const auto& e : fs::directory_iterator(dir))

@@ -93,10 +93,10 @@ TEST(Outputs, DiagnoseNeverReplacesAFolderThatIsNotItsReport) {
     struct Case {
         std::string arg, named, cwd;
     };
-    for (const Case& c : {Case{(dir / "mine").string(), "mine", ""},         // an existing folder
-                          Case{(dir / "mine").string() + "/", "mine", ""},   // with a slash
-                          Case{ds.string(), ds.string(), ""},                // the dataset itself
-                          Case{".", ".", dir.string()},                       // the current folder
+    for (const Case& c : {Case{(dir / "mine").string(), "mine", ""},        // an existing folder
+                          Case{(dir / "mine").string() + "/", "mine", ""},  // with a slash
+                          Case{ds.string(), ds.string(), ""},               // the dataset itself
+                          Case{".", ".", dir.string()},                     // the current folder
                           Case{dir.string(), dir.string(), (dir / "mine").string()},  // holds it
                           Case{(ds / "frames").string(), "frames", ""}}) {  // inside the input
         const auto before = snapshot(dir);
@@ -125,8 +125,7 @@ TEST(Outputs, DiagnoseChecksEveryOutputBeforeAnyWork) {
           Case{"--json " + a + " --write-preset /proc/p.toml", "/proc/p.toml"},
           Case{"--json " + a + " --write-preset " + a, "--write-preset"},
           Case{"--json " + a + " --write-preset " + (dir / "." / "a.json").string(), "a.json"},
-          Case{"--json -", "'-'"},
-          Case{"--json " + (dir / "fifo").string(), "FIFO"},
+          Case{"--json -", "'-'"}, Case{"--json " + (dir / "fifo").string(), "FIFO"},
           Case{"--json " + (dir / "loop").string(), "loop"},
           Case{"--json " + (dir / "no-such" / "a.json").string(), "no-such"},
           Case{"--json " + (ds / "dataset.toml").string(), "dataset.toml"},
@@ -165,9 +164,9 @@ TEST(Outputs, SensorRefusesOutputsThatWouldReplaceData) {
     struct Case {
         std::string in, out, named;
     };
-    for (const Case& c : {Case{"in.pfm", (dir / "dir.pgm").string(), "dir.pgm"},
-                          Case{"in.exr", (dir / "in.exr").string(), "in.exr"},
-                          Case{"in.pfm", "-", "--out"}}) {
+    for (const Case& c :
+         {Case{"in.pfm", (dir / "dir.pgm").string(), "dir.pgm"},
+          Case{"in.exr", (dir / "in.exr").string(), "in.exr"}, Case{"in.pfm", "-", "--out"}}) {
         const auto before = snapshot(dir);
         const CliRun r =
             nvstim("sensor --in " + (dir / c.in).string() + kSensor + " --out " + c.out);
@@ -185,9 +184,8 @@ TEST(Outputs, SensorTemporaryNeverFollowsALink) {
     writeFile(dir / "victim.txt", "keep me");
     fs::create_symlink(dir / "victim.txt", dir / "out.pgm.tmp.pgm");
     fs::create_symlink(dir / "victim.txt", dir / "out.pgm.tmp");
-    const CliRun r =
-        nvstim("sensor --in " + (dir / "in.pfm").string() + kSensor + " --out " +
-               (dir / "out.pgm").string());
+    const CliRun r = nvstim("sensor --in " + (dir / "in.pfm").string() + kSensor + " --out " +
+                            (dir / "out.pgm").string());
     ASSERT_EQ(r.status, 0) << r.err;
     EXPECT_EQ(readFile(dir / "victim.txt"), "keep me");
     EXPECT_TRUE(fs::is_regular_file(fs::symlink_status(dir / "out.pgm")));
@@ -222,17 +220,17 @@ TEST(Outputs, NumbersAreRangeCheckedNeverWrapped) {
     struct Case {
         std::string args, named;
     };
-    for (const Case& c : {Case{sensor + " --seed -1", "--seed -1"},
-                          Case{sensor + " --seed 18446744073709551616", "--seed"},
-                          Case{sensor + " --seed 99999999999999999999999", "--seed"},
-                          Case{sensor + " --seed 1e3", "--seed 1e3"},
-                          Case{sensor + " --frames 0", "--frames 0"},
-                          Case{sensor + " --frames 1000001", "--frames"},
-                          Case{"diagnose " + dir.string() + " --seed -1", "--seed -1"},
-                          Case{"render x --frame 100000000000000000 --out o.exr", "--frame"},
-                          Case{"render x --frame 9223372036854775808 --out o.exr", "--frame"},
-                          Case{"render x --frame -1 --out o.exr", "--frame"},
-                          Case{"run x --frames 0", "--frames 0"}}) {
+    for (const Case& c :
+         {Case{sensor + " --seed -1", "--seed -1"},
+          Case{sensor + " --seed 18446744073709551616", "--seed"},
+          Case{sensor + " --seed 99999999999999999999999", "--seed"},
+          Case{sensor + " --seed 1e3", "--seed 1e3"}, Case{sensor + " --frames 0", "--frames 0"},
+          Case{sensor + " --frames 1000001", "--frames"},
+          Case{"diagnose " + dir.string() + " --seed -1", "--seed -1"},
+          Case{"render x --frame 100000000000000000 --out o.exr", "--frame"},
+          Case{"render x --frame 9223372036854775808 --out o.exr", "--frame"},
+          Case{"render x --frame -1 --out o.exr", "--frame"},
+          Case{"run x --frames 0", "--frames 0"}}) {
         const CliRun r = nvstim(c.args);
         expectOneLine(r, cli::kExitUsage, c.named, c.args);
         EXPECT_FALSE(fs::exists(dir / "o.pgm")) << c.args;
@@ -251,8 +249,8 @@ TEST(Outputs, RenderFrameBeyondTheTimeLimitIsRefused) {
               "lon_deg = -77.61583\nheight_m = 218.0\n[camera]\npreset = \"pulnix-ag5745ef3\"\n"
               "[scene]\nfile = \"" +
                   rit.string() + "\"\n");
-    const CliRun r = nvstim("render " + (dir / "s.toml").string() +
-                            " --frame 100000000000 --out " + (dir / "r.exr").string());
+    const CliRun r = nvstim("render " + (dir / "s.toml").string() + " --frame 100000000000 --out " +
+                            (dir / "r.exr").string());
     expectOneLine(r, cli::kExitUsage, "--frame 100000000000", "far frame");
     EXPECT_FALSE(fs::exists(dir / "r.exr"));
     // An existing folder where the band file would go: refused before the render.

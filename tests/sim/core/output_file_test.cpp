@@ -100,9 +100,9 @@ TEST(OutputFiles, TemporariesNeverFollowOrReuseWhatIsThere) {
     EXPECT_TRUE(fs::is_regular_file(fs::symlink_status(d.path / "out.json")));
     EXPECT_EQ(read(d.path / "out.json"), "json");
     EXPECT_EQ(read(d.path / "rep" / "report.md"), "report");
-    EXPECT_EQ(names(d.path), (std::vector<std::string>{"out.json", "out.json.nvstim-tmp",
-                                                       "out.json.part", "out.json.tmp", "rep",
-                                                       "rep.tmp", "victim"}));
+    EXPECT_EQ(names(d.path),
+              (std::vector<std::string>{"out.json", "out.json.nvstim-tmp", "out.json.part",
+                                        "out.json.tmp", "rep", "rep.tmp", "victim"}));
 }
 
 TEST(OutputFiles, AReportFolderIsReplacedOnlyWithItsMarker) {
@@ -134,7 +134,9 @@ TEST(OutputFiles, AReportFolderIsReplacedOnlyWithItsMarker) {
 
 // Counts SIGTERMs, standing in for the signal's usual effect (which would end the test).
 volatile std::sig_atomic_t gTerms = 0;
-extern "C" void countTerm(int) { gTerms = gTerms + 1; }
+extern "C" void countTerm(int) {
+    gTerms = gTerms + 1;
+}
 
 struct CountTerms {
     struct sigaction old {};

@@ -217,8 +217,8 @@ void writePng16(const fs::path& p, const ImageU16& img, bool interlaced) {
     png_init_io(png, f);
     png_set_IHDR(png, info, static_cast<png_uint_32>(img.width()),
                  static_cast<png_uint_32>(img.height()), 16, PNG_COLOR_TYPE_GRAY,
-                 interlaced ? PNG_INTERLACE_ADAM7 : PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT,
-                 PNG_FILTER_TYPE_DEFAULT);
+                 interlaced ? PNG_INTERLACE_ADAM7 : PNG_INTERLACE_NONE,
+                 PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
     png_write_info(png, info);
     std::vector<std::vector<png_byte>> rows(static_cast<std::size_t>(img.height()));
     std::vector<png_bytep> ptrs;
