@@ -1,13 +1,47 @@
 #include "rt/cli/cli.h"
 
 #include <CLI/CLI.hpp>
+#include <charconv>
 #include <cstdio>
 #include <exception>
+#include <optional>
+#include <string>
 
 #include "rt/cli/commands.h"
 #include "sim/core/error.h"
 
 namespace nvs::cli {
+
+namespace {
+
+// Largest frame number and frame count a command takes: the longest scenario (kMaxDuration_s,
+// 10⁷ s) at the highest frame rate (10⁴ Hz).
+constexpr unsigned long long kMaxFrames = 100'000'000'000ULL;
+// Frames of `nvstim sensor` (each may be its own output file).
+constexpr unsigned long long kMaxSensorFrames = 1'000'000ULL;
+
+// A whole decimal integer in [lo, hi], digits only (no sign, space, exponent or fraction), or a
+// SetupError naming the option: never a silent wrap or clamp.
+unsigned long long parseInteger(const char* option, const std::string& text, unsigned long long lo,
+                                unsigned long long hi) {
+    unsigned long long v = 0;
+    const char* end = text.data() + text.size();
+    const auto [ptr, ec] = std::from_chars(text.data(), end, v);
+    const bool digits = !text.empty() && text.find_first_not_of("0123456789") == std::string::npos;
+    if (!digits || ec != std::errc() || ptr != end || v < lo || v > hi) {
+        throw SetupError(std::string(option) + " " + text + ": must be a whole number in [" +
+                         std::to_string(lo) + ", " + std::to_string(hi) + "]");
+    }
+    return v;
+}
+
+template <class T>
+void parseInto(std::optional<T>& to, const char* option, const std::optional<std::string>& text,
+               unsigned long long lo, unsigned long long hi) {
+    if (text) to = static_cast<T>(parseInteger(option, *text, lo, hi));
+}
+
+}  // namespace
 
 int runCli(int argc, const char* const* argv) {
     CLI::App app{
@@ -44,7 +78,8 @@ int runCli(int argc, const char* const* argv) {
                      "bit-exact)")
         ->check(CLI::IsMember({"wall", "sim"}))
         ->capture_default_str();
-    runCmd->add_option("--frames", run.frames, "Stop after N frames")->check(CLI::PositiveNumber);
+    std::optional<std::string> runFrames;
+    runCmd->add_option("--frames", runFrames, "Stop after N frames (N >= 1)");
     runCmd->add_option(
         "--telemetry", run.telemetry,
         "Telemetry source: can:IFACE[?dbc=FILE], serial:DEV?baud=N&proto=nmea|mavlink, "
@@ -93,9 +128,8 @@ int runCli(int argc, const char* const* argv) {
     auto* renderCmd = app.add_subcommand(
         "render", "Render one frame of a scenario to a photoelectron-radiance OpenEXR image.");
     renderCmd->add_option("scenario", render.scenario, "Scenario TOML file or folder")->required();
-    renderCmd->add_option("--frame", render.frame, "Frame index K")
-        ->required()
-        ->check(CLI::NonNegativeNumber);
+    std::optional<std::string> renderFrame;
+    renderCmd->add_option("--frame", renderFrame, "Frame index K (>= 0)")->required();
     renderCmd->add_option("--out", render.out, "Output FILE.exr")->required();
 
     // sensor ---------------------------------------------------------------------------------
@@ -108,9 +142,10 @@ int runCli(int argc, const char* const* argv) {
         ->required();
     sensorCmd->add_option("--camera", sensor.camera, "Camera preset name or TOML path")->required();
     sensorCmd->add_option("--set", sensor.sets, "Override a preset key, KEY=VALUE (repeatable)");
-    sensorCmd->add_option("--frames", sensor.frames, "Number of frames (a single input is held)")
-        ->check(CLI::PositiveNumber);
-    sensorCmd->add_option("--seed", sensor.seed, "Noise seed");
+    std::optional<std::string> sensorFrames, sensorSeed;
+    sensorCmd->add_option("--frames", sensorFrames,
+                          "Number of frames, 1..1000000 (a single input is held)");
+    sensorCmd->add_option("--seed", sensorSeed, "Noise seed, 0..18446744073709551615");
     sensorCmd->add_option("--unit", sensor.unit, "Input unit: W/m2/sr or pe/s/m2/sr")
         ->check(CLI::IsMember({"W/m2/sr", "pe/s/m2/sr"}));
     sensorCmd->add_option("--spectrum", sensor.spectrum,
@@ -141,8 +176,9 @@ int runCli(int argc, const char* const* argv) {
                             "Write a report with plots to DIR (Markdown and PNG)");
     diagnoseCmd->add_option("--write-preset", diagnose.writePreset,
                             "Write the camera preset with the found effects on and fitted to FILE");
-    diagnoseCmd->add_option("--seed", diagnose.seed, "Seed of the model's noise")
-        ->capture_default_str();
+    std::optional<std::string> diagnoseSeed;
+    diagnoseCmd->add_option("--seed", diagnoseSeed,
+                            "Seed of the model's noise, 0..18446744073709551615 (default 1)");
 
     // bench ----------------------------------------------------------------------------------
     BenchOptions bench;
@@ -173,6 +209,17 @@ int runCli(int argc, const char* const* argv) {
     }
 
     try {
+        // Integers by hand: CLI11 wraps "-1" and 2^64 into an unsigned seed.
+        constexpr unsigned long long kU64Max = ~0ULL;
+        parseInto(run.frames, "--frames", runFrames, 1, kMaxFrames);
+        std::optional<long long> frame;
+        parseInto(frame, "--frame", renderFrame, 0, kMaxFrames);
+        render.frame = frame.value_or(0);
+        parseInto(sensor.frames, "--frames", sensorFrames, 1, kMaxSensorFrames);
+        parseInto(sensor.seed, "--seed", sensorSeed, 0, kU64Max);
+        std::optional<std::uint64_t> seed;
+        parseInto(seed, "--seed", diagnoseSeed, 0, kU64Max);
+        diagnose.seed = seed.value_or(diagnose.seed);
         if (*runCmd) return runRun(run);
         if (*ephemCmd) return runEphem(ephem);
         if (*illumCmd) return runIllum(illum);

@@ -39,6 +39,7 @@
 #include "rt/run/telemetry_factory.h"
 #include "sim/astro/ephemeris.h"
 #include "sim/core/error.h"
+#include "sim/core/output_file.h"
 #include "sim/core/units.h"
 #include "sim/sensor/camera.h"
 #include "sim/sensor/chain.h"
@@ -556,7 +557,8 @@ std::string ratiosJson(const Items& items) {
 // The run as one JSON object (docs/contracts.md, "bench"), on stdout and to --json OUT.
 int writeBenchJson(const Items& items, const std::vector<std::string>& e2e,
                    const rt::bench::MachineInfo& machine, const double (&loadStart)[3],
-                   const std::vector<std::string>& notes, const BenchOptions& opts) {
+                   const std::vector<std::string>& notes, const BenchOptions& opts,
+                   OutputFiles& outputs) {
     std::string json = "{\"benchmarks\":[";
     bool first = true;
     for (const auto& it : items) {
@@ -587,10 +589,9 @@ int writeBenchJson(const Items& items, const std::vector<std::string>& e2e,
     json += "}\n";
     std::fputs(json.c_str(), stdout);
     if (opts.json) {
-        FILE* f = std::fopen(opts.json->c_str(), "w");
-        if (f == nullptr) throw SetupError("--json: cannot write " + *opts.json);
-        const bool ok = std::fputs(json.c_str(), f) >= 0;
-        if (std::fclose(f) != 0 || !ok) throw SetupError("--json: cannot write " + *opts.json);
+        outputs.holdSignals();
+        outputs.writeText(*opts.json, json);
+        outputs.commit();
     }
     return kExitOk;
 }
@@ -603,6 +604,9 @@ int runBench(const BenchOptions& opts) {
     };
     // The shipped scenarios lie beside config/ (in the source tree and in an installed tree).
     const DataDirs dirs = resolveDataDirs();
+    // --json checked before the benchmarks run (sim/core/output_file.h).
+    OutputFiles outputs;
+    if (opts.json) outputs.addFile("--json", *opts.json);
     const std::filesystem::path scenarios = dirs.config.parent_path() / "scenarios";
     const std::filesystem::path rit = scenarios / "rit" / "stlamp.toml";
     const std::filesystem::path drive = scenarios / "vehicle-drive" / "scenario.toml";
@@ -630,7 +634,7 @@ int runBench(const BenchOptions& opts) {
         throw SetupError("--filter: no benchmark name contains any of '" + *opts.filter + "'");
     }
     const rt::bench::MachineInfo machine = rt::bench::runTimedItems(items, opts.filter);
-    return writeBenchJson(items, e2e, machine, loadStart, notes, opts);
+    return writeBenchJson(items, e2e, machine, loadStart, notes, opts, outputs);
 }
 
 }  // namespace nvs::cli

@@ -3,15 +3,13 @@
 //
 //   nvstim diagnose DATASET_DIR [--json OUT] [--report DIR] [--write-preset FILE] [--seed S]
 //
-// The dataset and every output path are checked before any work: a bad dataset is one line on
-// stderr and exit 2 with nothing written. Progress goes to stderr; the JSON goes to stdout and,
-// with --json, to OUT. Each file is written under a temporary name and renamed; the report
-// folder is filled under a temporary name and renamed into place at the end. The report's
+// The dataset and every output path are checked before any work (sim/core/output_file.h): a bad
+// dataset or output is one line on stderr and exit 2 with nothing written. Progress goes to
+// stderr; the JSON goes to stdout and, with --json, to OUT. All outputs are written under
+// temporary names and renamed into place together at the end; the report folder is new or a
+// previous report (marked by kReportMarker), never any other folder. The report's
 // plots are drawn by config/tools/diagnose_report.py with Matplotlib (Debian
 // python3-matplotlib).
-
-#include <sys/wait.h>
-#include <unistd.h>
 
 #include <chrono>
 #include <cstdio>
@@ -23,6 +21,8 @@
 #include "rt/cli/data_dirs.h"
 #include "rt/compose/scene_stimulus.h"
 #include "sim/core/error.h"
+#include "sim/core/input_file.h"
+#include "sim/core/output_file.h"
 #include "sim/fit/diagnose.h"
 #include "sim/sensor/image_io.h"
 
@@ -32,72 +32,53 @@ namespace {
 
 namespace fs = std::filesystem;
 
-void writeAtomically(const fs::path& file, const std::string& text) {
-    const fs::path tmp = file.string() + ".tmp";
-    {
-        std::ofstream out(tmp);
-        out << text;
-        if (!out) throw SetupError(file.string() + ": cannot write");
-    }
-    fs::rename(tmp, file);
-}
-
-// An output file's folder must exist before the work starts.
-void checkOutput(const std::optional<std::string>& path, const char* option) {
-    if (!path) return;
-    const fs::path parent = fs::absolute(*path).parent_path();
-    if (!fs::is_directory(parent)) {
-        throw SetupError(std::string(option) + " " + *path + ": no directory " + parent.string());
-    }
-}
+// The file that marks a folder as a report of `nvstim diagnose --report`: only such a folder
+// is ever replaced by a new report.
+constexpr const char* kReportMarker = ".nvstim-diagnose-report";
 
 // Runs the plotting script on the report folder; returns its exit status.
 int runPlotter(const fs::path& script, const fs::path& dir) {
     // Debian's python3, which python3-matplotlib is installed for, before any other on PATH.
     const char* python = fs::exists("/usr/bin/python3") ? "/usr/bin/python3" : "python3";
-    const pid_t pid = fork();
-    if (pid < 0) return -1;
-    if (pid == 0) {
-        execlp(python, python, script.c_str(), dir.c_str(), static_cast<char*>(nullptr));
-        _exit(127);
-    }
-    int status = 0;
-    if (waitpid(pid, &status, 0) < 0) return -1;
-    return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    return runChild({python, script.string(), dir.string()});
 }
 
-void writeReport(const fit::Result& r, const fs::path& dir, const std::string& dataset,
-                 const DataDirs& dirs) {
-    const fs::path script = dirs.config / "tools" / "diagnose_report.py";
-    if (!fs::exists(script)) throw SetupError("--report: no plotting script " + script.string());
-    const fs::path tmp = dir.string() + ".tmp";
-    fs::remove_all(tmp);
-    fs::create_directories(tmp);
-    writeAtomically(tmp / "report.json", fit::reportJson(r, dataset) + "\n");
-    for (const auto& [name, plane] : r.maps) {
-        ImageF img(r.width, r.height);
-        for (int y = 0; y < r.height; ++y)
-            for (int x = 0; x < r.width; ++x)
-                img(x, y) = plane[static_cast<std::size_t>(y) * r.width + x];
-        sensor::writePfm(tmp / (name + ".pfm"), img.cview());
-    }
-    const int rc = runPlotter(script, tmp);
-    if (rc != 0) {
-        throw std::runtime_error(
-            "--report: " + script.string() + " failed (status " + std::to_string(rc) +
-            "; it needs Debian's python3-matplotlib); data left in " + tmp.string());
-    }
-    fs::remove_all(dir);
-    fs::rename(tmp, dir);
+void writeReport(const fit::Result& r, const fs::path& dir, const fs::path& script,
+                 const std::string& dataset, OutputFiles& outputs) {
+    outputs.writeWith(dir, [&](const fs::path& tmp) {
+        std::ofstream out(tmp / "report.json");
+        out << fit::reportJson(r, dataset) << "\n";
+        out.close();
+        if (!out) throw std::runtime_error("cannot write report.json");
+        for (const auto& [name, plane] : r.maps) {
+            ImageF img(r.width, r.height);
+            for (int y = 0; y < r.height; ++y)
+                for (int x = 0; x < r.width; ++x)
+                    img(x, y) = plane[static_cast<std::size_t>(y) * r.width + x];
+            sensor::writePfm(tmp / (name + ".pfm"), img.cview());
+        }
+        const int rc = runPlotter(script, tmp);
+        if (rc != 0) {
+            throw std::runtime_error(script.string() + " failed (status " + std::to_string(rc) +
+                                     "; it needs Debian's python3-matplotlib); no output written");
+        }
+    });
 }
 
 }  // namespace
 
 int runDiagnose(const DiagnoseOptions& opts) {
     const DataDirs dirs = resolveDataDirs();
-    checkOutput(opts.json, "--json");
-    checkOutput(opts.writePreset, "--write-preset");
-    checkOutput(opts.report, "--report");
+    // Every output checked before any work, against each other and the dataset.
+    OutputFiles outputs;
+    if (!isDirectory(opts.datasetDir))
+        throw SetupError(opts.datasetDir + ": not a dataset folder (no such folder)");
+    outputs.addInput(opts.datasetDir);
+    if (opts.json) outputs.addFile("--json", *opts.json);
+    if (opts.writePreset) outputs.addFile("--write-preset", *opts.writePreset);
+    if (opts.report) outputs.addFolder("--report", *opts.report, kReportMarker);
+    const fs::path script = dirs.config / "tools" / "diagnose_report.py";
+    if (opts.report) requireRegularFile(script, "--report: plotting script");
     const auto t0 = std::chrono::steady_clock::now();
     auto progress = [&](const std::string& line) {
         const double s =
@@ -111,6 +92,7 @@ int runDiagnose(const DiagnoseOptions& opts) {
         return rt::makeSceneStimulus(scenario, cam, presetFile, settings, dirs);
     };
     const fit::Dataset d = fit::loadDataset(opts.datasetDir, dirs.config, progress, renderScenario);
+    outputs.addInput(d.presetFile);
     progress("dataset: " + std::to_string(d.frameCount()) + " frames " + std::to_string(d.width) +
              "x" + std::to_string(d.height) + ", " + std::to_string(d.stimuli.size()) +
              " distinct stimuli, camera " + d.camera.name);
@@ -118,10 +100,15 @@ int runDiagnose(const DiagnoseOptions& opts) {
     o.seed = opts.seed;
     const fit::Result r = fit::diagnose(d, dirs.config, o, progress);
     const std::string json = fit::toJson(r);
-    if (opts.json) writeAtomically(*opts.json, json + "\n");
-    if (opts.writePreset)
-        writeAtomically(*opts.writePreset, fit::presetWithFindings(d.presetFile, r));
-    if (opts.report) writeReport(r, *opts.report, opts.datasetDir, dirs);
+    {
+        // All outputs or none; a signal meanwhile leaves none and no temporary.
+        outputs.holdSignals();
+        if (opts.json) outputs.writeText(*opts.json, json + "\n");
+        if (opts.writePreset)
+            outputs.writeText(*opts.writePreset, fit::presetWithFindings(d.presetFile, r));
+        if (opts.report) writeReport(r, *opts.report, script, opts.datasetDir, outputs);
+        outputs.commit();
+    }
     progress(r.findings.empty() ? "no finding"
                                 : std::to_string(r.findings.size()) +
                                       " finding(s), first: " + r.findings.front().effect);

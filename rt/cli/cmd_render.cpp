@@ -13,6 +13,7 @@
 #include "rt/cli/data_dirs.h"
 #include "rt/compose/scene_setup.h"
 #include "sim/core/error.h"
+#include "sim/core/output_file.h"
 #include "sim/render/exr_out.h"
 
 namespace nvs::cli {
@@ -30,8 +31,22 @@ int runRender(const RenderOptions& opts) {
     if (opts.frame < 0) throw SetupError("--frame: must be ≥ 0");
     const std::filesystem::path out = opts.out;
     if (out.extension() != ".exr") throw SetupError("--out " + opts.out + ": must end in .exr");
+    std::filesystem::path bandPath = out;
+    bandPath.replace_extension(".band.exr");
+    // Both outputs checked before any work, against each other and the scenario.
+    OutputFiles outputs;
+    outputs.addInput(opts.scenario);
+    outputs.addFile("--out", out);
+    outputs.addFile("--out (band radiance)", bandPath);
     auto sr = rt::ScenarioRenderer::create(opts.scenario, resolveDataDirs());
+    outputs.addInput(sr->scenario().file);
     const double t_s = sr->frameTime_s(opts.frame);
+    // The ephemeris and the sky tables hold over the scenario's longest duration.
+    if (!(t_s <= rt::kMaxDuration_s)) {
+        throw SetupError("--frame " + std::to_string(opts.frame) + ": " + fmt(t_s) +
+                         " s after the scenario's start, beyond the limit of " +
+                         fmt(rt::kMaxDuration_s) + " s");
+    }
     const render::FrameSky sky = sr->prepare(t_s);
     const auto& cam = sr->renderer().camera();
     ImageF pe(cam.width, cam.height), band(cam.width, cam.height);
@@ -58,10 +73,16 @@ int runRender(const RenderOptions& opts) {
     auto bandAttrs = attrs;
     bandAttrs.push_back({"nvstim.unit", "W/m2/sr"});
     bandAttrs.push_back({"nvstim.band", "camera relative response beta"});
-    std::filesystem::path bandPath = out;
-    bandPath.replace_extension(".band.exr");
-    render::writeRadianceExr(out, pe.cview(), peAttrs);
-    render::writeRadianceExr(bandPath, band.cview(), bandAttrs);
+    {
+        outputs.holdSignals();  // both outputs or none, and no temporary left
+        outputs.writeWith(out, [&](const std::filesystem::path& tmp) {
+            render::writeRadianceExr(tmp, pe.cview(), peAttrs);
+        });
+        outputs.writeWith(bandPath, [&](const std::filesystem::path& tmp) {
+            render::writeRadianceExr(tmp, band.cview(), bandAttrs);
+        });
+        outputs.commit();
+    }
     const auto& st = sr->renderer().lastStats();
     std::printf(
         "{\"out\":\"%s\",\"band_out\":\"%s\",\"frame\":%lld,\"t_s\":%.6f,\"moon\":{\"alt_deg\":%."

@@ -6,8 +6,9 @@
 //
 // IN and OUT are a file or a pattern with {frame:06d}. A single input is held for N frames;
 // a pattern gives one input per frame (N defaults to the run of existing files from 0).
-// Every input is read and validated before anything is written; each output is written to a
-// temporary name and renamed, so an error never leaves a half-written file. Prints one JSON
+// Every input is read and validated and every output path checked (sim/core/output_file.h)
+// before anything is written; the outputs are written to temporaries and renamed into place
+// together at the end, so an error or a signal never leaves a half-written file. Prints one JSON
 // object with the per-field controls (gain_V, gate_s, level) on stdout.
 
 #include <cstdio>
@@ -19,6 +20,7 @@
 #include "rt/cli/data_dirs.h"
 #include "sim/core/error.h"
 #include "sim/core/input_file.h"
+#include "sim/core/output_file.h"
 #include "sim/sensor/camera.h"
 #include "sim/sensor/chain.h"
 #include "sim/sensor/image_io.h"
@@ -79,27 +81,19 @@ ImageF loadInput(const std::string& file, const sensor::CameraParams& cam,
     return std::move(r.image);
 }
 
-void writeOutput(const std::string& file, const sensor::IiccdChain& chain) {
+// Writes the chain's last frame to the staged temporary of `file` (every write, flush and
+// close checked by image_io); OutputFiles renames it into place at the end.
+void writeOutput(const std::string& file, const sensor::IiccdChain& chain, OutputFiles& outputs) {
     const std::string ext = lowerExt(file);
-    const std::filesystem::path tmp = file + ".tmp" + ext;
     const int maxv = (1 << chain.camera().adc_bits) - 1;
-    if (ext != ".pgm" && ext != ".png" && ext != ".exr")
-        throw SetupError("--out " + file + ": output must be .pgm, .png or .exr");
-    // Written to a temporary whose every write, flush and close is checked (image_io), and
-    // renamed into place only then; on any failure the temporary is removed.
-    try {
+    outputs.writeWith(file, [&](const std::filesystem::path& tmp) {
         if (ext == ".pgm")
             sensor::writePgm(tmp, chain.video().cview(), maxv);
         else if (ext == ".png")
             sensor::writePng(tmp, chain.video().cview(), maxv);
         else
             sensor::writeExr(tmp, chain.counts().cview(), "DC", "");
-        std::filesystem::rename(tmp, file);
-    } catch (...) {
-        std::error_code ec;
-        std::filesystem::remove(tmp, ec);
-        throw;
-    }
+    });
 }
 
 }  // namespace
@@ -135,16 +129,19 @@ int runSensor(const SensorOptions& opts) {
     } else {
         held = loadInput(opts.in, cam, opts, dirs);
     }
-    const std::filesystem::path outDir =
-        std::filesystem::path(sensor::expandFramePattern(opts.out, 0)).parent_path();
-    if (!outDir.empty() && !nvs::isDirectory(outDir)) {
-        throw SetupError("--out " + opts.out + ": no directory " + outDir.string());
-    }
+    // Every output path checked now, against the inputs and each other; written at the end.
+    OutputFiles outputs;
+    outputs.addInput(sensor::resolveCameraPath(dirs.config, opts.camera));
+    const bool outPattern = sensor::hasFramePattern(opts.out);
+    for (long long k = 0; k < (inPattern ? frames : 1); ++k)
+        outputs.addInput(inPattern ? sensor::expandFramePattern(opts.in, k) : opts.in);
+    for (long long k = 0; k < (outPattern ? frames : 1); ++k)
+        outputs.addFile("--out", outPattern ? sensor::expandFramePattern(opts.out, k) : opts.out);
     GammaTableCache gammaTables;
     sensor::IiccdChain chain(cam, opts.seed ? *opts.seed : 0, dirs.config, gammaTables);
 
     // ---- Run.
-    const bool outPattern = sensor::hasFramePattern(opts.out);
+    outputs.holdSignals();  // a signal stops the run with no output and no temporary left
     std::string json =
         "{\"camera\":\"" + cam.name + "\",\"frames\":" + std::to_string(frames) + ",\"fields\":[";
     for (long long k = 0; k < frames; ++k) {
@@ -153,10 +150,11 @@ int runSensor(const SensorOptions& opts) {
             frameInput = loadInput(sensor::expandFramePattern(opts.in, k), cam, opts, dirs);
         const ImageF& in = inPattern ? frameInput : held;
         const sensor::FieldInfo& info = chain.process(in.cview());
+        if (SignalHold::pending()) break;
         if (outPattern)
-            writeOutput(sensor::expandFramePattern(opts.out, k), chain);
+            writeOutput(sensor::expandFramePattern(opts.out, k), chain, outputs);
         else if (k == frames - 1)
-            writeOutput(opts.out, chain);
+            writeOutput(opts.out, chain, outputs);
         char buf[320];
         std::snprintf(buf, sizeof buf,
                       "%s{\"field\":%llu,\"t_sample_s\":%.6f,\"gain_V\":%.4f,\"mcp_gain\":%.5g,"
@@ -167,6 +165,7 @@ int runSensor(const SensorOptions& opts) {
         json += buf;
     }
     json += "]}";
+    outputs.commit();
     std::printf("%s\n", json.c_str());
     return kExitOk;
 }

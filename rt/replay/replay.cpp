@@ -23,6 +23,7 @@
 #include "sim/core/cpu_isa.h"
 #include "sim/core/error.h"
 #include "sim/core/image.h"
+#include "sim/core/output_file.h"
 #include "sim/sensor/image_io.h"
 
 extern char** environ;
@@ -256,16 +257,6 @@ std::string lastLine(const fs::path& p) {
     return last;
 }
 
-void writeText(const fs::path& p, const std::string& text) {
-    const fs::path tmp = p.string() + ".tmp";
-    {
-        std::ofstream out(tmp, std::ios::trunc);
-        out << text;
-        if (!out) throw SetupError(FileLoc{p.string()}, "cannot write");
-    }
-    fs::rename(tmp, p);
-}
-
 std::string tomlString(const std::string& s) {
     std::string o = "\"";
     for (char c : s) {
@@ -357,8 +348,12 @@ namespace {
 
 // The scenario's expected/ folder, safe to write and clear: a real folder inside the scenario
 // folder, never a symbolic link (clearing it would delete wherever the link points).
+// DIR/expected, checked: a real folder inside the scenario folder, or one that can be made
+// there. Nothing is created (the replay comes first).
 fs::path expectedFolder(const fs::path& dir) {
-    const fs::path exp = dir / "expected";
+    if (!fs::is_directory(dir)) throw SetupError(dir.string() + ": not a scenario folder");
+    if (!fs::exists(dir / "scenario.toml")) throw SetupError(dir.string() + ": no scenario.toml");
+    fs::path exp = dir / "expected";
     const fs::file_status st = fs::symlink_status(exp);
     if (fs::is_symlink(st)) {
         throw SetupError(exp.string() +
@@ -368,10 +363,8 @@ fs::path expectedFolder(const fs::path& dir) {
     if (fs::exists(st) && !fs::is_directory(st)) {
         throw SetupError(exp.string() + ": exists and is not a folder");
     }
-    fs::create_directories(exp);
-    if (fs::canonical(exp).parent_path() != fs::canonical(dir)) {
-        throw SetupError(exp.string() + ": resolves outside the scenario folder");
-    }
+    if (::access(fs::exists(st) ? exp.c_str() : dir.c_str(), W_OK | X_OK) != 0)
+        throw SetupError(exp.string() + ": cannot write there: " + std::strerror(errno));
     return exp;
 }
 
@@ -392,8 +385,22 @@ void blessScenario(const fs::path& dir, const fs::path& nvstimExe) {
     const fs::path frames = replayScenario(dir, nvstimExe, work);
     const auto files = framesIn(frames);
     if (files.empty()) throw SetupError(dir.string() + ": the replay produced no frames");
-    for (const auto& e : fs::directory_iterator(exp))
-        if (isBlessOutput(e)) fs::remove(e.path());
+    std::error_code ec;
+    fs::create_directory(exp, ec);
+    if (ec) throw SetupError(exp.string() + ": cannot create: " + ec.message());
+    if (fs::canonical(exp).parent_path() != fs::canonical(dir)) {
+        throw SetupError(exp.string() + ": resolves outside the scenario folder");
+    }
+    const auto windows = windowsFor(static_cast<int>(files.size()));
+    // The new expectations, written beside the old and renamed over them together
+    // (sim/core/output_file.h); the old files the new set does not replace are removed after.
+    std::vector<fs::path> written = {exp / "digest.toml", exp / "stats.toml"};
+    for (std::size_t i = 0; i < windows.size(); ++i)
+        for (const char* kind : {"_mean.pfm", "_meanvar.pfm", "_pixvar.pfm"})
+            written.push_back(exp / ("w" + std::to_string(i) + kind));
+    OutputFiles outputs;
+    for (const fs::path& p : written)
+        outputs.addFile("--bless", p);
 
     std::ostringstream d;
     d << "# Written by nvstim replay --bless; compared by --check. Bit-exact for this build "
@@ -405,19 +412,23 @@ void blessScenario(const fs::path& dir, const fs::path& nvstimExe) {
     for (const auto& f : files)
         d << "  " << tomlString(sha256File(f)) << ",\n";
     d << "]\n";
-    writeText(exp / "digest.toml", d.str());
+    outputs.holdSignals();
+    outputs.writeText(exp / "digest.toml", d.str());
 
     std::ostringstream s;
     s << "# Statistical reference (per " << kReplayBlock_px << "x" << kReplayBlock_px
       << " block): wN_mean.pfm, wN_meanvar.pfm, wN_pixvar.pfm.\n";
     s << "block_px = " << kReplayBlock_px << "\n";
     int i = 0;
-    for (const auto& [first, count] : windowsFor(static_cast<int>(files.size()))) {
+    for (const auto& [first, count] : windows) {
         const WindowStats w = computeWindow(files, first, count);
         const std::string stem = "w" + std::to_string(i);
-        sensor::writePfm(exp / (stem + "_mean.pfm"), w.mean.cview());
-        sensor::writePfm(exp / (stem + "_meanvar.pfm"), w.meanVar.cview());
-        sensor::writePfm(exp / (stem + "_pixvar.pfm"), w.pixVar.cview());
+        for (const auto& [kind, img] :
+             {std::pair{"_mean.pfm", &w.mean}, std::pair{"_meanvar.pfm", &w.meanVar},
+              std::pair{"_pixvar.pfm", &w.pixVar}}) {
+            outputs.writeWith(exp / (stem + kind),
+                              [&](const fs::path& tmp) { sensor::writePfm(tmp, img->cview()); });
+        }
         char line[256];
         std::snprintf(
             line, sizeof line,
@@ -426,7 +437,13 @@ void blessScenario(const fs::path& dir, const fs::path& nvstimExe) {
         s << line;
         ++i;
     }
-    writeText(exp / "stats.toml", s.str());
+    outputs.writeText(exp / "stats.toml", s.str());
+    outputs.commit();
+    for (const auto& e : fs::directory_iterator(exp)) {
+        if (isBlessOutput(e) &&
+            std::find(written.begin(), written.end(), e.path()) == written.end())
+            fs::remove(e.path(), ec);
+    }
 }
 
 ReplayResult checkScenario(const fs::path& dir, const fs::path& nvstimExe) {

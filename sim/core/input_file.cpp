@@ -32,15 +32,6 @@ struct Fd {
     throw SetupError(FileLoc{path.string()}, "cannot open " + what + ": " + std::strerror(errno));
 }
 
-const char* kindOf(mode_t mode) {
-    if (S_ISDIR(mode)) return "a directory";
-    if (S_ISCHR(mode)) return "a character device";
-    if (S_ISBLK(mode)) return "a block device";
-    if (S_ISFIFO(mode)) return "a FIFO";
-    if (S_ISSOCK(mode)) return "a socket";
-    return "not a regular file";
-}
-
 std::string limitText(std::uintmax_t bytes) {
     return std::to_string(bytes >> 20) + " MiB";
 }
@@ -82,6 +73,16 @@ std::string readInputFile(const std::filesystem::path& path, std::uintmax_t maxB
     }
     text.resize(have);
     return text;
+}
+
+const char* kindOf(mode_t mode) noexcept {
+    if (S_ISDIR(mode)) return "a directory";
+    if (S_ISCHR(mode)) return "a character device";
+    if (S_ISBLK(mode)) return "a block device";
+    if (S_ISFIFO(mode)) return "a FIFO";
+    if (S_ISSOCK(mode)) return "a socket";
+    if (S_ISLNK(mode)) return "a symbolic link";
+    return "not a regular file";
 }
 
 bool pathExists(const std::filesystem::path& path) noexcept {

@@ -11,6 +11,8 @@
 //   kMaxMeshFileBytes     OBJ meshes                                           512 MiB
 //   kMaxImageFileBytes    PFM, PGM, EXR inputs                                 1 GiB
 
+#include <sys/types.h>
+
 #include <cstdint>
 #include <filesystem>
 #include <string>
@@ -27,6 +29,9 @@ inline constexpr std::uintmax_t kMaxImageFileBytes = std::uintmax_t{1} << 30;
 // cannot be opened, is not a regular file, is larger than maxBytes, or a read fails.
 std::string readInputFile(const std::filesystem::path& path, std::uintmax_t maxBytes,
                           const std::string& what);
+
+// What a file of mode `mode` (stat's st_mode) is, for messages: "a directory", "a FIFO", ...
+const char* kindOf(mode_t mode) noexcept;
 
 // std::filesystem::exists / is_directory without their exception: a name the system refuses
 // (a component longer than 255 bytes, ENAMETOOLONG) is simply not there, and the caller's

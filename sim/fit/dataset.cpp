@@ -4,8 +4,11 @@
 #include <toml++/toml.h>
 
 #include <algorithm>
+#include <cctype>
+#include <charconv>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <fstream>
 #include <map>
 #include <memory>
@@ -14,6 +17,7 @@
 #include "sim/core/config.h"
 #include "sim/core/error.h"
 #include "sim/core/fnv.h"
+#include "sim/core/input_file.h"
 #include "sim/sensor/image_io.h"
 
 namespace nvs::fit {
@@ -33,6 +37,26 @@ std::string lowerExt(const fs::path& p) {
     return e;
 }
 
+// A TOML basic string holding `text` exactly: quotes, backslashes and control characters
+// escaped.
+std::string tomlQuoted(const std::string& text) {
+    std::string q = "\"";
+    for (const char c : text) {
+        const auto u = static_cast<unsigned char>(c);
+        if (c == '"' || c == '\\') {
+            q += '\\';
+            q += c;
+        } else if (u < 0x20 || u == 0x7f) {
+            char b[8];
+            std::snprintf(b, sizeof b, "\\u%04x", u);
+            q += b;
+        } else {
+            q += c;
+        }
+    }
+    return q + "\"";
+}
+
 // [camera.settings] as preset overrides: every leaf under it as "a.b" = its TOML text, which
 // the preset reader parses back as TOML (camera.h, Overrides).
 void flattenSettings(const toml::table& t, const std::string& prefix, sensor::Overrides& out) {
@@ -44,7 +68,7 @@ void flattenSettings(const toml::table& t, const std::string& prefix, sensor::Ov
         }
         std::ostringstream s;
         if (const auto* str = node.as_string())
-            s << '"' << str->get() << '"';
+            s << tomlQuoted(str->get());
         else if (const auto* arr = node.as_array())
             s << toml::toml_formatter(*arr);
         else
@@ -117,14 +141,26 @@ long long numberInName(const fs::path& p) {
     while (begin > 0 && std::isdigit(static_cast<unsigned char>(s[begin - 1])))
         --begin;
     if (begin == end) return -1;
-    return std::stoll(s.substr(begin, end - begin));
+    long long k = -1;
+    // At most 15 digits (kMaxFrameNumber); a longer number is refused by the caller.
+    if (end - begin > 15) return -2;
+    std::from_chars(s.data() + begin, s.data() + end, k);
+    return k;
 }
 
 FrameList listFrames(const ConfigTable& out, const fs::path& dir, const fs::path& tomlPath) {
     FrameList fl;
     const long long first = out.get<std::int64_t>("first_frame", 0);
+    const bool counted = out.contains("count");
     const std::int64_t count = out.get<std::int64_t>("count", -1);
-    if (first < 0) out.fail("first_frame", "must be >= 0");
+    if (first < 0 || first > kMaxFrameNumber)
+        out.fail("first_frame", "must be in [0, " + std::to_string(kMaxFrameNumber) + "]");
+    // Bounded before anything is allocated for the frames.
+    if (counted && (count < kMinDatasetFrames || count > kMaxDatasetFrames)) {
+        out.fail("count", "must be in [" + std::to_string(kMinDatasetFrames) + ", " +
+                              std::to_string(kMaxDatasetFrames) + "] (" + std::to_string(count) +
+                              ")");
+    }
     bool isList = false;
     try {
         (void)out.optional<std::string>("frames");
@@ -136,7 +172,10 @@ FrameList listFrames(const ConfigTable& out, const fs::path& dir, const fs::path
         long long prev = -1;
         for (const std::string& n : names) {
             const long long k = numberInName(n);
+            if (k == -2) out.fail("frames", "'" + n + "': frame number of more than 15 digits");
             if (k < 0) out.fail("frames", "'" + n + "' has no frame number in its name");
+            if (fl.files.size() >= static_cast<std::size_t>(kMaxDatasetFrames))
+                out.fail("frames", "more than " + std::to_string(kMaxDatasetFrames) + " frames");
             if (prev >= 0 && k != prev + 1) {
                 out.fail("frames", "frames are not consecutive and increasing: '" + n +
                                        "' (frame " + std::to_string(k) + ") follows frame " +
@@ -151,24 +190,31 @@ FrameList listFrames(const ConfigTable& out, const fs::path& dir, const fs::path
         if (!sensor::hasFramePattern(pattern)) out.fail("frames", "needs {frame:06d} in it");
         long long n = count >= 0 ? count : 0;
         if (count < 0)
-            while (fs::exists(dir / sensor::expandFramePattern(pattern, first + n)))
+            while (n <= kMaxDatasetFrames &&
+                   pathExists(dir / sensor::expandFramePattern(pattern, first + n)))
                 ++n;
+        if (n > kMaxDatasetFrames)
+            out.fail("frames", "more than " + std::to_string(kMaxDatasetFrames) + " frames");
         for (long long k = first; k < first + n; ++k) {
             fl.numbers.push_back(k);
             fl.files.push_back(dir / sensor::expandFramePattern(pattern, k));
         }
         // A frame after a gap: the sequence has a hole.
         for (long long k = first + n + 1; k < first + n + 64 && count < 0; ++k) {
-            if (fs::exists(dir / sensor::expandFramePattern(pattern, k))) {
+            if (pathExists(dir / sensor::expandFramePattern(pattern, k))) {
                 fail(tomlPath, "[output] frames: frame " + std::to_string(first + n) +
                                    " is missing (frame " + std::to_string(k) + " exists)");
             }
         }
     }
     if (fl.files.empty()) fail(tomlPath, "[output] frames: no frame files found");
-    if (fl.files.size() < 4) fail(tomlPath, "[output] frames: diagnose needs at least 4 frames");
+    if (fl.files.size() < static_cast<std::size_t>(kMinDatasetFrames)) {
+        fail(tomlPath, "[output] frames: " + std::to_string(fl.files.size()) +
+                           " frames; diagnose needs at least " + std::to_string(kMinDatasetFrames) +
+                           " (2 warm-up, then at least 2 calibration and 2 held-out frames)");
+    }
     for (std::size_t i = 0; i < fl.files.size(); ++i)
-        if (!fs::exists(fl.files[i])) {
+        if (!pathExists(fl.files[i])) {
             fail(fl.files[i], "frame " + std::to_string(fl.numbers[i]) + " is missing");
         }
     return fl;
@@ -213,10 +259,8 @@ void absorbChainEffects(sensor::CameraParams& cam, FitEffects& extra) {
 sensor::CameraParams loadModelCamera(const fs::path& configDir, const std::string& nameOrPath,
                                      const sensor::Overrides& overrides, FitEffects& extra) {
     const fs::path file = sensor::resolveCameraPath(configDir, nameOrPath);
-    std::ifstream in(file);
-    std::stringstream ss;
-    ss << in.rdbuf();
-    std::string text = ss.str();
+    // A regular file only, bounded (a FIFO or /dev/zero as the preset is refused).
+    std::string text = readInputFile(file, kMaxConfigFileBytes, "camera preset");
     std::string err;
     try {
         sensor::CameraParams cam = sensor::loadCamera(configDir, file.string(), overrides);
@@ -254,76 +298,151 @@ sensor::CameraParams loadModelCamera(const fs::path& configDir, const std::strin
     if (!cut) throw SetupError(err);
     // Data files of the preset stay relative to its config folder.
     fs::path base = file.parent_path().parent_path();
-    if (!fs::exists(base / "spectra")) base = configDir;
+    if (!pathExists(base / "spectra")) base = configDir;
     sensor::CameraParams cam = sensor::parseCamera(base, text, file.string(), overrides);
     absorbChainEffects(cam, extra);
     return cam;
 }
 
+// The maximum value of a PGM header that parsePgm has accepted ("P5 W H MAXVAL", with
+// comments): its fourth token.
+int pgmMaxValue(std::string_view bytes) {
+    std::size_t i = 0;
+    std::string_view tok;
+    for (int n = 0; n < 4; ++n) {
+        while (i < bytes.size()) {
+            if (bytes[i] == '#') {
+                while (i < bytes.size() && bytes[i] != '\n')
+                    ++i;
+            } else if (std::isspace(static_cast<unsigned char>(bytes[i]))) {
+                ++i;
+            } else {
+                break;
+            }
+        }
+        const std::size_t start = i;
+        while (i < bytes.size() && !std::isspace(static_cast<unsigned char>(bytes[i])) &&
+               bytes[i] != '#')
+            ++i;
+        tok = bytes.substr(start, i - start);
+    }
+    int v = 0;
+    std::from_chars(tok.data(), tok.data() + tok.size(), v);
+    return v;
+}
+
+// libpng reading from the file's bytes in memory (never from the file by name: the file was
+// read once, bounded, and checked to be a regular file).
+struct PngBytes {
+    const unsigned char* p;
+    std::size_t left;
+};
+
+void readPngBytes(png_structp png, png_bytep out, png_size_t n) {
+    auto* src = static_cast<PngBytes*>(png_get_io_ptr(png));
+    if (n > src->left) png_error(png, "truncated PNG");
+    std::memcpy(out, src->p, n);
+    src->p += n;
+    src->left -= n;
+}
+
+// libpng's errors and warnings kept for the one-line error instead of printed on stderr.
+void pngError(png_structp png, png_const_charp message) {
+    *static_cast<std::string*>(png_get_error_ptr(png)) = message;
+    png_longjmp(png, 1);
+}
+
+void pngWarning(png_structp, png_const_charp) {}
+
+// Largest inflation a PNG's zlib stream can give (deflate's limit is about 1032:1): a header
+// that promises more samples than that from the file's size is refused before any allocation.
+constexpr std::uint64_t kMaxPngInflation = 1100;
+
 Plane readFrame(const fs::path& path, int& width, int& height, int& maxValue) {
     const std::string ext = lowerExt(path);
+    if (ext != ".pgm" && ext != ".png") fail(path, "frames must be .pgm or .png");
+    // A regular file only (a FIFO or /dev/zero is refused before it is read), bounded.
+    const std::string bytes = readInputFile(path, kMaxImageFileBytes, "frame");
     if (ext == ".pgm") {
-        std::ifstream in(path, std::ios::binary);
-        std::string magic;
-        int maxv = 0;
-        in >> magic >> width >> height >> maxv;
-        if (magic != "P5" || maxv <= 0) fail(path, "not an 8/16-bit binary PGM");
+        const ImageU16 img = sensor::parsePgm(bytes, path.string(), {});
+        const int maxv = pgmMaxValue(bytes);
+        // A camera's counts: maximum value 2^n - 1 (255, 1023, 4095, 65535 ...).
+        if (maxv < 1 || ((maxv + 1) & maxv) != 0) {
+            fail(path, "maximum value " + std::to_string(maxv) +
+                           " is not 2^n - 1 (a camera's full scale: 255, 1023, 4095, 65535)");
+        }
+        width = img.width();
+        height = img.height();
         maxValue = maxv;
-        const ImageU16 img = sensor::readPgm(path);
         Plane p(static_cast<std::size_t>(width) * height);
         for (int y = 0; y < height; ++y)
             for (int x = 0; x < width; ++x)
                 p[static_cast<std::size_t>(y) * width + x] = img(x, y);
         return p;
     }
-    if (ext != ".png") fail(path, "frames must be .pgm or .png");
     png_image im{};
     im.version = PNG_IMAGE_VERSION;
-    if (!png_image_begin_read_from_file(&im, path.c_str())) fail(path, "not a readable PNG");
+    if (!png_image_begin_read_from_memory(&im, bytes.data(), bytes.size()))
+        fail(path, std::string("not a readable PNG: ") + im.message);
+    const sensor::ImageLimits limits;
+    const std::uint64_t samples = std::uint64_t{im.width} * im.height;
+    if (im.width == 0 || im.height == 0 || im.width > static_cast<unsigned>(limits.maxWidth) ||
+        im.height > static_cast<unsigned>(limits.maxHeight) ||
+        samples > kMaxPngInflation * bytes.size()) {
+        png_image_free(&im);
+        fail(path, "PNG header claims " + std::to_string(im.width) + "x" +
+                       std::to_string(im.height) + ", more than a " + std::to_string(bytes.size()) +
+                       "-byte file can hold or above " + std::to_string(limits.maxWidth) + "x" +
+                       std::to_string(limits.maxHeight));
+    }
     const bool wide = PNG_IMAGE_SAMPLE_COMPONENT_SIZE(im.format) == 2;
-    im.format = wide ? PNG_FORMAT_LINEAR_Y : PNG_FORMAT_GRAY;
-    // 16-bit PNGs are read without libpng's gamma conversion: PNG_FORMAT_LINEAR_Y would convert
-    // an sRGB-tagged file, so the rows are read raw through the low-level API instead.
     width = static_cast<int>(im.width);
     height = static_cast<int>(im.height);
     Plane p(static_cast<std::size_t>(width) * height);
     if (!wide) {
+        im.format = PNG_FORMAT_GRAY;
         std::vector<unsigned char> buf(PNG_IMAGE_SIZE(im));
         if (!png_image_finish_read(&im, nullptr, buf.data(), 0, nullptr))
-            fail(path, "PNG read failed");
+            fail(path, std::string("PNG read failed: ") + im.message);
         for (std::size_t i = 0; i < p.size(); ++i)
             p[i] = buf[i];
         maxValue = 255;
         return p;
     }
+    // 16-bit PNGs are read without libpng's gamma conversion: PNG_FORMAT_LINEAR_Y would convert
+    // an sRGB-tagged file, so the rows are read raw through the low-level API instead, every
+    // pass of an interlaced (Adam7) file into the whole image.
     png_image_free(&im);
-    std::unique_ptr<std::FILE, int (*)(std::FILE*)> fp(std::fopen(path.c_str(), "rb"),
-                                                       &std::fclose);
-    png_structp png = png_create_read_struct(PNG_LIBPNG_VER_STRING, nullptr, nullptr, nullptr);
+    PngBytes src{reinterpret_cast<const unsigned char*>(bytes.data()), bytes.size()};
+    std::string pngMessage;
+    png_structp png =
+        png_create_read_struct(PNG_LIBPNG_VER_STRING, &pngMessage, pngError, pngWarning);
     png_infop info = png ? png_create_info_struct(png) : nullptr;
-    if (!fp || !png || !info) {
+    if (!png || !info) {
         png_destroy_read_struct(&png, &info, nullptr);
         fail(path, "cannot read");
     }
-    std::vector<unsigned char> row(static_cast<std::size_t>(width) * 8);
+    std::vector<unsigned char> raw(static_cast<std::size_t>(width) * height * 2);
     if (setjmp(png_jmpbuf(png))) {
         png_destroy_read_struct(&png, &info, nullptr);
-        fail(path, "PNG read failed");
+        fail(path, "PNG read failed: " + pngMessage);
     }
-    png_init_io(png, fp.get());
+    png_set_read_fn(png, &src, readPngBytes);
     png_read_info(png, info);
     if (png_get_color_type(png, info) != PNG_COLOR_TYPE_GRAY ||
-        png_get_bit_depth(png, info) != 16) {
+        png_get_bit_depth(png, info) != 16 || png_get_image_width(png, info) != im.width ||
+        png_get_image_height(png, info) != im.height) {
         png_destroy_read_struct(&png, &info, nullptr);
         fail(path, "16-bit frames must be greyscale PNG");
     }
-    for (int y = 0; y < height; ++y) {
-        png_read_row(png, row.data(), nullptr);
-        for (int x = 0; x < width; ++x)
-            p[static_cast<std::size_t>(y) * width + x] =
-                static_cast<float>((row[2 * x] << 8) | row[2 * x + 1]);
-    }
+    const int passes = png_set_interlace_handling(png);
+    png_read_update_info(png, info);
+    for (int pass = 0; pass < passes; ++pass)
+        for (int y = 0; y < height; ++y)
+            png_read_row(png, raw.data() + static_cast<std::size_t>(y) * width * 2, nullptr);
     png_destroy_read_struct(&png, &info, nullptr);
+    for (std::size_t i = 0; i < p.size(); ++i)
+        p[i] = static_cast<float>((raw[2 * i] << 8) | raw[2 * i + 1]);
     maxValue = 65535;
     return p;
 }
@@ -358,7 +477,7 @@ void loadStimuli(Dataset& d, const ConfigTable& st, const std::vector<long long>
             d.stimulusOfFrame.push_back(it->second);
             continue;
         }
-        if (!fs::exists(file))
+        if (!pathExists(file))
             fail(file, "stimulus for frame " + std::to_string(numbers[i]) + " is missing");
         sensor::RadianceFile r = sensor::readRadiance(file);
         if (r.image.width() != d.width || r.image.height() != d.height) {
@@ -395,7 +514,7 @@ void renderStimuli(Dataset& d, const ConfigTable& st, const std::vector<long lon
     if (st.contains("radiance")) st.fail("radiance", "give either radiance or scenario, not both");
     const fs::path given = st.require<std::string>("scenario");
     d.scenario = given.is_relative() ? d.dir / given : given;
-    if (!fs::exists(d.scenario)) st.fail("scenario", "not found: " + d.scenario.string());
+    if (!pathExists(d.scenario)) st.fail("scenario", "not found: " + d.scenario.string());
     if (!renderScenario) {
         st.fail("scenario", "a scenario stimulus needs the renderer of the nvstim command line");
     }
@@ -421,7 +540,7 @@ void renderStimuli(Dataset& d, const ConfigTable& st, const std::vector<long lon
 Dataset loadDataset(const fs::path& dir, const fs::path& configDir, const Progress& progress,
                     const SceneStimulusFactory& renderScenario) {
     const fs::path tomlPath = dir / "dataset.toml";
-    if (!fs::exists(tomlPath)) fail(dir, "no dataset.toml in the dataset folder");
+    if (!pathExists(tomlPath)) fail(dir, "no dataset.toml in the dataset folder");
     const ConfigDocument doc = ConfigDocument::parseFile(tomlPath);
     const ConfigTable root = doc.root();
     Dataset d;
@@ -431,7 +550,7 @@ Dataset loadDataset(const fs::path& dir, const fs::path& configDir, const Progre
     cam.skip("settings");
     d.settings = readSettings(tomlPath);
     fs::path presetArg = d.preset;
-    if (presetArg.extension() == ".toml" && presetArg.is_relative() && fs::exists(dir / presetArg))
+    if (presetArg.extension() == ".toml" && presetArg.is_relative() && pathExists(dir / presetArg))
         presetArg = dir / presetArg;
     try {
         d.camera = loadModelCamera(configDir, presetArg.string(), d.settings, d.cameraExtra);
@@ -463,12 +582,32 @@ Dataset loadDataset(const fs::path& dir, const fs::path& configDir, const Progre
             fail(fl.files[i], "frame is " + std::to_string(w) + "x" + std::to_string(h) +
                                   ", frame " + std::to_string(fl.numbers[0]) + " is " +
                                   std::to_string(d.width) + "x" + std::to_string(d.height));
+        } else if (maxv != d.frameMax_dc) {
+            fail(fl.files[i], "frame's full scale is " + std::to_string(maxv) + ", frame " +
+                                  std::to_string(fl.numbers[0]) + "'s is " +
+                                  std::to_string(d.frameMax_dc) + " (mixed bit depths)");
         }
         d.frames.push_back(std::move(p));
     }
+    // Frames with nothing to fit: every sample the same, or each at 0 or full scale (dark or
+    // clipped everywhere).
+    bool varies = false, inRange = false;
+    const float v0 = d.frames.front().front();
+    for (const Plane& f : d.frames)
+        for (const float v : f) {
+            varies = varies || v != v0;
+            inRange = inRange || (v > 0.0f && v < static_cast<float>(d.frameMax_dc));
+        }
+    if (!varies || !inRange) {
+        fail(tomlPath,
+             "[output] frames carry no signal: every sample is " +
+                 (varies ? std::string("0 or full scale (") + std::to_string(d.frameMax_dc) + ")"
+                         : std::to_string(static_cast<int>(v0))));
+    }
     for (const Roi& r : d.rois)
-        if (r.w <= 0 || r.h <= 0 || r.x < 0 || r.y < 0 || r.x + r.w > d.width ||
-            r.y + r.h > d.height) {
+        // In 64 bits: x + w of two large ints must not wrap past the check.
+        if (r.w <= 0 || r.h <= 0 || r.x < 0 || r.y < 0 || std::int64_t{r.x} + r.w > d.width ||
+            std::int64_t{r.y} + r.h > d.height) {
             fail(tomlPath, "[[roi]] '" + r.name + "' lies outside the frame");
         }
     const bool scenario = st.contains("scenario");

@@ -103,6 +103,15 @@ struct Dataset {
     std::size_t frameCount() const { return frames.size(); }
 };
 
+// Most frames a dataset may have ([output] count, the files found, the list): bounded before
+// anything is allocated for them (docs/reliability-inputs.md).
+inline constexpr long long kMaxDatasetFrames = 100000;
+// Fewest: the chain's 2 warm-up frames, then the first half of the rest calibrates and the
+// second half is held out, each needing 2 frames.
+inline constexpr long long kMinDatasetFrames = 8;
+// Largest frame number (first_frame, a number in a file name): 15 digits.
+inline constexpr long long kMaxFrameNumber = 999'999'999'999'999;
+
 // Reads DATASET_DIR/dataset.toml and everything it names; presets from configDir/cameras. A
 // scenario stimulus needs `renderScenario` (without it: SetupError).
 Dataset loadDataset(const std::filesystem::path& dir, const std::filesystem::path& configDir,

@@ -8,6 +8,7 @@
 #include <set>
 #include <sstream>
 
+#include "sim/core/error.h"
 #include "sim/fit/effects.h"
 #include "sim/fit/model.h"
 #include "sim/fit/scene_effects.h"
@@ -391,6 +392,13 @@ SceneFit diagnoseScene(const Dataset& d, const std::filesystem::path& configDir,
 
 Result diagnose(const Dataset& d, const std::filesystem::path& configDir, const Options& opt,
                 const Progress& progress) {
+    // Frames 0 and 1 warm the chain up; of the rest, the first half calibrates and the second
+    // half is held out: with fewer, one of them is empty and the fit would report nothing.
+    if (d.frameCount() < static_cast<std::size_t>(kMinDatasetFrames)) {
+        throw SetupError(d.dir.string() + ": " + std::to_string(d.frameCount()) +
+                         " frames; diagnose needs at least " + std::to_string(kMinDatasetFrames) +
+                         " (2 warm-up, then at least 2 calibration and 2 held-out frames)");
+    }
     Result r;
     if (d.scene) {
         SceneFit sf = diagnoseScene(d, configDir, opt, progress, r);
@@ -406,6 +414,25 @@ Result diagnose(const Dataset& d, const std::filesystem::path& configDir, const 
     diagnoseCamera(d, configDir, opt, progress, r);
     return r;
 }
+
+namespace {
+
+// A JSON string: quotes, backslashes and control characters escaped.
+std::string quoted(const std::string& t) {
+    std::string s = "\"";
+    for (char c : t) {
+        if (static_cast<unsigned char>(c) < 0x20) {
+            char b[8];
+            std::snprintf(b, sizeof b, "\\u%04x", static_cast<unsigned>(c));
+            s += b;
+        } else {
+            s += c == '"' || c == '\\' ? std::string("\\") + c : std::string(1, c);
+        }
+    }
+    return s + "\"";
+}
+
+}  // namespace
 
 std::string toJson(const Result& r) {
     std::string s = "{\"baseline\":{";
@@ -429,18 +456,11 @@ std::string toJson(const Result& r) {
             s += c == '"' ? std::string("\\\"") : std::string(1, c);
         s += "\"}";
     }
-    s += "],\"camera\":\"" + r.camera + "\"}";
+    s += "],\"camera\":" + quoted(r.camera) + "}";
     return s;
 }
 
 namespace {
-
-std::string quoted(const std::string& t) {
-    std::string s = "\"";
-    for (char c : t)
-        s += c == '"' || c == '\\' ? std::string("\\") + c : std::string(1, c);
-    return s + "\"";
-}
 
 std::string numbers(const std::vector<double>& v) {
     std::string s = "[";

@@ -1,5 +1,8 @@
 #include "tests/fuzz/fuzz_targets.h"
 
+#include <stdlib.h>
+#include <sys/stat.h>
+
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -17,6 +20,8 @@
 #include "rt/telemetry/track.h"
 #include "sim/core/csv.h"
 #include "sim/core/error.h"
+#include "sim/core/output_file.h"
+#include "sim/fit/dataset.h"
 #include "sim/scene/scene.h"
 #include "sim/sensor/camera.h"
 #include "sim/sensor/image_io.h"
@@ -264,6 +269,198 @@ int image(const std::uint8_t* data, std::size_t size) {
             require(r.image.width() <= 512 && r.image.height() <= 512);
         }
     });
+}
+
+namespace {
+
+// A folder of the process's own under $TMPDIR, removed at exit.
+struct PrivateFolder {
+    std::filesystem::path path;
+    explicit PrivateFolder(const char* pattern) {
+        std::string t = (std::filesystem::temp_directory_path() / pattern).string();
+        if (::mkdtemp(t.data()) == nullptr) std::abort();
+        path = t;
+    }
+    ~PrivateFolder() {
+        std::error_code ec;
+        std::filesystem::remove_all(path, ec);
+    }
+    PrivateFolder(const PrivateFolder&) = delete;
+    PrivateFolder& operator=(const PrivateFolder&) = delete;
+};
+
+}  // namespace
+
+// A dataset folder from one input: parts separated by a line "%%"; the first is dataset.toml,
+// each other part a file named by its magic (Pf/PF: radiance/NNNNNN.pfm; \x89PNG:
+// frames/NNNNNN.png; anything else frames/NNNNNN.pgm), numbered in order from 0. Written to a
+// private folder (emptied for each input) and read by fit::loadDataset with the shipped
+// presets; a dataset accepted keeps the loader's promises.
+int dataset(const std::uint8_t* data, std::size_t size) {
+    namespace fs = std::filesystem;
+    static const PrivateFolder root("nvs-fuzz-dataset-XXXXXX");
+    const fs::path& dir = root.path;
+    std::error_code ec;
+    for (const char* sub : {"frames", "radiance"}) {
+        fs::remove_all(dir / sub, ec);
+        fs::create_directories(dir / sub, ec);
+    }
+    const std::string_view all(reinterpret_cast<const char*>(data), size);
+    int frames = 0, radiances = 0;
+    std::size_t at = 0;
+    for (int part = 0; at <= all.size() && part < 64; ++part) {
+        std::size_t end = all.find("\n%%\n", at);
+        if (end == std::string_view::npos) end = all.size();
+        const std::string_view bytes = all.substr(at, end - at);
+        fs::path name;
+        if (part == 0)
+            name = dir / "dataset.toml";
+        else if (bytes.substr(0, 2) == "Pf" || bytes.substr(0, 2) == "PF")
+            name = dir / "radiance" / sensor::expandFramePattern("{frame:06d}.pfm", radiances++);
+        else if (bytes.substr(0, 4) == "\x89PNG")
+            name = dir / "frames" / sensor::expandFramePattern("{frame:06d}.png", frames++);
+        else
+            name = dir / "frames" / sensor::expandFramePattern("{frame:06d}.pgm", frames++);
+        std::FILE* f = std::fopen(name.c_str(), "wb");
+        if (f == nullptr) std::abort();
+        std::fwrite(bytes.data(), 1, bytes.size(), f);
+        std::fclose(f);
+        at = end + 4;
+    }
+    return expectSetupError([&] {
+        const fit::Dataset d = fit::loadDataset(dir, configDir());
+        require(d.frameCount() >= static_cast<std::size_t>(fit::kMinDatasetFrames));
+        require(d.frameCount() <= static_cast<std::size_t>(fit::kMaxDatasetFrames));
+        require(d.width == d.camera.width && d.height == d.camera.height);
+        require(d.frameMax_dc >= 1 && ((d.frameMax_dc + 1) & d.frameMax_dc) == 0);
+        require(d.stimulusOfFrame.size() == d.frameCount());
+        bool signal = false;
+        for (const fit::Plane& p : d.frames) {
+            require(p.size() == static_cast<std::size_t>(d.width) * d.height);
+            for (const float v : p) {
+                require(v >= 0.0f && v <= static_cast<float>(d.frameMax_dc));
+                signal = signal || (v > 0.0f && v < static_cast<float>(d.frameMax_dc));
+            }
+        }
+        require(signal);
+        for (const fit::Roi& r : d.rois)
+            require(r.x >= 0 && r.y >= 0 && r.w > 0 && r.h > 0 &&
+                    std::int64_t{r.x} + r.w <= d.width && std::int64_t{r.y} + r.h <= d.height);
+        for (const int s : d.stimulusOfFrame)
+            require(s >= 0 && static_cast<std::size_t>(s) < d.stimuli.size());
+    });
+}
+
+// The output layer's path checks (sim/core/output_file.h) in a private folder that holds an
+// input folder, a previous report, a user's folder, a file, a link, a loop of links and a FIFO.
+// Each input line declares one path: 'i' an input, 'f' a file output, 'd' a report folder,
+// then the path inside the private folder ("/" and ".." components dropped). The outputs
+// accepted are written and committed; then no temporary is left, the user's files and the
+// inputs are as they were (unless an accepted file output named that very file), and every
+// report folder holds its marker.
+int outputPaths(const std::uint8_t* data, std::size_t size) {
+    namespace fs = std::filesystem;
+    static const PrivateFolder root("nvs-fuzz-outputs-XXXXXX");
+    const fs::path& dir = root.path;
+    std::error_code ec;
+    for (const auto& e : fs::directory_iterator(dir, ec))
+        fs::remove_all(e.path(), ec);
+    const auto put = [](const fs::path& p, const std::string& text) {
+        std::FILE* f = std::fopen(p.c_str(), "wb");
+        if (f == nullptr) std::abort();
+        std::fputs(text.c_str(), f);
+        std::fclose(f);
+    };
+    const auto get = [](const fs::path& p) {
+        std::string t;
+        if (std::FILE* f = std::fopen(p.c_str(), "rb")) {
+            char b[256];
+            std::size_t n = 0;
+            while ((n = std::fread(b, 1, sizeof b, f)) > 0)
+                t.append(b, n);
+            std::fclose(f);
+        }
+        return t;
+    };
+    fs::create_directories(dir / "in" / "sub", ec);
+    fs::create_directories(dir / "rep", ec);
+    fs::create_directories(dir / "plain", ec);
+    put(dir / "in" / "data.toml", "input");
+    put(dir / "rep" / ".marker", "");
+    put(dir / "plain" / "keep", "user");
+    put(dir / "file.json", "old");
+    fs::create_symlink(dir / "file.json", dir / "link", ec);
+    fs::create_symlink(dir / "loop", dir / "loop", ec);
+    ::mkfifo((dir / "fifo").c_str(), 0600);
+
+    const std::string all(reinterpret_cast<const char*>(data), size);
+    struct Declared {
+        char kind;
+        fs::path path;
+    };
+    std::vector<Declared> accepted;
+    {
+        OutputFiles out;
+        std::size_t at = 0;
+        for (int line = 0; line < 8 && at < all.size(); ++line) {
+            std::size_t end = all.find('\n', at);
+            if (end == std::string::npos) end = all.size();
+            const std::string l = all.substr(at, end - at);
+            at = end + 1;
+            if (l.empty() || l.find('\0') != std::string::npos) continue;
+            fs::path rel;
+            for (const auto& part : fs::path(l.substr(1)))
+                if (part != ".." && part != "/" && !part.empty()) rel /= part;
+            const fs::path p = dir / rel;
+            const std::string given = p.string() + (l.size() > 1 && l.back() == '/' ? "/" : "");
+            try {
+                if (l[0] == 'i') {
+                    out.addInput(given);
+                    accepted.push_back({'i', p});
+                } else if (l[0] == 'f') {
+                    out.addFile("--f", given);
+                    accepted.push_back({'f', p});
+                } else if (l[0] == 'd') {
+                    out.addFolder("--d", given, ".marker");
+                    accepted.push_back({'d', p});
+                }
+            } catch (const SetupError&) {
+            }
+        }
+        try {
+            for (const Declared& d : accepted) {
+                if (d.kind == 'f') out.writeText(d.path, "new");
+                if (d.kind == 'd') put(out.stage(d.path) / "report.md", "report");
+            }
+            out.commit();
+        } catch (const SetupError&) {
+        } catch (const std::runtime_error&) {
+        }
+    }
+    bool named = false, inputNamed = false;
+    for (const Declared& d : accepted) {
+        named = named || (d.kind == 'f' && d.path == dir / "plain" / "keep");
+        inputNamed = inputNamed || (d.kind == 'f' && d.path == dir / "in" / "data.toml");
+    }
+    if (!named) require(get(dir / "plain" / "keep") == "user");
+    if (!inputNamed) require(get(dir / "in" / "data.toml") == "input");
+    for (const Declared& d : accepted)
+        if (d.kind == 'd') require(fs::is_regular_file(fs::symlink_status(d.path / ".marker")));
+    require(fs::is_fifo(fs::symlink_status(dir / "fifo")));
+    require(fs::is_symlink(fs::symlink_status(dir / "loop")));
+    // A temporary is "NAME.nvstim-XXXXXXXX.tmp"; an output may itself be named so.
+    for (auto it = fs::recursive_directory_iterator(dir, ec);
+         it != fs::recursive_directory_iterator(); it.increment(ec)) {
+        if (ec) break;
+        const std::string name = it->path().filename().string();
+        const bool temporary = name.find(".nvstim-") != std::string::npos && name.size() > 4 &&
+                               name.compare(name.size() - 4, 4, ".tmp") == 0;
+        bool output = false;
+        for (const Declared& d : accepted)
+            output = output || (d.kind != 'i' && d.path == it->path());
+        require(!temporary || output);
+    }
+    return 0;
 }
 
 int framePattern(const std::uint8_t* data, std::size_t size) {

@@ -21,6 +21,8 @@ int csv(const std::uint8_t* data, std::size_t size);           // CSV tables (sp
 int obj(const std::uint8_t* data, std::size_t size);           // OBJ meshes
 int image(const std::uint8_t* data, std::size_t size);         // PGM, PFM, EXR by magic
 int framePattern(const std::uint8_t* data, std::size_t size);  // "{frame:06d}" names
+int dataset(const std::uint8_t* data, std::size_t size);       // dataset.toml + frames
+int outputPaths(const std::uint8_t* data, std::size_t size);   // output path checks
 
 struct Target {
     const char* name;  // also the folder tests/fuzz/<name>
@@ -32,6 +34,7 @@ inline constexpr Target kTargets[] = {
     {"scenario", scenario}, {"camera", camera},
     {"csv", csv},           {"obj", obj},
     {"image", image},       {"frame_pattern", framePattern},
+    {"dataset", dataset},   {"output_paths", outputPaths},
 };
 
 }  // namespace nvs::fuzz

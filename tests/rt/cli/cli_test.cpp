@@ -15,6 +15,8 @@
 #include <string>
 #include <vector>
 
+#include "tests/rt/cli/cli_run.h"
+
 namespace nvs {
 namespace {
 
@@ -24,17 +26,8 @@ struct Result {
 };
 
 Result runNvstim(const std::string& args) {
-    Result r;
-    const std::string cmd = std::string(NVSTIM_EXE) + " " + args + " 2>&1";
-    FILE* p = popen(cmd.c_str(), "r");
-    if (p == nullptr) return r;
-    std::array<char, 4096> buf{};
-    std::size_t n = 0;
-    while ((n = fread(buf.data(), 1, buf.size(), p)) > 0)
-        r.out.append(buf.data(), n);
-    const int st = pclose(p);
-    r.status = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
-    return r;
+    const test::CliRun r = test::nvstim(args);
+    return {r.status, r.out + r.err};
 }
 
 TEST(Cli, HelpListsEverySubcommand) {

@@ -15,55 +15,16 @@
 #include "rt/cli/cli.h"
 #include "sim/fit/dataset.h"
 #include "sim/fit/generate.h"
+#include "tests/rt/cli/cli_run.h"
 
 namespace nvs {
 namespace {
 
 namespace fs = std::filesystem;
 
-struct CliRun {
-    int status = -1;
-    std::string out, err;
-};
-
-// Each test's own folder: ctest runs the tests of this file in parallel processes.
-fs::path testPath(const std::string& what) {
-    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    return fs::path(NVS_BINARY_DIR) /
-           ("test-diagnose-" + std::string(info->name()) + "-" + std::to_string(::getpid()) + what);
-}
-
-CliRun nvstim(const std::string& args) {
-    CliRun r;
-    const fs::path errFile = testPath("-stderr.txt");
-    const std::string cmd = std::string(NVSTIM_EXE) + " " + args + " 2>" + errFile.string();
-    FILE* p = popen(cmd.c_str(), "r");
-    if (p == nullptr) return r;
-    std::array<char, 4096> buf{};
-    std::size_t n = 0;
-    while ((n = fread(buf.data(), 1, buf.size(), p)) > 0)
-        r.out.append(buf.data(), n);
-    const int st = pclose(p);
-    r.status = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
-    {
-        std::ifstream e(errFile);
-        r.err.assign(std::istreambuf_iterator<char>(e), std::istreambuf_iterator<char>());
-    }
-    fs::remove(errFile);
-    return r;
-}
-
-// The test's folder, empty at the start and removed at the end.
-struct WorkDir {
-    fs::path path = testPath("");
-    WorkDir() {
-        fs::remove_all(path);
-        fs::create_directories(path);
-    }
-    ~WorkDir() { fs::remove_all(path); }
-    WorkDir(const WorkDir&) = delete;
-    WorkDir& operator=(const WorkDir&) = delete;
-};
+using test::CliRun;
+using test::nvstim;
+using test::WorkDir;
 
 fs::path writeHalo(const fs::path& dir) {
     fit::GenSpec s;
@@ -77,9 +38,21 @@ TEST(Diagnose, NamesAHiddenHaloAndItsPresetLeavesNothingToFind) {
     const WorkDir work;
     const fs::path& dir = work.path;
     const fs::path ds = writeHalo(dir);
+    // Links where the temporaries used to go (OUT.tmp) are neither followed nor replaced.
+    std::ofstream(dir / "victim.txt") << "keep me";
+    fs::create_symlink(dir / "victim.txt", dir / "out.json.tmp");
+    fs::create_symlink(dir / "victim.txt", dir / "fitted.toml.tmp");
     const CliRun r = nvstim("diagnose " + ds.string() + " --json " + (dir / "out.json").string() +
                             " --write-preset " + (dir / "fitted.toml").string());
     ASSERT_EQ(r.status, 0) << r.err;
+    {
+        std::ifstream v(dir / "victim.txt");
+        EXPECT_EQ(std::string(std::istreambuf_iterator<char>(v), {}), "keep me");
+    }
+    EXPECT_TRUE(fs::is_regular_file(fs::symlink_status(dir / "out.json")));
+    EXPECT_TRUE(fs::is_regular_file(fs::symlink_status(dir / "fitted.toml")));
+    for (const auto& e : fs::directory_iterator(dir))
+        EXPECT_EQ(e.path().string().find(".nvstim-"), std::string::npos) << e.path();
     EXPECT_NE(r.out.find("{\"baseline\":{"), std::string::npos) << r.out;
     EXPECT_NE(r.out.find("\"findings\":[{\"effect\":\"halo\""), std::string::npos) << r.out;
     for (const char* key : {"\"parameters\"", "\"heldout_rms_before\"", "\"heldout_rms_after\"",
@@ -113,12 +86,18 @@ TEST(Diagnose, ReportHasItsPlots) {
     const WorkDir work;
     const fs::path& dir = work.path;
     const fs::path ds = writeHalo(dir);
+    // A folder of the user's where the temporary report used to go stays as it is.
+    fs::create_directories(dir / "report.tmp");
+    std::ofstream(dir / "report.tmp" / "sentinel.txt") << "keep me";
     const CliRun r = nvstim("diagnose " + ds.string() + " --report " + (dir / "report").string());
     ASSERT_EQ(r.status, 0) << r.err;
-    for (const char* f : {"report.md", "photon_transfer.png", "linearity.png", "radial_profile.png",
-                          "residual_heldout_before.png", "residual_heldout_after.png"})
+    for (const char* f :
+         {"report.md", "photon_transfer.png", "linearity.png", "radial_profile.png",
+          "residual_heldout_before.png", "residual_heldout_after.png", ".nvstim-diagnose-report"})
         EXPECT_TRUE(fs::exists(dir / "report" / f)) << f;
-    EXPECT_FALSE(fs::exists(dir / "report.tmp"));
+    EXPECT_TRUE(fs::exists(dir / "report.tmp" / "sentinel.txt"));
+    for (const auto& e : fs::directory_iterator(dir))
+        EXPECT_EQ(e.path().string().find(".nvstim-"), std::string::npos) << e.path();
 }
 
 TEST(Diagnose, BadDatasetExitsTwoWithOneLineAndWritesNothing) {
@@ -132,7 +111,8 @@ TEST(Diagnose, BadDatasetExitsTwoWithOneLineAndWritesNothing) {
     };
     for (const Case& c : {Case{"preset = \"pulnix-ag5745ef3\"", "preset = \"no-such\"", "no-such"},
                           Case{"unit = \"pe/s/m2/sr\"", "unit = \"lux\"", "'lux'"},
-                          Case{"count = 48", "count = 49", "frame 48 is missing"}}) {
+                          Case{"count = 48", "count = 49", "frame 48 is missing"},
+                          Case{"count = 48", "count = 6", "'output.count': must be in [8,"}}) {
         std::string t = good;
         t.replace(t.find(c.from), c.from.size(), c.to);
         std::ofstream(ds / "dataset.toml") << t;

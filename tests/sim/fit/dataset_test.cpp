@@ -16,29 +16,15 @@
 #include "sim/fit/engine.h"
 #include "sim/fit/generate.h"
 #include "sim/sensor/image_io.h"
+#include "tests/sim/fit/fit_test_data.h"
 
 namespace nvs::fit {
 namespace {
 
 namespace fs = std::filesystem;
-const fs::path kConfig = NVS_SOURCE_DIR "/config";
-
-fs::path tempDir(const std::string& name) {
-    const fs::path p = fs::path(NVS_BINARY_DIR) / "test-fit" / name;
-    fs::remove_all(p);
-    fs::create_directories(p);
-    return p;
-}
-
-Generated small(std::vector<std::string> effects = {}) {
-    GenSpec s;
-    s.effects = std::move(effects);
-    s.width = 48;
-    s.height = 32;
-    s.stimuli = 3;
-    s.hold = 4;
-    return generate(s, kConfig);
-}
+using test::kConfig;
+using test::small;
+using test::tempDir;
 
 void replaceLine(const fs::path& file, const std::string& start, const std::string& line) {
     std::ifstream in(file);
@@ -67,12 +53,7 @@ TEST(Dataset, WriteThenLoadGivesTheSameFramesAndStimuli) {
 
 TEST(Dataset, BadInputIsOneSetupErrorNamingTheProblem) {
     const Generated g = small();
-    struct Case {
-        const char* what;
-        std::function<void(const fs::path&)> spoil;
-        const char* named;
-    };
-    const std::vector<Case> cases = {
+    const std::vector<test::SpoilCase> cases = {
         {"no preset",
          [](const fs::path& d) { replaceLine(d / "dataset.toml", "preset", "preset = \"nope\""); },
          "no preset"},
@@ -102,19 +83,7 @@ TEST(Dataset, BadInputIsOneSetupErrorNamingTheProblem) {
          },
          "stimulus is 24x16 but the frames are 48x32"},
     };
-    for (const Case& c : cases) {
-        const fs::path dir = tempDir("bad");
-        writeDataset(g.data, dir);
-        c.spoil(dir);
-        try {
-            (void)loadDataset(dir, kConfig);
-            ADD_FAILURE() << c.what << ": no error";
-        } catch (const SetupError& e) {
-            const std::string m = e.what();
-            EXPECT_NE(m.find(c.named), std::string::npos) << c.what << ": " << m;
-            EXPECT_EQ(m.find('\n'), std::string::npos) << c.what << ": " << m;
-        }
-    }
+    test::expectEachSetupError(g.data, cases, "bad");
 }
 
 TEST(Dataset, ReadsEightAndSixteenBitPngAndPgm) {
