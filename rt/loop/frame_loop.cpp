@@ -583,6 +583,7 @@ void FrameLoop::outputThread(bool realtime) {
                 // Woke a whole period or more late: those ticks are gone; never catch up by
                 // sending frames in a burst.
                 const std::int64_t kNow = wall_.tickAt(now_ns);
+                stats_.counters.ticks += kNow - k;  // they passed: ticks counts them too
                 stats_.counters.skippedTicks += kNow - k;
                 stats_.counters.deadlineMisses += kNow - k;
                 live_.misses.fetch_add(kNow - k, std::memory_order_relaxed);

@@ -7,22 +7,19 @@
 #include <ImfOutputFile.h>
 #include <ImfStringAttribute.h>
 
-#include <system_error>
-
 #include "sim/core/error.h"
 
 namespace nvs::render {
 
 void writeRadianceExr(const std::filesystem::path& path, ImageView<const float> img,
                       const std::vector<std::pair<std::string, std::string>>& attributes) {
-    const std::filesystem::path tmp = path.string() + ".part";
     try {
         Imf::Header hdr(img.width(), img.height());
         hdr.channels().insert("Y", Imf::Channel(Imf::FLOAT));
         for (const auto& [k, v] : attributes)
             hdr.insert(k, Imf::StringAttribute(v));
         {
-            Imf::OutputFile file(tmp.c_str(), hdr);
+            Imf::OutputFile file(path.c_str(), hdr);
             Imf::FrameBuffer fb;
             fb.insert("Y", Imf::Slice(Imf::FLOAT,
                                       const_cast<char*>(reinterpret_cast<const char*>(img.row(0))),
@@ -31,10 +28,7 @@ void writeRadianceExr(const std::filesystem::path& path, ImageView<const float> 
             file.setFrameBuffer(fb);
             file.writePixels(img.height());
         }
-        std::filesystem::rename(tmp, path);
     } catch (const std::exception& e) {
-        std::error_code ec;
-        std::filesystem::remove(tmp, ec);
         throw SetupError(path.string() + ": cannot write EXR: " + e.what());
     }
 }

@@ -12,6 +12,9 @@
 
 namespace nvs::render {
 
+// Writes `path` itself, in place: `nvstim render` hands it a temporary of the output layer
+// (sim/core/output_file.h), which checks that the temporary it made is the file it commits, so
+// this must not put another file there (a write to a side file renamed over it did).
 void writeRadianceExr(const std::filesystem::path& path, ImageView<const float> img,
                       const std::vector<std::pair<std::string, std::string>>& attributes);
 

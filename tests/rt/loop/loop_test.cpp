@@ -263,6 +263,9 @@ TEST(FrameLoop, WallClockHoldsCadenceWhenAFrameIsLate) {
         // What became of the frames that missed: frame 30 itself came too late, or the render
         // thread skipped the ticks that had passed.
         EXPECT_GE(c.lateFrames + c.skippedRenders, 1);
+        // Every tick is counted: those that sent a frame (fresh or repeated), those that sent
+        // nothing, and those the output thread lost.
+        EXPECT_EQ(c.ticks, sink.n + c.droppedFrames + c.skippedTicks);
         // Never drift: every emission lies within its own tick's period on the absolute grid
         // (deadline k = deadline 0 + k·dt), however late frame 30 was, never before it; and
         // the last ones are as punctual as the first ones.
