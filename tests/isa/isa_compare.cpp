@@ -39,12 +39,17 @@ namespace fs = std::filesystem;
 
 namespace {
 
-constexpr double kSumRel = 1e-4;
+// Measured worst cases over the shipped scenarios, 3 frames each, qemu as Haswell-v4 and
+// Nehalem-v2 against an AVX2 host (docs/portability.md): the sum 4.4e-4 apart and 0.19 % of
+// the pixels past kPixelRel (airborne-pass as Nehalem-v2, whose camera flies along its
+// telemetry: a pose a few ulps apart moves every edge, and the pixels on edges flip); frames:
+// 0.54 % of the pixels and 0.013 counts of the mean. The limits leave about 2x above them.
+constexpr double kSumRel = 1e-3;
 constexpr double kPixelRel = 1e-4;
 constexpr double kFloorRel = 1e-3;
-constexpr double kOutlierFrac = 1e-3;
+constexpr double kOutlierFrac = 5e-3;
 constexpr double kFrameDifferFrac = 0.01;
-constexpr double kFrameMean_counts = 0.01;
+constexpr double kFrameMean_counts = 0.03;
 
 std::vector<fs::path> filesIn(const fs::path& dir, const std::string& ext) {
     std::vector<fs::path> out;
