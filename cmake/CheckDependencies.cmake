@@ -1,4 +1,4 @@
-# ctest script: the dependency rules (DESIGN §2), checked on the sources under ROOT.
+# ctest script: the dependency rules (docs/design.md §2), checked on the sources under ROOT.
 #   drivers/      include nothing of rt/
 #   sim/          includes nothing of rt/ or drivers/, and calls no getenv (data folders and
 #                 caches are passed in by the runtime)

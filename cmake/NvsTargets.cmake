@@ -1,6 +1,6 @@
 # Shared build settings for every nvstim target.
 
-# Warnings as errors live in one INTERFACE target that every target links (STYLE §15).
+# Warnings as errors live in one INTERFACE target that every target links (docs/style.md §15).
 add_library(nvs_warnings INTERFACE)
 target_compile_options(nvs_warnings INTERFACE
   -Wall -Wextra -Wpedantic -Wshadow -Wconversion -Wno-sign-conversion

@@ -1,6 +1,6 @@
 #pragma once
-// SocketCAN telemetry input (DESIGN §6): CAN / CAN FD frames, a small DBC decoder, candump log
-// files, and a thin RAII wrapper of the raw socket behind an interface with an in-memory fake.
+// SocketCAN telemetry input (docs/design.md §6): CAN / CAN FD frames, a small DBC decoder, candump
+// log files, and a thin RAII wrapper of the raw socket behind an interface with an in-memory fake.
 
 #include <cstdint>
 #include <deque>

@@ -1,7 +1,7 @@
 #pragma once
-// GPIO (DESIGN §6): a gate pulse per exposure on an output line, and edge events on an input
-// line (an external trigger from the equipment under test). libgpiod 1.6 (v1 API) behind our own
-// interface, with an in-memory fake.
+// GPIO (docs/design.md §6): a gate pulse per exposure on an output line, and edge events on an
+// input line (an external trigger from the equipment under test). libgpiod 1.6 (v1 API) behind our
+// own interface, with an in-memory fake.
 //
 //   GpioLine          one requested line: output (set value) or rising-edge input (wait for an
 //                     edge with its kernel timestamp). 0 / -errno.

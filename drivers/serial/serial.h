@@ -1,5 +1,5 @@
 #pragma once
-// Serial telemetry (DESIGN §6): a termios port behind an interface with a fake, and two
+// Serial telemetry (docs/design.md §6): a termios port behind an interface with a fake, and two
 // streaming parsers fed byte by byte — NMEA 0183 (GGA, RMC, HDT, checksum) and MAVLink v1/v2
 // (ATTITUDE, GLOBAL_POSITION_INT, CRC with CRC_EXTRA). Parsers allocate nothing, never
 // throw, count what they reject and resynchronise on the next start character.

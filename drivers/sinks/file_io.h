@@ -1,6 +1,6 @@
 #pragma once
-// File writing that leaves nothing corrupt behind (DESIGN §7 "nothing half-written"): a file
-// is written under a temporary name beside its final path and renamed into place only when
+// File writing that leaves nothing corrupt behind (docs/design.md §7 "nothing half-written"): a
+// file is written under a temporary name beside its final path and renamed into place only when
 // complete; on any error the temporary is removed. All calls return 0 or -errno.
 //
 // Streams (y4m, JSON lines) are the exception on purpose: what they already hold stays valid.

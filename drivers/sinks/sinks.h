@@ -1,5 +1,5 @@
 #pragma once
-// File and pipe sinks (DESIGN §6). Each is a FrameSink (sim/msg/output.h): configured and
+// File and pipe sinks (docs/design.md §6). Each is a FrameSink (sim/msg/output.h): configured and
 // allocated at construction (throws SetupError for a bad path), then write() per frame
 // returns 0 or -errno and counts; close() finishes the output.
 //

@@ -1,6 +1,6 @@
 #pragma once
-// V4L2 video output (DESIGN §6), written for v4l2loopback 0.12.x and any other output device
-// that speaks the same kernel ABI (linux/videodev2.h).
+// V4L2 video output (docs/design.md §6), written for v4l2loopback 0.12.x and any other output
+// device that speaks the same kernel ABI (linux/videodev2.h).
 //
 // Three layers, each testable alone:
 //

@@ -2,8 +2,8 @@
 // Counting the global operator new: every form (plain, array, aligned, nothrow) adds one to a
 // process-wide counter when the program links rt/bench/count_new.cpp (nvstim and the
 // allocation tests do). `nvstim bench` and tests/rt/bench use it to show that the frame loop
-// allocates nothing per field in steady state (STYLE §3). Memory that Embree, TBB or FFTW take
-// with malloc directly is not counted.
+// allocates nothing per field in steady state (docs/style.md §3). Memory that Embree, TBB or FFTW
+// take with malloc directly is not counted.
 
 #include <atomic>
 #include <cstdint>

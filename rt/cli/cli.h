@@ -1,6 +1,6 @@
 #pragma once
-// The `nvstim` command line (DESIGN §7). Every subcommand is declared here with its options,
-// parsed into a plain struct, and dispatched to its handler.
+// The `nvstim` command line (docs/design.md §7). Every subcommand is declared here with its
+// options, parsed into a plain struct, and dispatched to its handler.
 //
 // Exit status: 0 success; 1 a run failed (a check mismatched, a device failed); 2 bad usage or
 // setup error (one line on stderr naming the argument or file:line). 3 is reserved (it meant "not

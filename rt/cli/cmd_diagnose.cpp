@@ -1,5 +1,5 @@
 // nvstim diagnose: fit the camera model to a measured dataset and name what it gets wrong
-// (DESIGN §8, docs/contracts.md "diagnose", docs/diagnose.md).
+// (docs/design.md §8, docs/contracts.md "diagnose", docs/diagnose.md).
 //
 //   nvstim diagnose DATASET_DIR [--json OUT] [--report DIR] [--write-preset FILE] [--seed S]
 //

@@ -1,4 +1,4 @@
-// nvstim ephem: Sun and Moon for a site and UTC instant, as the JSON of DESIGN §7.
+// nvstim ephem: Sun and Moon for a site and UTC instant, as the JSON of docs/design.md §7.
 
 #include <cstdio>
 

@@ -1,7 +1,7 @@
 // nvstim illum: illuminance on a horizontal surface at the site from the Moon (direct, through
 // the slant path), moonlight scattered by the atmosphere (moon_sky) and the moonless night sky
-// (airglow, starlight, zodiacal light), as JSON (DESIGN §7). With --camera, the same terms as
-// photoelectron irradiance in the camera's band, QE(λ)·λ/(hc) weighted.
+// (airglow, starlight, zodiacal light), as JSON (docs/design.md §7). With --camera, the same terms
+// as photoelectron irradiance in the camera's band, QE(λ)·λ/(hc) weighted.
 
 #include <cmath>
 #include <cstdio>

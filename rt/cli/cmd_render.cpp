@@ -1,7 +1,7 @@
 // nvstim render SCENARIO --frame K --out FILE.exr: one frame of a scenario as photoelectron
 // radiance [pe s⁻¹ m⁻² sr⁻¹] (OpenEXR, one FLOAT channel Y) with the unit, the scenario time and
 // the Moon's position in the header; the band radiance ∫Lβ dλ [W m⁻² sr⁻¹] goes next to it as
-// FILE.band.exr (DESIGN §3, §7).
+// FILE.band.exr (docs/design.md §3, §7).
 
 #include <cmath>
 #include <cstdio>

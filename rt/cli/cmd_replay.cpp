@@ -1,4 +1,4 @@
-// nvstim replay SCENARIO_DIR [--check|--bless] (DESIGN §7, §9).
+// nvstim replay SCENARIO_DIR [--check|--bless] (docs/design.md §7, §9).
 #include <unistd.h>
 
 #include <cstdio>

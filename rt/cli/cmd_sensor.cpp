@@ -1,4 +1,4 @@
-// nvstim sensor: push radiance images through the IICCD camera model (DESIGN §4.5, §7).
+// nvstim sensor: push radiance images through the IICCD camera model (docs/design.md §4.5, §7).
 //
 //   nvstim sensor --in IN --camera PRESET [--set KEY=VALUE]... [--frames N] [--seed S]
 //                 [--unit W/m2/sr|pe/s/m2/sr] [--spectrum flat|blackbody:T|moon|night_sky]

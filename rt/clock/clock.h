@@ -1,5 +1,5 @@
 #pragma once
-// Frame clocks (DESIGN §5). Both number ticks k = 0, 1, 2, … and put tick k at
+// Frame clocks (docs/design.md §5). Both number ticks k = 0, 1, 2, … and put tick k at
 //   t_k = k · dt   on the run clock (seconds since the run started),
 // with dt = den/num seconds held as an exact rational so that 59.94 Hz (60000/1001) does not
 // drift: the wall clock computes each absolute deadline from k with integer arithmetic

@@ -1,6 +1,6 @@
 #pragma once
-// Every thread nvstim runs, in one table (STYLE §6). Priorities are SCHED_FIFO priorities used
-// when real-time scheduling is asked for and permitted (0: normal scheduling); cpu −1: any.
+// Every thread nvstim runs, in one table (docs/style.md §6). Priorities are SCHED_FIFO priorities
+// used when real-time scheduling is asked for and permitted (0: normal scheduling); cpu −1: any.
 // The output thread outranks the render thread: a late render must never delay an emission.
 
 #include <string>

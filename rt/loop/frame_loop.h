@@ -1,5 +1,5 @@
 #pragma once
-// The frame loop (DESIGN §5): three pipelined threads (rt/clock/threads.h).
+// The frame loop (docs/design.md §5): three pipelined threads (rt/clock/threads.h).
 //
 //   render thread   frame k+2: (trigger clock: wait for its edge) telemetry → pose at each
 //                   exposure's mid-time, render stage, into a free slot; hands the slot on.
@@ -27,7 +27,7 @@
 // Under the sim clock nothing is ever late: the output waits for every frame, so two runs are
 // identical bit for bit.
 //
-// Scan (DESIGN §5 pacing modes). dt is the period of the emitted frames (frame_rate_hz).
+// Scan (docs/design.md §5 pacing modes). dt is the period of the emitted frames (frame_rate_hz).
 //   Progressive   one exposure per frame: t_sample_s = t_k, exposure [t_k − e/2, t_k + e/2]
 //                 (e = exposure_s, default dt). A field-scan camera stage run this way counts
 //                 each frame as one field and weaves its own video: that is the field-rate

@@ -2,7 +2,7 @@
 // The interfaces through which the frame loop drives its stages, and the names of the typed
 // messages (sim/msg) as the runtime uses them. The loop calls the stages only from its own
 // threads (rt/clock/threads.h) with preallocated buffers; implementations must not allocate,
-// throw or block for long inside these calls (STYLE §3, §8).
+// throw or block for long inside these calls (docs/style.md §3, §8).
 //
 //   PlatformSource  telemetry → PlatformState (as commanded) at the exposure's mid-time
 //   RenderStage     FrameRequest → radiance images (RadianceTarget, each in its unit) + truth

@@ -2,7 +2,7 @@
 // The renderer as the runtime's render stage (rt/loop/stages.h).
 //
 // UNITS: the stage writes the photoelectron radiance at the lens, Lpe [pe s⁻¹ m⁻² sr⁻¹] in the
-// scenario camera's band (DESIGN §3) — what the IICCD chain consumes directly — and the
+// scenario camera's band (docs/design.md §3) — what the IICCD chain consumes directly — and the
 // band-integrated radiance [W m⁻² sr⁻¹] of the same frame into the target's band image (the EXR
 // sink, comparison with the thesis); without a band image it renders that band into scratch.
 //

@@ -1,8 +1,8 @@
 #pragma once
 // A fixed pool of worker threads that splits the renderer's rows (sim/render's RowExecutor).
-// sim/ has no threads (DESIGN §2); the runtime owns them. The calling thread works too; workers
-// are created at setup and woken per frame: nothing is allocated per frame. Rows are handed out
-// in chunks from a shared counter, not in fixed shares: the camera thread and the rest of the
+// sim/ has no threads (docs/design.md §2); the runtime owns them. The calling thread works too;
+// workers are created at setup and woken per frame: nothing is allocated per frame. Rows are handed
+// out in chunks from a shared counter, not in fixed shares: the camera thread and the rest of the
 // machine take cores from the render threads at random, and a thread held up then leaves its
 // rows to the others instead of making them wait (each row's result does not depend on which
 // thread computes it, sim/render). The caller returns as soon as every chunk is done: a worker

@@ -1,5 +1,5 @@
 #pragma once
-// Deterministic scenario replay with stored expectations (DESIGN §9, STYLE §12–13).
+// Deterministic scenario replay with stored expectations (docs/design.md §9, docs/style.md §12–13).
 //
 // A scenario folder holds scenario.toml and, after `--bless`, expected/:
 //   expected/digest.toml       build fingerprint, frame count, SHA-256 of every output frame

@@ -1,5 +1,5 @@
 #pragma once
-// `nvstim run` assembled from its parts (DESIGN §7): the scenario, one platform source
+// `nvstim run` assembled from its parts (docs/design.md §7): the scenario, one platform source
 // (telemetry or the scenario's held pose), the synthetic stages, the sinks named by --output,
 // the frame loop, the live status line and the final statistics.
 

@@ -1,5 +1,5 @@
 #pragma once
-// Run statistics (DESIGN §5): output period, deadline misses, frame (render + camera) time,
+// Run statistics (docs/design.md §5): output period, deadline misses, frame (render + camera) time,
 // runtime overhead, telemetry-to-output latency. Each histogram is written by one thread
 // only and is allocated at setup: recording a sample is an increment, never an allocation.
 

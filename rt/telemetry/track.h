@@ -1,5 +1,5 @@
 #pragma once
-// Telemetry → platform state (DESIGN §5–6). Decoded messages become TelemetryUpdates; the
+// Telemetry → platform state (docs/design.md §5–6). Decoded messages become TelemetryUpdates; the
 // PlatformTrack keeps the recent ones and gives the state at any instant:
 //
 //   position and attitude  linear interpolation between the two samples around t; after the

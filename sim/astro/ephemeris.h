@@ -1,5 +1,5 @@
 #pragma once
-// Sun and Moon as seen from a site (DESIGN §4.1), with ERFA (IAU SOFA algorithms).
+// Sun and Moon as seen from a site (docs/design.md §4.1), with ERFA (IAU SOFA algorithms).
 //
 // Per instant:
 //   1. Earth's barycentric and heliocentric position/velocity: eraEpv00 (VSOP2000 fit, ~5 km).

@@ -1,5 +1,5 @@
 #pragma once
-// Time scales for the ephemeris (DESIGN §3: "conversions to TT/UT1 go through ERFA").
+// Time scales for the ephemeris (docs/design.md §3: "conversions to TT/UT1 go through ERFA").
 //
 // Input is a UTC instant. Two scales are derived from it:
 //   UT1 (Earth rotation angle):  UT1 = UTC + DUT1, with DUT1 taken as 0. |DUT1| < 0.9 s by the

@@ -1,6 +1,6 @@
 #pragma once
-// Strict configuration (STYLE §9): defaults live in code, and every key a file holds must be
-// read by the code. After reading, finish() reports the first key nobody asked for, with its
+// Strict configuration (docs/style.md §9): defaults live in code, and every key a file holds must
+// be read by the code. After reading, finish() reports the first key nobody asked for, with its
 // file:line:column and, when the code asked for a similar name, "did you mean". Wrong types
 // and out-of-range values are errors at the value's place. Errors are SetupError.
 //

@@ -1,5 +1,5 @@
 #pragma once
-// One error policy (STYLE §8): configuration and setup errors stop with file:line; expected
+// One error policy (docs/style.md §8): configuration and setup errors stop with file:line; expected
 // runtime failures return values and bump counters; asserts are for bugs only. SetupError is
 // the only exception nvstim throws, and never inside the frame loop.
 

@@ -1,5 +1,5 @@
 #pragma once
-// Gamma draws from one noise word by a tabulated quantile function (DESIGN §3, §4.5).
+// Gamma draws from one noise word by a tabulated quantile function (docs/design.md §3, §4.5).
 //
 // The MCP stage draws Gamma(N·k) for every pixel that received N ≥ 1 photoelectrons, with one
 // fixed k = 1/(F − 1) per camera: a few shapes, hundreds of thousands of draws per field. A

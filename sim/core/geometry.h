@@ -1,6 +1,6 @@
 #pragma once
-// Small vector and rotation math. Frames go in names (DESIGN §3): a rotation that takes body
-// coordinates to ENU coordinates is `enuFromBody`, and `enuFromBody * v_body` is `v_enu`;
+// Small vector and rotation math. Frames go in names (docs/design.md §3): a rotation that takes
+// body coordinates to ENU coordinates is `enuFromBody`, and `enuFromBody * v_body` is `v_enu`;
 // chains read right to left: cameraFromEnu = cameraFromBody * bodyFromEnu.
 //
 // Frames used in nvstim:

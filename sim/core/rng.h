@@ -1,5 +1,5 @@
 #pragma once
-// Keyed, counter-based random numbers (DESIGN §3).
+// Keyed, counter-based random numbers (docs/design.md §3).
 //
 // The noise of pixel (x, y) in frame k of stream s is a pure function of (seed, s, k, x, y):
 // a KeyedRng built from that key yields the same sequence of draws on any thread, in any

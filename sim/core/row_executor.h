@@ -1,6 +1,6 @@
 #pragma once
 // Row executors: how sim/ code hands out independent ranges of work (image rows, bands of rows)
-// to threads it does not own. sim/ starts no threads (DESIGN §2); the runtime passes an
+// to threads it does not own. sim/ starts no threads (docs/design.md §2); the runtime passes an
 // executor backed by its pool (rt/render_stage/row_pool.h), tests and tools the serial one.
 
 namespace nvs {

@@ -1,5 +1,5 @@
 #pragma once
-// Spectra on nvstim's one wavelength grid (DESIGN §3).
+// Spectra on nvstim's one wavelength grid (docs/design.md §3).
 //
 // Grid: 350–1100 nm in 1 nm steps (751 samples). 1 nm, not 5 nm, because the structure the
 // camera band sees is narrower than 5 nm: the O2 A-band (759–770 nm), the water-vapour bands,

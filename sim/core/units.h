@@ -1,6 +1,6 @@
 #pragma once
 // Physical constants, SI (CODATA 2018; h, c, k are exact by the 2019 SI definition).
-// Values that cross a function boundary carry their unit in their name (DESIGN §3).
+// Values that cross a function boundary carry their unit in their name (docs/design.md §3).
 
 namespace nvs {
 

@@ -1,5 +1,5 @@
 #pragma once
-// `nvstim diagnose` (DESIGN §8): fit the camera model to a measured dataset, then try each
+// `nvstim diagnose` (docs/design.md §8): fit the camera model to a measured dataset, then try each
 // effect of the catalog that the model lacks, and name the ones that improve the prediction of
 // held-out frames by more than chance and their extra parameters can explain.
 //

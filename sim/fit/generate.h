@@ -1,6 +1,6 @@
 #pragma once
-// Hidden-effect datasets (DESIGN §9): from a seed, a random stimulus and a random strength of
-// one or more catalog effects within a stated detectable range; the frames are simulated with
+// Hidden-effect datasets (docs/design.md §9): from a seed, a random stimulus and a random strength
+// of one or more catalog effects within a stated detectable range; the frames are simulated with
 // the effects, and the dataset names the camera model without them.
 //
 // The camera: the thesis preset (pulnix-ag5745ef3) at a small frame size, with the model under

@@ -1,5 +1,5 @@
 #pragma once
-// Hidden scenario effects (DESIGN §9): datasets whose stimulus is rendered from a scenario.
+// Hidden scenario effects (docs/design.md §9): datasets whose stimulus is rendered from a scenario.
 // The truth renders the scene with a random strength of one scenario effect (lunar sky light
 // scale, site pressure for refraction, cloud optical depth), the model under test is the same
 // scenario without it. The scene is the thesis's RIT roof (sceneSetupFor): for the null and

@@ -1,5 +1,5 @@
 #pragma once
-// Per-frame messages between the runtime's stages and its sinks (STYLE §5). Plain structs,
+// Per-frame messages between the runtime's stages and its sinks (docs/style.md §5). Plain structs,
 // fixed size, no owning pointers: a stage consumes one and fills another; nothing is allocated
 // per frame. Every time is on the run clock (seconds since the run started).
 
@@ -53,7 +53,7 @@ struct FieldMeta {
 };
 inline constexpr int kMaxFields = 2;
 
-// What a frame carries besides its pixels (the JSON-lines metadata record, DESIGN §6).
+// What a frame carries besides its pixels (the JSON-lines metadata record, docs/design.md §6).
 // Interlaced scan (rt/loop/frame_loop.h): a frame is woven from two fields, field 0 on the even
 // rows, exposed one field period before field 1 on the odd rows. The frame-level fields
 // (t_sample_s, platform, truth) are those of field 1, the field that completes the frame;

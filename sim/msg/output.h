@@ -1,8 +1,8 @@
 #pragma once
-// What the runtime hands its outputs, and the interfaces drivers implement (STYLE §5, §10).
+// What the runtime hands its outputs, and the interfaces drivers implement (docs/style.md §5, §10).
 // The runtime calls them only from its own threads (rt/clock/threads.h) with preallocated
 // buffers; implementations must not allocate, throw or block for long inside these calls
-// (STYLE §3, §8), except status() at the end of a run.
+// (docs/style.md §3, §8), except status() at the end of a run.
 //
 //   FrameSink         one emitted frame → a device or file                 (output thread)
 //   ExposureObserver  an exposure scheduled on the loop's timeline         (camera thread)

@@ -1,5 +1,5 @@
 #pragma once
-// The platform state as commanded (STYLE §5): where the platform (the vehicle carrying the
+// The platform state as commanded (docs/style.md §5): where the platform (the vehicle carrying the
 // camera) is, how it is turned, and how the camera is told to be set, at one instant. Filled
 // by the runtime's platform source from telemetry (CAN, serial, a recorded log) or from the
 // scenario ([platform] values held, [[event]] timeline). What the camera actually applied is

@@ -1,5 +1,5 @@
 #pragma once
-// A frame rate as an exact rational (DESIGN §5): dt = den/num seconds, so that 59.94 Hz
+// A frame rate as an exact rational (docs/design.md §5): dt = den/num seconds, so that 59.94 Hz
 // (60000/1001) does not drift. The clocks that tick at it are the runtime's (rt/clock); the
 // value lives here because a file format carries it too (the y4m header's F num:den).
 

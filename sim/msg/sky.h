@@ -1,6 +1,6 @@
 #pragma once
-// Messages of the sky side of a frame (DESIGN §1: astro → sky → render): where the Sun and Moon
-// are at an instant (sim/astro fills it), and the frame's sky as the renderer needs it,
+// Messages of the sky side of a frame (docs/design.md §1: astro → sky → render): where the Sun and
+// Moon are at an instant (sim/astro fills it), and the frame's sky as the renderer needs it,
 // band-integrated in the camera's two bands (sim/sky fills it). Plain values, fixed size: a
 // frame copies them, nothing is allocated.
 
@@ -22,7 +22,8 @@ struct MoonState {
     double az_rad = 0.0;
     double alt_rad = 0.0;
     double altGeometric_rad = 0.0;
-    double distanceGeocentric_m = 0.0;   // Earth centre to Moon centre (DESIGN §7 distance_km)
+    double distanceGeocentric_m =
+        0.0;  // Earth centre to Moon centre (docs/design.md §7 distance_km)
     double distanceTopocentric_m = 0.0;  // observer to Moon centre (sets the lunar solid angle)
     double sunDistance_m = 0.0;          // Sun centre to Moon centre
     double phaseAngle_rad = 0.0;         // Sun–Moon–Earth angle

@@ -1,5 +1,5 @@
 #pragma once
-// The night-scene renderer (DESIGN §4.4): Embree 3 ray casting of a scene::Scene into a
+// The night-scene renderer (docs/design.md §4.4): Embree 3 ray casting of a scene::Scene into a
 // photoelectron radiance image Lpe [pe s⁻¹ m⁻² sr⁻¹] and a band radiance image
 // Lβ = ∫ L(λ) β(λ) dλ [W m⁻² sr⁻¹] (β the camera's relative response, the thesis's unit).
 //

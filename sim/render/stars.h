@@ -1,8 +1,8 @@
 #pragma once
-// Bright stars seen directly (DESIGN §4.4: "lamps, Moon and bright stars visible in view with
-// their true radiance"). A small catalogue (config/stars/bright_stars.csv: ICRS right ascension
-// and declination, Johnson V), placed each frame by astro::Ephemeris::stars and drawn by the
-// renderer as point sources: the irradiance a star gives at the lens, spread over the pixel it
+// Bright stars seen directly (docs/design.md §4.4: "lamps, Moon and bright stars visible in view
+// with their true radiance"). A small catalogue (config/stars/bright_stars.csv: ICRS right
+// ascension and declination, Johnson V), placed each frame by astro::Ephemeris::stars and drawn by
+// the renderer as point sources: the irradiance a star gives at the lens, spread over the pixel it
 // falls in.
 //
 // Illuminance above the atmosphere from the V magnitude (Allen's Astrophysical Quantities, 4th

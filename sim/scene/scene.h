@@ -1,5 +1,5 @@
 #pragma once
-// A night scene as data (DESIGN §4.4): materials with spectral reflectance and specularity,
+// A night scene as data (docs/design.md §4.4): materials with spectral reflectance and specularity,
 // triangle meshes placed in the scene frame, lamps, moving objects with trajectories, and the
 // camera's pose. Loaded from a TOML file that names OBJ meshes and reflectance CSVs; every error
 // names the file and line it comes from (docs/scene.md has the format).
@@ -57,7 +57,7 @@ struct Object {
     void poseAt(double t_s, Vec3* position_m_out, double* yaw_rad_out) const noexcept;
 };
 
-// A lamp (DESIGN §4.2): a tungsten filament (Planck at its colour temperature) inside a
+// A lamp (docs/design.md §4.2): a tungsten filament (Planck at its colour temperature) inside a
 // diffusing glass bulb, optionally in a housing with a circular aperture.
 //   bare bulb:     point source of spectral intensity I(λ) = L_bb(λ, T) · A_proj, limited to a
 //                  cone of half-angle `cutoff` about `axis` (the housing's field of view)

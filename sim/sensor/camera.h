@@ -1,5 +1,5 @@
 #pragma once
-// Camera preset: every parameter of the IICCD chain (DESIGN §4.5), read from
+// Camera preset: every parameter of the IICCD chain (docs/design.md §4.5), read from
 // config/cameras/NAME.toml with strict keys (unknown keys are errors naming file:line:col) and
 // `--set KEY=VALUE` overrides (an override naming no parameter is an error naming the argument).
 //
@@ -197,7 +197,7 @@ std::filesystem::path resolveCameraPath(const std::filesystem::path& configDir,
 // Parses "KEY=VALUE" arguments; throws SetupError naming the argument.
 Overrides parseOverrides(const std::vector<std::string>& args);
 
-// Input unit conversion for band-integrated radiance images (DESIGN §3, §7).
+// Input unit conversion for band-integrated radiance images (docs/design.md §3, §7).
 // Lpe = Lband · ∫ s(λ) QE(λ) λ/(hc) dλ / ∫ s(λ) β(λ) dλ, with s the source spectrum shape,
 // Luminous sensitivity [µA/lm, 2856 K] of the camera's photocathode for a peak QE of 1: the
 // factor between the datasheet's sensitivity and qe_peak (V(λ) from configDir/spectra).

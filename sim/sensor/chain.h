@@ -1,5 +1,5 @@
 #pragma once
-// The IICCD chain (DESIGN §4.5): photoelectron radiance at the lens → digital counts, one
+// The IICCD chain (docs/design.md §4.5): photoelectron radiance at the lens → digital counts, one
 // field (or frame) per call, with state carried between calls (phosphor afterglow, the AGC /
 // ABC / auto-gate loop, the interlaced output frame).
 //

@@ -1,7 +1,7 @@
 #pragma once
-// Stage MTFs of the IICCD (thesis §6.3, §7.4; DESIGN §4.5 step 7). Frequencies are in cycles
-// per mm in the image plane of the lens, which is the photocathode plane: the II tube has unit
-// magnification, so the phosphor and the fibre-optic taper's input face share that scale; the
+// Stage MTFs of the IICCD (thesis §6.3, §7.4; docs/design.md §4.5 step 7). Frequencies are in
+// cycles per mm in the image plane of the lens, which is the photocathode plane: the II tube has
+// unit magnification, so the phosphor and the fibre-optic taper's input face share that scale; the
 // CCD sits behind the taper, so its cells appear taper_magnification times larger there.
 
 #include "sim/sensor/camera.h"

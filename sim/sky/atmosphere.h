@@ -1,5 +1,5 @@
 #pragma once
-// Spectral clear-sky atmosphere for night scenes, 350–1100 nm (DESIGN §4.3).
+// Spectral clear-sky atmosphere for night scenes, 350–1100 nm (docs/design.md §4.3).
 //
 // The column above the site is described by vertical optical depths per wavelength:
 //   Rayleigh   τ_R(λ)  Bodhaine et al. (1999) eq. 30, scaled by the site pressure;

@@ -1,7 +1,7 @@
 #pragma once
 // The atmosphere table: every sky term nvstim needs per frame, band-integrated for each camera
 // band and tabulated over geometry, built once per (site altitude, atmosphere, source spectrum,
-// bands), cached on disk, and interpolated per frame without allocation (DESIGN §4.3).
+// bands), cached on disk, and interpolated per frame without allocation (docs/design.md §4.3).
 //
 // Terms, per band b with weight w_b(λ) (683·V(λ) for lux, QE(λ)·λ/(hc) for photoelectrons):
 //   directTransmittance(b, z_s)      ∫E0·T_dir·w / ∫E0·w          beam, source at zenith z_s

@@ -1,6 +1,6 @@
 #pragma once
-// The Moon as a source above the atmosphere (DESIGN §4.2): spectral irradiance at the observer,
-// normal to the Moon's direction.
+// The Moon as a source above the atmosphere (docs/design.md §4.2): spectral irradiance at the
+// observer, normal to the Moon's direction.
 //
 //   E(λ) = E☉(λ) · (1 au / r☉)² · A(λ) · Ω☾/π · Φ(α)
 //

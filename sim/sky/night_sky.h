@@ -1,5 +1,5 @@
 #pragma once
-// The moonless night sky (DESIGN §4.2): the thesis's measured spectrum (Appendix G,
+// The moonless night sky (docs/design.md §4.2): the thesis's measured spectrum (Appendix G,
 // config/spectra/night_sky_thesis_appendix_g.csv; 0.0012 lx on a horizontal surface) split into
 // components that can be scaled one by one. With all scales 1 the components add up to the
 // Appendix G spectrum exactly in energy (bin by bin outside the 50 nm cells around the lines).

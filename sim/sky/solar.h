@@ -1,5 +1,5 @@
 #pragma once
-// The Sun as a source above the atmosphere (DESIGN §4.2).
+// The Sun as a source above the atmosphere (docs/design.md §4.2).
 //
 // Spectrum: ASTM G173-03 extraterrestrial column (E-490 / Gueymard 2004 based), 350–1100 nm,
 // config/spectra/astm_g173_etr_solar_350_1100nm.csv, W m⁻² nm⁻¹ at 1 au, scaled by (1 au / r)².

@@ -1,6 +1,6 @@
-// The frame loop allocates nothing per field in steady state (STYLE §3; issue 17): the rendered
-// airborne pass (moving platform from its CAN log, 768×494 interlaced, every camera stage, y4m
-// and metadata outputs) under the sim clock, with the global operator new replaced by a
+// The frame loop allocates nothing per field in steady state (docs/style.md §3; issue 17): the
+// rendered airborne pass (moving platform from its CAN log, 768×494 interlaced, every camera stage,
+// y4m and metadata outputs) under the sim clock, with the global operator new replaced by a
 // counting one (rt/bench/count_new.cpp, linked into this test). The count is read from the
 // render thread when it samples the pose of field 20 (frame 10: setup and the pipeline's fill
 // are over) and of field 60; in between every thread of the loop — render, camera, output and

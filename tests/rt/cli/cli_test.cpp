@@ -1,4 +1,4 @@
-// The nvstim command line as a user meets it: help lists every subcommand of DESIGN §7, bad
+// The nvstim command line as a user meets it: help lists every subcommand of docs/design.md §7, bad
 // usage exits 2 with one line, unbuilt subcommands exit non-zero saying so.
 #include "rt/cli/cli.h"
 

@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""ctest: `nvstim ephem` prints exactly the JSON of DESIGN §7 and agrees with PyEphem; bad input
+"""ctest: `nvstim ephem` prints exactly the JSON of docs/design.md §7 and agrees with PyEphem; bad input
 gives a non-zero exit and one line on stderr; `nvstim illum` carries the four illuminance keys.
 
     /usr/bin/python3 check_cli.py PATH/TO/nvstim

@@ -1,4 +1,4 @@
-// Hidden-effect tests (DESIGN §9, docs/validation.md "diagnose"): a few seeds per catalog
+// Hidden-effect tests (docs/design.md §9, docs/validation.md "diagnose"): a few seeds per catalog
 // effect on small frames. Each dataset is generated with the effect at a random strength within
 // its stated range and diagnosed with the model that lacks it; in at least two of three seeds
 // the top finding must name it with its parameters within 20 %. Null datasets must give no

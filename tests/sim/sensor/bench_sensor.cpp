@@ -1,4 +1,4 @@
-// Speed of the whole IICCD chain, 768 x 494, one core, every stage on (DESIGN §4.5 budget:
+// Speed of the whole IICCD chain, 768 x 494, one core, every stage on (docs/design.md §4.5 budget:
 // ≤ 6 ms per field). Input: a checkerboard of 0.003 / 0.009 pe per pixel per field (plus
 // 0.02 pe of EBI) with a 20 x 20 px lamp that saturates and blooms (BM_ChainField, AGC off /
 // on / BSP); and the same scene 40x brighter, ~0.3 pe per pixel per field, the level of the

@@ -179,7 +179,7 @@ TEST(Section4_5, FixedPatternNoiseExplainsTheTwoFrameAverage) {
     EXPECT_NEAR(s2, averaged, 0.15 * averaged);
 }
 
-// A pixel's MCP draw depends on its key and its own photoelectrons only (DESIGN §3), not on
+// A pixel's MCP draw depends on its key and its own photoelectrons only (docs/design.md §3), not on
 // how many of its row's pixels draw: a row where few draw takes the sparse path (their own
 // Philox blocks), one where most draw the dense path (the whole row's words). Whole N inside
 // the quantile table, N past it (Marsaglia–Tsang from the pixel's stream) and a fractional N.
