@@ -1,7 +1,5 @@
 #include "sim/core/rng.h"
 
-#include <Random123/philox.h>
-
 #include <algorithm>
 #include <array>
 #include <bit>
@@ -23,42 +21,6 @@
 #endif
 
 namespace nvs {
-
-KeyedRng::KeyedRng(RngKey key, std::uint64_t frame, std::uint32_t x, std::uint32_t y)
-    : key_{key.seed, key.stream}, ctr_{frame, (static_cast<std::uint64_t>(y) << 32) | x, 0, 0} {}
-
-void KeyedRng::refill() {
-    using Philox = r123::Philox4x64;
-    const Philox::ctr_type c = {{ctr_[0], ctr_[1], ctr_[2], ctr_[3]}};
-    const Philox::key_type k = {{key_[0], key_[1]}};
-    const Philox::ctr_type r = Philox()(c, k);
-    for (int i = 0; i < 4; ++i)
-        out_[i] = r.v[i];
-    ++ctr_[2];
-    used_ = 0;
-}
-
-std::uint64_t KeyedRng::nextU64() {
-    if (used_ == 4) refill();
-    return out_[used_++];
-}
-
-double KeyedRng::uniform() {
-    // (u >> 11 + 0.5) · 2⁻⁵³ lies in (0, 1): never 0, never 1, so log(u) is always finite.
-    return (static_cast<double>(nextU64() >> 11) + 0.5) * 0x1.0p-53;
-}
-
-double KeyedRng::gaussian() {
-    if (hasSpare_) {
-        hasSpare_ = false;
-        return spareGaussian_;
-    }
-    const double r = std::sqrt(-2.0 * std::log(uniform()));
-    const double phi = kTwoPi * uniform();
-    spareGaussian_ = r * std::sin(phi);
-    hasSpare_ = true;
-    return r * std::cos(phi);
-}
 
 double logFactorial(double k) {
     static constexpr double kTable[16] = {
@@ -89,8 +51,8 @@ double logFactorial(double k) {
 }
 
 namespace {
-// PTRS (Hörmann 1993, algorithm PTRS with the constants of his Table 1), shared by
-// KeyedRng::poisson and the per-pixel samplers. PtrsShape and ptrsK are also what poissonRow's
+// PTRS (Hörmann 1993, algorithm PTRS with the constants of his Table 1), for the single draws
+// of the per-pixel samplers. PtrsShape and ptrsK are also what poissonRow's
 // vector first attempt computes: the same operations, so the same bits.
 struct PtrsShape {
     double b, a, vr;
@@ -131,55 +93,6 @@ double ptrsDraw(double mean, double u, double v, NextPair&& nextPair) {
     }
 }
 }  // namespace
-
-double KeyedRng::poisson(double mean) {
-    if (!(mean > 0.0)) return 0.0;
-    if (mean < 10.0) {
-        // Inversion: the smallest k with F(k) ≥ u. The loop bound guards against a u within
-        // rounding of 1; P(k > mean + 60) is below 1e-30 for mean < 10.
-        const double u = uniform();
-        double p = std::exp(-mean);
-        double cdf = p;
-        double k = 0.0;
-        while (u > cdf && k < mean + 60.0) {
-            k += 1.0;
-            p *= mean / k;
-            cdf += p;
-        }
-        return k;
-    }
-    const auto pair = [this](double& u, double& v) {
-        u = uniform() - 0.5;
-        v = uniform();
-    };
-    double u = 0.0, v = 0.0;
-    pair(u, v);
-    return ptrsDraw(mean, u, v, pair);
-}
-
-double KeyedRng::gamma(double shape, double scale) {
-    if (!(shape > 0.0)) return 0.0;
-    if (shape < 1.0) {
-        // Gamma(a) = Gamma(a + 1) · U^(1/a) (Marsaglia & Tsang 2000, §6).
-        const double g = gamma(shape + 1.0, 1.0);
-        return scale * g * std::pow(uniform(), 1.0 / shape);
-    }
-    const double d = shape - 1.0 / 3.0;
-    const double c = 1.0 / std::sqrt(9.0 * d);
-    for (;;) {
-        double x = 0.0;
-        double v = 0.0;
-        do {
-            x = gaussian();
-            v = 1.0 + c * x;
-        } while (v <= 0.0);
-        v = v * v * v;
-        const double u = uniform();
-        const double x2 = x * x;
-        if (u < 1.0 - 0.0331 * x2 * x2) return scale * d * v;
-        if (std::log(u) < 0.5 * x2 + d * (1.0 - v + std::log(v))) return scale * d * v;
-    }
-}
 
 }  // namespace nvs
 

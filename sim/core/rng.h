@@ -1,19 +1,14 @@
 #pragma once
 // Keyed, counter-based random numbers (docs/design.md §3).
 //
-// The noise of pixel (x, y) in frame k of stream s is a pure function of (seed, s, k, x, y):
-// a KeyedRng built from that key yields the same sequence of draws on any thread, in any
-// order, with any tiling. The generator is Philox4x64-10 (Salmon, Moraes, Dror & Shaw,
-// "Parallel random numbers: as easy as 1, 2, 3", SC 2011) from Debian's Random123 headers:
-// key = (seed, stream), counter = (frame, y·2³² + x, block, 0); each block yields four 64-bit
-// words and `block` counts blocks drawn for this key.
+// The noise of pixel (x, y) in frame k of stream s is a pure function of (seed, s, k, x, y),
+// the same on any thread, in any order, with any tiling. The generator is Philox4x32-10
+// (Salmon, Moraes, Dror & Shaw, "Parallel random numbers: as easy as 1, 2, 3", SC 2011).
 //
 // The distributions are exact samplers (no normal approximations):
-//   poisson   KeyedRng: mean < 10 inversion by sequential search (exact, ~mean+1 uniforms),
-//             mean ≥ 10 PTRS; the per-pixel samplers below invert up to mean 32 (one word);
-//             PTRS, Hörmann (1993) "The transformed rejection method for
-//             generating Poisson random variables" — exact, O(1) (~2.3 uniforms) at any mean.
-//   gaussian  Box–Muller (both variates used).
+//   poisson   inversion up to mean 32 (one word); above, PTRS, Hörmann (1993) "The
+//             transformed rejection method for generating Poisson random variables" — exact,
+//             O(1) (~2.3 uniforms) at any mean.
 //   gamma     Marsaglia & Tsang (2000) "A simple method for generating gamma variables" for
 //             shape ≥ 1; shape < 1 by Gamma(a+1)·U^(1/a).
 // No allocation and no exceptions: safe in the frame loop.
@@ -36,33 +31,6 @@ enum class RngStream : std::uint32_t {
     ReadNoise = 4,
     FixedPattern = 5,
     Scene = 6,
-};
-
-class KeyedRng {
-  public:
-    KeyedRng(RngKey key, std::uint64_t frame, std::uint32_t x, std::uint32_t y);
-    KeyedRng(std::uint64_t seed, RngStream stream, std::uint64_t frame, std::uint32_t x,
-             std::uint32_t y)
-        : KeyedRng(RngKey{seed, static_cast<std::uint32_t>(stream)}, frame, x, y) {}
-
-    std::uint64_t nextU64();
-    // Uniform on the open interval (0, 1), 53-bit resolution.
-    double uniform();
-    double gaussian();
-    // An integer-valued double; mean ≤ 0 gives 0.
-    double poisson(double mean);
-    // Gamma(shape, scale): mean shape·scale, variance shape·scale². shape ≤ 0 gives 0.
-    double gamma(double shape, double scale);
-
-  private:
-    void refill();
-
-    std::uint64_t key_[2];
-    std::uint64_t ctr_[4];
-    std::uint64_t out_[4] = {0, 0, 0, 0};
-    int used_ = 4;
-    double spareGaussian_ = 0.0;
-    bool hasSpare_ = false;
 };
 
 // ---- Per-pixel noise words (Philox4x32-10) ---------------------------------------------------
@@ -148,7 +116,7 @@ float normalFromWord(std::uint32_t w) noexcept;
 
 // Poisson(mean) from one word, exact to the word's 2⁻³² resolution: for mean < 32, inversion
 // on the survival function S(k) = P(N > k): k is the first with u ≥ S(k), S(0) = P(N ≥ 1) =
-// −expm1(−mean) and P(N = 1) from poissonStart; for mean ≥ 32, PTRS (as KeyedRng::poisson)
+// −expm1(−mean) and P(N = 1) from poissonStart; for mean ≥ 32, PTRS
 // with the first u from the word and the rest from `more`.
 double poissonFromWord(double mean, std::uint32_t word, PixelStream& more) noexcept;
 
