@@ -1,13 +1,9 @@
 #include "rt/loop/frame_loop.h"
 
 #include <algorithm>
-#include <array>
-#include <cerrno>
-#include <cmath>
 #include <cstring>
 
 #include "rt/clock/threads.h"
-#include "sim/core/error.h"
 
 namespace nvs::rt {
 
@@ -25,9 +21,10 @@ FrameLoop::FrameLoop(const LoopConfig& config, PlatformSource& platform, RenderS
       period_ns_(WallClock(config.rate).deadline_ns(1)) {
     // Default exposure: one frame (progressive) or one field (interlaced).
     exposure_s_ = config.exposure_s > 0.0 ? config.exposure_s : field_s_;
-    if (config.clock == ClockKind::Trigger && config.trigger == nullptr) {
-        throw SetupError("the trigger clock needs a trigger input");
-    }
+    const PacingContext ctx{wall_,       sim_,     stop_,   *this,         events_,
+                            stats_,      trigger_, live_,   config.frames, period_ns_,
+                            exposure_s_, fields_,  field_s_};
+    pacing_ = makePacing(config.clock, ctx, config.trigger, config.triggerTimeout_s);
     // Each slot holds the images the render stage fills, each in its own unit.
     const RenderStage::Outputs out = render.outputs();
     const auto image = [&](bool wanted) {
@@ -50,11 +47,6 @@ FrameLoop::FrameLoop(const LoopConfig& config, PlatformSource& platform, RenderS
         channels_.push_back(std::make_unique<SinkChannel>(*sink, config.sinkQueueFrames,
                                                           config.width, config.height, out));
     }
-    // Stalled: no edge for the timeout (default three nominal periods).
-    triggerTimeout_ns_ =
-        config.triggerTimeout_s > 0.0
-            ? static_cast<std::int64_t>(std::llround(config.triggerTimeout_s * 1e9))
-            : 3 * period_ns_;
 }
 
 FrameLoop::~FrameLoop() {
@@ -63,7 +55,7 @@ FrameLoop::~FrameLoop() {
 }
 
 double FrameLoop::tickTime_s(std::int64_t k) const {
-    return config_.clock == ClockKind::Wall ? wall_.tickTime_s(k) : sim_.tickTime_s(k);
+    return pacing_->tickTime_s(k);
 }
 
 void FrameLoop::startWorkers() {
@@ -97,7 +89,7 @@ void FrameLoop::start(std::vector<std::string>& messages) {
     // Tick 0 is one period away, so frame 0 has a whole period to render.
     const std::int64_t now_ns = monotonicNow_ns();
     wall_.start(now_ns + wall_.deadline_ns(1));
-    triggerRef_ns_ = now_ns;
+    pacing_->started(now_ns);
     const bool rt = config_.realtime;
     renderThread_ = std::thread([this, rt] { renderThread(rt); });
     cameraThread_ = std::thread([this, rt] { cameraThread(rt); });
@@ -127,12 +119,14 @@ void FrameLoop::requestStop() noexcept {
     stop_.store(true, std::memory_order_release);
     for (auto& ch : channels_)
         ch->wake();  // an output thread waiting for room (sim clock) sees the stop
-    readySeq_.fetch_add(1, std::memory_order_release);
-    readySeq_.notify_all();
-    freeSeq_.fetch_add(1, std::memory_order_release);
-    freeSeq_.notify_all();
-    renderedSeq_.fetch_add(1, std::memory_order_release);
-    renderedSeq_.notify_all();
+    notify(readySeq_);
+    notify(freeSeq_);
+    notify(renderedSeq_);
+}
+
+void FrameLoop::notify(std::atomic<std::uint32_t>& seq) noexcept {
+    seq.fetch_add(1, std::memory_order_release);
+    seq.notify_all();
 }
 
 void FrameLoop::join() {
@@ -141,10 +135,7 @@ void FrameLoop::join() {
     if (outputThread_.joinable()) outputThread_.join();
     drainChannels();
     joinWorkers();
-    stats_.frameTime = frameTime_;
-    stats_.counters.framesRendered = framesRendered_;
-    stats_.counters.skippedRenders = renderSkipped_;
-    stats_.counters.staleFrames = staleFrames_;
+    // The outputs' counters are their channels'; the loop's own went through events_.
     stats_.counters.sinkErrors = 0;
     stats_.counters.sinkQueueDrops = 0;
     stats_.counters.outputsFailed = 0;
@@ -211,10 +202,12 @@ void FrameLoop::checkChannels() noexcept {
 
 // ---- render thread ---------------------------------------------------------------------------
 
-void FrameLoop::renderFrame(Slot& s, std::int64_t r, double t_k, double now_s) noexcept {
+void FrameLoop::renderFrame(Slot& s, std::int64_t r, const FrameStart& at) noexcept {
+    s.start_ns = at.start_ns;
+    s.edge_ns = at.edge_ns;
     for (int f = 0; f < fields_; ++f) {
         // Field f of an interlaced frame: t_f = t_k − (1 − f)·T_f; progressive: t_k.
-        const double t_f = t_k - static_cast<double>(fields_ - 1 - f) * field_s_;
+        const double t_f = at.t_k_s - static_cast<double>(fields_ - 1 - f) * field_s_;
         // Field 0 (or the whole frame) into the slot's images; field 1 into its field buffers.
         const RadianceTarget out =
             f == 0 ? RadianceTarget{s.lpe_pe_s_m2_sr.view(), s.band_W_m2_sr.view()}
@@ -231,7 +224,7 @@ void FrameLoop::renderFrame(Slot& s, std::int64_t r, double t_k, double now_s) n
         req.rowParity = fields_ == 2 && config_.fieldRowsOnly && follows
                             ? f ^ (config_.topFieldFirst ? 0 : 1)
                             : -1;
-        platform_.sample(t_f, now_s, req.platform);
+        platform_.sample(t_f, at.now_s, req.platform);
         m.truthCount = 0;
         render_.render(req, out, m);
     }
@@ -239,9 +232,76 @@ void FrameLoop::renderFrame(Slot& s, std::int64_t r, double t_k, double now_s) n
     lastRendered_ = r;
 }
 
+bool FrameLoop::takeFreeSlot(int& slot) noexcept {
+    while (!free_.pop(slot)) {
+        const std::uint32_t seq = freeSeq_.load(std::memory_order_acquire);
+        if (free_.peek(slot)) continue;
+        if (stop_.load(std::memory_order_acquire)) return false;
+        freeSeq_.wait(seq, std::memory_order_acquire);
+    }
+    return true;
+}
+
+void FrameLoop::renderThread(bool realtime) {
+    std::string msg;
+    applyThreadSpec(kThreadRender, realtime, msg);
+    renderMessage_ = msg.empty() ? "ok" : msg;
+    postMessage();
+    const auto pastEnd = [this](std::int64_t r) {
+        return config_.frames >= 0 && r >= config_.frames;
+    };
+    for (std::int64_t r = 0; !stop_.load(std::memory_order_acquire) && !pastEnd(r); ++r) {
+        r = pacing_->frameDue(r);  // wall clock: frames whose tick has passed are skipped
+        if (pastEnd(r)) break;
+        int slot = -1;
+        if (!takeFreeSlot(slot)) break;
+        FrameStart at;
+        if (!pacing_->startFrame(r, at)) break;  // wall: just in time; trigger: at its edge
+        renderFrame(slots_[slot], r, at);
+        rendered_.push(slot);
+        notify(renderedSeq_);
+    }
+    renderFinished_.store(true, std::memory_order_release);
+    notify(renderedSeq_);
+}
+
+// ---- camera thread ---------------------------------------------------------------------------
+
+void FrameLoop::scheduleExposure(const Slot& s, int field, double gate_s) noexcept {
+    // The exposure on the loop's timeline, for the gate pulse: it is scheduled now, while the
+    // frame is made ahead of its emission.
+    ExposureWindow w;
+    w.frame = s.frame;
+    w.field = field;
+    w.t_sample_s = s.request[field].t_sample_s;
+    w.start_s = w.t_sample_s - 0.5 * exposure_s_;
+    w.exposure_s = exposure_s_;
+    w.gate_s = gate_s;
+    w.startMonotonic_ns = pacing_->monotonic_ns(w.start_s);
+    for (ExposureObserver* o : observers_)
+        o->exposureScheduled(w);
+}
+
+void FrameLoop::weaveFields(Slot& s) noexcept {
+    // Weave: field 1's rows (odd, top field first). The frame is described by field 1, which
+    // completes it (messages.h); field[0] keeps the first field's own exposure.
+    const std::size_t radBytes = static_cast<std::size_t>(config_.width) * sizeof(float);
+    const std::size_t cntBytes = static_cast<std::size_t>(config_.width) * sizeof(std::uint16_t);
+    const bool lpe = !s.lpe_pe_s_m2_sr.empty();
+    const bool band = !s.band_W_m2_sr.empty();
+    for (int y = config_.topFieldFirst ? 1 : 0; y < config_.height; y += 2) {
+        if (lpe) std::memcpy(s.lpe_pe_s_m2_sr.row(y), s.fieldLpe_pe_s_m2_sr.row(y), radBytes);
+        if (band) std::memcpy(s.band_W_m2_sr.row(y), s.fieldBand_W_m2_sr.row(y), radBytes);
+        std::memcpy(s.counts.view().row(y), fieldCounts_.cview().row(y), cntBytes);
+    }
+    s.meta.t_sample_s = s.fieldMeta.t_sample_s;
+    s.meta.platform = s.fieldMeta.platform;
+    s.meta.truthCount = s.fieldMeta.truthCount;
+    for (int i = 0; i < s.fieldMeta.truthCount && i < kMaxTruthBoxes; ++i)
+        s.meta.truth[i] = s.fieldMeta.truth[i];
+}
+
 void FrameLoop::exposeFrame(Slot& s) noexcept {
-    const bool realClock = config_.clock != ClockKind::Sim;
-    const std::int64_t r = s.frame;
     bool stale = false;
     for (int f = 0; f < fields_; ++f) {
         const FrameRequest& req = s.request[f];
@@ -257,245 +317,48 @@ void FrameLoop::exposeFrame(Slot& s) noexcept {
         applied = FieldMeta{t_f, req.platform.gain_V, req.platform.gate_s};
         camera_.expose(req, in, counts, applied);
         applied.t_sample_s = t_f;
-        m.frame = r;
+        m.frame = s.frame;
         m.t_sample_s = t_f;
         m.exposure_s = exposure_s_;
         m.platform = req.platform;  // as commanded
         stale = stale || req.platform.stale;
-        // The exposure on the loop's timeline, for the gate pulse: it is scheduled now, while
-        // the frame is made ahead of its emission.
-        if (!observers_.empty()) {
-            ExposureWindow w;
-            w.frame = r;
-            w.field = f;
-            w.t_sample_s = t_f;
-            w.start_s = t_f - 0.5 * exposure_s_;
-            w.exposure_s = exposure_s_;
-            w.gate_s = applied.gate_s;
-            w.startMonotonic_ns = realClock ? wall_.start_ns() + std::llround(w.start_s * 1e9) : 0;
-            for (ExposureObserver* o : observers_)
-                o->exposureScheduled(w);
-        }
+        if (!observers_.empty()) scheduleExposure(s, f, applied.gate_s);
     }
-    if (fields_ == 2) {
-        // Weave: field 1's rows (odd, top field first). The frame is described by field 1, which
-        // completes it (messages.h); field[0] keeps the first field's own exposure.
-        const std::size_t radBytes = static_cast<std::size_t>(config_.width) * sizeof(float);
-        const std::size_t cntBytes =
-            static_cast<std::size_t>(config_.width) * sizeof(std::uint16_t);
-        const bool lpe = !s.lpe_pe_s_m2_sr.empty();
-        const bool band = !s.band_W_m2_sr.empty();
-        for (int y = config_.topFieldFirst ? 1 : 0; y < config_.height; y += 2) {
-            if (lpe) std::memcpy(s.lpe_pe_s_m2_sr.row(y), s.fieldLpe_pe_s_m2_sr.row(y), radBytes);
-            if (band) std::memcpy(s.band_W_m2_sr.row(y), s.fieldBand_W_m2_sr.row(y), radBytes);
-            std::memcpy(s.counts.view().row(y), fieldCounts_.cview().row(y), cntBytes);
-        }
-        s.meta.t_sample_s = s.fieldMeta.t_sample_s;
-        s.meta.platform = s.fieldMeta.platform;
-        s.meta.truthCount = s.fieldMeta.truthCount;
-        for (int i = 0; i < s.fieldMeta.truthCount && i < kMaxTruthBoxes; ++i)
-            s.meta.truth[i] = s.fieldMeta.truth[i];
-    }
+    if (fields_ == 2) weaveFields(s);
     s.meta.fieldCount = fields_;
     s.meta.triggerEdge_ns = s.edge_ns;
-    if (stale) ++staleFrames_;
+    if (stale) events_.count(LoopEvent::StaleFrame);
     live_.stale.store(stale, std::memory_order_relaxed);
 }
 
-bool FrameLoop::acceptEdge(std::int64_t t_ns) noexcept {
-    ++trigger_.edges;
-    if (lastEdge_ns_ != 0) {
-        const std::int64_t d = t_ns - lastEdge_ns_;
-        if (2 * d < period_ns_) {
-            // Less than half a period after the last good edge: a glitch or a double pulse.
-            ++trigger_.extra;
-            live_.triggerExtra.fetch_add(1, std::memory_order_relaxed);
-            return false;
-        }
-        // n = round(d/dt) periods since the last good edge: n − 1 edges went missing.
-        const std::int64_t n = (2 * d + period_ns_) / (2 * period_ns_);
-        if (n >= 2) {
-            trigger_.missing += n - 1;
-            live_.triggerMissing.fetch_add(n - 1, std::memory_order_relaxed);
-        }
-        trigger_.interval.add(static_cast<double>(d) * 1e-9);
-    }
-    lastEdge_ns_ = t_ns;
-    triggerRef_ns_ = t_ns;
-    stalled_ = false;
-    live_.triggerStalled.store(false, std::memory_order_relaxed);
-    return true;
-}
-
-bool FrameLoop::waitTrigger(std::int64_t& edge_ns) noexcept {
-    // Wait in short slices so that a stop request is seen within 20 ms.
-    const std::int64_t slice_ns = std::min<std::int64_t>(period_ns_, 20'000'000);
-    TriggerSource& trig = *config_.trigger;
+bool FrameLoop::takeRendered(int& slot) noexcept {
     for (;;) {
+        const std::uint32_t seq = renderedSeq_.load(std::memory_order_acquire);
+        if (rendered_.pop(slot)) return true;
+        // Frames rendered before the render thread stopped are still exposed.
+        if (renderFinished_.load(std::memory_order_acquire) && !rendered_.peek(slot)) return false;
         if (stop_.load(std::memory_order_acquire)) return false;
-        std::int64_t t = 0;
-        const int rc = trig.waitEdge(slice_ns, &t);
-        if (rc == 1) {
-            if (!acceptEdge(t)) continue;
-            // Edges that queued up while the last frame rendered: the newest one starts this
-            // frame (the older exposures are over); the others are overruns.
-            std::int64_t t2 = 0;
-            while (trig.waitEdge(0, &t2) == 1) {
-                if (acceptEdge(t2)) {
-                    ++trigger_.overruns;
-                    t = t2;
-                }
-            }
-            ++trigger_.frames;
-            edge_ns = t;
-            return true;
-        }
-        if (rc < 0) {
-            // A failing input returns at once: count it and wait a slice before retrying.
-            ++trigger_.errors;
-            WallClock::sleepUntil(monotonicNow_ns() + slice_ns);
-        }
-        if (!stalled_ && monotonicNow_ns() - triggerRef_ns_ > triggerTimeout_ns_) {
-            stalled_ = true;
-            ++trigger_.stalls;
-            live_.triggerStalled.store(true, std::memory_order_relaxed);
-        }
+        renderedSeq_.wait(seq, std::memory_order_acquire);
     }
 }
-
-void FrameLoop::noteFrameLatency(std::int64_t took_ns) noexcept {
-    // The median of the last few frame latencies (a single slow frame does not move it), with
-    // a margin for the output thread's wake-up and the sinks.
-    recentFrame_ns_[recentNext_] = took_ns;
-    recentNext_ = (recentNext_ + 1) % kRecentFrames;
-    recentCount_ = std::min(recentCount_ + 1, kRecentFrames);
-    std::array<std::int64_t, kRecentFrames> t = recentFrame_ns_;
-    for (int i = 1; i < recentCount_; ++i)  // insertion sort of at most kRecentFrames values
-        for (int j = i; j > 0 && t[j - 1] > t[j]; --j)
-            std::swap(t[j - 1], t[j]);
-    const std::int64_t median_ns = t[recentCount_ / 2];
-    expectedFrame_ns_.store(median_ns + median_ns / 10 + 500'000, std::memory_order_relaxed);
-    // When to start a frame: early enough for the slowest of them plus a quarter, 1 ms and one
-    // period (slack for a busy machine's scheduling and an occasional slower frame).
-    const std::int64_t max_ns = t[recentCount_ - 1];
-    leadFrame_ns_.store(max_ns + max_ns / 4 + 1'000'000 + period_ns_, std::memory_order_relaxed);
-}
-
-void FrameLoop::renderThread(bool realtime) {
-    std::string msg;
-    applyThreadSpec(kThreadRender, realtime, msg);
-    renderMessage_ = msg.empty() ? "ok" : msg;
-    postMessage();
-    const bool wall = config_.clock == ClockKind::Wall;
-    const bool trig = config_.clock == ClockKind::Trigger;
-    std::int64_t r = 0;
-    for (;;) {
-        if (stop_.load(std::memory_order_acquire)) break;
-        if (config_.frames >= 0 && r >= config_.frames) break;
-        if (wall) {
-            // A frame whose deadline has passed is worth nothing: skip to the next one due.
-            // And when frames take longer than a period, the next one due cannot be on time
-            // either: aim at the first tick a frame started now can still meet, given how long
-            // frames take now (so a slow scene shows fewer fresh frames, each at its own tick,
-            // instead of none).
-            std::int64_t due = outputTick_.load(std::memory_order_acquire);
-            const std::int64_t expected_ns = expectedFrame_ns_.load(std::memory_order_relaxed);
-            if (expected_ns > 0) {
-                due = std::max(due, wall_.tickAt(monotonicNow_ns() + expected_ns) + 1);
-            }
-            if (r < due) {
-                renderSkipped_ += due - r;
-                live_.skipped.fetch_add(due - r, std::memory_order_relaxed);
-                r = due;
-                if (config_.frames >= 0 && r >= config_.frames) break;
-            }
-        }
-        int slot = -1;
-        while (!free_.pop(slot)) {
-            const std::uint32_t seq = freeSeq_.load(std::memory_order_acquire);
-            if (free_.peek(slot)) continue;
-            if (stop_.load(std::memory_order_acquire)) goto done;
-            freeSeq_.wait(seq, std::memory_order_acquire);
-        }
-        if (wall) {
-            // Just in time: a frame started long before its deadline would show a pose
-            // extrapolated that much further ahead and older telemetry. Start it when the
-            // slowest recent frames would still make it with a period to spare (the slots
-            // bound how far ahead it can be anyway), in slices so that a stop is seen.
-            const std::int64_t lead_ns = leadFrame_ns_.load(std::memory_order_relaxed);
-            if (lead_ns > 0) {
-                const std::int64_t startAt = wall_.deadline_ns(r) - lead_ns;
-                for (std::int64_t now = monotonicNow_ns(); now < startAt; now = monotonicNow_ns()) {
-                    if (stop_.load(std::memory_order_acquire)) goto done;
-                    WallClock::sleepUntil(std::min(startAt, now + 20'000'000));
-                }
-            }
-        }
-        {
-            // Trigger clock: the slot is in hand, so the frame starts as soon as its edge comes.
-            std::int64_t edge_ns = 0;
-            if (trig && !waitTrigger(edge_ns)) goto done;
-            const std::int64_t t0_ns = monotonicNow_ns();
-            // t_k: the time of the frame's (last) exposure. Trigger: the edge starts the
-            // (first) exposure, so t_sample_s = t_edge + e/2, and field 1 one field later.
-            const double t_k = trig ? wall_.runTime_s(edge_ns) + 0.5 * exposure_s_ +
-                                          static_cast<double>(fields_ - 1) * field_s_
-                                    : tickTime_s(r);
-            // "Now" for telemetry: the wall clock's reading, or under the sim clock the
-            // instant this frame's render nominally starts, one period before its deadline.
-            const double now_s =
-                wall || trig ? wall_.runTime_s(t0_ns) : (r > 0 ? sim_.tickTime_s(r - 1) : 0.0);
-            Slot& sl = slots_[slot];
-            sl.start_ns = t0_ns;
-            sl.edge_ns = edge_ns;
-            renderFrame(sl, r, t_k, now_s);
-        }
-        rendered_.push(slot);
-        renderedSeq_.fetch_add(1, std::memory_order_release);
-        renderedSeq_.notify_all();
-        ++r;
-    }
-done:
-    renderFinished_.store(true, std::memory_order_release);
-    renderedSeq_.fetch_add(1, std::memory_order_release);
-    renderedSeq_.notify_all();
-}
-
-// ---- camera thread ---------------------------------------------------------------------------
 
 void FrameLoop::cameraThread(bool realtime) {
     std::string msg;
     applyThreadSpec(kThreadCamera, realtime, msg);
     cameraMessage_ = msg.empty() ? "ok" : msg;
     postMessage();
-    for (;;) {
-        int slot = -1;
-        bool got = false;
-        for (;;) {
-            const std::uint32_t seq = renderedSeq_.load(std::memory_order_acquire);
-            if (rendered_.pop(slot)) {
-                got = true;
-                break;
-            }
-            // Frames rendered before the render thread stopped are still exposed.
-            if (renderFinished_.load(std::memory_order_acquire) && !rendered_.peek(slot)) break;
-            if (stop_.load(std::memory_order_acquire)) break;
-            renderedSeq_.wait(seq, std::memory_order_acquire);
-        }
-        if (!got) break;
+    for (int slot = -1; takeRendered(slot);) {
         Slot& sl = slots_[slot];
         exposeFrame(sl);
         const std::int64_t took_ns = monotonicNow_ns() - sl.start_ns;
-        frameTime_.add(static_cast<double>(took_ns) * 1e-9);
-        noteFrameLatency(took_ns);
-        ++framesRendered_;
+        stats_.frameTime.add(static_cast<double>(took_ns) * 1e-9);
+        pacing_->frameMade(took_ns);  // wall clock: what the render thread aims at
+        events_.count(LoopEvent::FrameRendered);
         ready_.push(slot);
-        readySeq_.fetch_add(1, std::memory_order_release);
-        readySeq_.notify_all();
+        notify(readySeq_);
     }
     framesDone_.store(true, std::memory_order_release);
-    readySeq_.fetch_add(1, std::memory_order_release);
-    readySeq_.notify_all();
+    notify(readySeq_);
 }
 
 // ---- output thread ---------------------------------------------------------------------------
@@ -515,7 +378,6 @@ bool FrameLoop::waitReady(std::int64_t k) noexcept {
 
 void FrameLoop::emit(int slot, std::int64_t tick, bool repeat, std::int64_t now_ns) {
     const Slot& s = slots_[slot];
-    const bool wall = config_.clock != ClockKind::Sim;  // emission times are real
     OutputFrame of;
     of.meta = &s.meta;
     of.radiance = RadianceFrame{s.lpe_pe_s_m2_sr.cview(), s.band_W_m2_sr.cview()};
@@ -523,12 +385,11 @@ void FrameLoop::emit(int slot, std::int64_t tick, bool repeat, std::int64_t now_
     of.bits = camera_.bits();
     of.tick = tick;
     of.repeat = repeat;
-    of.emit_s = wall ? wall_.runTime_s(now_ns) : sim_.tickTime_s(tick);
-    of.emitMonotonic_ns = wall ? now_ns : 0;
+    pacing_->stamp(of, now_ns);  // emit_s, emitMonotonic_ns; the period
     const std::int64_t s0 = monotonicNow_ns();
-    // Hand the frame to every output's queue. Under the sim clock every frame must reach every
-    // output: wait for room. Otherwise a full queue loses this frame for that output alone.
-    const bool waitForRoom = config_.clock == ClockKind::Sim;
+    // Hand the frame to every output's queue. Where every frame must reach every output (sim
+    // clock), wait for room. Otherwise a full queue loses this frame for that output alone.
+    const bool waitForRoom = pacing_->lossless();
     for (auto& ch : channels_) {
         if (waitForRoom) {
             ch->offerWait(of, stop_);
@@ -541,21 +402,68 @@ void FrameLoop::emit(int slot, std::int64_t tick, bool repeat, std::int64_t now_
     checkChannels();
     // Render start → emitted: the pipeline's own latency, with or without telemetry.
     if (!repeat) stats_.renderLatency.add(static_cast<double>(s1 - s.start_ns) * 1e-9);
-    if (wall) {
-        if (lastEmit_ns_ != 0) stats_.period.add(static_cast<double>(now_ns - lastEmit_ns_) * 1e-9);
-        lastEmit_ns_ = now_ns;
-    }
     if (s.meta.triggerEdge_ns != 0 && !repeat) {
         trigger_.latency.add(static_cast<double>(s1 - s.meta.triggerEdge_ns) * 1e-9);
     }
     const double rx_s = s.meta.platform.telemetryRx_s;
     if (rx_s >= 0.0) {
         // Telemetry receive → frame emitted (written to every sink).
-        const double out_s = wall ? wall_.runTime_s(s1) : of.emit_s;
+        const double out_s = pacing_->writtenTime_s(s1, of.emit_s);
         stats_.latency.add(out_s - rx_s);
         live_.lastLatency_ns.store(static_cast<std::int64_t>((out_s - rx_s) * 1e9),
                                    std::memory_order_relaxed);
     }
+}
+
+int FrameLoop::takeReady(std::int64_t k) noexcept {
+    // Take frame k from the ready ring; frames older than k missed their tick.
+    int slot = -1;
+    while (ready_.peek(slot)) {
+        if (slots_[slot].frame < k) {
+            // Rendered, but after its tick: never shown (its tick was a miss).
+            ready_.pop(slot);
+            free_.push(slot);
+            events_.count(LoopEvent::LateFrame);
+            continue;
+        }
+        if (slots_[slot].frame != k) break;
+        ready_.pop(slot);
+        return slot;
+    }
+    return -1;
+}
+
+void FrameLoop::missTick(std::int64_t k, std::int64_t now_ns, int held) {
+    notify(freeSeq_);
+    if (config_.latePolicy == LatePolicy::Repeat && held >= 0) {
+        emit(held, k, true, now_ns);
+        events_.count(LoopEvent::MissRepeated);
+    } else {
+        // Nothing sent on this tick (drop policy, or no frame to repeat yet).
+        events_.count(LoopEvent::MissDropped);
+        checkChannels();
+    }
+}
+
+bool FrameLoop::outputTick(std::int64_t k, std::int64_t now_ns, int& held) {
+    const std::int64_t w0 = monotonicNow_ns();
+    events_.count(LoopEvent::Tick);
+    const int use = takeReady(k);
+    const std::int64_t overhead_ns = monotonicNow_ns() - w0;
+    if (use >= 0) {
+        if (held >= 0) free_.push(held);
+        held = use;
+        notify(freeSeq_);
+        emit(held, k, false, now_ns);
+        events_.count(LoopEvent::FrameEmitted);
+    } else if (!pacing_->onDeadlines() && framesDone_.load(std::memory_order_acquire)) {
+        return false;  // the render and camera threads stopped early (stop requested)
+    } else {
+        missTick(k, now_ns, held);
+    }
+    // The loop's own work on this tick; the sinks' time is measured apart (sinkTime).
+    stats_.overhead.add(static_cast<double>(overhead_ns) * 1e-9);
+    return true;
 }
 
 void FrameLoop::outputThread(bool realtime) {
@@ -563,95 +471,20 @@ void FrameLoop::outputThread(bool realtime) {
     applyThreadSpec(kThreadOutput, realtime, msg);
     outputMessage_ = msg.empty() ? "ok" : msg;
     postMessage();
-    const bool wall = config_.clock == ClockKind::Wall;
-    const bool trig = config_.clock == ClockKind::Trigger;
-    const std::int64_t period_ns = wall_.deadline_ns(1) - wall_.start_ns();
-    int held = -1;
+    int held = -1;  // the slot emitted last, kept to repeat
     const std::int64_t t_start = monotonicNow_ns();
-    std::int64_t k = 0;
-    for (; config_.frames < 0 || k < config_.frames; ++k) {
+    for (std::int64_t k = 0; config_.frames < 0 || k < config_.frames; ++k) {
         if (stop_.load(std::memory_order_acquire)) break;
+        // Wall clock: sleep to deadline k (lost ticks skipped); otherwise wait for frame k.
         std::int64_t now_ns = 0;
-        if (wall) {
-            const std::int64_t deadline = wall_.deadline_ns(k);
-            while (WallClock::sleepUntil(deadline) == -EINTR) {
-                if (stop_.load(std::memory_order_acquire)) break;
-            }
-            if (stop_.load(std::memory_order_acquire)) break;
-            now_ns = monotonicNow_ns();
-            if (now_ns - deadline >= period_ns) {
-                // Woke a whole period or more late: those ticks are gone; never catch up by
-                // sending frames in a burst.
-                const std::int64_t kNow = wall_.tickAt(now_ns);
-                stats_.counters.ticks += kNow - k;  // they passed: ticks counts them too
-                stats_.counters.skippedTicks += kNow - k;
-                stats_.counters.deadlineMisses += kNow - k;
-                live_.misses.fetch_add(kNow - k, std::memory_order_relaxed);
-                k = kNow;
-                if (config_.frames >= 0 && k >= config_.frames) break;
-            }
-            stats_.wakeLate.add(static_cast<double>(now_ns - wall_.deadline_ns(k)) * 1e-9);
-        } else if (!waitReady(k)) {
-            break;
-        } else if (trig) {
-            now_ns = monotonicNow_ns();  // emitted as soon as it is ready
-        }
-        const std::int64_t w0 = monotonicNow_ns();
-        ++stats_.counters.ticks;
-        // Take frame k from the ready ring; frames older than k missed their tick.
-        int use = -1;
-        int slot = -1;
-        while (ready_.peek(slot)) {
-            if (slots_[slot].frame < k) {
-                // Rendered, but after its tick: never shown (its tick was a miss).
-                ready_.pop(slot);
-                free_.push(slot);
-                ++stats_.counters.lateFrames;
-                live_.late.fetch_add(1, std::memory_order_relaxed);
-                continue;
-            }
-            if (slots_[slot].frame == k) {
-                ready_.pop(slot);
-                use = slot;
-            }
-            break;
-        }
-        std::int64_t overhead_ns = monotonicNow_ns() - w0;
-        if (use >= 0) {
-            if (held >= 0) free_.push(held);
-            held = use;
-            freeSeq_.fetch_add(1, std::memory_order_release);
-            freeSeq_.notify_all();
-            emit(held, k, false, now_ns);
-            ++stats_.counters.framesEmitted;
-            live_.emitted.fetch_add(1, std::memory_order_relaxed);
-        } else if (!wall && framesDone_.load(std::memory_order_acquire)) {
-            break;  // the render and camera threads stopped early (stop requested)
-        } else {
-            ++stats_.counters.deadlineMisses;
-            live_.misses.fetch_add(1, std::memory_order_relaxed);
-            freeSeq_.fetch_add(1, std::memory_order_release);
-            freeSeq_.notify_all();
-            if (config_.latePolicy == LatePolicy::Repeat && held >= 0) {
-                emit(held, k, true, now_ns);
-                ++stats_.counters.repeats;
-                live_.repeats.fetch_add(1, std::memory_order_relaxed);
-            } else {
-                // Nothing sent on this tick (drop policy, or no frame to repeat yet).
-                ++stats_.counters.droppedFrames;
-                live_.dropped.fetch_add(1, std::memory_order_relaxed);
-                checkChannels();
-            }
-        }
-        // The loop's own work on this tick; the sinks' time is measured apart (sinkTime).
-        stats_.overhead.add(static_cast<double>(overhead_ns) * 1e-9);
-        outputTick_.store(k + 1, std::memory_order_release);
+        if (!pacing_->awaitTick(k, now_ns)) break;
+        if (!outputTick(k, now_ns, held)) break;
+        pacing_->tickDone(k + 1);
     }
     stats_.elapsed_s = static_cast<double>(monotonicNow_ns() - t_start) * 1e-9;
     // Let the render thread go: nothing more will be taken.
     stop_.store(true, std::memory_order_release);
-    freeSeq_.fetch_add(1, std::memory_order_release);
-    freeSeq_.notify_all();
+    notify(freeSeq_);
     outputDone_.store(true, std::memory_order_release);
 }
 

@@ -45,15 +45,15 @@
 //                 scan.
 //
 // Trigger clock (ClockKind::Trigger): frames are locked to rising edges from the equipment
-// under test (LoopConfig::trigger, e.g. a GPIO input). Each good edge at time t_e (CLOCK_MONOTONIC,
-// on the run clock of the wall clock) starts one exposure: the frame's (first field's)
-//     t_sample_s = t_e + e/2,
-// and the frame is emitted as soon as it is ready (no deadline, never repeated). Edges are
-// checked against the nominal period dt: an edge less than dt/2 after the previous one is an
-// extra edge (counted, ignored); an interval of n·dt with n ≥ 2 counts n − 1 missing edges;
-// edges that queued up while a frame rendered are overruns (counted; the newest one is used).
-// No edge for trigger timeout (default three periods) marks the trigger stalled in the live
-// counters until the next edge. Latency edge → frame written to every sink is a histogram.
+// under test (LoopConfig::trigger, e.g. a GPIO input); each frame is emitted as soon as it is
+// ready (rt/loop/trigger_pacing.h: the sample time and how edges are checked). Latency edge →
+// frame written to every sink is a histogram (TriggerStats::latency).
+//
+// Pacing. The loop asks one Pacing object (rt/loop/pacing.h; SimPacing, WallPacing and
+// TriggerPacing, chosen by LoopConfig::clock) when to start each frame, what it samples, when
+// each tick is emitted and how the emission is stamped: the threads below hold no clock-specific
+// branch. Counting. Every counter (RunCounters, TriggerStats, LiveCounters) is moved through
+// one LoopEvent (rt/loop/loop_events.h), which alone maps an event to the counters it bumps.
 //
 // Commanded and applied. FrameMeta::platform is the platform state as commanded (the request's);
 // FrameMeta::field[f] is what the camera stage applied to each exposure (CameraStage::expose
@@ -74,7 +74,6 @@
 // consumer is cancelled at once when the run was stopped by requestStop() (SIGINT), else
 // after kDrainStall_s without progress.
 
-#include <array>
 #include <atomic>
 #include <cstdint>
 #include <memory>
@@ -83,6 +82,8 @@
 #include <vector>
 
 #include "rt/clock/clock.h"
+#include "rt/loop/loop_events.h"
+#include "rt/loop/pacing.h"
 #include "rt/loop/sink_channel.h"
 #include "rt/loop/stages.h"
 #include "rt/stats/stats.h"
@@ -90,7 +91,6 @@
 
 namespace nvs::rt {
 
-enum class ClockKind { Sim, Wall, Trigger };
 enum class ScanKind { Progressive, Interlaced };
 enum class LatePolicy { Repeat, Drop };
 enum class SinkErrorPolicy { Count, Stop };
@@ -113,20 +113,6 @@ struct LoopConfig {
     TriggerSource* trigger = nullptr;  // ClockKind::Trigger: the edges (outlives the loop)
     double triggerTimeout_s = 0.0;     // no edge for this long: stalled; 0: three periods
     int sinkQueueFrames = 8;           // frames each output's queue holds (1..64)
-};
-
-// Trigger-clock counters (render thread) and edge → emission latency (output thread); read
-// after join().
-struct TriggerStats {
-    std::int64_t edges = 0;      // rising edges read
-    std::int64_t frames = 0;     // edges that started a frame
-    std::int64_t missing = 0;    // edges absent from the nominal cadence
-    std::int64_t extra = 0;      // edges less than half a period after the previous one
-    std::int64_t overruns = 0;   // good edges superseded while a frame was rendering
-    std::int64_t stalls = 0;     // times the trigger went silent for the timeout
-    std::int64_t errors = 0;     // failed waits on the trigger input
-    DurationHistogram interval;  // between consecutive good edges
-    DurationHistogram latency;   // edge → frame written to every sink
 };
 
 // Single-producer single-consumer ring of small integers (slot numbers).
@@ -158,26 +144,7 @@ class SlotRing {
     std::atomic<std::uint32_t> tail_{0};
 };
 
-// Numbers the live status line reads while the loop runs (written by the loop threads).
-struct LiveCounters {
-    std::atomic<std::int64_t> emitted{0};
-    std::atomic<std::int64_t> misses{0};
-    std::atomic<std::int64_t> repeats{0};
-    std::atomic<std::int64_t> dropped{0};  // missed ticks on which nothing was sent
-    std::atomic<std::int64_t> late{0};     // frames rendered but discarded: their tick had passed
-    std::atomic<std::int64_t> skipped{0};  // frames not rendered: their tick had already passed
-    std::atomic<std::int64_t> sinkErrors{0};
-    std::atomic<std::int64_t> queueDrops{0};     // frames a full output queue could not take
-    std::atomic<std::int64_t> outputsFailed{0};  // outputs that can write nothing more
-    std::atomic<std::int64_t> lastLatency_ns{-1};
-    std::atomic<bool> stale{false};
-    // Trigger clock.
-    std::atomic<bool> triggerStalled{false};
-    std::atomic<std::int64_t> triggerMissing{0};
-    std::atomic<std::int64_t> triggerExtra{0};
-};
-
-class FrameLoop {
+class FrameLoop final : private ReadyFrames {
   public:
     // Setup: allocates the slots. The stages and sinks must outlive the loop.
     FrameLoop(const LoopConfig& config, PlatformSource& platform, RenderStage& render,
@@ -235,21 +202,30 @@ class FrameLoop {
     void renderThread(bool realtime);
     void cameraThread(bool realtime);
     void outputThread(bool realtime);
-    void emit(int slot, std::int64_t tick, bool repeat, std::int64_t now_ns);
-    bool waitReady(std::int64_t k) noexcept;  // sim clock: until frame k or the end
-    // Render thread: samples the pose and renders frame r (its fields) into slot s; t_k is its
-    // (last field's) time.
-    void renderFrame(Slot& s, std::int64_t r, double t_k, double now_s) noexcept;
+    // Render thread: a free slot (false when stopping).
+    bool takeFreeSlot(int& slot) noexcept;
+    // Render thread: samples the pose and renders frame r (its fields) into slot s, as `at` says.
+    void renderFrame(Slot& s, std::int64_t r, const FrameStart& at) noexcept;
+    // Camera thread: the next rendered slot (false when no more will come).
+    bool takeRendered(int& slot) noexcept;
     // Camera thread: exposes the fields rendered into slot s, weaves them, schedules the
     // exposures.
     void exposeFrame(Slot& s) noexcept;
-    // Trigger clock: the next good edge (false when stopping).
-    bool waitTrigger(std::int64_t& edge_ns) noexcept;
-    bool acceptEdge(std::int64_t t_ns) noexcept;  // classifies one edge; false: extra
-    void startWorkers();                          // one thread per sink worker (start)
-    void joinWorkers();                           // stops them and waits (join)
-    void drainChannels();                         // join: what is queued is written
-    void checkChannels() noexcept;                // output thread: errors, failures, policy
+    void scheduleExposure(const Slot& s, int field, double gate_s) noexcept;
+    void weaveFields(Slot& s) noexcept;  // interlaced: field 1's rows into the slot
+    // Output thread: until frame k (or a later one) is ready or the end (ReadyFrames).
+    bool waitReady(std::int64_t k) noexcept override;
+    // Output thread: tick k, emitted at now_ns; `held` is the slot kept to repeat. False when
+    // the ticks end with the frames.
+    bool outputTick(std::int64_t k, std::int64_t now_ns, int& held);
+    int takeReady(std::int64_t k) noexcept;  // frame k's slot, or −1 (late frames discarded)
+    void missTick(std::int64_t k, std::int64_t now_ns, int held);  // by the late-frame policy
+    void emit(int slot, std::int64_t tick, bool repeat, std::int64_t now_ns);
+    void startWorkers();            // one thread per sink worker (start)
+    void joinWorkers();             // stops them and waits (join)
+    void drainChannels();           // join: what is queued is written
+    void checkChannels() noexcept;  // output thread: errors, failures, policy
+    static void notify(std::atomic<std::uint32_t>& seq) noexcept;  // a ring changed
 
     LoopConfig config_;
     PlatformSource& platform_;
@@ -279,7 +255,6 @@ class FrameLoop {
     std::atomic<std::uint32_t> renderedSeq_{0};
     std::atomic<std::uint32_t> readySeq_{0};
     std::atomic<std::uint32_t> freeSeq_{0};
-    std::atomic<std::int64_t> outputTick_{0};
     std::atomic<bool> stop_{false};
     std::atomic<bool> interrupted_{false};
     std::atomic<bool> renderFinished_{false};  // the render thread will hand over no more
@@ -298,31 +273,16 @@ class FrameLoop {
     std::atomic<int> messagesPosted_{0};
     void postMessage() noexcept;
     std::string failure_;
-    std::int64_t lastEmit_ns_ = 0;
 
     RunStats stats_;
-    // Render- and camera-thread statistics, merged into stats_ at join().
-    DurationHistogram frameTime_;
-    std::int64_t framesRendered_ = 0;
-    std::int64_t renderSkipped_ = 0;
     std::int64_t lastRendered_ = -2;  // frame index last rendered (render thread)
-    // Wall clock: the last frame latencies (render start → camera done, camera thread), and
-    // from them the latency the render thread expects, to aim each frame at a tick it can meet.
-    static constexpr int kRecentFrames = 5;
-    std::array<std::int64_t, kRecentFrames> recentFrame_ns_{};
-    int recentNext_ = 0;
-    int recentCount_ = 0;
-    std::atomic<std::int64_t> expectedFrame_ns_{0};  // median + 10 % + 0.5 ms: the aim
-    std::atomic<std::int64_t> leadFrame_ns_{0};      // max + 25 % + 1 ms + a period: when to start
-    void noteFrameLatency(std::int64_t took_ns) noexcept;
-    std::int64_t staleFrames_ = 0;
     // Trigger clock (render thread, except trigger_.latency: output thread).
     TriggerStats trigger_;
-    std::int64_t lastEdge_ns_ = 0;
-    std::int64_t triggerRef_ns_ = 0;  // last good edge, or the start: stall reference
-    std::int64_t triggerTimeout_ns_ = 0;
-    bool stalled_ = false;
     LiveCounters live_;
+    // Every count goes through events_ (rt/loop/loop_events.h).
+    LoopEvents events_{stats_.counters, trigger_, live_};
+    // When frames start and ticks are emitted (rt/loop/pacing.h; set up by the constructor).
+    std::unique_ptr<Pacing> pacing_;
 };
 
 }  // namespace nvs::rt
