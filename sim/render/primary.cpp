@@ -128,16 +128,8 @@ void primaryPass(Ctx& c, RowExecutor& exec) noexcept {
             im.glStale[k] = st == GlStatus::kOk ? 0 : 1;
         }
         const PinholeCamera& pc = c.cfg->camera;
-        GlView view;
-        view.width = pc.width;
-        view.height = pc.height;
-        view.focalLength_m = pc.focalLength_m;
-        view.pitchX_m = pc.pitchX_m;
-        view.pitchY_m = pc.pitchY_m;
-        view.position_m = im.camPos;
-        view.forward = im.camFwd;
-        view.right = im.camRight;
-        view.up = im.camUp;
+        const GlView view{pc.width,  pc.height, pc.focalLength_m, pc.pitchX_m, pc.pitchY_m,
+                          im.camPos, im.camFwd, im.camRight,      im.camUp};
         if (st == GlStatus::kOk) {
             // The rows rowLo + rowStride·i lie in [rowLo, rowLo + rowStride (rowCount − 1)]; with
             // a stride of 2 the other field's rows in between are drawn too and not read.
