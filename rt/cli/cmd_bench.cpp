@@ -169,9 +169,8 @@ void addRenderItems(Items& items, const DataDirs& dirs, const std::filesystem::p
                 };
                 it.iteration = [shared, pool, moving] {
                     rt::ScenarioRenderer& sr = *shared->sr;
-                    const render::FrameSky sky = sr.prepare(0.0);
                     if (moving) sr.renderer().setCamera(sr.scene().camera);
-                    sr.renderer().render(sky, shared->pe.view(), shared->band.view(), **pool);
+                    sr.renderFrame(0.0, shared->pe.view(), shared->band.view(), **pool);
                 };
                 it.after = [shared](TimedItem& self) { addRayRate(self, shared->sr->renderer()); };
             }
@@ -187,8 +186,7 @@ void addRenderItems(Items& items, const DataDirs& dirs, const std::filesystem::p
                 std::nullopt, 1.0);
             it.setup = [shared] { shared->get(); };
             it.iteration = [shared, packets] {
-                const render::Renderer& r = shared->sr->renderer();
-                (void)(packets ? r.measureEmbreePacketRate(1) : r.measureEmbreePrimaryRate(1));
+                (void)shared->sr->renderer().tracePrimaryRays(packets);  // timed by the item
             };
             it.after = [shared](TimedItem& self) {
                 const double rays = static_cast<double>(shared->pe.width()) * shared->pe.height();
@@ -219,8 +217,8 @@ void addTruckItems(Items& items, const DataDirs& dirs, const std::filesystem::pa
             *pool = std::make_unique<rt::RowPool>(2);
         };
         it.iteration = [shared, pool, k] {
-            const render::FrameSky sky = shared->sr->prepare((*k)++ % 60 / 29.97);
-            shared->sr->renderer().render(sky, shared->pe.view(), shared->band.view(), **pool);
+            shared->sr->renderFrame((*k)++ % 60 / 29.97, shared->pe.view(), shared->band.view(),
+                                    **pool);
         };
         it.after = [shared](TimedItem& self) { addRayRate(self, shared->sr->renderer()); };
     }
@@ -268,9 +266,9 @@ struct Flight {
     // Renders the next pose's frame, or its field of parity `rowParity` (-1: every row).
     void renderNext(int rowParity) {
         const std::size_t k = next++ % poses.size();
-        const render::FrameSky sky = sr->prepare(static_cast<double>(k) * period_s);
         sr->renderer().setCamera(poses[k]);
-        sr->renderer().render(sky, pe.view(), band.view(), *pool, rowParity);
+        sr->renderFrame(static_cast<double>(k) * period_s, pe.view(), band.view(), *pool,
+                        rowParity);
     }
 };
 
@@ -371,7 +369,7 @@ void renderInto(const std::filesystem::path& file, const DataDirs& dirs,
     }
     ImageF band(cam.width, cam.height);
     rt::RowPool pool(1);
-    sr->renderer().render(sr->prepare(0.0), lpe, band.view(), pool);
+    sr->renderFrame(0.0, lpe, band.view(), pool);
 }
 
 // The camera chain, one field, every stage of the PULNiX preset, on one thread and on two (the

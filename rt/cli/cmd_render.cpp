@@ -47,7 +47,6 @@ int runRender(const RenderOptions& opts) {
                          " s after the scenario's start, beyond the limit of " +
                          fmt(rt::kMaxDuration_s) + " s");
     }
-    const render::FrameSky sky = sr->prepare(t_s);
     const auto& cam = sr->renderer().camera();
     ImageF pe(cam.width, cam.height), band(cam.width, cam.height);
     rt::ThreadExecutor ex;
@@ -55,7 +54,7 @@ int runRender(const RenderOptions& opts) {
         std::fprintf(stderr, "nvstim render: %s\n",
                      sr->renderer().choosePrimaryVisibility(ex).c_str());
     }
-    sr->renderer().render(sky, pe.view(), band.view(), ex);
+    sr->renderFrame(t_s, pe.view(), band.view(), ex);
 
     const auto& moon = sr->sunMoon().moon;
     constexpr double kDeg = 180.0 / 3.14159265358979323846;

@@ -9,6 +9,7 @@
 #include "sim/sensor/mtf.h"
 #include "sim/sky/frame_sky.h"
 #include "sim/sky/night_sky.h"
+#include "sim/sky/stars.h"
 
 namespace nvs::rt {
 
@@ -87,14 +88,14 @@ std::unique_ptr<ScenarioRenderer> ScenarioRenderer::create(const Scenario& sc, c
     const sky::NightSkyModel night = sky::NightSkyModel::load(dirs.config);
     cfg.nightSkyShape = night.measured_W_m2_sr_nm();
     r->renderer_ = std::make_unique<Renderer>(r->scene_, cfg);
-    r->stars_ = loadStarCatalog(starCatalogPath(dirs.config));
+    r->stars_ = sky::loadStarCatalog(sky::starCatalogPath(dirs.config));
     if (r->stars_.size() > static_cast<std::size_t>(kMaxStars)) {
         throw SetupError(r->stars_.file + ": more than " + std::to_string(kMaxStars) + " stars");
     }
     const Photometry photometry(dirs.config);
     for (int b = 0; b < kBands; ++b) {
-        r->starBandPerLux_[static_cast<std::size_t>(b)] =
-            bandPerLux(photometry, cfg.bandWeight[static_cast<std::size_t>(b)], kStarTemperature_K);
+        r->starBandPerLux_[static_cast<std::size_t>(b)] = sky::bandPerLux(
+            photometry, cfg.bandWeight[static_cast<std::size_t>(b)], sky::kStarTemperature_K);
     }
     r->starAz_.assign(r->stars_.size(), 0.0);
     r->starAlt_.assign(r->stars_.size(), 0.0);
@@ -109,25 +110,18 @@ FrameSky ScenarioRenderer::prepare(double t_s) noexcept {
     renderer_->setTime(t_s);
     FrameSky s =
         sky::frameSky(*sky_, tableBand_, sunMoon_.moon, t_s, scenario_.scene.lunarSkyScale);
-    // Stars above the horizon: E_b = E_v(V) · (band per lux) · T_direct(z).
-    const int n = static_cast<int>(stars_.size());
-    ephemeris_->stars(astrometry, stars_.ra_rad.data(), stars_.dec_rad.data(), n, starAz_.data(),
-                      starAlt_.data());
-    s.starCount = 0;
-    for (int k = 0; k < n; ++k) {
-        const std::size_t i = static_cast<std::size_t>(k);
-        if (!(starAlt_[i] > 0.0)) continue;
-        FrameStar& st = s.stars[static_cast<std::size_t>(s.starCount++)];
-        st.dir_enu = enuFromAzAlt(starAz_[i], starAlt_[i]);
-        const double z = 0.5 * 3.14159265358979323846 - starAlt_[i];
-        const double ev = starIlluminanceToa_lx(stars_.vMag[i]);
-        for (int b = 0; b < kBands; ++b) {
-            const int tb = tableBand_[static_cast<std::size_t>(b)];
-            st.irradiance[b] = ev * starBandPerLux_[static_cast<std::size_t>(b)] *
-                               sky_->table().directTransmittance(tb, z);
-        }
-    }
+    // Stars above the horizon, with their band irradiance at the lens (sim/sky/stars.h).
+    ephemeris_->stars(astrometry, stars_.ra_rad.data(), stars_.dec_rad.data(),
+                      static_cast<int>(stars_.size()), starAz_.data(), starAlt_.data());
+    sky::frameStars(stars_, starAz_.data(), starAlt_.data(), starBandPerLux_, sky_->table(),
+                    tableBand_, &s);
     return s;
+}
+
+void ScenarioRenderer::renderFrame(double t_s, ImageView<float> pe, ImageView<float> bandW,
+                                   render::RowExecutor& exec, int rowParity) noexcept {
+    const FrameSky sky = prepare(t_s);
+    renderer_->render(sky, pe, bandW, exec, rowParity);
 }
 
 }  // namespace nvs::rt

@@ -3,8 +3,8 @@
 // from the loaded scenario — the scene, the camera preset's band weights, focal length and pixel
 // pitch, the ephemeris, the sky model with the camera's two bands, the star catalog and the
 // renderer — and, per frame, the stages run in order: astro (Sun, Moon, stars at the instant)
-// → sky (the frame's sky message) → render. Setup throws SetupError; per frame nothing
-// allocates.
+// → sky (the frame's sky message, the stars' irradiance: sim/sky) → render (renderFrame). Setup
+// throws SetupError; per frame nothing allocates.
 
 #include <array>
 #include <filesystem>
@@ -16,10 +16,10 @@
 #include "sim/astro/ephemeris.h"
 #include "sim/astro/time.h"
 #include "sim/render/renderer.h"
-#include "sim/render/stars.h"
 #include "sim/scene/scene.h"
 #include "sim/sensor/camera.h"
 #include "sim/sky/sky_model.h"
+#include "sim/sky/stars.h"
 
 namespace nvs::rt {
 
@@ -52,6 +52,11 @@ class ScenarioRenderer {
     // Sets the scene to frame k (moving objects, Sun/Moon, stars) and returns the frame's sky.
     // t_s is the time since the scenario epoch. No allocation, no throw.
     FrameSky prepare(double t_s) noexcept;
+    // The frame at t_s: prepare(t_s), then the renderer's render with its sky (both bands;
+    // rowParity 0 or 1: an interlaced field's own rows, Renderer::render). Every caller that
+    // renders a scenario's frame goes through here. No allocation, no throw.
+    void renderFrame(double t_s, ImageView<float> pe, ImageView<float> bandW,
+                     render::RowExecutor& exec, int rowParity = -1) noexcept;
 
     Renderer& renderer() { return *renderer_; }
     // The lunar sky light of the frames prepared from now on ([atmosphere] lunar_sky_scale).
@@ -78,7 +83,7 @@ class ScenarioRenderer {
     std::array<int, kBands> tableBand_{-1, -1};
     std::unique_ptr<Renderer> renderer_;
     astro::SunMoonState sunMoon_;
-    render::StarCatalog stars_;
+    sky::StarCatalog stars_;
     std::array<double, kBands> starBandPerLux_{};
     std::vector<double> starAz_, starAlt_;  // per frame
 };

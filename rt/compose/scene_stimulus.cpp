@@ -33,9 +33,8 @@ class ScenarioStimulus final : public fit::SceneStimulus {
         ImageF band(cam.width, cam.height);
         ThreadExecutor ex;
         for (long long n : frames) {
-            const render::FrameSky sky = r.prepare(static_cast<double>(n) / frameRate_Hz);
             ImageF pe(cam.width, cam.height);
-            r.renderer().render(sky, pe.view(), band.view(), ex);
+            r.renderFrame(static_cast<double>(n) / frameRate_Hz, pe.view(), band.view(), ex);
             out.push_back(std::move(pe));
         }
         return out;

@@ -62,16 +62,15 @@ void SceneRenderStage::render(const FrameRequest& req, RadianceTarget out,
         }
     }
     if (held) heldFrames_.fetch_add(1, std::memory_order_relaxed);
-    const render::FrameSky sky = sr_->prepare(t_s);
     if (holdRows_) {
         const int parity = heldValid_ ? req.rowParity : -1;
-        r.render(sky, heldLpe_.view(), heldBand_.view(), *pool_, parity);
+        sr_->renderFrame(t_s, heldLpe_.view(), heldBand_.view(), *pool_, parity);
         heldValid_ = true;
         out.lpe_pe_s_m2_sr.copyFrom(heldLpe_.cview());
         if (!out.band_W_m2_sr.empty()) out.band_W_m2_sr.copyFrom(heldBand_.cview());
     } else {
         const ImageView<float> band = out.band_W_m2_sr.empty() ? band_.view() : out.band_W_m2_sr;
-        r.render(sky, out.lpe_pe_s_m2_sr, band, *pool_);
+        sr_->renderFrame(t_s, out.lpe_pe_s_m2_sr, band, *pool_);
     }
     const int n = r.truthBoxes(ids_, boxes_, kMaxTruthBoxes);
     meta.truthCount = n;

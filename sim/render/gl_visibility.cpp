@@ -152,6 +152,31 @@ unsigned compile(const GlVisibility::Gl& gl, GLenum kind, const char* src, std::
     return s;
 }
 
+// The program of the two shaders into *program; false with the compiler's or linker's log.
+bool linkProgram(const GlVisibility::Gl& gl, unsigned* program, std::string* log) {
+    const unsigned vs = compile(gl, GL_VERTEX_SHADER, kVertexShader, log);
+    const unsigned fs = vs ? compile(gl, GL_FRAGMENT_SHADER, kFragmentShader, log) : 0;
+    if (!vs || !fs) {
+        *log = "shader: " + *log;
+        return false;
+    }
+    *program = gl.CreateProgram();
+    gl.AttachShader(*program, vs);
+    gl.AttachShader(*program, fs);
+    gl.LinkProgram(*program);
+    gl.DeleteShader(vs);
+    gl.DeleteShader(fs);
+    GLint ok = 0;
+    gl.GetProgramiv(*program, GL_LINK_STATUS, &ok);
+    if (!ok) {
+        char buf[1024] = {};
+        gl.GetProgramInfoLog(*program, sizeof buf, nullptr, buf);
+        *log = std::string("link: ") + buf;
+        return false;
+    }
+    return true;
+}
+
 }  // namespace
 
 const char* glStatusName(GlStatus s) noexcept {
@@ -225,24 +250,8 @@ bool GlVisibility::init(std::unique_ptr<GlContext> ctx, int width, int height,
     width_ = width;
     height_ = height;
     std::string log;
-    const unsigned vs = compile(gl, GL_VERTEX_SHADER, kVertexShader, &log);
-    const unsigned fs = vs ? compile(gl, GL_FRAGMENT_SHADER, kFragmentShader, &log) : 0;
-    if (!vs || !fs) {
-        *reason = std::string(name) + ": shader: " + log;
-        return false;
-    }
-    program_ = gl.CreateProgram();
-    gl.AttachShader(program_, vs);
-    gl.AttachShader(program_, fs);
-    gl.LinkProgram(program_);
-    gl.DeleteShader(vs);
-    gl.DeleteShader(fs);
-    GLint ok = 0;
-    gl.GetProgramiv(program_, GL_LINK_STATUS, &ok);
-    if (!ok) {
-        char buf[1024] = {};
-        gl.GetProgramInfoLog(program_, sizeof buf, nullptr, buf);
-        *reason = std::string(name) + ": link: " + buf;
+    if (!linkProgram(gl, &program_, &log)) {
+        *reason = std::string(name) + ": " + log;
         return false;
     }
     const auto loc = [&](const char* u) { return gl.GetUniformLocation(program_, u); };

@@ -157,10 +157,11 @@ class Renderer {
         double embree_ms = -1.0, gl_ms = -1.0;
     };
     PrimaryTiming measurePrimaryPasses(RowExecutor& exec, int repetitions);
-    // Embree's own single-ray throughput for primary rays of this view [rays/s] (benchmarks).
-    double measureEmbreePrimaryRate(int repetitions) const;
-    // The same with coherent 16-ray packets (rtcIntersect16), as the renderer casts them.
-    double measureEmbreePacketRate(int repetitions) const;
+    // Embree alone, for the benchmarks (rt/bench times it): one pass of primary rays through
+    // every pixel centre of the current view, as single rays (rtcIntersect1) or as coherent
+    // 16-ray packets (rtcIntersect16, as the renderer casts them). Writes nothing; returns the
+    // number of hits.
+    std::uint64_t tracePrimaryRays(bool packets) const noexcept;
 
     struct Impl;
 

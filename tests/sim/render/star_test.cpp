@@ -9,6 +9,7 @@
 
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
 
 #include "rt/compose/scene_setup.h"
@@ -16,13 +17,16 @@
 #include "sim/core/photometry.h"
 #include "sim/core/planck.h"
 #include "sim/render/renderer.h"
-#include "sim/render/stars.h"
+#include "sim/sky/stars.h"
 #include "tests/sim/core/test_paths.h"
 #include "tests/sim/render/embree_pin.h"
 
 namespace nvs::render {
 using rt::renderConfigFor;
 using rt::ScenarioRenderer;
+using sky::loadStarCatalog;
+using sky::StarCatalog;
+using sky::starCatalogPath;
 namespace {
 
 // V(λ) from the source tree's config/ (loaded once for this file's tests).
@@ -139,6 +143,36 @@ TEST(StarsInView, FrameListsOnlyStarsAboveTheHorizon) {
             EXPECT_GT(sky.stars[static_cast<std::size_t>(k)].dir_enu.z, 0.0);
             EXPECT_GT(sky.stars[static_cast<std::size_t>(k)].irradiance[kBandPe], 0.0);
         }
+    }
+}
+
+// sim/sky's frameStars alone: a star below the horizon is left out; one above gets its direction
+// and E_v(V) · (band per lux) · T_direct(z) in each band.
+TEST(StarsInView, FrameStarsGivesTheIrradianceAboveTheAtmosphereTimesTheBeamTransmittance) {
+    auto sr = ScenarioRenderer::create(test::sourceDir() / "scenarios/rit/nolight.toml",
+                                       test::dataDirs());
+    StarCatalog cat;
+    cat.name = {"low", "high"};
+    cat.ra_rad = {0.0, 0.0};
+    cat.dec_rad = {0.0, 0.0};
+    cat.vMag = {0.0, 1.5};
+    const double az[2] = {1.0, 2.0}, alt[2] = {-0.1, 40 * kDeg};
+    const std::array<double, kBands> perLuxBand{3.0e3, 2.0e-3};
+    FrameSky sky;
+    sky::frameStars(cat, az, alt, perLuxBand, sr->sky().table(), sr->tableBands(), &sky);
+    ASSERT_EQ(sky.starCount, 1);
+    const FrameStar& st = sky.stars[0];
+    const Vec3 d = enuFromAzAlt(az[1], alt[1]);
+    EXPECT_DOUBLE_EQ(st.dir_enu.z, d.z);
+    EXPECT_DOUBLE_EQ(st.dir_enu.x, d.x);
+    for (int b = 0; b < kBands; ++b) {
+        const double t = sr->sky().table().directTransmittance(
+            sr->tableBands()[static_cast<std::size_t>(b)], kPi / 2 - alt[1]);
+        EXPECT_GT(t, 0.1);
+        EXPECT_LT(t, 1.0);
+        const double want =
+            std::pow(10.0, -0.4 * (1.5 + 13.99)) * perLuxBand[static_cast<std::size_t>(b)] * t;
+        EXPECT_NEAR(st.irradiance[b] / want, 1.0, 1e-12);
     }
 }
 

@@ -1,9 +1,9 @@
 #pragma once
 // Bright stars seen directly (docs/design.md §4.4: "lamps, Moon and bright stars visible in view
 // with their true radiance"). A small catalogue (config/stars/bright_stars.csv: ICRS right
-// ascension and declination, Johnson V), placed each frame by astro::Ephemeris::stars and drawn by
-// the renderer as point sources: the irradiance a star gives at the lens, spread over the pixel it
-// falls in.
+// ascension and declination, Johnson V), placed each frame by astro::Ephemeris::stars; frameStars
+// turns the placed stars into the frame's sky message (msg::FrameStar), which the renderer draws
+// as point sources: the irradiance a star gives at the lens, spread over the pixel it falls in.
 //
 // Illuminance above the atmosphere from the V magnitude (Allen's Astrophysical Quantities, 4th
 // ed., §15.1: a star of V = 0 gives 2.54·10⁻⁶ lx outside the atmosphere):
@@ -15,14 +15,17 @@
 //     E_b = E_v · ∫ B_T(λ) w(λ) dλ / (K_m ∫ B_T(λ) V(λ) dλ)
 // and is attenuated by the atmosphere's band direct transmittance at the star's zenith angle.
 
+#include <array>
 #include <filesystem>
 #include <string>
 #include <vector>
 
 #include "sim/core/photometry.h"
 #include "sim/core/spectrum.h"
+#include "sim/msg/sky.h"
+#include "sim/sky/atmosphere_table.h"
 
-namespace nvs::render {
+namespace nvs::sky {
 
 struct StarCatalog {
     std::string file;
@@ -46,4 +49,14 @@ double bandPerLux(const Photometry& photometry, const Spectrum& weight, double t
 
 inline constexpr double kStarTemperature_K = 5800.0;
 
-}  // namespace nvs::render
+// The stars of `catalog` above the horizon in the frame's sky message: sky->stars[0 ..
+// sky->starCount) get the direction (ENU) and the band irradiance at the lens
+//     E_b = E_v(V) · bandPerLux[b] · T_direct,b(z),  z = 90° − altitude,
+// T_direct from `table`'s band tableBand[b]. az_rad, alt_rad: each catalogue star's place this
+// frame (astro::Ephemeris::stars). At most msg::kMaxStars stars (the catalogue is checked at
+// setup). No allocation, no throw.
+void frameStars(const StarCatalog& catalog, const double* az_rad, const double* alt_rad,
+                const std::array<double, msg::kBands>& bandPerLux, const AtmosphereTable& table,
+                const std::array<int, msg::kBands>& tableBand, msg::FrameSky* sky) noexcept;
+
+}  // namespace nvs::sky

@@ -1,17 +1,15 @@
-#include "sim/render/stars.h"
+#include "sim/sky/stars.h"
 
 #include <cmath>
 
 #include "sim/core/csv.h"
 #include "sim/core/error.h"
+#include "sim/core/geometry.h"
 #include "sim/core/input_file.h"
 #include "sim/core/planck.h"
+#include "sim/core/units.h"
 
-namespace nvs::render {
-
-namespace {
-constexpr double kRadPerDeg = 3.14159265358979323846 / 180.0;
-}
+namespace nvs::sky {
 
 std::filesystem::path starCatalogPath(const std::filesystem::path& configDir) {
     return configDir / "stars" / "bright_stars.csv";
@@ -53,4 +51,24 @@ double bandPerLux(const Photometry& photometry, const Spectrum& weight, double t
     return integrateProduct_nm(b, weight) / photometry.photometricIntegral(b);
 }
 
-}  // namespace nvs::render
+void frameStars(const StarCatalog& catalog, const double* az_rad, const double* alt_rad,
+                const std::array<double, msg::kBands>& bandPerLux, const AtmosphereTable& table,
+                const std::array<int, msg::kBands>& tableBand, msg::FrameSky* sky) noexcept {
+    const int n = static_cast<int>(catalog.size());
+    sky->starCount = 0;
+    for (int k = 0; k < n; ++k) {
+        const std::size_t i = static_cast<std::size_t>(k);
+        if (!(alt_rad[i] > 0.0)) continue;
+        msg::FrameStar& st = sky->stars[static_cast<std::size_t>(sky->starCount++)];
+        st.dir_enu = enuFromAzAlt(az_rad[i], alt_rad[i]);
+        const double z = 0.5 * kPi - alt_rad[i];
+        const double ev = starIlluminanceToa_lx(catalog.vMag[i]);
+        for (int b = 0; b < msg::kBands; ++b) {
+            const int tb = tableBand[static_cast<std::size_t>(b)];
+            st.irradiance[b] =
+                ev * bandPerLux[static_cast<std::size_t>(b)] * table.directTransmittance(tb, z);
+        }
+    }
+}
+
+}  // namespace nvs::sky
