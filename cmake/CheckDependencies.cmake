@@ -1,5 +1,7 @@
 # ctest script: the dependency rules (docs/design.md §2), checked on the sources under ROOT.
-#   drivers/      include nothing of rt/
+#   drivers/      include nothing of rt/, and of sim/ only sim/core, sim/msg (the messages they
+#                 implement) and sim/io (the image files the sinks write)
+#   sim/io/       includes nothing of sim/ but sim/core (every layer may write images)
 #   sim/          includes nothing of rt/ or drivers/, and calls no getenv (data folders and
 #                 caches are passed in by the runtime)
 #   sim/render/   includes nothing of sim/sensor, sim/astro or sim/sky (it reads messages,
@@ -24,15 +26,38 @@ function(check files regex what)
   set(bad ${bad} PARENT_SCOPE)
 endfunction()
 
+# check_sim_folders(FILES FOLDERS WHAT): every include of sim/X/ with X not in FOLDERS is one.
+function(check_sim_folders files folders what)
+  foreach(f IN LISTS files)
+    file(STRINGS ${ROOT}/${f} lines)
+    set(n 0)
+    foreach(line IN LISTS lines)
+      math(EXPR n "${n} + 1")
+      if(line MATCHES "^[ \t]*#[ \t]*include[ \t]*[\"<]sim/([^/\">]*)")
+        list(FIND folders "${CMAKE_MATCH_1}" at)
+        if(at EQUAL -1)
+          list(APPEND bad "${f}:${n}: ${what}")
+        endif()
+      endif()
+    endforeach()
+  endforeach()
+  set(bad ${bad} PARENT_SCOPE)
+endfunction()
+
 check("${drivers_files}" "^[ \t]*#[ \t]*include[ \t]*[\"<]rt/" "drivers/ includes rt/")
+check_sim_folders("${drivers_files}" "core;msg;io" "drivers/ includes sim/ beyond sim/core, sim/msg and sim/io")
 check("${sim_files}" "^[ \t]*#[ \t]*include[ \t]*[\"<](rt|drivers)/" "sim/ includes rt/ or drivers/")
 check("${sim_files}" "getenv[ \t]*\\(" "sim/ calls getenv")
 set(render_files "")
+set(io_files "")
 foreach(f IN LISTS sim_files)
   if(f MATCHES "^sim/render/")
     list(APPEND render_files ${f})
+  elseif(f MATCHES "^sim/io/")
+    list(APPEND io_files ${f})
   endif()
 endforeach()
+check_sim_folders("${io_files}" "core;io" "sim/io includes sim/ beyond sim/core")
 check("${render_files}" "^[ \t]*#[ \t]*include[ \t]*[\"<]sim/(sensor|astro|sky)/"
       "sim/render includes sim/sensor, sim/astro or sim/sky")
 

@@ -13,21 +13,6 @@
 
 namespace nvs::drivers {
 
-int writeAll(int fd, const void* data, std::size_t size) noexcept {
-    const auto* p = static_cast<const unsigned char*>(data);
-    while (size > 0) {
-        const ssize_t n = ::write(fd, p, size);
-        if (n < 0) {
-            if (errno == EINTR) continue;
-            return -errno;
-        }
-        if (n == 0) return -EIO;
-        p += n;
-        size -= static_cast<std::size_t>(n);
-    }
-    return 0;
-}
-
 // ---- StreamWriter ------------------------------------------------------------------------------
 
 int StreamWriter::attach(int fd) noexcept {

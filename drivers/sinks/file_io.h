@@ -13,10 +13,12 @@
 #include <cstddef>
 #include <string>
 
+#include "sim/io/image_file.h"
+
 namespace nvs::drivers {
 
 // write(2) until all bytes are out (retries EINTR and short writes). 0 or -errno.
-int writeAll(int fd, const void* data, std::size_t size) noexcept;
+using io::writeAll;
 
 // Writes to a descriptor that may block on its reader (pipe, FIFO, socket, terminal) without
 // ever blocking for long: it waits for room with poll(2) in slices of kSlice_ms and writes at

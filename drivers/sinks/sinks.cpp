@@ -1,7 +1,6 @@
 #include "drivers/sinks/sinks.h"
 
 #include <fcntl.h>
-#include <png.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -13,6 +12,8 @@
 
 #include "sim/core/error.h"
 #include "sim/core/units.h"
+#include "sim/io/png.h"
+#include "sim/io/pnm.h"
 
 namespace nvs::drivers {
 
@@ -182,34 +183,19 @@ PgmSequenceSink::PgmSequenceSink(const std::string& dir, int width, int height, 
     checkSize(width, height, name_);
     if (bits < 1 || bits > 16) throw SetupError(name_ + ": bits must be 1..16");
     makeOutputDir(dir, name_);
-    char header[64];
-    const int n =
-        std::snprintf(header, sizeof header, "P5\n%d %d\n%u\n", width, height, (1u << bits) - 1u);
-    headerSize_ = static_cast<std::size_t>(n);
-    const std::size_t px = static_cast<std::size_t>(width) * static_cast<std::size_t>(height);
-    buffer_.resize(headerSize_ + px * (bits > 8 ? 2 : 1));
-    std::memcpy(buffer_.data(), header, headerSize_);
+    buffer_.resize(io::pgmFileBytes(width, height, maxValue()));
 }
 
 int PgmSequenceSink::write(const msg::OutputFrame& frame) noexcept {
     if (state_ == SinkState::Closed) return -EBADF;
-    unsigned char* dst = buffer_.data() + headerSize_;
-    for (int y = 0; y < height_; ++y) {
-        const std::uint16_t* row = frame.counts.row(y);
-        for (int x = 0; x < width_; ++x) {
-            if (bits_ > 8) {
-                *dst++ = static_cast<unsigned char>(row[x] >> 8);  // PGM: big-endian
-                *dst++ = static_cast<unsigned char>(row[x] & 0xff);
-            } else {
-                *dst++ = static_cast<unsigned char>(row[x]);
-            }
-        }
-    }
+    if (frame.counts.width() != width_ || frame.counts.height() != height_) return -EINVAL;
+    // The counts as they are, maximum value 2^bits - 1 (sim/io/pnm.h).
+    const std::size_t size = io::encodePgm(frame.counts, maxValue(), buffer_.data());
     char path[AtomicFile::kMaxPath];
     std::snprintf(path, sizeof path, "%s/%06lld.pgm", dir_.c_str(),
                   static_cast<long long>(frame.tick));
     int rc = file_.open(path);
-    if (rc == 0) rc = file_.write(buffer_.data(), buffer_.size());
+    if (rc == 0) rc = file_.write(buffer_.data(), size);
     if (rc == 0) rc = file_.commit(false);
     if (rc != 0) {
         file_.abort();
@@ -218,7 +204,7 @@ int PgmSequenceSink::write(const msg::OutputFrame& frame) noexcept {
         return rc;
     }
     ++counters_.frames;
-    counters_.bytes += static_cast<std::int64_t>(buffer_.size());
+    counters_.bytes += static_cast<std::int64_t>(size);
     return 0;
 }
 
@@ -233,50 +219,32 @@ PngSequenceSink::PngSequenceSink(const std::string& dir, int width, int height, 
     : name_("png:" + dir), dir_(dir), width_(width), height_(height), bits_(bits) {
     checkSize(width, height, name_);
     makeOutputDir(dir, name_);
-    const std::size_t px = static_cast<std::size_t>(width) * static_cast<std::size_t>(height);
-    if (bits > 8) {
-        buffer16_.resize(px);
-    } else {
-        buffer8_.resize(px);
-    }
+    buffer_.resize(static_cast<std::size_t>(width) * static_cast<std::size_t>(height));
 }
 
 int PngSequenceSink::write(const msg::OutputFrame& frame) noexcept {
     if (state_ == SinkState::Closed) return -EBADF;
     for (int y = 0; y < height_; ++y) {
         const std::uint16_t* row = frame.counts.row(y);
-        const std::size_t base = static_cast<std::size_t>(y) * static_cast<std::size_t>(width_);
-        for (int x = 0; x < width_; ++x) {
-            if (bits_ > 8) {
-                buffer16_[base + static_cast<std::size_t>(x)] = to16(row[x], bits_);
-            } else {
-                buffer8_[base + static_cast<std::size_t>(x)] = to8(row[x], bits_);
-            }
+        std::uint16_t* dst =
+            &buffer_[static_cast<std::size_t>(y) * static_cast<std::size_t>(width_)];
+        if (bits_ > 8) {
+            for (int x = 0; x < width_; ++x)
+                dst[x] = to16(row[x], bits_);
+        } else {
+            for (int x = 0; x < width_; ++x)
+                dst[x] = to8(row[x], bits_);
         }
     }
     char path[AtomicFile::kMaxPath];
-    char temp[AtomicFile::kMaxPath + 8];
     std::snprintf(path, sizeof path, "%s/%06lld.png", dir_.c_str(),
                   static_cast<long long>(frame.tick));
-    std::snprintf(temp, sizeof temp, "%s.part", path);
-    png_image image;
-    std::memset(&image, 0, sizeof image);
-    image.version = PNG_IMAGE_VERSION;
-    image.width = static_cast<png_uint_32>(width_);
-    image.height = static_cast<png_uint_32>(height_);
-    image.format = bits_ > 8 ? PNG_FORMAT_LINEAR_Y : PNG_FORMAT_GRAY;
-    const void* data = bits_ > 8 ? static_cast<const void*>(buffer16_.data())
-                                 : static_cast<const void*>(buffer8_.data());
-    const int ok = png_image_write_to_file(&image, temp, 0, data, 0, nullptr);
-    int rc = 0;
-    if (ok == 0) {
-        rc = errno != 0 ? -errno : -EIO;
-    } else if (std::rename(temp, path) != 0) {
-        rc = -errno;
-    }
-    png_image_free(&image);
+    const ImageView<const std::uint16_t> img(buffer_.data(), width_, height_, width_);
+    int rc = file_.open(path);
+    if (rc == 0) rc = io::writePng(file_.fd(), img, bits_ > 8 ? 16 : 8, io::PngColour::Srgb);
+    if (rc == 0) rc = file_.commit(false);
     if (rc != 0) {
-        ::unlink(temp);
+        file_.abort();
         ++counters_.errors;
         counters_.lastErrno = -rc;
         return rc;
@@ -466,7 +434,7 @@ int ContactSheetSink::write(const msg::OutputFrame& frame) noexcept {
     const int ty = kSheetGap_px + (next_ / cols_) * (tileH_ + kSheetGap_px);
     const int n = shrink_ * shrink_;
     for (int y = 0; y < tileH_; ++y) {
-        unsigned char* dst =
+        std::uint16_t* dst =
             &sheet_[static_cast<std::size_t>(ty + y) * static_cast<std::size_t>(sheetW_) +
                     static_cast<std::size_t>(tx)];
         for (int x = 0; x < tileW_; ++x) {
@@ -476,7 +444,7 @@ int ContactSheetSink::write(const msg::OutputFrame& frame) noexcept {
                 for (int dx = 0; dx < shrink_; ++dx)
                     sum += to8(row[x * shrink_ + dx], bits_);
             }
-            dst[x] = static_cast<unsigned char>((sum + n / 2) / n);
+            dst[x] = static_cast<std::uint16_t>((sum + n / 2) / n);
         }
     }
     ++next_;
@@ -488,21 +456,10 @@ int ContactSheetSink::close() noexcept {
     if (state_ == SinkState::Closed || part_ == nullptr) return 0;
     state_ = SinkState::Closed;
     const std::string temp = path_ + ".part";
-    png_image image;
-    std::memset(&image, 0, sizeof image);
-    image.version = PNG_IMAGE_VERSION;
-    image.width = static_cast<png_uint_32>(sheetW_);
-    image.height = static_cast<png_uint_32>(sheetH_);
-    image.format = PNG_FORMAT_GRAY;
-    // Every step checked: encoded, flushed, on disk, closed; only then renamed into place.
-    errno = 0;
-    int rc = 0;
-    if (png_image_write_to_stdio(&image, part_, 0, sheet_.data(), 0, nullptr) == 0) {
-        rc = errno != 0 ? -errno : -EIO;
-    } else if (std::fflush(part_) != 0 || std::ferror(part_) != 0 || ::fsync(fileno(part_)) != 0) {
-        rc = errno != 0 ? -errno : -EIO;
-    }
-    png_image_free(&image);
+    const ImageView<const std::uint16_t> img(sheet_.data(), sheetW_, sheetH_, sheetW_);
+    // Every step checked: encoded, on disk, closed; only then renamed into place.
+    int rc = io::writePng(fileno(part_), img, 8, io::PngColour::Srgb);
+    if (rc == 0 && ::fsync(fileno(part_)) != 0) rc = -errno;
     if (std::fclose(part_) != 0 && rc == 0) rc = errno != 0 ? -errno : -EIO;
     part_ = nullptr;
     if (rc == 0 && std::rename(temp.c_str(), path_.c_str()) != 0) rc = -errno;

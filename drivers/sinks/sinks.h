@@ -40,6 +40,7 @@
 #include <vector>
 
 #include "drivers/sinks/file_io.h"
+#include "sim/io/exr.h"
 #include "sim/msg/output.h"
 #include "sim/msg/rate.h"
 
@@ -96,10 +97,10 @@ class PgmSequenceSink final : public msg::FrameSink {
     const SinkCounters& counters() const { return counters_; }
 
   private:
+    int maxValue() const { return static_cast<int>((1u << bits_) - 1u); }
     std::string name_, dir_;
     int width_, height_, bits_;
-    std::vector<unsigned char> buffer_;  // header + pixels
-    std::size_t headerSize_ = 0;
+    std::vector<unsigned char> buffer_;  // the file: header + samples
     AtomicFile file_;
     SinkState state_ = SinkState::Open;
     SinkCounters counters_;
@@ -116,8 +117,8 @@ class PngSequenceSink final : public msg::FrameSink {
   private:
     std::string name_, dir_;
     int width_, height_, bits_;
-    std::vector<std::uint16_t> buffer16_;
-    std::vector<unsigned char> buffer8_;
+    std::vector<std::uint16_t> buffer_;  // the samples at the file's depth (8 or 16 bit)
+    AtomicFile file_;
     SinkState state_ = SinkState::Open;
     SinkCounters counters_;
 };
@@ -137,7 +138,8 @@ class ExrSequenceSink final : public msg::FrameSink {
                    const char* unit) noexcept;
     std::string name_, dir_;
     int width_, height_;
-    std::vector<float> buffer_;
+    io::ExrAttributes attributes_;
+    AtomicFile file_;
     SinkState state_ = SinkState::Open;
     SinkCounters counters_;
 };
@@ -196,9 +198,9 @@ class ContactSheetSink final : public msg::FrameSink {
     int width_, height_, bits_, cols_, rows_, shrink_;
     int tileW_, tileH_, sheetW_, sheetH_;
     std::int64_t frames_, every_;
-    int next_ = 0;  // next tile to fill
-    std::vector<unsigned char> sheet_;
-    std::FILE* part_ = nullptr;  // FILE.part, opened at setup
+    int next_ = 0;                      // next tile to fill
+    std::vector<std::uint16_t> sheet_;  // 8-bit samples
+    std::FILE* part_ = nullptr;         // FILE.part, opened at setup
     SinkState state_ = SinkState::Open;
     SinkCounters counters_;
 };

@@ -24,7 +24,7 @@
 #include "sim/core/input_file.h"
 #include "sim/core/output_file.h"
 #include "sim/fit/diagnose.h"
-#include "sim/sensor/image_io.h"
+#include "sim/io/pnm.h"
 
 namespace nvs::cli {
 
@@ -55,7 +55,7 @@ void writeReport(const fit::Result& r, const fs::path& dir, const fs::path& scri
             for (int y = 0; y < r.height; ++y)
                 for (int x = 0; x < r.width; ++x)
                     img(x, y) = plane[static_cast<std::size_t>(y) * r.width + x];
-            sensor::writePfm(tmp / (name + ".pfm"), img.cview());
+            io::writePfm(tmp / (name + ".pfm"), img.cview());
         }
         const int rc = runPlotter(script, tmp);
         if (rc != 0) {

@@ -14,7 +14,7 @@
 #include "rt/compose/scene_setup.h"
 #include "sim/core/error.h"
 #include "sim/core/output_file.h"
-#include "sim/render/exr_out.h"
+#include "sim/io/exr.h"
 
 namespace nvs::cli {
 namespace {
@@ -75,10 +75,10 @@ int runRender(const RenderOptions& opts) {
     {
         outputs.holdSignals();  // both outputs or none, and no temporary left
         outputs.writeWith(out, [&](const std::filesystem::path& tmp) {
-            render::writeRadianceExr(tmp, pe.cview(), peAttrs);
+            io::writeExr(tmp, pe.cview(), {peAttrs, {}, {}});
         });
         outputs.writeWith(bandPath, [&](const std::filesystem::path& tmp) {
-            render::writeRadianceExr(tmp, band.cview(), bandAttrs);
+            io::writeExr(tmp, band.cview(), {bandAttrs, {}, {}});
         });
         outputs.commit();
     }

@@ -21,9 +21,13 @@
 #include "sim/core/error.h"
 #include "sim/core/input_file.h"
 #include "sim/core/output_file.h"
+#include "sim/io/exr.h"
+#include "sim/io/frame_pattern.h"
+#include "sim/io/image_file.h"
+#include "sim/io/png.h"
+#include "sim/io/pnm.h"
 #include "sim/sensor/camera.h"
 #include "sim/sensor/chain.h"
-#include "sim/sensor/image_io.h"
 
 namespace nvs::cli {
 
@@ -40,10 +44,10 @@ std::string lowerExt(const std::string& path) {
 ImageF loadInput(const std::string& file, const sensor::CameraParams& cam,
                  const SensorOptions& opts, const DataDirs& dirs) {
     // The header's size is checked against the camera's before any pixel is allocated.
-    sensor::ImageLimits limits;
+    io::ImageLimits limits;
     limits.maxWidth = cam.width;
     limits.maxHeight = cam.height;
-    sensor::RadianceFile r = sensor::readRadiance(file, limits);
+    io::RadianceFile r = io::readRadiance(file, limits);
     if (r.image.width() != cam.width || r.image.height() != cam.height) {
         throw SetupError(file + ": image is " + std::to_string(r.image.width()) + "x" +
                          std::to_string(r.image.height()) + ", camera '" + cam.name + "' expects " +
@@ -82,17 +86,17 @@ ImageF loadInput(const std::string& file, const sensor::CameraParams& cam,
 }
 
 // Writes the chain's last frame to the staged temporary of `file` (every write, flush and
-// close checked by image_io); OutputFiles renames it into place at the end.
+// close checked by sim/io); OutputFiles renames it into place at the end.
 void writeOutput(const std::string& file, const sensor::IiccdChain& chain, OutputFiles& outputs) {
     const std::string ext = lowerExt(file);
     const int maxv = (1 << chain.camera().adc_bits) - 1;
     outputs.writeWith(file, [&](const std::filesystem::path& tmp) {
         if (ext == ".pgm")
-            sensor::writePgm(tmp, chain.video().cview(), maxv);
+            io::writePgm(tmp, chain.video().cview(), maxv);
         else if (ext == ".png")
-            sensor::writePng(tmp, chain.video().cview(), maxv);
+            io::writePng(tmp, chain.video().cview(), maxv);
         else
-            sensor::writeExr(tmp, chain.counts().cview(), "DC", "");
+            io::writeExr(tmp, chain.counts().cview(), {{{io::kExrUnit, "DC"}}, {}, {}});
     });
 }
 
@@ -107,13 +111,13 @@ int runSensor(const SensorOptions& opts) {
     if (outExt != ".pgm" && outExt != ".png" && outExt != ".exr") {
         throw SetupError("--out " + opts.out + ": output must be .pgm, .png or .exr");
     }
-    const bool inPattern = sensor::hasFramePattern(opts.in);
+    const bool inPattern = io::hasFramePattern(opts.in);
     long long frames = opts.frames ? *opts.frames : 0;
     if (!opts.frames) {
         if (!inPattern)
             frames = 1;
         else
-            while (nvs::pathExists(sensor::expandFramePattern(opts.in, frames)))
+            while (nvs::pathExists(io::expandFramePattern(opts.in, frames)))
                 ++frames;
     }
     if (frames <= 0) throw SetupError("--in " + opts.in + ": no input files (frame 0 missing)");
@@ -125,18 +129,18 @@ int runSensor(const SensorOptions& opts) {
     ImageF held;
     if (inPattern) {
         for (long long k = 0; k < frames; ++k)
-            (void)loadInput(sensor::expandFramePattern(opts.in, k), cam, opts, dirs);
+            (void)loadInput(io::expandFramePattern(opts.in, k), cam, opts, dirs);
     } else {
         held = loadInput(opts.in, cam, opts, dirs);
     }
     // Every output path checked now, against the inputs and each other; written at the end.
     OutputFiles outputs;
     outputs.addInput(sensor::resolveCameraPath(dirs.config, opts.camera));
-    const bool outPattern = sensor::hasFramePattern(opts.out);
+    const bool outPattern = io::hasFramePattern(opts.out);
     for (long long k = 0; k < (inPattern ? frames : 1); ++k)
-        outputs.addInput(inPattern ? sensor::expandFramePattern(opts.in, k) : opts.in);
+        outputs.addInput(inPattern ? io::expandFramePattern(opts.in, k) : opts.in);
     for (long long k = 0; k < (outPattern ? frames : 1); ++k)
-        outputs.addFile("--out", outPattern ? sensor::expandFramePattern(opts.out, k) : opts.out);
+        outputs.addFile("--out", outPattern ? io::expandFramePattern(opts.out, k) : opts.out);
     GammaTableCache gammaTables;
     sensor::IiccdChain chain(cam, opts.seed ? *opts.seed : 0, dirs.config, gammaTables);
 
@@ -146,13 +150,12 @@ int runSensor(const SensorOptions& opts) {
         "{\"camera\":\"" + cam.name + "\",\"frames\":" + std::to_string(frames) + ",\"fields\":[";
     for (long long k = 0; k < frames; ++k) {
         ImageF frameInput;
-        if (inPattern)
-            frameInput = loadInput(sensor::expandFramePattern(opts.in, k), cam, opts, dirs);
+        if (inPattern) frameInput = loadInput(io::expandFramePattern(opts.in, k), cam, opts, dirs);
         const ImageF& in = inPattern ? frameInput : held;
         const sensor::FieldInfo& info = chain.process(in.cview());
         if (SignalHold::pending()) break;
         if (outPattern)
-            writeOutput(sensor::expandFramePattern(opts.out, k), chain, outputs);
+            writeOutput(io::expandFramePattern(opts.out, k), chain, outputs);
         else if (k == frames - 1)
             writeOutput(opts.out, chain, outputs);
         char buf[320];

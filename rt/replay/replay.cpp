@@ -24,7 +24,8 @@
 #include "sim/core/error.h"
 #include "sim/core/image.h"
 #include "sim/core/output_file.h"
-#include "sim/sensor/image_io.h"
+#include "sim/io/image_file.h"
+#include "sim/io/pnm.h"
 
 extern char** environ;
 
@@ -97,7 +98,7 @@ WindowStats computeWindow(const std::vector<fs::path>& frames, int first, int co
     WindowStats s;
     s.first = first;
     s.count = count;
-    const ImageU16 f0 = sensor::readPgm(frames[first]);
+    const ImageU16 f0 = io::readPgm(frames[first]);
     const int w = f0.width(), h = f0.height();
     s.blocksX = w / kReplayBlock_px;
     s.blocksY = h / kReplayBlock_px;
@@ -105,7 +106,7 @@ WindowStats computeWindow(const std::vector<fs::path>& frames, int first, int co
     std::vector<double> bSum(nb, 0.0), bSq(nb, 0.0);
     std::vector<double> pSum(static_cast<std::size_t>(w) * h, 0.0), pSq(pSum.size(), 0.0);
     for (int k = first; k < first + count; ++k) {
-        const ImageU16 img = sensor::readPgm(frames[k]);
+        const ImageU16 img = io::readPgm(frames[k]);
         if (img.width() != w || img.height() != h) {
             throw SetupError(FileLoc{frames[k].string()}, "frame size changed during the replay");
         }
@@ -237,7 +238,7 @@ bool isSha256Hex(const std::string& s) {
 // every value finite (a NaN would make every comparison with it false, i.e. pass).
 ImageF readReference(const fs::path& p) {
     if (!fs::is_regular_file(p)) throw SetupError(FileLoc{p.string()}, "missing reference image");
-    ImageF img = sensor::readRadiance(p).image;
+    ImageF img = io::readRadiance(p).image;
     for (int y = 0; y < img.height(); ++y)
         for (int x = 0; x < img.width(); ++x)
             if (!std::isfinite(img(x, y))) {
@@ -276,7 +277,7 @@ void writeZMap(const fs::path& p, const ImageF& z) {
             img(x, y) = static_cast<std::uint16_t>(std::lround(a * 25.5));
         }
     }
-    sensor::writePgm(p, img.cview(), 255);
+    io::writePgm(p, img.cview(), 255);
 }
 
 }  // namespace
@@ -427,7 +428,7 @@ void blessScenario(const fs::path& dir, const fs::path& nvstimExe) {
              {std::pair{"_mean.pfm", &w.mean}, std::pair{"_meanvar.pfm", &w.meanVar},
               std::pair{"_pixvar.pfm", &w.pixVar}}) {
             outputs.writeWith(exp / (stem + kind),
-                              [&](const fs::path& tmp) { sensor::writePfm(tmp, img->cview()); });
+                              [&](const fs::path& tmp) { io::writePfm(tmp, img->cview()); });
         }
         char line[256];
         std::snprintf(
@@ -655,8 +656,8 @@ ReplayResult checkScenario(const fs::path& dir, const fs::path& nvstimExe) {
             r.passed = false;
             fs::create_directories(failDir);
             writeZMap(failDir / (stem + "_z.pgm"), z);
-            sensor::writePfm(failDir / (stem + "_meandiff.pfm"), diff.cview());
-            sensor::writePfm(failDir / (stem + "_varratio.pfm"), ratio.cview());
+            io::writePfm(failDir / (stem + "_meandiff.pfm"), diff.cview());
+            io::writePfm(failDir / (stem + "_varratio.pfm"), ratio.cview());
         }
         std::snprintf(
             line, sizeof line,

@@ -1,6 +1,5 @@
 #include "sim/fit/dataset.h"
 
-#include <png.h>
 #include <toml++/toml.h>
 
 #include <algorithm>
@@ -18,7 +17,9 @@
 #include "sim/core/error.h"
 #include "sim/core/fnv.h"
 #include "sim/core/input_file.h"
-#include "sim/sensor/image_io.h"
+#include "sim/io/frame_pattern.h"
+#include "sim/io/image_file.h"
+#include "sim/io/pnm.h"
 
 namespace nvs::fit {
 
@@ -28,13 +29,6 @@ namespace fs = std::filesystem;
 
 [[noreturn]] void fail(const fs::path& file, const std::string& msg) {
     throw SetupError(FileLoc{file.string(), 0, 0}, msg);
-}
-
-std::string lowerExt(const fs::path& p) {
-    std::string e = p.extension().string();
-    for (char& c : e)
-        c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-    return e;
 }
 
 // A TOML basic string holding `text` exactly: quotes, backslashes and control characters
@@ -187,21 +181,21 @@ FrameList listFrames(const ConfigTable& out, const fs::path& dir, const fs::path
         }
     } else {
         const std::string pattern = out.require<std::string>("frames");
-        if (!sensor::hasFramePattern(pattern)) out.fail("frames", "needs {frame:06d} in it");
+        if (!io::hasFramePattern(pattern)) out.fail("frames", "needs {frame:06d} in it");
         long long n = count >= 0 ? count : 0;
         if (count < 0)
             while (n <= kMaxDatasetFrames &&
-                   pathExists(dir / sensor::expandFramePattern(pattern, first + n)))
+                   pathExists(dir / io::expandFramePattern(pattern, first + n)))
                 ++n;
         if (n > kMaxDatasetFrames)
             out.fail("frames", "more than " + std::to_string(kMaxDatasetFrames) + " frames");
         for (long long k = first; k < first + n; ++k) {
             fl.numbers.push_back(k);
-            fl.files.push_back(dir / sensor::expandFramePattern(pattern, k));
+            fl.files.push_back(dir / io::expandFramePattern(pattern, k));
         }
         // A frame after a gap: the sequence has a hole.
         for (long long k = first + n + 1; k < first + n + 64 && count < 0; ++k) {
-            if (pathExists(dir / sensor::expandFramePattern(pattern, k))) {
+            if (pathExists(dir / io::expandFramePattern(pattern, k))) {
                 fail(tomlPath, "[output] frames: frame " + std::to_string(first + n) +
                                    " is missing (frame " + std::to_string(k) + " exists)");
             }
@@ -304,146 +298,20 @@ sensor::CameraParams loadModelCamera(const fs::path& configDir, const std::strin
     return cam;
 }
 
-// The maximum value of a PGM header that parsePgm has accepted ("P5 W H MAXVAL", with
-// comments): its fourth token.
-int pgmMaxValue(std::string_view bytes) {
-    std::size_t i = 0;
-    std::string_view tok;
-    for (int n = 0; n < 4; ++n) {
-        while (i < bytes.size()) {
-            if (bytes[i] == '#') {
-                while (i < bytes.size() && bytes[i] != '\n')
-                    ++i;
-            } else if (std::isspace(static_cast<unsigned char>(bytes[i]))) {
-                ++i;
-            } else {
-                break;
-            }
-        }
-        const std::size_t start = i;
-        while (i < bytes.size() && !std::isspace(static_cast<unsigned char>(bytes[i])) &&
-               bytes[i] != '#')
-            ++i;
-        tok = bytes.substr(start, i - start);
-    }
-    int v = 0;
-    std::from_chars(tok.data(), tok.data() + tok.size(), v);
-    return v;
-}
-
-// libpng reading from the file's bytes in memory (never from the file by name: the file was
-// read once, bounded, and checked to be a regular file).
-struct PngBytes {
-    const unsigned char* p;
-    std::size_t left;
-};
-
-void readPngBytes(png_structp png, png_bytep out, png_size_t n) {
-    auto* src = static_cast<PngBytes*>(png_get_io_ptr(png));
-    if (n > src->left) png_error(png, "truncated PNG");
-    std::memcpy(out, src->p, n);
-    src->p += n;
-    src->left -= n;
-}
-
-// libpng's errors and warnings kept for the one-line error instead of printed on stderr.
-void pngError(png_structp png, png_const_charp message) {
-    *static_cast<std::string*>(png_get_error_ptr(png)) = message;
-    png_longjmp(png, 1);
-}
-
-void pngWarning(png_structp, png_const_charp) {}
-
-// Largest inflation a PNG's zlib stream can give (deflate's limit is about 1032:1): a header
-// that promises more samples than that from the file's size is refused before any allocation.
-constexpr std::uint64_t kMaxPngInflation = 1100;
-
 Plane readFrame(const fs::path& path, int& width, int& height, int& maxValue) {
-    const std::string ext = lowerExt(path);
-    if (ext != ".pgm" && ext != ".png") fail(path, "frames must be .pgm or .png");
-    // A regular file only (a FIFO or /dev/zero is refused before it is read), bounded.
-    const std::string bytes = readInputFile(path, kMaxImageFileBytes, "frame");
-    if (ext == ".pgm") {
-        const ImageU16 img = sensor::parsePgm(bytes, path.string(), {});
-        const int maxv = pgmMaxValue(bytes);
-        // A camera's counts: maximum value 2^n - 1 (255, 1023, 4095, 65535 ...).
-        if (maxv < 1 || ((maxv + 1) & maxv) != 0) {
-            fail(path, "maximum value " + std::to_string(maxv) +
-                           " is not 2^n - 1 (a camera's full scale: 255, 1023, 4095, 65535)");
-        }
-        width = img.width();
-        height = img.height();
-        maxValue = maxv;
-        Plane p(static_cast<std::size_t>(width) * height);
-        for (int y = 0; y < height; ++y)
-            for (int x = 0; x < width; ++x)
-                p[static_cast<std::size_t>(y) * width + x] = img(x, y);
-        return p;
+    const io::CountsFile c = io::readCounts(path);
+    // A camera's counts: maximum value 2^n - 1 (255, 1023, 4095, 65535 ...).
+    if (c.maxValue < 1 || ((c.maxValue + 1) & c.maxValue) != 0) {
+        fail(path, "maximum value " + std::to_string(c.maxValue) +
+                       " is not 2^n - 1 (a camera's full scale: 255, 1023, 4095, 65535)");
     }
-    png_image im{};
-    im.version = PNG_IMAGE_VERSION;
-    if (!png_image_begin_read_from_memory(&im, bytes.data(), bytes.size()))
-        fail(path, std::string("not a readable PNG: ") + im.message);
-    const sensor::ImageLimits limits;
-    const std::uint64_t samples = std::uint64_t{im.width} * im.height;
-    if (im.width == 0 || im.height == 0 || im.width > static_cast<unsigned>(limits.maxWidth) ||
-        im.height > static_cast<unsigned>(limits.maxHeight) ||
-        samples > kMaxPngInflation * bytes.size()) {
-        png_image_free(&im);
-        fail(path, "PNG header claims " + std::to_string(im.width) + "x" +
-                       std::to_string(im.height) + ", more than a " + std::to_string(bytes.size()) +
-                       "-byte file can hold or above " + std::to_string(limits.maxWidth) + "x" +
-                       std::to_string(limits.maxHeight));
-    }
-    const bool wide = PNG_IMAGE_SAMPLE_COMPONENT_SIZE(im.format) == 2;
-    width = static_cast<int>(im.width);
-    height = static_cast<int>(im.height);
+    width = c.image.width();
+    height = c.image.height();
+    maxValue = c.maxValue;
     Plane p(static_cast<std::size_t>(width) * height);
-    if (!wide) {
-        im.format = PNG_FORMAT_GRAY;
-        std::vector<unsigned char> buf(PNG_IMAGE_SIZE(im));
-        if (!png_image_finish_read(&im, nullptr, buf.data(), 0, nullptr))
-            fail(path, std::string("PNG read failed: ") + im.message);
-        for (std::size_t i = 0; i < p.size(); ++i)
-            p[i] = buf[i];
-        maxValue = 255;
-        return p;
-    }
-    // 16-bit PNGs are read without libpng's gamma conversion: PNG_FORMAT_LINEAR_Y would convert
-    // an sRGB-tagged file, so the rows are read raw through the low-level API instead, every
-    // pass of an interlaced (Adam7) file into the whole image.
-    png_image_free(&im);
-    PngBytes src{reinterpret_cast<const unsigned char*>(bytes.data()), bytes.size()};
-    std::string pngMessage;
-    png_structp png =
-        png_create_read_struct(PNG_LIBPNG_VER_STRING, &pngMessage, pngError, pngWarning);
-    png_infop info = png ? png_create_info_struct(png) : nullptr;
-    if (!png || !info) {
-        png_destroy_read_struct(&png, &info, nullptr);
-        fail(path, "cannot read");
-    }
-    std::vector<unsigned char> raw(static_cast<std::size_t>(width) * height * 2);
-    if (setjmp(png_jmpbuf(png))) {
-        png_destroy_read_struct(&png, &info, nullptr);
-        fail(path, "PNG read failed: " + pngMessage);
-    }
-    png_set_read_fn(png, &src, readPngBytes);
-    png_read_info(png, info);
-    if (png_get_color_type(png, info) != PNG_COLOR_TYPE_GRAY ||
-        png_get_bit_depth(png, info) != 16 || png_get_image_width(png, info) != im.width ||
-        png_get_image_height(png, info) != im.height) {
-        png_destroy_read_struct(&png, &info, nullptr);
-        fail(path, "16-bit frames must be greyscale PNG");
-    }
-    const int passes = png_set_interlace_handling(png);
-    png_read_update_info(png, info);
-    for (int pass = 0; pass < passes; ++pass)
-        for (int y = 0; y < height; ++y)
-            png_read_row(png, raw.data() + static_cast<std::size_t>(y) * width * 2, nullptr);
-    png_destroy_read_struct(&png, &info, nullptr);
-    for (std::size_t i = 0; i < p.size(); ++i)
-        p[i] = static_cast<float>((raw[2 * i] << 8) | raw[2 * i + 1]);
-    maxValue = 65535;
+    for (int y = 0; y < height; ++y)
+        for (int x = 0; x < width; ++x)
+            p[static_cast<std::size_t>(y) * width + x] = c.image(x, y);
     return p;
 }
 
@@ -472,14 +340,14 @@ void loadStimuli(Dataset& d, const ConfigTable& st, const std::vector<long long>
     const std::string band = st.get<std::string>("band", "");
     for (std::size_t i = 0; i < numbers.size(); ++i) {
         const long long k = index.empty() ? numbers[i] : index[i];
-        const fs::path file = d.dir / sensor::expandFramePattern(pattern, k);
+        const fs::path file = d.dir / io::expandFramePattern(pattern, k);
         if (auto it = byFile.find(file.string()); it != byFile.end()) {
             d.stimulusOfFrame.push_back(it->second);
             continue;
         }
         if (!pathExists(file))
             fail(file, "stimulus for frame " + std::to_string(numbers[i]) + " is missing");
-        sensor::RadianceFile r = sensor::readRadiance(file);
+        io::RadianceFile r = io::readRadiance(file);
         if (r.image.width() != d.width || r.image.height() != d.height) {
             fail(file, "stimulus is " + std::to_string(r.image.width()) + "x" +
                            std::to_string(r.image.height()) + " but the frames are " +
@@ -628,9 +496,8 @@ void writeDataset(const Dataset& d, const fs::path& dir) {
     if (!scenario) fs::create_directories(dir / "radiance");
     fs::create_directories(dir / "frames");
     for (std::size_t i = 0; !scenario && i < d.stimuli.size(); ++i)
-        sensor::writePfm(
-            dir / "radiance" /
-                sensor::expandFramePattern("{frame:06d}.pfm", static_cast<long long>(i)),
+        io::writePfm(
+            dir / "radiance" / io::expandFramePattern("{frame:06d}.pfm", static_cast<long long>(i)),
             d.stimuli[i].cview());
     const int maxv = d.frameMax_dc;
     ImageU16 img(d.width, d.height);
@@ -640,10 +507,10 @@ void writeDataset(const Dataset& d, const fs::path& dir) {
                 const float v = d.frames[k][static_cast<std::size_t>(y) * d.width + x];
                 img(x, y) = static_cast<std::uint16_t>(std::clamp(std::lround(v), 0L, long{maxv}));
             }
-        sensor::writePgm(dir / "frames" /
-                             sensor::expandFramePattern("{frame:06d}.pgm",
-                                                        d.firstFrame + static_cast<long long>(k)),
-                         img.cview(), maxv);
+        io::writePgm(
+            dir / "frames" /
+                io::expandFramePattern("{frame:06d}.pgm", d.firstFrame + static_cast<long long>(k)),
+            img.cview(), maxv);
     }
     std::ofstream t(dir / "dataset.toml");
     t << "# Measured dataset (docs/contracts.md, \"Measured dataset\")\n";

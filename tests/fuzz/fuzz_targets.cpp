@@ -22,9 +22,12 @@
 #include "sim/core/error.h"
 #include "sim/core/output_file.h"
 #include "sim/fit/dataset.h"
+#include "sim/io/exr.h"
+#include "sim/io/frame_pattern.h"
+#include "sim/io/image_file.h"
+#include "sim/io/pnm.h"
 #include "sim/scene/scene.h"
 #include "sim/sensor/camera.h"
-#include "sim/sensor/image_io.h"
 
 namespace nvs::fuzz {
 
@@ -253,19 +256,19 @@ int obj(const std::uint8_t* data, std::size_t size) {
 int image(const std::uint8_t* data, std::size_t size) {
     // The format by its magic, as a file's extension would choose it; small limits keep each
     // run fast (the limits themselves are checked before any pixel is allocated).
-    sensor::ImageLimits limits;
+    io::ImageLimits limits;
     limits.maxWidth = 512;
     limits.maxHeight = 512;
     const std::string_view bytes(reinterpret_cast<const char*>(data), size);
     return expectSetupError([&] {
         if (bytes.substr(0, 2) == "P5") {
-            const ImageU16 img = sensor::parsePgm(bytes, "fuzz.pgm", limits);
+            const ImageU16 img = io::parsePgm(bytes, "fuzz.pgm", limits);
             require(img.width() <= 512 && img.height() <= 512);
         } else if (bytes.substr(0, 2) == "Pf" || bytes.substr(0, 2) == "PF") {
-            const ImageF img = sensor::parsePfm(bytes, "fuzz.pfm", limits);
+            const ImageF img = io::parsePfm(bytes, "fuzz.pfm", limits);
             require(img.width() <= 512 && img.height() <= 512);
         } else {
-            const sensor::RadianceFile r = sensor::parseExr(bytes, "fuzz.exr", limits);
+            const io::ExrImage r = io::parseExr(bytes, "fuzz.exr", limits);
             require(r.image.width() <= 512 && r.image.height() <= 512);
         }
     });
@@ -316,11 +319,11 @@ int dataset(const std::uint8_t* data, std::size_t size) {
         if (part == 0)
             name = dir / "dataset.toml";
         else if (bytes.substr(0, 2) == "Pf" || bytes.substr(0, 2) == "PF")
-            name = dir / "radiance" / sensor::expandFramePattern("{frame:06d}.pfm", radiances++);
+            name = dir / "radiance" / io::expandFramePattern("{frame:06d}.pfm", radiances++);
         else if (bytes.substr(0, 4) == "\x89PNG")
-            name = dir / "frames" / sensor::expandFramePattern("{frame:06d}.png", frames++);
+            name = dir / "frames" / io::expandFramePattern("{frame:06d}.png", frames++);
         else
-            name = dir / "frames" / sensor::expandFramePattern("{frame:06d}.pgm", frames++);
+            name = dir / "frames" / io::expandFramePattern("{frame:06d}.pgm", frames++);
         std::FILE* f = std::fopen(name.c_str(), "wb");
         if (f == nullptr) std::abort();
         std::fwrite(bytes.data(), 1, bytes.size(), f);
@@ -469,8 +472,8 @@ int framePattern(const std::uint8_t* data, std::size_t size) {
         frame = static_cast<long long>(static_cast<unsigned long long>(frame) << 8 | data[i]);
     const std::string pattern =
         text(data + std::min<std::size_t>(size, 8), size - std::min<std::size_t>(size, 8));
-    const std::string name = sensor::expandFramePattern(pattern, frame);
-    if (!sensor::hasFramePattern(pattern)) require(name == pattern);
+    const std::string name = io::expandFramePattern(pattern, frame);
+    if (!io::hasFramePattern(pattern)) require(name == pattern);
     require(name.size() <= pattern.size() + 32);
     return 0;
 }

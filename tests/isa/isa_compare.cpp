@@ -33,7 +33,8 @@
 #include <vector>
 
 #include "sim/core/error.h"
-#include "sim/sensor/image_io.h"
+#include "sim/io/image_file.h"
+#include "sim/io/pnm.h"
 
 namespace fs = std::filesystem;
 
@@ -65,8 +66,8 @@ std::vector<fs::path> filesIn(const fs::path& dir, const std::string& ext) {
 }
 
 bool compareRadiance(const fs::path& a, const fs::path& b) {
-    const nvs::ImageF ra = nvs::sensor::readRadiance(a).image;
-    const nvs::ImageF rb = nvs::sensor::readRadiance(b).image;
+    const nvs::ImageF ra = nvs::io::readRadiance(a).image;
+    const nvs::ImageF rb = nvs::io::readRadiance(b).image;
     if (ra.width() != rb.width() || ra.height() != rb.height()) {
         std::printf("%s: size %dx%d, reference %dx%d\n", b.filename().c_str(), rb.width(),
                     rb.height(), ra.width(), ra.height());
@@ -112,8 +113,8 @@ bool compareRadiance(const fs::path& a, const fs::path& b) {
 }
 
 bool compareFrames(const fs::path& a, const fs::path& b, bool exact) {
-    const nvs::ImageU16 fa = nvs::sensor::readPgm(a);
-    const nvs::ImageU16 fb = nvs::sensor::readPgm(b);
+    const nvs::ImageU16 fa = nvs::io::readPgm(a);
+    const nvs::ImageU16 fb = nvs::io::readPgm(b);
     if (fa.width() != fb.width() || fa.height() != fb.height()) {
         std::printf("%s: size %dx%d, reference %dx%d\n", b.filename().c_str(), fb.width(),
                     fb.height(), fa.width(), fa.height());

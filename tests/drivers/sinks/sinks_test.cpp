@@ -16,7 +16,7 @@
 #include <sstream>
 #include <thread>
 
-#include "sim/sensor/image_io.h"
+#include "sim/io/image_file.h"
 
 namespace nvs::drivers {
 namespace {
@@ -103,13 +103,13 @@ TEST(Sinks, ExrFilesCarryTheirUnit) {
     f.radiance = msg::RadianceFrame{};
     EXPECT_LT(bandOnly.write(f), 0);  // nothing to write is an error, counted
 
-    const sensor::RadianceFile pe = sensor::readRadiance(dir / "both" / "000002.exr");
+    const io::RadianceFile pe = io::readRadiance(dir / "both" / "000002.exr");
     EXPECT_EQ(pe.unit, "pe/s/m2/sr");
     EXPECT_EQ(pe.image(3, 2), 2.5e6f);
-    const sensor::RadianceFile l = sensor::readRadiance(dir / "both" / "000002.band.exr");
+    const io::RadianceFile l = io::readRadiance(dir / "both" / "000002.band.exr");
     EXPECT_EQ(l.unit, "W/m2/sr");
     EXPECT_EQ(l.image(0, 0), 1.25e-7f);
-    const sensor::RadianceFile only = sensor::readRadiance(dir / "band" / "000002.exr");
+    const io::RadianceFile only = io::readRadiance(dir / "band" / "000002.exr");
     EXPECT_EQ(only.unit, "W/m2/sr");
     EXPECT_EQ(only.image(1, 1), 1.25e-7f);
     EXPECT_FALSE(fs::exists(dir / "band" / "000002.band.exr"));
@@ -254,7 +254,7 @@ TEST(Sinks, ExrOnAFullDiskCommitsNothingAndCountsTheErrors) {
     for (const auto& e : fs::directory_iterator(dir))
         ADD_FAILURE() << "left behind: " << e.path() << " (" << fs::file_size(e.path()) << " B)";
     ASSERT_EQ(sink.write(f), 0);  // room again: written whole
-    EXPECT_EQ(sensor::readRadiance(dir / "000003.exr").image(5, 5), 1e-6f);
+    EXPECT_EQ(io::readRadiance(dir / "000003.exr").image(5, 5), 1e-6f);
     fs::remove_all(dir);
 }
 

@@ -18,7 +18,9 @@
 #include "sim/core/error.h"
 #include "sim/fit/dataset.h"
 #include "sim/fit/generate.h"
-#include "sim/sensor/image_io.h"
+#include "sim/io/frame_pattern.h"
+#include "sim/io/png.h"
+#include "sim/io/pnm.h"
 #include "tests/sim/fit/fit_test_data.h"
 
 namespace nvs::fit {
@@ -113,7 +115,7 @@ TEST(DatasetInputs, HostileInputIsOneSetupErrorNamingIt) {
          [](const fs::path& d) {
              edit(d / "dataset.toml", "{frame:06d}.pgm", "{frame:06d}.png");
              for (int k = 0; k < 12; ++k)
-                 writeBytes(d / "frames" / sensor::expandFramePattern("{frame:06d}.png", k),
+                 writeBytes(d / "frames" / io::expandFramePattern("{frame:06d}.png", k),
                             forgedPng(16384));
          },
          "000000.png: PNG header claims 16384x16384"},
@@ -121,7 +123,7 @@ TEST(DatasetInputs, HostileInputIsOneSetupErrorNamingIt) {
          [](const fs::path& d) {
              edit(d / "dataset.toml", "{frame:06d}.pgm", "{frame:06d}.png");
              for (int k = 0; k < 12; ++k)
-                 writeBytes(d / "frames" / sensor::expandFramePattern("{frame:06d}.png", k),
+                 writeBytes(d / "frames" / io::expandFramePattern("{frame:06d}.png", k),
                             forgedPng(30000));
          },
          "PNG header claims 30000x30000"},
@@ -133,8 +135,8 @@ TEST(DatasetInputs, HostileInputIsOneSetupErrorNamingIt) {
                  for (int x = 0; x < 48; ++x)
                      img(x, y) = static_cast<std::uint16_t>(1000 * x + y);
              for (int k = 0; k < 12; ++k)
-                 sensor::writePng(d / "frames" / sensor::expandFramePattern("{frame:06d}.png", k),
-                                  img.cview(), 65535);
+                 io::writePng(d / "frames" / io::expandFramePattern("{frame:06d}.png", k),
+                              img.cview(), 65535);
              std::string png = readText(d / "frames" / "000000.png");
              const std::size_t idat = png.find("IDAT");
              png[idat + 40] = static_cast<char>(png[idat + 40] ^ 0x5a);
@@ -163,14 +165,14 @@ TEST(DatasetInputs, HostileInputIsOneSetupErrorNamingIt) {
         {"PGM maximum value 1000",
          [](const fs::path& d) {
              ImageU16 img(48, 32);
-             sensor::writePgm(d / "frames" / "000000.pgm", img.cview(), 1000);
+             io::writePgm(d / "frames" / "000000.pgm", img.cview(), 1000);
          },
          "maximum value 1000 is not 2^n - 1"},
         {"mixed bit depths",
          [](const fs::path& d) {
              ImageU16 img(48, 32);
              img(3, 3) = 100;
-             sensor::writePgm(d / "frames" / "000004.pgm", img.cview(), 65535);
+             io::writePgm(d / "frames" / "000004.pgm", img.cview(), 65535);
          },
          "mixed bit depths"},
         {"too few frames to hold any out",
@@ -188,8 +190,8 @@ TEST(DatasetInputs, HostileInputIsOneSetupErrorNamingIt) {
          [](const fs::path& d) {
              const ImageU16 img(48, 32);
              for (int k = 0; k < 12; ++k)
-                 sensor::writePgm(d / "frames" / sensor::expandFramePattern("{frame:06d}.pgm", k),
-                                  img.cview(), 255);
+                 io::writePgm(d / "frames" / io::expandFramePattern("{frame:06d}.pgm", k),
+                              img.cview(), 255);
          },
          "carry no signal: every sample is 0"},
         {"all frames clipped",
@@ -199,8 +201,8 @@ TEST(DatasetInputs, HostileInputIsOneSetupErrorNamingIt) {
                  for (int x = 0; x < 48; ++x)
                      img(x, y) = (x + y) % 2 == 0 ? 0 : 255;
              for (int k = 0; k < 12; ++k)
-                 sensor::writePgm(d / "frames" / sensor::expandFramePattern("{frame:06d}.pgm", k),
-                                  img.cview(), 255);
+                 io::writePgm(d / "frames" / io::expandFramePattern("{frame:06d}.pgm", k),
+                              img.cview(), 255);
          },
          "carry no signal: every sample is 0 or full scale (255)"},
     };

@@ -15,7 +15,8 @@
 #include "sim/fit/conv.h"
 #include "sim/fit/engine.h"
 #include "sim/fit/generate.h"
-#include "sim/sensor/image_io.h"
+#include "sim/io/png.h"
+#include "sim/io/pnm.h"
 #include "tests/sim/fit/fit_test_data.h"
 
 namespace nvs::fit {
@@ -79,7 +80,7 @@ TEST(Dataset, BadInputIsOneSetupErrorNamingTheProblem) {
         {"stimulus size",
          [](const fs::path& d) {
              ImageF small(24, 16);
-             sensor::writePfm(d / "radiance" / "000001.pfm", small.cview());
+             io::writePfm(d / "radiance" / "000001.pfm", small.cview());
          },
          "stimulus is 24x16 but the frames are 48x32"},
     };
@@ -92,14 +93,14 @@ TEST(Dataset, ReadsEightAndSixteenBitPngAndPgm) {
     for (int y = 0; y < 3; ++y)
         for (int x = 0; x < 5; ++x)
             img(x, y) = static_cast<std::uint16_t>(1000 * y + 37 * x);
-    sensor::writePng(dir / "a16.png", img.cview(), 65535);
-    sensor::writePgm(dir / "a16.pgm", img.cview(), 65535);
+    io::writePng(dir / "a16.png", img.cview(), 65535);
+    io::writePgm(dir / "a16.pgm", img.cview(), 65535);
     img(4, 2) = 255;
     img(0, 0) = 0;
     for (int y = 0; y < 3; ++y)
         for (int x = 0; x < 5; ++x)
             img(x, y) = static_cast<std::uint16_t>(img(x, y) % 256);
-    sensor::writePng(dir / "a8.png", img.cview(), 255);
+    io::writePng(dir / "a8.png", img.cview(), 255);
     int w = 0, h = 0, maxv = 0;
     const Plane p16 = readFrame(dir / "a16.png", w, h, maxv);
     EXPECT_EQ(maxv, 65535);

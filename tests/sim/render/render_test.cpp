@@ -9,7 +9,6 @@
 
 #include "sim/core/csv.h"
 #include "sim/core/planck.h"
-#include "sim/render/exr_out.h"
 #include "sim/render/renderer.h"
 #include "tests/sim/core/test_paths.h"
 #include "tests/sim/render/embree_pin.h"
@@ -290,22 +289,6 @@ TEST(Render, ThesisAppendixIApertureFactorFromExtendedSource) {
         t.number(6, t.column("radiance_W_m-2_sr-1")));
     EXPECT_NEAR(factor / thesis, 1.0, 0.05);
     EXPECT_NEAR(factor, 14.0, 0.7);
-}
-
-TEST(Render, ExrCarriesUnitsAndTime) {
-    ImageF img(8, 4);
-    img.view()(3, 2) = 42.0f;
-    const auto path = std::filesystem::temp_directory_path() /
-                      ("nvs_render_test-" + std::to_string(::getpid()) + ".exr");
-    writeRadianceExr(path, img.cview(), {{"nvstim.unit", "pe/s/m2/sr"}, {"nvstim.utc", "x"}});
-    std::vector<std::pair<std::string, std::string>> attrs;
-    const ImageF back = readRadianceExr(path, &attrs);
-    EXPECT_EQ(back.view()(3, 2), 42.0f);
-    bool unit = false;
-    for (const auto& [k, v] : attrs)
-        unit |= k == "nvstim.unit" && v == "pe/s/m2/sr";
-    EXPECT_TRUE(unit);
-    std::filesystem::remove(path);
 }
 
 }  // namespace

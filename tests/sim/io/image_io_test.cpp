@@ -2,8 +2,6 @@
 // bytes the file holds and against the limits (the camera's size) before any pixel is
 // allocated — a 36-byte PFM claiming 20000×20000 allocated 1.5 GB before — numbers in a header
 // are bounded, and frame-name patterns with an overlong width no longer throw.
-#include "sim/sensor/image_io.h"
-
 #include <gtest/gtest.h>
 
 #include <cstring>
@@ -13,9 +11,13 @@
 #include <string>
 
 #include "sim/core/error.h"
+#include "sim/io/exr.h"
+#include "sim/io/frame_pattern.h"
+#include "sim/io/image_file.h"
+#include "sim/io/pnm.h"
 #include "tests/sim/core/test_errors.h"
 
-namespace nvs::sensor {
+namespace nvs::io {
 namespace {
 
 TEST(ImageInput, PfmHeaderClaimingMoreThanTheFileHoldsIsRefusedBeforeAllocating) {
@@ -81,11 +83,11 @@ std::string seed(const char* file) {
 
 TEST(ImageInput, ExrHeaderIsWalkedBeforeOpenExrAllocates) {
     // Written by OpenEXR (uncompressed, ZIP, RLE with a data window off the origin): read.
-    const RadianceFile a = parseExr(seed("y_none_4x3.exr"), "a.exr", ImageLimits{});
+    const ExrImage a = parseExr(seed("y_none_4x3.exr"), "a.exr", ImageLimits{});
     EXPECT_EQ(a.image.width(), 4);
     EXPECT_EQ(a.image.height(), 3);
     EXPECT_EQ(a.image(3, 2), 0.25f * 11);
-    EXPECT_EQ(a.unit, "pe/s/m2/sr");
+    EXPECT_EQ(a.attribute(kExrUnit), "pe/s/m2/sr");
     EXPECT_EQ(parseExr(seed("r_half_rle_5x2_offset.exr"), "b.exr", ImageLimits{}).image.width(), 5);
     // Found by the image fuzz target: a 360-byte header whose string attribute claims 1.9 GB,
     // which OpenEXR 3.1 allocated before reading it.
@@ -112,4 +114,4 @@ TEST(FramePattern, OverlongWidthIsLeftAsIs) {
 }
 
 }  // namespace
-}  // namespace nvs::sensor
+}  // namespace nvs::io

@@ -1,0 +1,2 @@
+#pragma once
+#include "sim/sensor/chain.h"
