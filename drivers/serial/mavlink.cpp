@@ -2,6 +2,7 @@
 #include <cstring>
 
 #include "drivers/serial/serial.h"
+#include "sim/core/units.h"
 
 namespace nvs::drivers {
 
@@ -124,7 +125,7 @@ bool payloadInRange(const MavlinkMessage& m) noexcept {
     // Ranges from common.xml: ATTITUDE roll, pitch, yaw in −π..+π [rad] (compared in float, as
     // sent: float(π) is the largest float angle allowed); GLOBAL_POSITION_INT lat ±90° and lon
     // ±180° [degE7], hdg 0..35999 [cdeg] or UINT16_MAX (unknown).
-    constexpr float kPiF = 3.14159265358979323846f;
+    constexpr float kPiF = static_cast<float>(kPi);
     if (m.msgid == kMavlinkAttitude) {
         MavlinkAttitude a;
         decodeAttitude(m, &a);

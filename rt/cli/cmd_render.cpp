@@ -14,6 +14,7 @@
 #include "rt/compose/scene_setup.h"
 #include "sim/core/error.h"
 #include "sim/core/output_file.h"
+#include "sim/core/units.h"
 #include "sim/io/exr.h"
 
 namespace nvs::cli {
@@ -57,15 +58,14 @@ int runRender(const RenderOptions& opts) {
     sr->renderFrame(t_s, pe.view(), band.view(), ex);
 
     const auto& moon = sr->sunMoon().moon;
-    constexpr double kDeg = 180.0 / 3.14159265358979323846;
     std::vector<std::pair<std::string, std::string>> attrs = {
         {"nvstim.scenario", sr->scenario().file},
         {"nvstim.frame", std::to_string(opts.frame)},
         {"nvstim.utc_start", sr->scenario().utcStart},
         {"nvstim.t_s", fmt(t_s)},
         {"nvstim.camera", sr->scenario().camera.preset},
-        {"nvstim.moon_alt_deg", fmt(moon.alt_rad * kDeg)},
-        {"nvstim.moon_az_deg", fmt(moon.az_rad * kDeg)},
+        {"nvstim.moon_alt_deg", fmt(moon.alt_rad * kDegPerRad)},
+        {"nvstim.moon_az_deg", fmt(moon.az_rad * kDegPerRad)},
     };
     auto peAttrs = attrs;
     peAttrs.push_back({"nvstim.unit", "pe/s/m2/sr"});
@@ -87,8 +87,8 @@ int runRender(const RenderOptions& opts) {
         "{\"out\":\"%s\",\"band_out\":\"%s\",\"frame\":%lld,\"t_s\":%.6f,\"moon\":{\"alt_deg\":%."
         "4f,"
         "\"az_deg\":%.4f},\"rays\":%llu}\n",
-        out.c_str(), bandPath.c_str(), opts.frame, t_s, moon.alt_rad * kDeg, moon.az_rad * kDeg,
-        static_cast<unsigned long long>(st.total()));
+        out.c_str(), bandPath.c_str(), opts.frame, t_s, moon.alt_rad * kDegPerRad,
+        moon.az_rad * kDegPerRad, static_cast<unsigned long long>(st.total()));
     return kExitOk;
 }
 

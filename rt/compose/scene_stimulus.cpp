@@ -6,6 +6,7 @@
 #include "rt/compose/platform_pose.h"
 #include "rt/compose/scenario.h"
 #include "rt/compose/scene_setup.h"
+#include "sim/core/units.h"
 #include "sim/fit/text.h"
 
 namespace nvs::rt {
@@ -44,7 +45,7 @@ class ScenarioStimulus final : public fit::SceneStimulus {
                             const fit::SkyEffects& fx) override {
         ScenarioRenderer& r = rendererFor(fx, {});
         r.prepare(static_cast<double>(frame) / frameRate_Hz);
-        return r.sunMoon().moon.alt_rad * (180.0 / 3.14159265358979323846);
+        return r.sunMoon().moon.alt_rad * kDegPerRad;
     }
 
   private:

@@ -12,12 +12,12 @@
 #include "sim/core/config.h"
 #include "sim/core/input_file.h"
 #include "sim/core/planck.h"
+#include "sim/core/units.h"
 
 namespace nvs::scene {
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
 constexpr double kDeg = kPi / 180.0;
 
 Vec3 vec3At(const ConfigTable& t, std::string_view key, const Vec3& fallback, bool required) {

@@ -15,6 +15,7 @@
 #include "sim/core/error.h"
 #include "sim/core/geometry.h"
 #include "sim/core/spectrum.h"
+#include "sim/core/units.h"
 
 namespace nvs::scene {
 
@@ -72,8 +73,8 @@ struct Lamp {
     double projectedArea_m2 = 0.0;  // filament's mean projected area
     double glassTransmission = 1.0;
     double bulbRadius_m = 0.03;
-    double cutoff_rad = 3.14159265358979323846;  // half-angle; π = unhoused
-    double apertureDiameter_m = 0.0;             // 0 = no aperture
+    double cutoff_rad = kPi;          // half-angle; π = unhoused
+    double apertureDiameter_m = 0.0;  // 0 = no aperture
     int apertureSamples = 16;
     bool on = true;
     FileLoc loc;

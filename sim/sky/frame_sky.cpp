@@ -3,11 +3,11 @@
 #include <cmath>
 
 #include "sim/core/geometry.h"
+#include "sim/core/units.h"
 
 namespace nvs::sky {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
 constexpr double kSkyStepZ_deg = 90.0 / (msg::kSkyViewZeniths - 1);
 constexpr double kSkyStepA_deg = 180.0 / (msg::kSkyAzimuths - 1);
 
