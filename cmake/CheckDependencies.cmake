@@ -4,6 +4,7 @@
 #   sim/io/       includes nothing of sim/ but sim/core (every layer may write images)
 #   sim/          includes nothing of rt/ or drivers/, and calls no getenv (data folders and
 #                 caches are passed in by the runtime)
+#   rt/, drivers/ read the environment only through rt/compose/environment.h (one reader)
 #   sim/render/   includes nothing of sim/sensor, sim/astro or sim/sky (it reads messages,
 #                 sim/msg)
 # Fails listing every violation as file:line.
@@ -48,6 +49,10 @@ check("${drivers_files}" "^[ \t]*#[ \t]*include[ \t]*[\"<]rt/" "drivers/ include
 check_sim_folders("${drivers_files}" "core;msg;io" "drivers/ includes sim/ beyond sim/core, sim/msg and sim/io")
 check("${sim_files}" "^[ \t]*#[ \t]*include[ \t]*[\"<](rt|drivers)/" "sim/ includes rt/ or drivers/")
 check("${sim_files}" "getenv[ \t]*\\(" "sim/ calls getenv")
+file(GLOB_RECURSE rt_files RELATIVE ${ROOT} ${ROOT}/rt/*.h ${ROOT}/rt/*.cpp)
+list(REMOVE_ITEM rt_files rt/compose/environment.h)
+check("${rt_files};${drivers_files}" "getenv[ \t]*\\("
+      "reads the environment outside rt/compose/environment.h")
 set(render_files "")
 set(io_files "")
 foreach(f IN LISTS sim_files)

@@ -3,6 +3,8 @@
 #include <cstdlib>
 #include <system_error>
 
+#include "rt/compose/environment.h"
+
 namespace nvs::cli {
 
 namespace {
@@ -44,7 +46,7 @@ DataDirs resolveDataDirs(const std::function<const char*(const char*)>& env,
 DataDirs resolveDataDirs() {
     std::error_code ec;
     const std::filesystem::path exe = std::filesystem::read_symlink("/proc/self/exe", ec);
-    return resolveDataDirs([](const char* name) { return std::getenv(name); },
+    return resolveDataDirs([](const char* name) { return rt::environmentValue(name); },
                            ec ? std::filesystem::path() : exe.parent_path());
 }
 

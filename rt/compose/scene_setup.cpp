@@ -5,6 +5,7 @@
 #include <thread>
 #include <vector>
 
+#include "rt/compose/environment.h"
 #include "sim/core/cpu_isa.h"
 #include "sim/sensor/mtf.h"
 #include "sim/sky/frame_sky.h"
@@ -30,8 +31,7 @@ RenderConfig renderConfigFor(const sensor::CameraParams& cam, int width, int hei
     c.bandWeight[kBandPe] = sky::photoelectronWeight(beta * cam.qe_peak);
     c.bandWeight[kBandW] = beta;
     // Embree's kernel set, pinned from the environment for tests of each set (cpu_isa.h).
-    const char* isa = std::getenv(kEmbreeIsaEnv);
-    c.embreeIsa = isa == nullptr ? "" : isa;
+    c.embreeIsa = embreeIsaPin();
     return c;
 }
 

@@ -19,6 +19,7 @@
 #include <sstream>
 #include <vector>
 
+#include "rt/compose/environment.h"
 #include "sim/core/config.h"
 #include "sim/core/cpu_isa.h"
 #include "sim/core/error.h"
@@ -289,8 +290,7 @@ std::string isaFingerprint() {
     // digests blessed before the level had a name of its own carry.
     const std::string host = hostIsa();
     std::string t = host == "avx512" ? std::string("avx512f") : host;
-    const char* pin = std::getenv(kEmbreeIsaEnv);
-    const std::string embree = embreeIsa(pin == nullptr ? "" : pin);
+    const std::string embree = embreeIsa(embreeIsaPin());
     if (embree != host) t += "/embree-" + embree;
     return t;
 #else

@@ -1,0 +1,4 @@
+#include <cstdlib>
+const char* cache() {
+    return std::getenv("NVS_CACHE_DIR");
+}
