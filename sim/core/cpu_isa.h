@@ -22,6 +22,14 @@ std::string hostIsa();
 // Whether the running CPU has the named level (one of the names above).
 bool hostHasIsa(const std::string& isa);
 
+// The one probe of nvstim's hand-written AVX-512 kernels (sim/core/rng.cpp, gamma_table.cpp,
+// sim/sensor/stages/phosphor.cpp): hostHasIsa("avx512"), asked once and kept, so that a row
+// loop may ask it per call. Every kernel gives the same bits as its portable form.
+inline bool hostHasAvx512() noexcept {
+    static const bool has = hostHasIsa("avx512");
+    return has;
+}
+
 // The environment variable the runtime reads the pin from.
 inline constexpr const char* kEmbreeIsaEnv = "NVS_EMBREE_ISA";
 

@@ -12,7 +12,9 @@
 #include <map>
 #include <mutex>
 
+#include "sim/core/cpu_isa.h"
 #include "sim/core/error.h"
+#include "sim/core/simd.h"
 
 // Single precision throughout the draws, no FMA contraction (see rng.cpp): the same bits in
 // every vector version and on every CPU.
@@ -99,12 +101,6 @@ float GammaTable::quantile(int n, std::uint32_t word) const noexcept {
     return s[i] + f * (s[i + 1] - s[i]);
 }
 
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && !defined(NVS_SINGLE_TARGET)
-#define NVS_TABLE_CLONES __attribute__((target_clones("arch=x86-64-v4", "avx2", "default")))
-#else
-#define NVS_TABLE_CLONES
-#endif
-
 static_assert(GammaTable::kMaxN == 32, "gammaTableDraws clamps N to 32");
 #pragma GCC diagnostic ignored "-Wpsabi"  // vector types only inside one function
 
@@ -115,13 +111,6 @@ static_assert(GammaTable::kMaxN == 32, "gammaTableDraws clamps N to 32");
 #pragma GCC diagnostic push
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
 namespace {
-bool cpuHasAvx512() noexcept {
-    static const bool has = [] {
-        __builtin_cpu_init();
-        return __builtin_cpu_supports("avx512f") != 0;
-    }();
-    return has;
-}
 
 // gammaTableDraws for whole vectors in AVX-512, written out for its gathers (GCC's vectoriser
 // does not gather under its generic tuning, and the sixteen scalar loads and lane extractions
@@ -190,9 +179,9 @@ static_assert(GammaTable::kCellsPerOctave == 64, "gammaDrawsAvx512 shifts by 6")
 #pragma GCC diagnostic pop
 #endif
 
-NVS_TABLE_CLONES void gammaTableDraws(const GammaTable& table, const float* __restrict n,
-                                      const std::uint32_t* __restrict words, float* __restrict out,
-                                      int m, float theta) noexcept {
+NVS_SIMD_CLONES void gammaTableDraws(const GammaTable& table, const float* __restrict n,
+                                     const std::uint32_t* __restrict words, float* __restrict out,
+                                     int m, float theta) noexcept {
     // Sixteen pixels at a time in GCC vector types (lowered to the clone's registers): the
     // table positions and fractions, then the sixteen pairs of table reads, then the draws.
     using V16f = float __attribute__((vector_size(64)));
@@ -200,7 +189,7 @@ NVS_TABLE_CLONES void gammaTableDraws(const GammaTable& table, const float* __re
     const float* __restrict t = table.data();
     int j0 = 0;
 #ifdef NVS_GAMMA_AVX512
-    if (cpuHasAvx512()) {
+    if (hostHasAvx512()) {
         gammaDrawsAvx512(t, n, words, out, m, theta);
         j0 = m / 16 * 16;
     }

@@ -12,295 +12,54 @@
 #include "sim/core/photometry.h"
 #include "sim/core/planck.h"
 #include "sim/core/units.h"
+#include "sim/sensor/preset_reader.h"
 
 namespace nvs::sensor {
 
 namespace {
 
-// Reads a preset table with `--set` overrides taking precedence. Every override must name a
-// parameter that the code reads; unused overrides are reported by finish().
-class Reader {
-  public:
-    Reader(std::optional<ConfigTable> table, std::string prefix, const Overrides* ov,
-           std::set<std::string>* used, FileLoc loc)
-        : t_(std::move(table)),
-          prefix_(std::move(prefix)),
-          ov_(ov),
-          used_(used),
-          loc_(std::move(loc)) {}
-
-    // A preset may leave out a whole table: its parameters keep their defaults.
-    Reader sub(const std::string& key) const {
-        std::optional<ConfigTable> t = t_ ? t_->optionalTable(key) : std::nullopt;
-        return Reader(std::move(t), prefix_ + key + ".", ov_, used_, loc_);
-    }
-
-    template <typename T>
-    T get(const std::string& key, const T& def) const {
-        const T fromFile = t_ ? t_->get<T>(key, def) : def;  // marks the key read
-        const std::string full = prefix_ + key;
-        const auto it = ov_->find(full);
-        if (it == ov_->end()) return fromFile;
-        used_->insert(full);
-        return parse<T>(full, it->second);
-    }
-
-    // Whether the preset file gives the key, and whether an override does.
-    bool inFile(const std::string& key) const { return t_ && t_->contains(key); }
-    bool overridden(const std::string& key) const { return ov_->count(prefix_ + key) != 0; }
-
-    [[noreturn]] void fail(const std::string& key, const std::string& msg) const {
-        const std::string full = prefix_ + key;
-        if (ov_->count(full) != 0) throw SetupError("--set " + full + ": " + msg);
-        if (t_) t_->fail(key, msg);
-        throw SetupError(loc_, "key '" + full + "': " + msg);
-    }
-
-  private:
-    template <typename T>
-    static T parse(const std::string& key, const std::string& text) {
-        // The value is parsed as TOML so that types behave as in the file.
-        const std::string doc = "v = " + text + "\n";
-        ConfigDocument d = [&] {
-            try {
-                return ConfigDocument::parseString(doc, "--set " + key);
-            } catch (const SetupError&) {
-                // Bare words are strings: --set agc=agc
-                return ConfigDocument::parseString("v = \"" + text + "\"\n", "--set " + key);
-            }
-        }();
-        try {
-            return d.root().require<T>("v");
-        } catch (const SetupError& e) {
-            throw SetupError("--set " + key + "=" + text + ": " + e.what());
-        }
-    }
-
-    std::optional<ConfigTable> t_;
-    std::string prefix_;
-    const Overrides* ov_;
-    std::set<std::string>* used_;
-    FileLoc loc_;
-};
-
-void require(bool ok, const Reader& r, const std::string& key, const std::string& msg) {
-    if (!ok) r.fail(key, msg);
-}
-
-double positive(const Reader& r, const std::string& key, double def) {
-    const double v = r.get<double>(key, def);
-    require(std::isfinite(v) && v > 0.0, r, key, "must be > 0");
-    return v;
-}
-double nonNegative(const Reader& r, const std::string& key, double def) {
-    const double v = r.get<double>(key, def);
-    require(std::isfinite(v) && v >= 0.0, r, key, "must be >= 0");
-    return v;
-}
-
-CameraParams readCamera(const ConfigDocument& doc, const Overrides& ov, const FileLoc& loc,
-                        const std::filesystem::path& baseDir) {
-    std::set<std::string> used;
-    const Reader root(doc.root(), "", &ov, &used, loc);
-    CameraParams c;
-    c.loc = loc;
-    c.name = root.get<std::string>("name", loc.file);
-
+// The preset's own keys: its name and the format every stage shares.
+void readFormat(const PresetReader& root, CameraParams& c) {
+    c.name = root.get<std::string>("name", root.loc().file);
     c.width = root.get<int>("width", c.width);
     c.height = root.get<int>("height", c.height);
     require(c.width > 0 && c.width <= 16384, root, "width", "must be in 1..16384");
     require(c.height > 0 && c.height <= 16384, root, "height", "must be in 1..16384");
     c.field_rate_Hz = positive(root, "field_rate_Hz", c.field_rate_Hz);
-    c.gain_V = root.get<double>("gain_V", c.gain_V);
-    require(c.gain_V >= 0.0 && c.gain_V <= 9.0, root, "gain_V", "must be in 0..9 V");
-    const std::string agc = root.get<std::string>("agc", "off");
-    if (agc == "off")
-        c.agc = AgcMode::Off;
-    else if (agc == "agc")
-        c.agc = AgcMode::Agc;
-    else if (agc == "abc")
-        c.agc = AgcMode::Abc;
-    else if (agc == "bsp")
-        c.agc = AgcMode::Bsp;
-    else if (agc == "autogate")
-        c.agc = AgcMode::Autogate;
-    else
-        root.fail("agc", "must be off, agc, abc, bsp or autogate, not '" + agc + "'");
-    c.f_number = positive(root, "f_number", c.f_number);
+}
 
-    const Reader optics = root.sub("optics");
-    c.focal_length_mm = positive(optics, "focal_length_mm", c.focal_length_mm);
-    c.optics_transmission = positive(optics, "transmission", c.optics_transmission);
-    require(c.optics_transmission <= 1.0, optics, "transmission", "must be <= 1");
-    c.cos4 = optics.get<bool>("cos4", c.cos4);
-    c.optics_fill_factor = positive(optics, "fill_factor", c.optics_fill_factor);
-    require(c.optics_fill_factor <= 1.0, optics, "fill_factor", "must be <= 1");
-    const std::string sa = optics.get<std::string>("solid_angle", "lens");
-    if (sa == "lens")
-        c.solid_angle = SolidAngleModel::Lens;
-    else if (sa == "ccd_area")
-        c.solid_angle = SolidAngleModel::CcdArea;
-    else
-        optics.fail("solid_angle", "must be lens or ccd_area");
+// Each part of the preset, read by the Params struct of the stage that uses it, in this order.
+template <class Params>
+void readPart(const PresetReader& root, CameraParams& c) {
+    static_cast<Params&>(c).read(root);
+}
+using ReadPart = void (*)(const PresetReader&, CameraParams&);
+constexpr ReadPart kParts[] = {
+    readFormat,
+    readPart<ControlParams>,  // gain_V, agc, [abc], [agc_loop]
+    readPart<OpticsParams>,
+    readPart<PhotocathodeParams>,  // [spectral], [photocathode]
+    readPart<GateParams>,
+    readPart<McpParams>,  // [bsp], [mcp], [mcp_saturation]
+    readPart<HaloParams>,
+    readPart<PhosphorParams>,
+    readPart<BlurParams>,
+    readPart<CcdParams>,
+    readPart<VideoParams>,
+};
 
-    const Reader spectral = root.sub("spectral");
-    const std::string resp = spectral.get<std::string>("response_file", "");
-    if (!resp.empty()) {
-        std::filesystem::path p = resp;
-        if (p.is_relative()) p = baseDir / p;
-        if (!pathExists(p)) spectral.fail("response_file", "no file " + p.string());
-        c.response_file = p;
-    }
-    c.response_column = spectral.get<std::string>("response_column", c.response_column);
-    const bool qeFile = spectral.inFile("qe_peak"), qeSet = spectral.overridden("qe_peak");
-    c.qe_peak = positive(spectral, "qe_peak", c.qe_peak);
-    require(c.qe_peak <= 1.0, spectral, "qe_peak", "must be <= 1");
-    c.monochromatic_nm = nonNegative(spectral, "monochromatic_nm", c.monochromatic_nm);
-
-    const Reader gate = root.sub("gate");
-    c.gate_s = nonNegative(gate, "gate_s", c.gate_s);
-    c.gate_min_s = positive(gate, "gate_min_s", c.gate_min_s);
-
-    const Reader pc = root.sub("photocathode");
-    c.shot_noise = pc.get<bool>("shot_noise", c.shot_noise);
-    c.ebi_lm_cm2 = nonNegative(pc, "ebi_lm_cm2", c.ebi_lm_cm2);
-    const bool skFile = pc.inFile("luminous_sensitivity_uA_lm");
-    const bool skSet = pc.overridden("luminous_sensitivity_uA_lm");
-    c.cathode_sensitivity_uA_lm =
-        nonNegative(pc, "luminous_sensitivity_uA_lm", c.cathode_sensitivity_uA_lm);
-    // One of the two is the datasheet's; the other follows from it through the response.
-    if (qeFile && skFile && !c.response_file.empty()) {
-        pc.fail("luminous_sensitivity_uA_lm",
-                "give either [spectral] qe_peak or the luminous sensitivity, not both: each "
-                "follows from the other through the spectral response");
-    }
-    // The one given (an override wins over the file) is the source of the other.
-    const bool qeIsSource = qeSet || (qeFile && !skSet);
-    c.taper_magnification = positive(pc, "taper_magnification", c.taper_magnification);
-
-    const Reader bsp = root.sub("bsp");
-    c.bsp_knee_A = positive(bsp, "knee_A", c.bsp_knee_A);
-    c.bsp_exponent = positive(bsp, "exponent", c.bsp_exponent);
-
-    const Reader mcp = root.sub("mcp");
-    c.mcp_enabled = mcp.get<bool>("enabled", c.mcp_enabled);
-    const bool vcFile = mcp.inFile("crossover_V"), vcSet = mcp.overridden("crossover_V");
-    c.mcp_crossover_V = positive(mcp, "crossover_V", c.mcp_crossover_V);
-    c.luminous_gain_fL_fc = nonNegative(mcp, "luminous_gain_fL_fc", c.luminous_gain_fL_fc);
-    c.luminous_gain_control_V =
-        nonNegative(mcp, "luminous_gain_control_V", c.luminous_gain_control_V);
-    if (vcFile && mcp.inFile("luminous_gain_fL_fc")) {
-        mcp.fail("luminous_gain_fL_fc", "give either crossover_V or the luminous gain, not both");
-    }
-    if (vcSet && !mcp.overridden("luminous_gain_fL_fc")) c.luminous_gain_fL_fc = 0.0;  // Vc wins
-    c.mcp_exponent = positive(mcp, "exponent", c.mcp_exponent);
-    c.mcp_offset_V = mcp.get<double>("offset_V", c.mcp_offset_V);
-    c.mcp_V_per_control_V = positive(mcp, "V_per_control_V", c.mcp_V_per_control_V);
-    c.mcp_noise_factor = mcp.get<double>("noise_factor", c.mcp_noise_factor);
-    require(c.mcp_noise_factor >= 1.0, mcp, "noise_factor", "F must be >= 1");
-    c.mcp_noise = mcp.get<bool>("noise", c.mcp_noise);
-
-    const Reader halo = root.sub("halo");
-    c.halo_enabled = halo.get<bool>("enabled", c.halo_enabled);
-    c.halo_fraction = nonNegative(halo, "fraction", c.halo_fraction);
-    require(c.halo_fraction < 1.0, halo, "fraction", "must be below 1");
-    c.halo_gap_um = positive(halo, "gap_um", c.halo_gap_um);
-    c.halo_radius_um = nonNegative(halo, "radius_um", c.halo_radius_um);
-    const Reader sat = root.sub("mcp_saturation");
-    c.mcpsat_enabled = sat.get<bool>("enabled", c.mcpsat_enabled);
-    c.mcpsat_pixel_charge_e = positive(sat, "pixel_charge_e", c.mcpsat_pixel_charge_e);
-    c.mcpsat_recharge_s = positive(sat, "recharge_s", c.mcpsat_recharge_s);
-
-    const Reader abc = root.sub("abc");
-    c.abc_screen_limit_A = positive(abc, "screen_limit_A", c.abc_screen_limit_A);
-    c.abc_time_constant_s = positive(abc, "time_constant_s", c.abc_time_constant_s);
-
-    const Reader ph = root.sub("phosphor");
-    c.phosphor_enabled = ph.get<bool>("enabled", c.phosphor_enabled);
-    c.phosphor_type = ph.get<std::string>("type", c.phosphor_type);
-    c.phosphor_decay_s = ph.get<std::vector<double>>("decay_s", c.phosphor_decay_s);
-    c.phosphor_weight = ph.get<std::vector<double>>("weight", c.phosphor_weight);
-    require(c.phosphor_decay_s.size() == c.phosphor_weight.size() && !c.phosphor_decay_s.empty() &&
-                c.phosphor_decay_s.size() <= 4,
-            ph, "weight", "decay_s and weight need the same length, 1..4");
-    double wsum = 0.0;
-    for (std::size_t i = 0; i < c.phosphor_weight.size(); ++i) {
-        require(c.phosphor_decay_s[i] > 0.0, ph, "decay_s", "time constants must be > 0");
-        require(c.phosphor_weight[i] >= 0.0, ph, "weight", "weights must be >= 0");
-        wsum += c.phosphor_weight[i];
-    }
-    require(std::fabs(wsum - 1.0) < 1e-6, ph, "weight", "weights must sum to 1");
-    c.screen_voltage_V = positive(ph, "screen_voltage_V", c.screen_voltage_V);
-    c.screen_dead_voltage_V = nonNegative(ph, "dead_voltage_V", c.screen_dead_voltage_V);
-    require(c.screen_dead_voltage_V < c.screen_voltage_V, ph, "dead_voltage_V",
-            "must be below screen_voltage_V");
-    c.phosphor_photons_per_eV = positive(ph, "photons_per_eV", c.phosphor_photons_per_eV);
-    c.phosphor_peak_nm = positive(ph, "peak_nm", c.phosphor_peak_nm);
-    c.phosphor_efficacy_lm_W = positive(ph, "efficacy_lm_W", c.phosphor_efficacy_lm_W);
-    c.taper_transmission = positive(ph, "taper_transmission", c.taper_transmission);
-    c.ccd_window_transmission = positive(ph, "ccd_window_transmission", c.ccd_window_transmission);
-    c.ccd_qe = positive(ph, "ccd_qe", c.ccd_qe);
-    c.ccd_fill_factor = positive(ph, "ccd_fill_factor", c.ccd_fill_factor);
-
-    const Reader mtf = root.sub("mtf");
-    c.mtf_enabled = mtf.get<bool>("enabled", c.mtf_enabled);
-    c.ii_fc_cyc_mm = nonNegative(mtf, "ii_fc_cyc_mm", c.ii_fc_cyc_mm);
-    c.ii_index = positive(mtf, "ii_index", c.ii_index);
-    c.fibre_pitch_um = nonNegative(mtf, "fibre_pitch_um", c.fibre_pitch_um);
-    c.ccd_aperture_mtf = mtf.get<bool>("ccd_aperture", c.ccd_aperture_mtf);
-    c.digitiser_fc_cyc_mm = nonNegative(mtf, "digitiser_fc_cyc_mm", c.digitiser_fc_cyc_mm);
-    c.digitiser_index = positive(mtf, "digitiser_index", c.digitiser_index);
-
-    const Reader ccd = root.sub("ccd");
-    c.pitch_x_um = positive(ccd, "pitch_x_um", c.pitch_x_um);
-    c.pitch_y_um = positive(ccd, "pitch_y_um", c.pitch_y_um);
-    c.full_well_e = nonNegative(ccd, "full_well_e", c.full_well_e);
-    const std::string bl = ccd.get<std::string>("bloom", "vertical");
-    if (bl == "off")
-        c.bloom = BloomDirection::Off;
-    else if (bl == "vertical")
-        c.bloom = BloomDirection::Vertical;
-    else if (bl == "horizontal")
-        c.bloom = BloomDirection::Horizontal;
-    else
-        ccd.fail("bloom", "must be off, vertical or horizontal");
-    c.smear_rel = nonNegative(ccd, "smear_rel", c.smear_rel);
-    c.dark_e_s = nonNegative(ccd, "dark_e_s", c.dark_e_s);
-    c.read_noise_e = nonNegative(ccd, "read_noise_e", c.read_noise_e);
-    c.prnu_rel = nonNegative(ccd, "prnu_rel", c.prnu_rel);
-    require(c.prnu_rel < 0.5, ccd, "prnu_rel", "must be < 0.5");
-
-    const Reader video = root.sub("video");
-    c.video_gain_dc_per_e = positive(video, "gain_dc_per_e", c.video_gain_dc_per_e);
-    c.video_offset_dc = video.get<double>("offset_dc", c.video_offset_dc);
-    c.video_noise_dc = nonNegative(video, "noise_dc", c.video_noise_dc);
-    c.gamma = positive(video, "gamma", c.gamma);
-    c.adc_bits = video.get<int>("adc_bits", c.adc_bits);
-    require(c.adc_bits >= 1 && c.adc_bits <= 16, video, "adc_bits", "must be in 1..16");
-    const std::string scan = video.get<std::string>("scan", "field");
-    if (scan == "field")
-        c.scan = ScanMode::Field;
-    else if (scan == "frame")
-        c.scan = ScanMode::Frame;
-    else
-        video.fail("scan", "must be field or frame");
-    const std::string order = video.get<std::string>("field_order", "top");
-    if (order != "top" && order != "bottom") video.fail("field_order", "must be top or bottom");
-    c.topFieldFirst = order == "top";
-
-    const Reader loop = root.sub("agc_loop");
-    c.agc_target_dc = positive(loop, "target_dc", c.agc_target_dc);
-    c.agc_time_constant_s = positive(loop, "time_constant_s", c.agc_time_constant_s);
-    c.agc_lag_fields = loop.get<int>("lag_fields", c.agc_lag_fields);
-    require(c.agc_lag_fields >= 0 && c.agc_lag_fields <= 7, loop, "lag_fields", "must be in 0..7");
-    c.agc_min_gain_V = nonNegative(loop, "min_gain_V", c.agc_min_gain_V);
-    c.agc_max_gain_V = positive(loop, "max_gain_V", c.agc_max_gain_V);
-    require(c.agc_min_gain_V < c.agc_max_gain_V, loop, "max_gain_V", "must exceed min_gain_V");
-
-    // Datasheet quantities → the model's: QE ↔ luminous sensitivity, and the MCP law's Vc from
-    // the luminous gain at a control voltage.
+// Datasheet quantities → the model's: QE ↔ luminous sensitivity, and the MCP law's Vc from the
+// luminous gain at a control voltage.
+void deriveFromDatasheet(const PresetReader& root, CameraParams& c) {
+    const PresetReader spectral = root.sub("spectral");
+    const PresetReader pc = root.sub("photocathode");
+    const PresetReader mcp = root.sub("mcp");
     if (!c.response_file.empty() && c.monochromatic_nm <= 0.0) {
-        const double perQe_uA_lm = luminousSensitivityPerQe_uA_lm(c, baseDir);
+        // The one given (an override wins over the file) is the source of the other.
+        const bool qeIsSource =
+            spectral.overridden("qe_peak") ||
+            (spectral.inFile("qe_peak") && !pc.overridden("luminous_sensitivity_uA_lm"));
+        const double perQe_uA_lm = luminousSensitivityPerQe_uA_lm(c, root.baseDir());
         if (qeIsSource) {
             c.cathode_sensitivity_uA_lm = c.qe_peak * perQe_uA_lm;
         } else {
@@ -318,6 +77,17 @@ CameraParams readCamera(const ConfigDocument& doc, const Overrides& ov, const Fi
         require(vmRef > 0.0, mcp, "luminous_gain_control_V", "gives no MCP voltage");
         c.mcp_crossover_V = vmRef / std::pow(gainRef, 1.0 / c.mcp_exponent);
     }
+}
+
+CameraParams readCamera(const ConfigDocument& doc, const Overrides& ov, const FileLoc& loc,
+                        const std::filesystem::path& baseDir) {
+    std::set<std::string> used;
+    const PresetReader root(doc.root(), "", &ov, &used, loc, baseDir);
+    CameraParams c;
+    c.loc = loc;
+    for (const ReadPart read : kParts)
+        read(root, c);
+    deriveFromDatasheet(root, c);
 
     doc.finish();
     for (const auto& [key, value] : ov) {
@@ -330,25 +100,6 @@ CameraParams readCamera(const ConfigDocument& doc, const Overrides& ov, const Fi
 }
 
 }  // namespace
-
-double CameraParams::mcpGain(double gainControl_V) const {
-    if (!mcp_enabled) return 1.0;
-    const double vm = mcp_offset_V + mcp_V_per_control_V * gainControl_V;
-    if (vm <= 0.0) return 0.0;
-    return std::pow(vm / mcp_crossover_V, mcp_exponent);
-}
-
-double CameraParams::controlVoltageForGain(double gain) const {
-    if (!(gain > 0.0)) return 0.0;
-    const double vm = mcp_crossover_V * std::pow(gain, 1.0 / mcp_exponent);
-    return (vm - mcp_offset_V) / mcp_V_per_control_V;
-}
-
-double CameraParams::screenLumensPerBeamWatt() const {
-    // P photons per eV of beam, each of energy hc/λ: the radiant efficiency P·hc/(λ·e).
-    const double photon_J = kPlanck_J_s * kSpeedOfLight_m_s / (phosphor_peak_nm * 1e-9);
-    return phosphor_photons_per_eV * photon_J / kElectronCharge_C * phosphor_efficacy_lm_W;
-}
 
 double CameraParams::luminousGain_fL_fc(double gainControl_V) const {
     // Per lumen on the cathode: S_k amperes of photocurrent, G·S_k out of the MCP, each electron
@@ -368,14 +119,6 @@ double luminousSensitivityPerQe_uA_lm(const CameraParams& cam,
     const double pe = integrateProduct_nm(a * cameraResponse(cam), photonsPerJ);
     const double lm = Photometry(configDir).photometricIntegral(a);
     return kElectronCharge_C * pe / lm * 1e6;
-}
-
-double CameraParams::ccdElectronsPerMcpElectron() const {
-    if (!phosphor_enabled) return 1.0;
-    // Eq. 6.2/6.3: N_CCD = (Vs − Vd)·P·T_fot·T_CCD·QE_CCD per electron striking the screen;
-    // the CCD cell's fill factor takes its share of the light falling on it.
-    return (screen_voltage_V - screen_dead_voltage_V) * phosphor_photons_per_eV *
-           taper_transmission * ccd_window_transmission * ccd_qe * ccd_fill_factor;
 }
 
 double CameraParams::peRatePerLpe_on_axis() const {

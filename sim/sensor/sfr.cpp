@@ -9,10 +9,17 @@
 
 namespace nvs::sensor {
 
-SfrResult slantedEdgeSfr(ImageView<const float> roi) {
+namespace {
+
+constexpr int kOver = 4;  // ESF bins per pixel
+
+// Steps 1–2: the edge as the line x = a + b·y through the centroids of each row's derivative.
+struct EdgeLine {
+    double a = 0.0, b = 0.0;
+};
+EdgeLine fitEdge(ImageView<const float> roi) {
     const int w = roi.width();
     const int h = roi.height();
-    if (w < 16 || h < 16) throw SetupError("slantedEdgeSfr: ROI smaller than 16 x 16");
     // 1. Edge centroid per row from the derivative [-0.5, 0.5].
     std::vector<double> cy, cx;
     for (int y = 0; y < h; ++y) {
@@ -44,10 +51,17 @@ SfrResult slantedEdgeSfr(ImageView<const float> roi) {
         sxy += (cy[i] - my) * (cx[i] - mx);
     }
     const double b = sxy / syy;
-    const double a = mx - b * my;
+    return {mx - b * my, b};
+}
+
+// Step 3: the ESF, kOver bins per pixel along the edge normal, over the central span where
+// every bin is populated.
+std::vector<double> binnedEsf(ImageView<const float> roi, const EdgeLine& edge) {
+    const int w = roi.width();
+    const int h = roi.height();
+    const double a = edge.a, b = edge.b;
     const double cosT = 1.0 / std::sqrt(1.0 + b * b);
     // 3. 4× oversampled ESF along the edge normal.
-    constexpr int kOver = 4;
     const double half = 0.5 * w;
     const int nb = static_cast<int>(2.0 * half * kOver) + 1;
     std::vector<double> sum(static_cast<std::size_t>(nb), 0.0);
@@ -76,9 +90,13 @@ SfrResult slantedEdgeSfr(ImageView<const float> roi) {
         else
             esf.push_back(esf.empty() ? 0.0 : esf.back());  // rare empty bin: hold
     }
+    if (esf.size() < 32) throw SetupError("slantedEdgeSfr: edge span too short");
+    return esf;
+}
+
+// Step 4: the LSF by central difference, Hamming window centred on its centroid.
+std::vector<double> windowedLsf(const std::vector<double>& esf) {
     const int n = static_cast<int>(esf.size());
-    if (n < 32) throw SetupError("slantedEdgeSfr: edge span too short");
-    // 4. LSF by central difference, Hamming window centred on its centroid.
     std::vector<double> lsf(static_cast<std::size_t>(n), 0.0);
     for (int i = 1; i < n - 1; ++i)
         lsf[static_cast<std::size_t>(i)] =
@@ -95,6 +113,19 @@ SfrResult slantedEdgeSfr(ImageView<const float> roi) {
         const double win = std::fabs(u) <= 1.0 ? 0.54 + 0.46 * std::cos(kPi * u) : 0.0;
         lsf[static_cast<std::size_t>(i)] *= win;
     }
+    return lsf;
+}
+
+}  // namespace
+
+SfrResult slantedEdgeSfr(ImageView<const float> roi) {
+    if (roi.width() < 16 || roi.height() < 16)
+        throw SetupError("slantedEdgeSfr: ROI smaller than 16 x 16");
+    const EdgeLine edge = fitEdge(roi);
+    const double b = edge.b;
+    const std::vector<double> esf = binnedEsf(roi, edge);
+    const int n = static_cast<int>(esf.size());
+    const std::vector<double> lsf = windowedLsf(esf);
     // 5. DFT modulus up to 1 cycle/pixel, corrected for the derivative and the bin width.
     SfrResult r;
     r.edgeAngle_rad = std::atan(b);

@@ -1,0 +1,84 @@
+#pragma once
+// Step 8, CCD (docs/sensor.md): fixed pattern, dark charge, full well, blooming, smear and
+// read noise.
+
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+
+#include "sim/core/image.h"
+#include "sim/sensor/stages/stage.h"
+
+namespace nvs::sensor {
+
+struct CameraParams;
+class PresetReader;
+
+enum class BloomDirection { Off, Vertical, Horizontal };
+
+struct CcdParams {
+    // --- 8. CCD ---------------------------------------------------------------------------
+    double pitch_x_um = 11.0;  // Table 11-2, cell 11 x 13 µm
+    double pitch_y_um = 13.0;
+    double full_well_e = 60000.0;  // [e] 0 = unlimited
+    BloomDirection bloom = BloomDirection::Vertical;
+    double smear_rel = 0.0;     // fraction of a column's mean charge added during transfer
+    double dark_e_s = 0.0;      // [e/s] CCD dark current
+    double read_noise_e = 0.0;  // [e rms]
+    double prnu_rel = 0.0;      // fixed-pattern gain non-uniformity, rms fraction
+
+    // Reads [ccd] of the preset over the defaults above; errors name
+    // file:line or the --set KEY.
+    void read(const PresetReader& root);
+};
+
+// ---- 8. CCD ---------------------------------------------------------------------------------
+class CcdStage {
+  public:
+    CcdStage(const CameraParams& cam, std::uint64_t seed);
+    // Returns the number of cells that reached full well.
+    std::int64_t apply(ImageView<float> e, const FieldContext& ctx) noexcept;
+    // apply() in steps: begin(); loadRow(src, e.row(y), y) for every row in order (src may be
+    // the row itself; charge below zero counts as none); bloom(e) (returns cells at full well);
+    // then finishRow(e.row(y), y) for every row (smear, and read noise on the rows read out).
+    void begin(const FieldContext& ctx) noexcept;
+    void loadRow(const float* src, float* dst, int y) noexcept;
+    // loadRow in two steps, for bands of rows at once: beginLoad(); loadRowMax(src, dst, y,
+    // slot) for every row (src ≠ dst; any order, the slot's own column maxima); then
+    // finishLoad(dst) merges the maxima, forms the column sums and makes the blooming down
+    // sweep, rows in order: the same values as loadRow row by row.
+    void beginLoad() noexcept;
+    void loadRowMax(const float* src, float* dst, int y, int slot) noexcept;
+    void finishLoad(ImageView<float> e) noexcept;
+    std::int64_t bloom(ImageView<float> e) noexcept;
+    void finishRow(float* v, int y, int slot = 0) noexcept;
+    // Thesis Appendix L, charge-conserving form: excess over full well in one line spills
+    // half each way along the line, filling neighbours to full well before passing on; what
+    // leaves the ends is drained. Exposed for tests. Returns cells at full well.
+    static std::int64_t bloomLine(float* v, int n, std::ptrdiff_t step, float fullWell,
+                                  float* carryBuf) noexcept;
+
+  private:
+    std::int64_t bloomColumns(ImageView<float> e, float fw, const float* colMax,
+                              float* colSum) noexcept;
+    const CameraParams* cam_;
+    std::uint64_t seed_;
+    // This field (begin()).
+    std::uint64_t field_ = 0;
+    float dark_e_ = 0.0f;
+    float sigma_e_ = 0.0f;
+    int readY0_ = 0, readDy_ = 1;
+    ImageF upCarry_;                 // vertical blooming: charge bound up the column
+    ImageF prnu_;                    // 1 + fixed-pattern gain deviation, empty if off
+    std::unique_ptr<float[]> line_;  // scratch for blooming (max(w, h) floats)
+    std::unique_ptr<float[]> colSum_;
+    std::unique_ptr<float[]> colMax_;
+    std::unique_ptr<float[]> slotMax_;        // loadRowMax: the column maxima of each slot
+    std::size_t stride_;                      // one slot's row scratch
+    std::unique_ptr<std::uint32_t[]> words_;  // one row of words per slot
+    std::unique_ptr<float[]> z_;              // one row of normals per slot
+    std::unique_ptr<float[]> row_;            // in-place loadRow(): a copy of the row
+    double noiseSigma_e_;  // read noise ⊕ video pre-amplifier noise referred to electrons
+};
+
+}  // namespace nvs::sensor

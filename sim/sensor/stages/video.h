@@ -1,0 +1,62 @@
+#pragma once
+// Step 9, video (docs/sensor.md): gain, offset, gamma, interlace and the ADC.
+
+#include <cstdint>
+#include <vector>
+
+#include "sim/core/image.h"
+#include "sim/sensor/stages/stage.h"
+
+namespace nvs::sensor {
+
+struct CameraParams;
+class PresetReader;
+
+enum class ScanMode { Frame, Field };
+
+struct VideoParams {
+    ScanMode scan = ScanMode::Field;
+    // Field scan: which field comes first in time. Top: field 0 (and every even field) holds
+    // rows 0, 2, 4, …; bottom: rows 1, 3, 5, … (y4m "It" / "Ib", V4L2_FIELD_INTERLACED_TB/BT).
+    bool topFieldFirst = true;
+    // --- 9. Video -------------------------------------------------------------------------
+    double video_gain_dc_per_e = 0.004;  // [DC/e]
+    double video_offset_dc = 26.0;       // [DC]
+    double video_noise_dc = 0.0;         // [DC rms] additive pre-amplifier noise
+    double gamma = 1.0;                  // Table 11-2: gamma 1.0
+    int adc_bits = 8;
+
+    // Reads [video] of the preset over the defaults above; errors name
+    // file:line or the --set KEY.
+    void read(const PresetReader& root);
+};
+
+// ---- 9. Video -------------------------------------------------------------------------------
+class VideoStage {
+  public:
+    explicit VideoStage(const CameraParams& cam);
+    // Writes the rows of this field into the output frame; returns the mean output level.
+    double apply(ImageView<const float> e, std::uint64_t field, ImageView<float> counts,
+                 ImageView<std::uint16_t> video) const noexcept;
+    int maxCount() const { return maxCount_; }
+    // Whether row y is read out in this field, and that row's conversion (returns the sum of
+    // its output counts); apply() is the mean over the rows read out.
+    bool readsRow(std::uint64_t field, int y) const noexcept;
+    std::int64_t applyRow(const float* e, float* counts, std::uint16_t* video,
+                          int w) const noexcept;
+
+  private:
+    const CameraParams* cam_;
+    int maxCount_;
+    // Gamma ≠ 1: the output count for a signal is the number of thresholds at or below it,
+    // thr_[k] = the signal at which the rounded output reaches k + 1 (exact rounding of
+    // span·(s/span)^γ + offset, computed once in double). lut_ starts the search from a
+    // uniform grid over [0, span].
+    bool gamma_ = false;
+    bool oneStep_ = false;  // no grid cell holds two steps
+    std::vector<float> thr_;
+    std::vector<std::int32_t> lut_;  // 32-bit entries: vector gathers
+    float lutScale_ = 0.0f;
+};
+
+}  // namespace nvs::sensor
