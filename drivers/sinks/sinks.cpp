@@ -286,8 +286,9 @@ std::size_t MetaJsonlSink::format(const msg::OutputFrame& frame, char* buf,
         static_cast<long long>(m.frame), static_cast<long long>(frame.tick),
         frame.repeat ? "true" : "false", m.t_sample_s, p.utc_unix_s, m.exposure_s, p.lat_deg,
         p.lon_deg, p.alt_m, p.yaw_rad * kDegPerRad, p.pitch_rad * kDegPerRad,
-        p.roll_rad * kDegPerRad, a.gain_V, a.gate_s, p.gateMode, p.agc ? "true" : "false",
-        p.lampMask, p.poseFromTelemetry ? "true" : "false", p.stale ? "true" : "false");
+        p.roll_rad * kDegPerRad, a.gain_V, a.gate_s, static_cast<int>(p.gateMode),
+        p.agc ? "true" : "false", p.lampMask, p.poseFromTelemetry ? "true" : "false",
+        p.stale ? "true" : "false");
     if (n < 0 || static_cast<std::size_t>(n) >= size) return 0;
     std::size_t len = static_cast<std::size_t>(n);
     for (int i = 0; i < m.truthCount && i < msg::kMaxTruthBoxes; ++i) {

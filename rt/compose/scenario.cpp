@@ -246,9 +246,8 @@ void readPlatform(const ConfigTable& root, Scenario& sc) {
     sc.platform.roll_rad = num("roll_deg", -360.0, 360.0) * kRadPerDeg;
     sc.platform.gain_V = num("gain_V", 0.0, 10000.0);
     sc.platform.gate_s = num("gate_s", 0.0, 1.0);
-    sc.platform.agc = getOr<bool>(p, "agc", true);
-    sc.platform.gateMode = getOr<int>(p, "gate_mode", 0);
-    if (sc.platform.gateMode < 0 || sc.platform.gateMode > 2) {
+    sc.platform.agc = getOr<bool>(p, "agc", msg::kCommandedAgcDefault);
+    if (!msg::gateModeFromValue(getOr<std::int64_t>(p, "gate_mode", 0), &sc.platform.gateMode)) {
         p->fail("gate_mode", "must be 0 (continuous), 1 (gated) or 2 (auto-gated)");
     }
     sc.platform.utc_unix_s = sc.utcStart_unix_s;
@@ -397,9 +396,11 @@ void readEvents(const ConfigTable& root, Scenario& sc) {
         ev.gate_s = e.optional<double>("gate_s");
         if (ev.gate_s && !(*ev.gate_s >= 0.0 && *ev.gate_s <= 1.0))
             e.fail("gate_s", "must be in [0, 1] s");
-        ev.gateMode = e.optional<int>("gate_mode");
-        if (ev.gateMode && (*ev.gateMode < 0 || *ev.gateMode > 2))
-            e.fail("gate_mode", "must be 0, 1 or 2");
+        if (const std::optional<std::int64_t> g = e.optional<std::int64_t>("gate_mode")) {
+            msg::GateMode mode = msg::GateMode::Continuous;
+            if (!msg::gateModeFromValue(*g, &mode)) e.fail("gate_mode", "must be 0, 1 or 2");
+            ev.gateMode = mode;
+        }
         if (!ev.lamp && !ev.gain_V && !ev.agc && !ev.gate_s && !ev.gateMode) {
             throw SetupError(
                 ev.loc, "the event changes nothing (give lamp, gain_V, agc, gate_s or gate_mode)");

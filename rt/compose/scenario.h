@@ -116,7 +116,7 @@ struct TimelineEvent {
     std::optional<double> gain_V;
     std::optional<bool> agc;
     std::optional<double> gate_s;
-    std::optional<int> gateMode;
+    std::optional<msg::GateMode> gateMode;
 };
 
 // [site], [atmosphere] and [scene]: what the renderer's composition needs (rt/compose).

@@ -22,7 +22,7 @@ struct TimelineStep {
     std::optional<double> gain_V;
     std::optional<bool> agc;
     std::optional<double> gate_s;
-    std::optional<int> gateMode;
+    std::optional<msg::GateMode> gateMode;
 };
 
 class TimelineSource final : public PlatformSource {

@@ -85,7 +85,9 @@ bool updateInRange(const TelemetryUpdate& u) noexcept {
     if ((f & TelemetryUpdate::kUtc) && !in(u.utc_unix_s, 0.0, 4294967296.0)) return false;
     if ((f & TelemetryUpdate::kGain) && !in(u.gain_V, 0.0, 10000.0)) return false;
     if ((f & TelemetryUpdate::kGate) && !in(u.gate_s, 0.0, 1.0)) return false;
-    if ((f & TelemetryUpdate::kGateMode) && !(u.gateMode >= 0 && u.gateMode <= 2)) return false;
+    msg::GateMode mode = msg::GateMode::Continuous;
+    if ((f & TelemetryUpdate::kGateMode) && !msg::gateModeFromValue(u.gateMode, &mode))
+        return false;
     return true;
 }
 
@@ -123,7 +125,8 @@ bool PlatformTrack::apply(const TelemetryUpdate& u) noexcept {
     }
     if (u.fields & TelemetryUpdate::kGain) controls_.gain_V = u.gain_V;
     if (u.fields & TelemetryUpdate::kGate) controls_.gate_s = u.gate_s;
-    if (u.fields & TelemetryUpdate::kGateMode) controls_.gateMode = u.gateMode;
+    if (u.fields & TelemetryUpdate::kGateMode)
+        controls_.gateMode = static_cast<msg::GateMode>(u.gateMode);
     if (u.fields & TelemetryUpdate::kAgc) controls_.agc = u.agc;
     if (u.fields & TelemetryUpdate::kLamps) {
         controls_.lampMask = (controls_.lampMask & ~u.lampBits) | (u.lampMask & u.lampBits);

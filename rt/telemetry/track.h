@@ -44,8 +44,8 @@ struct TelemetryUpdate {
     double roll_rad = 0.0, pitch_rad = 0.0, yaw_rad = 0.0;
     double utc_unix_s = 0.0;
     double gain_V = 0.0, gate_s = 0.0;
-    std::int32_t gateMode = 0;
-    bool agc = false;
+    std::int32_t gateMode = 0;  // the wire value; accept() checks it is a msg::GateMode
+    bool agc = msg::kCommandedAgcDefault;
     std::uint32_t lampMask = 0;  // lamps named in lampBits
     std::uint32_t lampBits = 0;  // which lamp bits this update sets
 };

@@ -12,6 +12,26 @@
 
 namespace nvs::msg {
 
+// The photocathode gate as commanded (docs/sensor.md, "Controls"). The numbers are the wire and
+// scenario values (`gate_mode`, the DBC signal): 0, 1, 2.
+enum class GateMode : std::int32_t {
+    Continuous = 0,  // the photocathode on for the whole field
+    Gated = 1,       // on for gate_s (or the preset's gate)
+    AutoGated =
+        2,  // the camera shortens the gate in bright light (a preset whose loop is autogate)
+};
+
+// A gate mode from its wire or scenario value; false (and *mode untouched) outside 0..2.
+inline bool gateModeFromValue(std::int64_t v, GateMode* mode) noexcept {
+    if (v < 0 || v > 2) return false;
+    *mode = static_cast<GateMode>(v);
+    return true;
+}
+
+// The one default of the commanded AGC switch: the platform state, the scenario's [platform]
+// `agc`, a telemetry update and the camera command all start from it.
+inline constexpr bool kCommandedAgcDefault = true;
+
 struct PlatformState {
     double t_sample_s = 0.0;  // instant this state describes (run clock) [s]
     // Position: WGS84 geodetic latitude and longitude [deg], height above the ellipsoid [m].
@@ -29,9 +49,9 @@ struct PlatformState {
     // used when agc is off. gate_s: photocathode gate width commanded [s] (0: the preset's).
     double gain_V = 0.0;
     double gate_s = 0.0;
-    std::int32_t gateMode = 0;   // commanded gate mode: 0 continuous, 1 gated, 2 auto-gated
-    bool agc = true;             // commanded: the camera's automatic gain control on
-    std::uint32_t lampMask = 0;  // bit i: lamp i of the scene switched on
+    GateMode gateMode = GateMode::Continuous;  // commanded gate mode
+    bool agc = kCommandedAgcDefault;           // commanded: the camera's automatic gain control on
+    std::uint32_t lampMask = 0;                // bit i: lamp i of the scene switched on
     // The pose above is rendered: telemetry gave it, or the scenario's [platform] states one
     // (held until telemetry gives another). false: the scene's own camera.
     bool poseFromTelemetry = false;

@@ -116,8 +116,7 @@ void upsampleRows(void* vctx, int y0, int y1) {
         float* pe = c.pe.row(y);
         float* bw = c.bw.row(y);
         const std::size_t nodeRow = static_cast<std::size_t>(y / f) * nw;
-        std::size_t qi[kPacket];
-        int qx[kPacket], nq = 0;
+        ShadeQueue q;
         for (int x = 0, k = 0, xr = 0; x < im.W; ++x, ++xr) {
             if (xr == f) xr = 0, ++k;  // k = x / f
             const std::size_t i = static_cast<std::size_t>(y) * im.W + x;
@@ -135,15 +134,10 @@ void upsampleRows(void* vctx, int y0, int y1) {
             } else if (kind == kUpMiss) {
                 skyPixel(c, i, x, pe, bw);
             } else {
-                qi[nq] = i;
-                qx[nq++] = x;
-                if (nq == kPacket) {
-                    flushFull(c, nq, qi, qx, pe, bw, n);
-                    nq = 0;
-                }
+                q.push(c, i, x, pe, bw, n);
             }
         }
-        if (nq > 0) flushFull(c, nq, qi, qx, pe, bw, n);
+        q.finish(c, pe, bw, n);
     }
     im.shadow += n.shadow;
     im.secondary += n.secondary;

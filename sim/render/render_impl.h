@@ -468,4 +468,25 @@ inline void flushFull(const Ctx& c, int count, const std::size_t* qi, const int*
     }
 }
 
+// The full-rate pixels of one row waiting for a packet: shaded together when kPacket are
+// queued, and the rest at the end of the row (shadeRows, upsampleRows).
+struct ShadeQueue {
+    std::size_t qi[kPacket];
+    int qx[kPacket];
+    int count = 0;
+
+    void push(const Ctx& c, std::size_t i, int x, float* pe, float* bw, Counts& n) noexcept {
+        qi[count] = i;
+        qx[count++] = x;
+        if (count == kPacket) {
+            flushFull(c, count, qi, qx, pe, bw, n);
+            count = 0;
+        }
+    }
+    void finish(const Ctx& c, float* pe, float* bw, Counts& n) noexcept {
+        if (count > 0) flushFull(c, count, qi, qx, pe, bw, n);
+        count = 0;
+    }
+};
+
 }  // namespace nvs::render::detail

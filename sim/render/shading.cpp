@@ -283,22 +283,16 @@ void shadeRows(void* vctx, int y0, int y1) {
         const int y = shadeRowAt(c, yr);
         float* pe = c.pe.row(y);
         float* bw = c.bw.row(y);
-        std::size_t qi[kPacket];
-        int qx[kPacket], nq = 0;
+        ShadeQueue q;
         for (int x = 0; x < im.W; ++x) {
             const std::size_t i = static_cast<std::size_t>(y) * im.W + x;
             if (im.gMat[i] == kMiss) {
                 skyPixel(c, i, x, pe, bw);
                 continue;
             }
-            qi[nq] = i;
-            qx[nq++] = x;
-            if (nq == kPacket) {
-                flushFull(c, nq, qi, qx, pe, bw, n);
-                nq = 0;
-            }
+            q.push(c, i, x, pe, bw, n);
         }
-        if (nq > 0) flushFull(c, nq, qi, qx, pe, bw, n);
+        q.finish(c, pe, bw, n);
     }
     im.shadow += n.shadow;
     im.secondary += n.secondary;

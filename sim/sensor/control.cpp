@@ -142,7 +142,7 @@ GainControl::Controls GainControl::forField(const CameraCommand& cmd, std::uint6
     } else {
         const AgcMode m = autoCam.agc;
         const bool gainLoop = cmd.agc && (m == AgcMode::Agc || m == AgcMode::Abc);
-        autogate = m == AgcMode::Autogate && (cmd.agc || cmd.gateMode == 2);
+        autogate = m == AgcMode::Autogate && (cmd.agc || cmd.gateMode == msg::GateMode::AutoGated);
         if (gainLoop) {
             // Switched on now (or at the first field): the loop starts from the gain in
             // effect — the last field's, or at the first field the commanded one.
@@ -164,7 +164,7 @@ GainControl::Controls GainControl::forField(const CameraCommand& cmd, std::uint6
     // 2. gate
     if (autogate) {
         c.gate_s = gate.gate_s(period_s, c.loop->gateScale(field));
-    } else if (source_ == ControlSource::Preset || cmd.gateMode == 1 || cmd.gateMode == 2) {
+    } else if (source_ == ControlSource::Preset || cmd.gateMode != msg::GateMode::Continuous) {
         c.gate_s = source_ == ControlSource::Command && cmd.gate_s > 0.0
                        ? std::clamp(cmd.gate_s, cam.gate_min_s, period_s)
                        : gate.gate_s(period_s, 1.0);

@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <memory>
 
+#include "sim/msg/platform.h"
 #include "sim/sensor/stages/stage.h"
 
 namespace nvs::sensor {
@@ -63,8 +64,8 @@ class AgcLoop {
 struct CameraCommand {
     double gain_V = 0.0;  // manual tube gain control voltage [V]
     double gate_s = 0.0;  // gate width [s] when gated (0: the preset's gate)
-    int gateMode = 0;     // 0 continuous, 1 gated, 2 auto-gated
-    bool agc = false;     // the camera's automatic loop switched on
+    msg::GateMode gateMode = msg::GateMode::Continuous;
+    bool agc = msg::kCommandedAgcDefault;  // the camera's automatic loop switched on
 };
 
 // Who sets the controls.
@@ -77,9 +78,9 @@ struct CameraCommand {
 //                            switch turned on); bsp / autogate keep the tube gain at the
 //                            preset's gain_V
 //              gate          automatic (the autogate loop's scale on the preset gate) when the
-//                            preset's loop is autogate and either agc or gateMode = 2;
-//                            otherwise by gateMode: 0 continuous (the photocathode is on for
-//                            the whole field), 1 or 2 gated at gate_s, clamped to
+//                            preset's loop is autogate and either agc or gateMode AutoGated;
+//                            otherwise by gateMode: Continuous (the photocathode is on for
+//                            the whole field), Gated or AutoGated at gate_s, clamped to
 //                            [gate_min_s, field] (gate_s = 0 keeps the preset's gate)
 enum class ControlSource { Preset, Command };
 

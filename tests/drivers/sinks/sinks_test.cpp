@@ -65,7 +65,7 @@ TEST(Sinks, MetaLineGivesTheAppliedGainAndGate) {
     msg::FrameMeta meta;
     meta.platform.gain_V = 4.0;  // commanded
     meta.platform.gate_s = 2e-3;
-    meta.platform.gateMode = 1;
+    meta.platform.gateMode = msg::GateMode::Gated;
     meta.fieldCount = 2;
     meta.field[0] = msg::FieldMeta{0.0, 5.5, 1e-3};
     meta.field[1] = msg::FieldMeta{0.02, 5.75, 1e-4};

@@ -87,10 +87,11 @@ TEST(IiccdCameraStage, PlatformStateIsTheChainsCommand) {
         f.req.t_sample_s = k / 59.94;
         f.req.platform.agc = k == 2;
         f.req.platform.gain_V = volts[k];
-        f.req.platform.gateMode = k == 1 ? 1 : 0;
+        f.req.platform.gateMode = k == 1 ? msg::GateMode::Gated : msg::GateMode::Continuous;
         f.req.platform.gate_s = 2e-3;
         stage.expose(f.req, RadianceFrame{{}, f.radiance.cview()}, f.counts.view(), f.applied);
-        const sensor::CameraCommand cmd{volts[k], 2e-3, k == 1 ? 1 : 0, k == 2};
+        const sensor::CameraCommand cmd{
+            volts[k], 2e-3, k == 1 ? msg::GateMode::Gated : msg::GateMode::Continuous, k == 2};
         const sensor::FieldInfo& info = chain.process(lpe.cview(), cmd, f.req.t_sample_s);
         EXPECT_EQ(f.applied.gain_V, info.gain_V) << "field " << k;
         EXPECT_EQ(f.applied.gate_s, info.gate_s) << "field " << k;
@@ -114,7 +115,7 @@ TEST(IiccdCameraStage, ExposeAllocatesNothing) {
     for (int k = 0; k < 10; ++k) {
         f.req.platform.agc = k % 3 != 0;
         f.req.platform.gain_V = 4.0 + 0.1 * k;
-        f.req.platform.gateMode = k % 2;
+        f.req.platform.gateMode = k % 2 == 1 ? msg::GateMode::Gated : msg::GateMode::Continuous;
         f.req.platform.gate_s = 1e-3;
         stage.expose(f.req, RadianceFrame{{}, f.radiance.cview()}, f.counts.view(), f.applied);
     }
@@ -148,7 +149,7 @@ TEST(ScenarioCamera, PresetSetsSizeDepthAndRateUnlessGiven) {
     EXPECT_EQ(b.camera.seed, 5u);
     EXPECT_FALSE(b.camera.controlsFromPlatform);
     EXPECT_FALSE(b.platform.agc);
-    EXPECT_EQ(b.platform.gateMode, 1);
+    EXPECT_EQ(b.platform.gateMode, msg::GateMode::Gated);
 }
 
 TEST(ScenarioCamera, BadCameraTablesNameTheFileAndLine) {

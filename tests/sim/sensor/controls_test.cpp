@@ -43,6 +43,7 @@ double meanSignal(const IiccdChain& chain) {
 CameraCommand manual(double gain_V) {
     CameraCommand c;
     c.gain_V = gain_V;
+    c.agc = false;
     return c;
 }
 
@@ -98,7 +99,7 @@ TEST(CommandedControls, GateScalesTheSignalAndIsHeldWithinTheTubesRange) {
     CameraCommand cmd = manual(6.0);  // gate mode 0: continuous
     EXPECT_DOUBLE_EQ(chain.process(in.cview(), cmd, 0.0).gate_s, period_s);
     const double full = meanSignal(chain);
-    cmd.gateMode = 1;
+    cmd.gateMode = msg::GateMode::Gated;
     cmd.gate_s = period_s / 4.0;
     EXPECT_DOUBLE_EQ(chain.process(in.cview(), cmd, 0.0).gate_s, period_s / 4.0);
     EXPECT_NEAR(meanSignal(chain), full / 4.0, 0.6);
@@ -152,7 +153,7 @@ TEST(CommandedControls, PresetSourceIgnoresCommands) {
     IiccdChain a(cam, 1, test::configDir(), test::gammaTables(), {}, ControlSource::Preset);
     IiccdChain b(cam, 1, test::configDir(), test::gammaTables());
     CameraCommand cmd = manual(3.0);
-    cmd.gateMode = 1;
+    cmd.gateMode = msg::GateMode::Gated;
     cmd.gate_s = 1e-4;
     for (int k = 0; k < 3; ++k) {
         const FieldInfo& ia = a.process(in.cview(), cmd, 0.0);
