@@ -4,12 +4,13 @@
 // (rt/compose/scene_stimulus.cpp) both use.
 //
 // The platform's position is placed in the scene's local ENU frame (origin at the scenario
-// site) through the WGS84 radii of curvature at the site (east = Δλ·(N + h)·cos φ,
-// north = Δφ·(M + h), up = Δh), which is within 0.1 m of the exact transformation over ±1 km.
+// site) by the site's LocalTangentPlane (sim/core/geometry.h: WGS84 radii of curvature at the
+// site; its error against the exact transformation is stated there).
 // The camera's mounting: it looks along body x, image right = body y, image down = body z,
 // the body turned by the aerospace yaw/pitch/roll of nedFromBody (sim/core/geometry.h).
 
 #include "sim/astro/ephemeris.h"
+#include "sim/core/geometry.h"
 #include "sim/msg/platform.h"
 #include "sim/scene/scene.h"
 
@@ -26,8 +27,7 @@ class PlatformPose {
     static bool usable(const scene::CameraPose& pose) noexcept;
 
   private:
-    double lat0_rad_ = 0.0, lon0_rad_ = 0.0, h0_m_ = 0.0;
-    double meridianRadius_m_ = 0.0, primeVerticalRadius_m_ = 0.0;
+    LocalTangentPlane site_;
 };
 
 }  // namespace nvs::rt

@@ -42,4 +42,24 @@ void azAltFromEnu(const Vec3& v, double* az_rad, double* alt_rad) {
     *az_rad = az;
 }
 
+namespace {
+constexpr double kWgs84A_m = 6378137.0;
+constexpr double kWgs84E2 = 6.69437999014e-3;
+}  // namespace
+
+LocalTangentPlane::LocalTangentPlane(double lat_deg, double lon_deg, double height_m) noexcept
+    : lat0_rad_(lat_deg * kRadPerDeg), lon0_rad_(lon_deg * kRadPerDeg), h0_m_(height_m) {
+    const double sl = std::sin(lat0_rad_);
+    const double w = std::sqrt(1.0 - kWgs84E2 * sl * sl);
+    primeVerticalRadius_m_ = kWgs84A_m / w;
+    meridianRadius_m_ = kWgs84A_m * (1.0 - kWgs84E2) / (w * w * w);
+}
+
+Vec3 LocalTangentPlane::enuFrom(double lat_deg, double lon_deg, double height_m) const noexcept {
+    const double east =
+        (lon_deg * kRadPerDeg - lon0_rad_) * (primeVerticalRadius_m_ + h0_m_) * std::cos(lat0_rad_);
+    const double north = (lat_deg * kRadPerDeg - lat0_rad_) * (meridianRadius_m_ + h0_m_);
+    return {east, north, height_m - h0_m_};
+}
+
 }  // namespace nvs
