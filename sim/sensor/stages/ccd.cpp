@@ -115,6 +115,18 @@ CcdStage::CcdStage(const CameraParams& c, std::uint64_t seed)
     noiseSigma_e_ = std::sqrt(c.read_noise_e * c.read_noise_e + video_e * video_e);
 }
 
+namespace {
+// One cell of a blooming sweep: the charge moving along the line fills the cell up to full
+// well, and what does not fit moves on.
+inline void fillToWell(float& cell, float& moving, float fullWell) noexcept {
+    if (moving > 0.0f) {
+        const float take = std::min(fullWell - cell, moving);
+        cell += take;
+        moving -= take;
+    }
+}
+}  // namespace
+
 std::int64_t CcdStage::bloomLine(float* v, int n, std::ptrdiff_t step, float fw,
                                  float* carry) noexcept {
     // Appendix L spills a saturated cell's excess half to each side along the line, and the
@@ -139,23 +151,13 @@ std::int64_t CcdStage::bloomLine(float* v, int n, std::ptrdiff_t step, float fw,
     float moving = 0.0f;
     for (int i = 0; i < n; ++i) {
         float& c = v[i * step];
-        if (moving > 0.0f) {
-            const float room = fw - c;
-            const float take = std::min(room, moving);
-            c += take;
-            moving -= take;
-        }
+        fillToWell(c, moving, fw);
         moving += carry[i];
     }
     moving = 0.0f;
     for (int i = n - 1; i >= 0; --i) {
         float& c = v[i * step];
-        if (moving > 0.0f) {
-            const float room = fw - c;
-            const float take = std::min(room, moving);
-            c += take;
-            moving -= take;
-        }
+        fillToWell(c, moving, fw);
         moving += left[i];
     }
     std::int64_t sat = 0;

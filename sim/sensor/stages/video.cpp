@@ -32,19 +32,25 @@ void VideoParams::read(const PresetReader& root) {
 
 namespace {
 
-// Video, linear: round to nearest even by the 1.5·2²³ trick (exact for |x| < 2²²; the value
-// is clamped to [−1, max + 1] first), then clamp to the ADC range. Returns the row's sum.
+// Video, linear, one value: round to nearest even by the 1.5·2²³ trick (exact for |x| < 2²²;
+// the value is clamped to [−1, max + 1] first), then clamp to the ADC range.
+inline __attribute__((always_inline)) float linearCount(float s, float gain, float offset,
+                                                        float maxc) noexcept {
+    float dc = s * gain + offset;
+    dc = dc < -1.0f ? -1.0f : dc;
+    dc = dc > maxc + 1.0f ? maxc + 1.0f : dc;
+    dc = (dc + 0x1.8p23f) - 0x1.8p23f;
+    dc = dc < 0.0f ? 0.0f : dc;
+    return dc > maxc ? maxc : dc;
+}
+
+// Video, linear: linearCount of every pixel. Returns the row's sum.
 NVS_SIMD_CLONES std::int64_t videoLinearKernel(const float* __restrict s, float* __restrict o,
                                                std::uint16_t* __restrict v, int w, float gain,
                                                float offset, float maxc) noexcept {
     std::int32_t sum = 0;
     for (int x = 0; x < w; ++x) {
-        float dc = s[x] * gain + offset;
-        dc = dc < -1.0f ? -1.0f : dc;
-        dc = dc > maxc + 1.0f ? maxc + 1.0f : dc;
-        dc = (dc + 0x1.8p23f) - 0x1.8p23f;
-        dc = dc < 0.0f ? 0.0f : dc;
-        dc = dc > maxc ? maxc : dc;
+        const float dc = linearCount(s[x], gain, offset, maxc);
         o[x] = dc;
         const std::int32_t n = static_cast<std::int32_t>(dc);
         v[x] = static_cast<std::uint16_t>(n);
@@ -63,12 +69,7 @@ NVS_SIMD_CLONES std::int64_t videoGammaKernel(const float* __restrict s, float* 
                                               float top, float bottom) noexcept {
     std::int32_t sum = 0;
     for (int x = 0; x < w; ++x) {
-        float dc = s[x] * gain + offset;
-        dc = dc < -1.0f ? -1.0f : dc;
-        dc = dc > maxc + 1.0f ? maxc + 1.0f : dc;
-        dc = (dc + 0x1.8p23f) - 0x1.8p23f;
-        dc = dc < 0.0f ? 0.0f : dc;
-        dc = dc > maxc ? maxc : dc;
+        const float dc = linearCount(s[x], gain, offset, maxc);
         const float sig = s[x] * gain;
         float cellf = sig * lutScale;
         cellf = cellf > 0.0f ? cellf : 0.0f;
