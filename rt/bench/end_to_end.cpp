@@ -110,6 +110,9 @@ void watchLines(int fd, int from, int to, std::vector<double>& times, WindowMark
         run.frames = req.frames;
         run.statsPath = stats.string();
         run.dirs = req.dirs;
+        run.primaryVisibility = req.primaryVisibility;
+        run.renderThreads = req.renderThreads;
+        run.cameraThreads = req.cameraThreads;
         std::FILE* quiet = std::fopen("/dev/null", "w");
         rep.rc = runScenario(run, quiet != nullptr ? quiet : stderr);
         close(STDOUT_FILENO);  // the watcher's end of file

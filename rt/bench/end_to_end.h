@@ -16,9 +16,11 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <optional>
 #include <string>
 
 #include "sim/core/paths.h"
+#include "sim/render/renderer.h"
 
 namespace nvs::rt::bench {
 
@@ -30,6 +32,10 @@ struct EndToEndRequest {
     int warmFrames = 20;  // frames before the steady state (period, allocations)
     int frames = 60;      // frames in the run
     double targetFields_per_s = 59.94;
+    // Overrides of the scenario's [runtime] (RunRequest's).
+    std::optional<render::PrimaryVisibility> primaryVisibility;
+    std::optional<int> renderThreads;
+    std::optional<int> cameraThreads;
 };
 
 struct EndToEndResult {

@@ -107,9 +107,23 @@ MachineInfo runTimedItems(std::vector<std::unique_ptr<TimedItem>>& items,
         TimedItem* it = p.get();
         byName[it->name] = it;
         auto* b = benchmark::RegisterBenchmark(it->name.c_str(), [it](benchmark::State& st) {
+            if (!it->error.empty()) {
+                st.SkipWithError(it->error.c_str());
+                return;
+            }
             if (it->setup) {
                 std::fprintf(stderr, "nvstim bench: %s: setting up ...\n", it->name.c_str());
-                it->setup();
+                try {
+                    it->setup();
+                } catch (const std::exception& e) {
+                    // An item that cannot be set up here (no OpenGL backend, say) is reported
+                    // with its reason; the others run.
+                    it->error = e.what();
+                    std::fprintf(stderr, "nvstim bench: %s: %s\n", it->name.c_str(),
+                                 it->error.c_str());
+                    st.SkipWithError(it->error.c_str());
+                    return;
+                }
                 it->setup = nullptr;
             }
             // Google Benchmark calls this once per trial with a growing iteration count; the
@@ -161,6 +175,8 @@ std::string timedItemJson(const TimedItem& r) {
         std::snprintf(buf, sizeof buf, ",\"%s\":%.6g", key.c_str(), value);
         j += std::isfinite(value) ? std::string(buf) : ",\"" + key + "\":null";
     }
+    if (!r.note.empty()) j += ",\"note\":\"" + jsonEscape(r.note) + "\"";
+    if (!r.error.empty()) j += ",\"error\":\"" + jsonEscape(r.error) + "\"";
     return j + "}";
 }
 

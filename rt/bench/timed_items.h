@@ -34,6 +34,8 @@ struct TimedItem {
     std::int64_t iterations = 0;
     double min_s = 0.0, p50_s = 0.0, p99_s = 0.0, mean_s = 0.0;
     std::vector<std::pair<std::string, double>> extra;
+    std::string note;   // one line `after` may add (e.g. the OpenGL renderer used)
+    std::string error;  // why setup failed (the item then did not run)
     std::vector<double> samples_s;  // the reported trial's per-iteration times
 };
 
@@ -52,7 +54,7 @@ MachineInfo runTimedItems(std::vector<std::unique_ptr<TimedItem>>& items,
                           const std::optional<std::string>& filter);
 
 // One item as nvstim's JSON object: name, what, iterations, min_s, p50_s, p99_s, mean_s,
-// target_s and meets_target (null without a target), then the extra keys.
+// target_s and meets_target (null without a target), then the extra keys, then note if any.
 std::string timedItemJson(const TimedItem& item);
 
 }  // namespace nvs::rt::bench

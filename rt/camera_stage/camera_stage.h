@@ -48,6 +48,10 @@ class IiccdCameraStage final : public CameraStage {
     void expose(const FrameRequest& req, RadianceFrame in, ImageView<std::uint16_t> counts,
                 FieldMeta& applied) noexcept override;
 
+    // Splits the chain's rows over `exec` (setup; it must outlive the stage). The same bits with
+    // any executor (tests/sim/sensor/threads_test.cpp).
+    void setExecutor(RowExecutor* exec) noexcept { chain_.setExecutor(exec); }
+
     const sensor::FieldInfo& lastField() const { return chain_.lastInfo(); }
     const sensor::CameraParams& camera() const { return chain_.camera(); }
     double lpePerRadiance() const { return lpePerL_; }

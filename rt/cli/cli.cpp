@@ -85,6 +85,19 @@ int runCli(int argc, const char* const* argv) {
         "Telemetry source: can:IFACE[?dbc=FILE], serial:DEV?baud=N&proto=nmea|mavlink, "
         "replay:FILE");
     runCmd->add_option("--stats", run.statsPath, "Write final statistics as JSON to FILE");
+    runCmd
+        ->add_option("--primary-visibility", run.primaryVisibility,
+                     "Override [runtime] primary_visibility: embree, gl (OpenGL: a GPU through "
+                     "EGL where there is one) or auto")
+        ->check(CLI::IsMember({"embree", "gl", "auto"}));
+    runCmd
+        ->add_option("--render-threads", run.renderThreads,
+                     "Override [runtime] render_threads (1..16)")
+        ->check(CLI::Range(1, 16));
+    runCmd
+        ->add_option("--camera-threads", run.cameraThreads,
+                     "Override [runtime] camera_threads (1..16; the same bits with any number)")
+        ->check(CLI::Range(1, 16));
 
     // ephem ----------------------------------------------------------------------------------
     EphemOptions ephem;

@@ -31,6 +31,9 @@ struct RunOptions {
     std::optional<long long> frames;
     std::optional<std::string> telemetry;  // can:IFACE[?dbc=FILE] | serial:DEV?... | replay:FILE
     std::optional<std::string> statsPath;
+    std::optional<std::string> primaryVisibility;  // embree | gl | auto: [runtime] overridden
+    std::optional<int> renderThreads;              // 1..16: [runtime] render_threads overridden
+    std::optional<int> cameraThreads;              // 1..16: [runtime] camera_threads overridden
 };
 
 struct EphemOptions {

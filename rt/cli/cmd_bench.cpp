@@ -18,6 +18,7 @@
 //   ratios          renderer rays/s over Embree's single-ray rate, eq. 7.1 reference time over
 //                   chain time, chain time over the memcpy
 
+#include <algorithm>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -239,6 +240,11 @@ struct Flight {
     DataDirs dirs;
     int coarse = 1;
     double period_s = 1.0 / 30.0;  // between poses
+    // Overrides of the scenario: image size (0: the scenario's; the field of view is kept),
+    // primary visibility, threads.
+    int width = 0, height = 0;
+    std::optional<render::PrimaryVisibility> visibility;
+    int threads = 2;
     std::unique_ptr<rt::ScenarioRenderer> sr;
     std::vector<scene::CameraPose> poses;
     std::size_t next = 0;
@@ -246,7 +252,11 @@ struct Flight {
     std::unique_ptr<rt::RowPool> pool;
     rt::ScenarioRenderer& get() {
         if (sr) return *sr;
-        sr = rt::ScenarioRenderer::create(file, dirs, coarse);
+        rt::Scenario loaded = rt::loadScenario(file, dirs.config);
+        if (width > 0) loaded.width = width;
+        if (height > 0) loaded.height = height;
+        if (visibility) loaded.primaryVisibility = *visibility;
+        sr = rt::ScenarioRenderer::create(loaded, dirs, coarse);
         const rt::Scenario& sc = sr->scenario();
         if (!sc.telemetry) throw SetupError(file.string() + ": no [telemetry] to fly");
         rt::Spec spec = rt::parseSpec(*sc.telemetry, "[telemetry] source");
@@ -260,7 +270,7 @@ struct Flight {
         }
         pe = ImageF(sc.width, sc.height);
         band = ImageF(sc.width, sc.height);
-        pool = std::make_unique<rt::RowPool>(2);
+        pool = std::make_unique<rt::RowPool>(threads);
         return *sr;
     }
     // Renders the next pose's frame, or its field of parity `rowParity` (-1: every row).
@@ -338,6 +348,59 @@ void addAirborneItems(Items& items, const DataDirs& dirs, const std::filesystem:
         ch.iteration = [f, c] { c->chain->process(f->pe.cview()); };
         ch.after = [f, c](TimedItem& self) {
             self.extra.emplace_back("mean_pe_per_px", c->chain->process(f->pe.cview()).mean_pe);
+        };
+    }
+}
+
+// Primary visibility at 1920×1080 (docs/performance.md, "Primary visibility on a GPU"): the
+// airborne pass's scene and field of view drawn at 1920 × 1080, the camera moving along the
+// flight log a frame apart, the whole geometry buffer each iteration, on every core of the
+// machine (at most 16, the renderer's limit). By OpenGL (the first backend that works: a GPU
+// through EGL where there is one, else Mesa's llvmpipe) against a 120 frames/s budget, and by
+// Embree's packets for comparison. After timing, the GL item splits its time into the draw and
+// read-back and the G-buffer the CPU builds from the hits (20 passes on the last pose) and
+// names the renderer in its note.
+void addPrimary1080Items(Items& items, const DataDirs& dirs,
+                         const std::filesystem::path& scenarios) {
+    const std::filesystem::path air = scenarios / "airborne-pass" / "scenario.toml";
+    if (!std::filesystem::exists(air)) return;
+    const int threads = std::clamp(static_cast<int>(std::thread::hardware_concurrency()), 1, 16);
+    using Paths = render::Renderer::PrimaryPaths;
+    for (const bool gl : {true, false}) {
+        auto f = std::make_shared<Flight>();
+        f->file = air;
+        f->dirs = dirs;
+        f->width = 1920;
+        f->height = 1080;
+        f->visibility = gl ? render::PrimaryVisibility::kGl : render::PrimaryVisibility::kEmbree;
+        f->threads = threads;
+        const Paths paths = gl ? Paths::kGl : Paths::kEmbree;
+        TimedItem& it = add(
+            items, gl ? "primary_air_1080p_gl" : "primary_air_1080p_embree",
+            std::string("airborne pass at 1920x1080, ") + std::to_string(threads) +
+                " threads, the primary pass alone (the whole geometry buffer) by " +
+                (gl ? "OpenGL" : "Embree packets") + ", camera moving",
+            gl ? std::optional<double>(1.0 / 120.0) : std::nullopt, 1.5);
+        it.setup = [f] { f->get(); };
+        it.iteration = [f, paths] {
+            render::Renderer& r = f->sr->renderer();
+            r.setCamera(f->poses[f->next++ % f->poses.size()]);
+            (void)r.measurePrimaryPasses(*f->pool, 0, paths);
+        };
+        it.after = [f, gl, threads](TimedItem& self) {
+            render::Renderer& r = f->sr->renderer();
+            self.extra.emplace_back("threads", threads);
+            if (!gl) return;
+            const render::Renderer::PrimaryTiming t = r.measurePrimaryPasses(*f->pool, 20, Paths::kGl);
+            self.note = r.primaryVisibilityNote();
+            if (t.gl_ms < 0.0) {
+                self.note += "; the GL pass failed (Embree made the G-buffer)";
+                return;
+            }
+            self.extra.emplace_back("gl_pass_ms", t.gl_ms);
+            self.extra.emplace_back("gl_draw_readback_ms", t.glRender_ms);
+            self.extra.emplace_back("gbuffer_from_hits_ms", t.gl_ms - t.glRender_ms);
+            std::fprintf(stderr, "  %s: %s\n", self.name.c_str(), self.note.c_str());
         };
     }
 }
@@ -466,7 +529,7 @@ void addMemcpyItems(Items& items) {
 std::vector<std::string> runEndToEndItems(const DataDirs& dirs,
                                           const std::filesystem::path& scenarios,
                                           const std::function<bool(const std::string&)>& wanted) {
-    std::vector<rt::bench::EndToEndRequest> reqs(2);
+    std::vector<rt::bench::EndToEndRequest> reqs(3);
     reqs[0].name = "e2e_airborne_pass_768x494i";
     reqs[0].what =
         "scenarios/airborne-pass, 768x494 interlaced, moving platform, every camera "
@@ -479,6 +542,17 @@ std::vector<std::string> runEndToEndItems(const DataDirs& dirs,
         "sim clock, y4m to /dev/null";
     reqs[1].scenario = scenarios / "airborne-pass-sxga" / "scenario.toml";
     reqs[1].targetFields_per_s = 30.0;
+    // The same with the primary pass by OpenGL (a GPU through EGL where there is one), the
+    // render's rows on every core (at most 16) and the camera chain's on half of them.
+    const int cores = static_cast<int>(std::thread::hardware_concurrency());
+    const int threads = std::clamp(cores, 1, 16), cameraThreads = std::clamp(cores / 2, 1, 16);
+    reqs[2] = reqs[1];
+    reqs[2].name = "e2e_airborne_pass_sxga_1280x1024p_gl";
+    reqs[2].what = reqs[1].what + ", primary visibility by OpenGL, " + std::to_string(threads) +
+                   " render threads, " + std::to_string(cameraThreads) + " camera threads";
+    reqs[2].primaryVisibility = render::PrimaryVisibility::kGl;
+    reqs[2].renderThreads = threads;
+    reqs[2].cameraThreads = cameraThreads;
     std::vector<std::string> out;
     for (rt::bench::EndToEndRequest& q : reqs) {
         if (!wanted(q.name) || !std::filesystem::exists(q.scenario)) continue;
@@ -560,7 +634,7 @@ int writeBenchJson(const Items& items, const std::vector<std::string>& e2e,
     std::string json = "{\"benchmarks\":[";
     bool first = true;
     for (const auto& it : items) {
-        if (!it->ran) continue;
+        if (!it->ran && it->error.empty()) continue;
         json += (first ? "" : ",") + rt::bench::timedItemJson(*it);
         first = false;
     }
@@ -624,6 +698,7 @@ int runBench(const BenchOptions& opts) {
     }
     if (std::filesystem::exists(drive)) addTruckItems(items, dirs, drive);
     addAirborneItems(items, dirs, scenarios);
+    addPrimary1080Items(items, dirs, scenarios);
     addMemcpyItems(items);
     bool any = !e2e.empty();
     for (const auto& it : items)

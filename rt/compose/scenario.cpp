@@ -278,6 +278,9 @@ void readRuntime(const ConfigTable& root, Scenario& sc) {
     sc.renderThreads = getOr<int>(r, "render_threads", 2);
     if (sc.renderThreads < 1 || sc.renderThreads > 16)
         r->fail("render_threads", "must be in [1, 16]");
+    sc.cameraThreads = getOr<int>(r, "camera_threads", 1);
+    if (sc.cameraThreads < 1 || sc.cameraThreads > 16)
+        r->fail("camera_threads", "must be in [1, 16]");
     sc.renderCoarse = getOr<int>(r, "coarse_tiles", 1);
     if (sc.renderCoarse < 1 || sc.renderCoarse > 8) r->fail("coarse_tiles", "must be in [1, 8]");
     const std::string fieldRows = getOr<std::string>(r, "field_rows", "own");

@@ -27,6 +27,9 @@
 //                                      stale_after_s   s                      0.5
 //                                      max_extrapolation_s s                  0.1
 //                                      render_threads  1..16 (2), coarse_tiles 1..8 (1)
+//                                      camera_threads  1..16 (1): the camera chain's rows
+//                                                      split over this many threads (the
+//                                                      same bits with any number)
 //                                      field_rows      "own" | "all": an interlaced
 //                                                      field renders only its own rows "own"
 //                                      primary_visibility "embree" | "gl" | "auto" ("embree"):
@@ -144,6 +147,7 @@ struct Scenario {
     std::optional<std::string> telemetry;
     std::vector<TimelineEvent> events;  // sorted by t_s
     int renderThreads = 2;     // [runtime] render_threads: rows split over this many threads
+    int cameraThreads = 1;     // [runtime] camera_threads: the camera chain's rows, likewise
     int renderCoarse = 1;      // [runtime] coarse_tiles: lighting every N-th pixel (1 = full rate)
     bool fieldRowsOwn = true;  // [runtime] field_rows = "own" (FrameLoopConfig::fieldRowsOnly)
     // [runtime] primary_visibility: Embree's primary rays, OpenGL rasterisation, or the faster

@@ -13,6 +13,7 @@
 #include "rt/camera_stage/camera_stage.h"
 #include "rt/clock/threads.h"
 #include "rt/render_stage/render_stage.h"
+#include "rt/render_stage/row_pool.h"
 #include "rt/run/telemetry_factory.h"
 #include "rt/run/timeline.h"
 #include "rt/synth/synth.h"
@@ -320,6 +321,19 @@ int runScenario(const RunRequest& req, std::FILE* status) {
     installStopSignals();
     // Setup: everything that can fail fails here, before the first frame.
     Scenario sc = loadScenario(req.scenario, req.dirs.config);
+    if (req.primaryVisibility) sc.primaryVisibility = *req.primaryVisibility;
+    if (req.renderThreads) {
+        if (*req.renderThreads < 1 || *req.renderThreads > 16) {
+            throw SetupError("render threads must be in [1, 16]");
+        }
+        sc.renderThreads = *req.renderThreads;
+    }
+    if (req.cameraThreads) {
+        if (*req.cameraThreads < 1 || *req.cameraThreads > 16) {
+            throw SetupError("camera threads must be in [1, 16]");
+        }
+        sc.cameraThreads = *req.cameraThreads;
+    }
     LoopConfig cfg = loopConfigFor(sc, req);
     int toStdout = 0;
     std::vector<std::unique_ptr<FrameSink>> sinks;
@@ -352,13 +366,19 @@ int runScenario(const RunRequest& req, std::FILE* status) {
             }));
     }
     GammaTableCache gammaTables;  // the MCP's Gamma tables, built here at setup
+    std::unique_ptr<RowPool> cameraPool;  // [runtime] camera_threads > 1; outlives the stage
     std::unique_ptr<CameraStage> camera;
     if (sc.camera.enabled) {
-        camera = std::make_unique<IiccdCameraStage>(
+        auto iiccd = std::make_unique<IiccdCameraStage>(
             sc.camera.params, sc.camera.spectrum, sc.camera.seed,
             sc.camera.controlsFromPlatform ? IiccdCameraStage::Controls::Platform
                                            : IiccdCameraStage::Controls::Preset,
             req.dirs.config, gammaTables);
+        if (sc.cameraThreads > 1) {
+            cameraPool = std::make_unique<RowPool>(sc.cameraThreads, sc.realtime);
+            iiccd->setExecutor(cameraPool.get());
+        }
+        camera = std::move(iiccd);
     } else {
         camera = std::make_unique<LinearCamera>(sc.testPattern.fullScale_W_m2_sr, sc.bits);
     }

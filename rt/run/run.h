@@ -25,6 +25,10 @@ struct RunRequest {
     std::optional<std::string> telemetry;
     std::optional<std::string> statsPath;
     DataDirs dirs;  // shipped data and caches (rt/cli/data_dirs.h resolves them)
+    // Overrides of the scenario's [runtime] (nvstim run --primary-visibility, --render-threads).
+    std::optional<render::PrimaryVisibility> primaryVisibility;
+    std::optional<int> renderThreads;  // 1..16
+    std::optional<int> cameraThreads;  // 1..16
 };
 
 // A parsed "scheme:target?key=value&key=value" (--output and --telemetry).

@@ -113,6 +113,26 @@ struct Quat {
 };
 
 // Rotation about one axis by angle (right-handed, active).
+// The point where the line o + t·d meets the plane of triangle (a, b, c), as Embree reports a
+// hit: t along d and the barycentric weights u of b and v of c (p = (1 − u − v) a + u b + v c).
+// Möller & Trumbore, "Fast, minimum storage ray/triangle intersection", J. Graphics Tools 2(1),
+// 1997. No inside test (the caller knows the triangle is hit); false only when d is parallel to
+// the plane (or the triangle is degenerate).
+inline bool rayPlaneOfTriangle(const Vec3& o, const Vec3& d, const Vec3& a, const Vec3& b,
+                               const Vec3& c, double* t, double* u, double* v) noexcept {
+    const Vec3 e1 = b - a, e2 = c - a;
+    const Vec3 p = cross(d, e2);
+    const double det = dot(e1, p);
+    if (det == 0.0) return false;
+    const double inv = 1.0 / det;
+    const Vec3 s = o - a;
+    const Vec3 q = cross(s, e1);
+    *u = dot(s, p) * inv;
+    *v = dot(d, q) * inv;
+    *t = dot(e2, q) * inv;
+    return true;
+}
+
 Mat3 rotationX(double angle_rad);
 Mat3 rotationY(double angle_rad);
 Mat3 rotationZ(double angle_rad);

@@ -15,6 +15,7 @@
 #include <GL/glcorearb.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cstring>
 
 #include "sim/core/error.h"
@@ -101,38 +102,24 @@ namespace {
 // so that x_ndc = 2u/W − 1 and y_ndc = 2v/H − 1 with (u, v) the renderer's pixel coordinates
 // (Renderer::Impl::project): image row v lands on GL window row v. With glClipControl
 // ZERO_TO_ONE the depth is near/z (reversed Z, infinite far plane) and the near plane z = near.
-// The vertex's corner (gl_VertexID mod 3 of the de-indexed triangle list) gives the barycentric
-// attribute (0,0), (1,0), (0,1): interpolated perspective-correct, Embree's (u, v).
 constexpr const char* kVertexShader = R"(#version 330 core
 layout(location = 0) in vec3 pos_m;
 uniform vec3 camPos_m, camRight, camUp, camFwd;
 uniform vec2 clipScale;
 uniform float near_m;
-out vec3 rel_m;
-out vec2 bary;
 void main() {
     vec3 r = pos_m - camPos_m;
-    rel_m = r;
-    int corner = gl_VertexID % 3;
-    bary = vec2(corner == 1 ? 1.0 : 0.0, corner == 2 ? 1.0 : 0.0);
     gl_Position = vec4(dot(r, camRight) * clipScale.x, -dot(r, camUp) * clipScale.y, near_m,
                        dot(r, camFwd));
 }
 )";
 
-// Fragment stage: the pixel-centre ray d ∝ f·forward + (x − W/2) p_x·right − (y − H/2) p_y·up
-// (Renderer::Impl::pixelDir with (x, y) = gl_FragCoord.xy, the pixel centre), t = r·d.
+// Fragment stage: the triangle's id + 1 (the mesh's first id + 1, then gl_PrimitiveID).
 constexpr const char* kFragmentShader = R"(#version 330 core
-in vec3 rel_m;
-in vec2 bary;
-uniform vec3 dir0, dirDx, dirDy;
-uniform uint geomId1;
-layout(location = 0) out uvec4 ids;
-layout(location = 1) out float t_m;
+uniform uint firstId1;
+layout(location = 0) out uint id;
 void main() {
-    ids = uvec4(floatBitsToUint(bary.x), floatBitsToUint(bary.y), geomId1, uint(gl_PrimitiveID));
-    vec3 d = normalize(dir0 + gl_FragCoord.x * dirDx + gl_FragCoord.y * dirDy);
-    t_m = dot(rel_m, d);
+    id = firstId1 + uint(gl_PrimitiveID);
 }
 )";
 
@@ -257,9 +244,9 @@ bool GlVisibility::init(std::unique_ptr<GlContext> ctx, int width, int height,
     const auto loc = [&](const char* u) { return gl.GetUniformLocation(program_, u); };
     uCamPos_ = loc("camPos_m"), uRight_ = loc("camRight"), uUp_ = loc("camUp");
     uFwd_ = loc("camFwd"), uScale_ = loc("clipScale"), uNear_ = loc("near_m");
-    uDir0_ = loc("dir0"), uDirDx_ = loc("dirDx"), uDirDy_ = loc("dirDy"), uGeom_ = loc("geomId1");
+    uFirstId_ = loc("firstId1");
 
-    // Framebuffer: ids (RGBA32UI), t (R32F), depth (32-bit float).
+    // Framebuffer: ids (R32UI), depth (32-bit float).
     const auto renderbuffer = [&](GLenum format, GLenum attachment) {
         GLuint rb = 0;
         gl.GenRenderbuffers(1, &rb);
@@ -270,13 +257,13 @@ bool GlVisibility::init(std::unique_ptr<GlContext> ctx, int width, int height,
     };
     gl.GenFramebuffers(1, &fbo_);
     gl.BindFramebuffer(GL_FRAMEBUFFER, fbo_);
-    colorIds_ = renderbuffer(GL_RGBA32UI, GL_COLOR_ATTACHMENT0);
-    colorT_ = renderbuffer(GL_R32F, GL_COLOR_ATTACHMENT1);
+    colorIds_ = renderbuffer(GL_R32UI, GL_COLOR_ATTACHMENT0);
     depth_ = renderbuffer(GL_DEPTH_COMPONENT32F, GL_DEPTH_ATTACHMENT);
-    const GLenum bufs[2] = {GL_COLOR_ATTACHMENT0, GL_COLOR_ATTACHMENT1};
-    gl.DrawBuffers(2, bufs);
+    const GLenum bufs[1] = {GL_COLOR_ATTACHMENT0};
+    gl.DrawBuffers(1, bufs);
+    gl.ReadBuffer(GL_COLOR_ATTACHMENT0);
     if (gl.CheckFramebufferStatus(GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE) {
-        *reason = std::string(name) + ": RGBA32UI + R32F + depth32F framebuffer incomplete";
+        *reason = std::string(name) + ": R32UI + depth32F framebuffer incomplete";
         return false;
     }
     // Fixed state: reversed Z, both faces, scissored to the rectangle asked for.
@@ -294,8 +281,7 @@ bool GlVisibility::init(std::unique_ptr<GlContext> ctx, int width, int height,
         return false;
     }
     const std::size_t np = static_cast<std::size_t>(width) * static_cast<std::size_t>(height);
-    ids_.assign(np * 4, 0u);
-    t_.assign(np, 0.0f);
+    ids_.assign(np, 0u);
     ctx_->release();
     return true;
 }
@@ -307,8 +293,8 @@ GlVisibility::~GlVisibility() {
         gl.DeleteBuffers(1, &m.vbo);
         gl.DeleteVertexArrays(1, &m.vao);
     }
-    const GLuint rbs[3] = {colorIds_, colorT_, depth_};
-    gl.DeleteRenderbuffers(3, rbs);
+    const GLuint rbs[2] = {colorIds_, depth_};
+    gl.DeleteRenderbuffers(2, rbs);
     gl.DeleteFramebuffers(1, &fbo_);
     if (program_) gl.DeleteProgram(program_);
     ctx_->release();
@@ -318,6 +304,10 @@ int GlVisibility::addMesh(const float* vertices_m, std::size_t vertexCount,
                           const std::uint32_t* indices, std::size_t triangleCount,
                           std::uint32_t geomId) {
     if (geomId >= kGlMiss - 1) throw SetupError("GL visibility: geometry id out of range");
+    // Ids + 1 must stay below 2³²: the words are 32-bit and 0 is a miss.
+    if (triangleCount >= std::size_t{0xFFFFFFFFu} - nextId_) {
+        throw SetupError("GL visibility: more than 2^32 - 2 triangles in all");
+    }
     for (std::size_t i = 0; i < 3 * triangleCount; ++i) {
         if (indices[i] >= vertexCount) throw SetupError("GL visibility: vertex index out of range");
     }
@@ -325,8 +315,10 @@ int GlVisibility::addMesh(const float* vertices_m, std::size_t vertexCount,
     const Gl& gl = *gl_;
     Mesh m;
     m.indices.assign(indices, indices + 3 * triangleCount);
-    m.vertexCount = vertexCount;
+    m.vertices_m.assign(vertices_m, vertices_m + 3 * vertexCount);
+    m.firstId = nextId_;
     m.geomId = geomId;
+    nextId_ += static_cast<std::uint32_t>(triangleCount);
     gl.GenVertexArrays(1, &m.vao);
     gl.BindVertexArray(m.vao);
     gl.GenBuffers(1, &m.vbo);
@@ -351,7 +343,10 @@ int GlVisibility::addMesh(const float* vertices_m, std::size_t vertexCount,
 GlStatus GlVisibility::setVertices(int mesh, const float* vertices_m) noexcept {
     if (mesh < 0 || static_cast<std::size_t>(mesh) >= meshes_.size()) return GlStatus::kBadRect;
     if (!ctx_->makeCurrent()) return GlStatus::kNotCurrent;
-    const Mesh& m = meshes_[static_cast<std::size_t>(mesh)];
+    Mesh& m = meshes_[static_cast<std::size_t>(mesh)];
+    if (vertices_m != m.vertices_m.data()) {
+        std::copy(vertices_m, vertices_m + m.vertices_m.size(), m.vertices_m.begin());
+    }
     const std::size_t n = m.indices.size();
     for (std::size_t k = 0; k < n; ++k) {
         const float* v = vertices_m + 3 * static_cast<std::size_t>(m.indices[k]);
@@ -379,6 +374,7 @@ GlStatus GlVisibility::render(const GlView& view, int x0, int y0, int x1, int y1
     }
     if (x1 <= x0 || y1 <= y0) return GlStatus::kOk;
     if (!ctx_->makeCurrent()) return GlStatus::kNotCurrent;
+    const auto start = std::chrono::steady_clock::now();
     const Gl& gl = *gl_;
     const auto f = [](double a) { return static_cast<float>(a); };
     const auto u3 = [&](int loc, const Vec3& a) { gl.Uniform3f(loc, f(a.x), f(a.y), f(a.z)); };
@@ -389,42 +385,64 @@ GlStatus GlVisibility::render(const GlView& view, int x0, int y0, int x1, int y1
     gl.Uniform2f(uScale_, f(2.0 * view.focalLength_m / (view.pitchX_m * width_)),
                  f(2.0 * view.focalLength_m / (view.pitchY_m * height_)));
     gl.Uniform1f(uNear_, f(kNear_m));
-    u3(uDir0_, view.forward * view.focalLength_m - view.right * (0.5 * width_ * view.pitchX_m) +
-                   view.up * (0.5 * height_ * view.pitchY_m));
-    u3(uDirDx_, view.right * view.pitchX_m);
-    u3(uDirDy_, view.up * -view.pitchY_m);
     gl.Scissor(x0, y0, x1 - x0, y1 - y0);
     const GLuint zeroIds[4] = {0, 0, 0, 0};
-    const GLfloat zeroT[1] = {0.0f}, farDepth[1] = {0.0f};
+    const GLfloat farDepth[1] = {0.0f};
     gl.ClearBufferuiv(GL_COLOR, 0, zeroIds);
-    gl.ClearBufferfv(GL_COLOR, 1, zeroT);
     gl.ClearBufferfv(GL_DEPTH, 0, farDepth);
     for (const Mesh& m : meshes_) {
         if (!m.enabled || m.indices.empty()) continue;
-        gl.Uniform1ui(uGeom_, m.geomId + 1u);
+        gl.Uniform1ui(uFirstId_, m.firstId + 1u);
         gl.BindVertexArray(m.vao);
         gl.DrawArrays(GL_TRIANGLES, 0, static_cast<GLsizei>(m.indices.size()));
     }
     gl.BindVertexArray(0);
     // Read back the rectangle in place (GL_PACK_ROW_LENGTH = width).
     const std::size_t at = static_cast<std::size_t>(y0) * width_ + static_cast<std::size_t>(x0);
-    gl.ReadBuffer(GL_COLOR_ATTACHMENT0);
-    gl.ReadPixels(x0, y0, x1 - x0, y1 - y0, GL_RGBA_INTEGER, GL_UNSIGNED_INT, &ids_[4 * at]);
-    gl.ReadBuffer(GL_COLOR_ATTACHMENT1);
-    gl.ReadPixels(x0, y0, x1 - x0, y1 - y0, GL_RED, GL_FLOAT, &t_[at]);
-    return gl.GetError() == GL_NO_ERROR ? GlStatus::kOk : GlStatus::kGlError;
+    gl.ReadPixels(x0, y0, x1 - x0, y1 - y0, GL_RED_INTEGER, GL_UNSIGNED_INT, &ids_[at]);
+    lastView_ = view;
+    const GlStatus st = gl.GetError() == GL_NO_ERROR ? GlStatus::kOk : GlStatus::kGlError;
+    lastRender_ms_ =
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+    return st;
+}
+
+GlVisibility::IdRange GlVisibility::idRange(std::uint32_t word) const noexcept {
+    if (word == 0 || word > nextId_) return {};
+    // The last mesh whose first id is ≤ word − 1 (meshes_ is in id order; an empty mesh shares
+    // its first id with the next).
+    const auto m = std::upper_bound(meshes_.begin(), meshes_.end(), word - 1u,
+                                    [](std::uint32_t v, const Mesh& e) { return v < e.firstId; });
+    if (m == meshes_.begin()) return {};
+    const Mesh& mesh = *(m - 1);
+    return {mesh.firstId, static_cast<std::uint32_t>(mesh.indices.size() / 3), mesh.geomId};
 }
 
 GlHit GlVisibility::hit(int x, int y) const noexcept {
     GlHit h;
     const std::size_t i = static_cast<std::size_t>(y) * width_ + static_cast<std::size_t>(x);
-    const std::uint32_t* w = &ids_[4 * i];
-    if (w[2] == 0) return h;
-    h.geomId = w[2] - 1u;
-    h.primId = w[3];
-    std::memcpy(&h.u, &w[0], sizeof(float));
-    std::memcpy(&h.v, &w[1], sizeof(float));
-    h.t_m = t_[i];
+    const IdRange r = idRange(ids_[i]);
+    if (r.count == 0) return h;
+    const std::uint32_t prim = ids_[i] - 1u - r.firstId;
+    const Mesh* mesh = nullptr;
+    for (const Mesh& m : meshes_)
+        if (m.firstId == r.firstId && m.indices.size() == 3 * std::size_t{r.count}) mesh = &m;
+    const auto vertex = [&](std::uint32_t k) {
+        const float* p = &mesh->vertices_m[3 * static_cast<std::size_t>(mesh->indices[3 * prim + k])];
+        return Vec3{p[0], p[1], p[2]};
+    };
+    // The pixel-centre ray as the renderer casts it (Renderer::Impl::pixelDir).
+    const GlView& v = lastView_;
+    const Vec3 d = normalized(v.forward * v.focalLength_m +
+                              v.right * ((x + 0.5 - 0.5 * width_) * v.pitchX_m) -
+                              v.up * ((y + 0.5 - 0.5 * height_) * v.pitchY_m));
+    double t = 0.0, u = 0.0, w = 0.0;
+    if (!rayPlaneOfTriangle(v.position_m, d, vertex(0), vertex(1), vertex(2), &t, &u, &w)) return h;
+    h.geomId = r.geomId;
+    h.primId = prim;
+    h.u = u;
+    h.v = w;
+    h.t_m = t;
     return h;
 }
 

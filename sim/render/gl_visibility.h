@@ -1,19 +1,21 @@
 #pragma once
 // Primary visibility by rasterisation (OpenGL): for a pinhole camera and a set of triangle
-// meshes, which triangle each pixel's centre ray meets first, with Embree's barycentrics and the
-// hit distance — the same answer as casting the primary rays with Embree (rtcIntersect), at a
-// fraction of the cost on a GPU. The renderer's G-buffer is then built from it by the code that
-// builds it from Embree's hits (renderer.cpp); Embree keeps the shadow, lamp and mirror rays.
+// meshes, which triangle each pixel's centre ray meets first — the same answer as casting the
+// primary rays with Embree (rtcIntersect), at a fraction of the cost on a GPU. The renderer's
+// G-buffer is then built from it by the code that builds it from Embree's hits (primary.cpp);
+// Embree keeps the shadow, lamp and mirror rays.
 //
 // The pass (one draw per mesh into a framebuffer object, read back with glReadPixels):
-//   colour 0, RGBA32UI   floatBitsToUint(u), floatBitsToUint(v), geomId + 1 (0: miss), primId
-//   colour 1, R32F       t: distance along the unit pixel-centre ray [m]
+//   colour 0, R32UI      the triangle's id + 1 (0: miss): the mesh's first id + gl_PrimitiveID
+//                        (the triangle's index in its mesh), ids numbered over the meshes in
+//                        the order they were added
 //   depth, 32-bit float  reversed Z (depth = near/z_camera, glClipControl ZERO_TO_ONE,
 //                        GL_GREATER): relative depth resolution ≈ 2⁻²⁴ at every range
-// u and v are the weights of the triangle's vertices 1 and 2, interpolated perspective-correct
-// (the barycentrics of the point where the pixel-centre ray meets the triangle's plane);
-// primId is gl_PrimitiveID, the triangle's index in its mesh; t = (q − o)·d with q the
-// perspective-correct camera-relative position and d the unit pixel-centre ray.
+// Only the id is read back (4 bytes a pixel: 8.3 MB at 1920 × 1080; the read-back, not the draw,
+// is what a GPU pass costs): the hit point follows on the CPU from the pixel-centre ray and the
+// triangle, in double precision (rayPlaneOfTriangle, sim/core/geometry.h): Embree's barycentrics
+// u and v (the weights of the triangle's vertices 1 and 2) and the distance t along the unit
+// ray, as hit() does here and the renderer's G-buffer pass does with its own vertex buffers.
 //
 // Pixels, projection and row order are the renderer's (Renderer::Impl::pixelDir/project):
 // pixel (x, y) is sampled at its centre (x + ½, y + ½), x along `right`, y along −`up`, row 0 at
@@ -50,8 +52,8 @@ inline constexpr std::uint32_t kGlMiss = 0xFFFFFFFFu;
 struct GlHit {
     std::uint32_t geomId = kGlMiss;
     std::uint32_t primId = 0;
-    float u = 0.0f, v = 0.0f;  // weights of vertices 1 and 2 (Embree's hit.u, hit.v)
-    float t_m = 0.0f;          // along the unit pixel-centre ray
+    double u = 0.0, v = 0.0;  // weights of vertices 1 and 2 (Embree's hit.u, hit.v)
+    double t_m = 0.0;         // along the unit pixel-centre ray
 };
 
 enum class GlStatus { kOk, kNotCurrent, kBadRect, kGlError };
@@ -96,11 +98,23 @@ class GlVisibility {
     // work done on one thread before the frame loop's thread takes over).
     void releaseContext() noexcept { ctx_->release(); }
 
-    // Results of the last render, row-major, row 0 at the top.
+    // Wall time of the last render() [ms]: the draw and the read-back into the result buffers
+    // (the G-buffer built from them is the caller's; docs/performance.md splits the two).
+    double lastRender_ms() const noexcept { return lastRender_ms_; }
+
+    // The hit at pixel (x, y) of the last render (row 0 at the top), the point on the triangle
+    // computed for the last render's view from the mesh's vertices as last set.
     GlHit hit(int x, int y) const noexcept;
-    // Raw: 4 words per pixel (u bits, v bits, geomId + 1 or 0, primId) and t per pixel.
+    // Raw: one word per pixel, row-major, row 0 at the top: 0 (miss) or a triangle's id + 1.
     const std::uint32_t* ids() const noexcept { return ids_.data(); }
-    const float* distances_m() const noexcept { return t_.data(); }
+    // The mesh whose triangle a raw word names: its ids are [firstId, firstId + count), its
+    // triangle k has id firstId + k (count 0: 0, a miss, or a word no mesh holds). Neighbouring
+    // pixels mostly see the same mesh: a caller keeps the last range and looks up only when
+    // word − 1 − firstId ≥ count.
+    struct IdRange {
+        std::uint32_t firstId = 0, count = 0, geomId = kGlMiss;
+    };
+    IdRange idRange(std::uint32_t word) const noexcept;
 
     struct Gl;  // the GL entry points (gl_visibility.cpp)
 
@@ -110,7 +124,8 @@ class GlVisibility {
     struct Mesh {
         unsigned vao = 0, vbo = 0;
         std::vector<std::uint32_t> indices;
-        std::size_t vertexCount = 0;
+        std::vector<float> vertices_m;  // as last set (hit())
+        std::uint32_t firstId = 0;      // the id of its triangle 0
         std::uint32_t geomId = 0;
         bool enabled = true;
     };
@@ -119,13 +134,15 @@ class GlVisibility {
     GlBackend backend_ = GlBackend::kNone;
     std::string description_;
     int width_ = 0, height_ = 0;
-    unsigned fbo_ = 0, colorIds_ = 0, colorT_ = 0, depth_ = 0, program_ = 0;
+    double lastRender_ms_ = 0.0;
+    unsigned fbo_ = 0, colorIds_ = 0, depth_ = 0, program_ = 0;
     int uCamPos_ = -1, uRight_ = -1, uUp_ = -1, uFwd_ = -1, uScale_ = -1, uNear_ = -1;
-    int uDir0_ = -1, uDirDx_ = -1, uDirDy_ = -1, uGeom_ = -1;
+    int uFirstId_ = -1;
     std::vector<Mesh> meshes_;
+    std::uint32_t nextId_ = 0;    // the id the next mesh's triangle 0 gets
     std::vector<float> staging_;  // de-indexed vertices of the largest mesh
     std::vector<std::uint32_t> ids_;
-    std::vector<float> t_;
+    GlView lastView_;
 };
 
 }  // namespace nvs::render

@@ -66,7 +66,8 @@ void primaryRows(void* vctx, int y0, int y1) {
 }
 
 // The G-buffer of the pass's rectangle from the OpenGL pass's hits (gl_visibility.h): the same
-// fields as primaryRows, through hitFields, from (geomId, primId, u, v, t) per pixel. The
+// fields as primaryRows, through hitFields, from the triangle GL found at each pixel and the
+// point where the pixel-centre ray meets it (u, v, t in double: rayPlaneOfTriangle). The
 // geometric normal is Embree's for the triangle, Ng = e2 × e1 with e1 = v0 − v1, e2 = v2 − v0,
 // that is (v1 − v0) × (v2 − v0) (Embree 3, kernels/geometry/triangle_intersector_moeller.h),
 // so a hit's side, and with it the side's sky-view factors, is the one Embree's hit gives (the
@@ -76,17 +77,26 @@ void glPrimaryRows(void* vctx, int y0, int y1) {
     Renderer::Impl& im = *c.im;
     const PinholeCamera& cam = c.cfg->camera;
     const std::uint32_t* ids = im.gl->ids();
-    const float* dist_m = im.gl->distances_m();
+    GlVisibility::IdRange mesh;  // the last pixel's
     for (int yr = y0; yr < y1; ++yr) {
         const int y = c.rowLo + c.rowStride * rowAt(yr, c.rowStepRect, c.rowCount);
         for (int x = c.colLo; x < c.colHi; ++x) {
             const std::size_t i = static_cast<std::size_t>(y) * im.W + x;
             im.sValid[i] = 0;
             const Vec3 d = im.pixelDir(x + 0.5, y + 0.5, cam);
-            const std::uint32_t* w = &ids[4 * i];
-            const std::uint32_t geom = w[2] - 1u, prim = w[3];
-            if (w[2] == 0 || geom >= im.objects.size() ||
-                prim >= im.objects[geom].material.size()) {
+            if (ids[i] - 1u - mesh.firstId >= mesh.count) mesh = im.gl->idRange(ids[i]);
+            const std::uint32_t geom = mesh.geomId, prim = ids[i] - 1u - mesh.firstId;
+            const bool hit = mesh.count != 0 && geom < im.objects.size() &&
+                             prim < im.objects[geom].material.size();
+            const ObjectData* od = hit ? &im.objects[geom] : nullptr;
+            const std::uint32_t* tri =
+                hit ? &od->obj->mesh.triangles[3 * static_cast<std::size_t>(prim)] : nullptr;
+            Vec3 a, b, e;
+            double t = 0.0, u = 0.0, v = 0.0;
+            if (hit) {
+                a = toV(od->vbuf[tri[0]]), b = toV(od->vbuf[tri[1]]), e = toV(od->vbuf[tri[2]]);
+            }
+            if (!hit || !rayPlaneOfTriangle(im.camPos, d, a, b, e, &t, &u, &v)) {
                 double gz, az;
                 skyGridPos(d, &gz, &az);
                 im.gMat[i] = kMiss;
@@ -95,17 +105,10 @@ void glPrimaryRows(void* vctx, int y0, int y1) {
                 put3(im.gNrm, i, Vec3{gz, az, 0.0});
                 continue;
             }
-            const ObjectData& od = im.objects[geom];
-            const std::uint32_t* tri = &od.obj->mesh.triangles[3 * static_cast<std::size_t>(prim)];
-            const Vec3 a = toV(od.vbuf[tri[0]]), b = toV(od.vbuf[tri[1]]), e = toV(od.vbuf[tri[2]]);
-            float u, v;
-            std::memcpy(&u, &w[0], sizeof u);
-            std::memcpy(&v, &w[1], sizeof v);
             Vec3 p, n;
             int m;
             double svf;
-            hitFields(im, geom, prim, u, v, static_cast<double>(dist_m[i]), cross(b - a, e - a),
-                      im.camPos, d, &p, &n, &m, &svf);
+            hitFields(im, geom, prim, u, v, t, cross(b - a, e - a), im.camPos, d, &p, &n, &m, &svf);
             im.gMat[i] = static_cast<std::uint16_t>(m);
             im.gObj[i] = static_cast<std::int16_t>(geom);
             put3(im.gPos, i, p);
@@ -161,15 +164,19 @@ Ctx fullPrimaryCtx(Renderer::Impl& im, const RenderConfig& cfg) noexcept {
 }  // namespace
 
 double timePrimaryPass(Renderer::Impl& im, const RenderConfig& cfg, bool useGl, RowExecutor& exec,
-                       int reps) noexcept {
+                       int reps, double* glRender_ms) noexcept {
     const bool was = im.useGl;
     im.useGl = useGl;
     Ctx c = fullPrimaryCtx(im, cfg);
     primaryPass(c, exec);
+    double glSum_ms = reps == 0 && useGl && im.gl ? im.gl->lastRender_ms() : 0.0;
     const auto t0 = std::chrono::steady_clock::now();
-    for (int r = 0; r < reps; ++r)
+    for (int r = 0; r < reps; ++r) {
         primaryPass(c, exec);
+        if (useGl && im.gl) glSum_ms += im.gl->lastRender_ms();
+    }
     const double dt = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    if (glRender_ms != nullptr) *glRender_ms = glSum_ms / std::max(1, reps);
     im.useGl = was;
     im.gValidRows = 0;
     return 1e3 * dt / std::max(1, reps);
@@ -426,14 +433,21 @@ std::string Renderer::primaryVisibilityNote() const {
     return s + ")";
 }
 
-Renderer::PrimaryTiming Renderer::measurePrimaryPasses(RowExecutor& exec, int repetitions) {
+Renderer::PrimaryTiming Renderer::measurePrimaryPasses(RowExecutor& exec, int repetitions,
+                                                       PrimaryPaths paths) {
     Impl& im = *impl_;
     PrimaryTiming t;
-    t.embree_ms = timePrimaryPass(im, config_, false, exec, repetitions);
-    if (im.gl) {
+    if (paths != PrimaryPaths::kGl) {
+        t.embree_ms = timePrimaryPass(im, config_, false, exec, repetitions);
+    }
+    if (im.gl && paths != PrimaryPaths::kEmbree) {
         const std::uint64_t failures = im.glFailures;
-        const double ms = timePrimaryPass(im, config_, true, exec, repetitions);
-        if (im.glFailures == failures) t.gl_ms = ms;
+        double render_ms = 0.0;
+        const double ms = timePrimaryPass(im, config_, true, exec, repetitions, &render_ms);
+        if (im.glFailures == failures) {
+            t.gl_ms = ms;
+            t.glRender_ms = render_ms;
+        }
         im.gl->releaseContext();
     }
     return t;

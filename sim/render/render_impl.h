@@ -433,8 +433,9 @@ void frameSkyInView(Renderer::Impl& im, const FrameSky& sky, Ctx& c) noexcept;
 // primary.cpp
 void setUpGl(Renderer::Impl& im, const RenderConfig& config);
 void decideAuto(Renderer::Impl& im, const RenderConfig& cfg, RowExecutor& exec) noexcept;
+// glRender_ms, when given: the mean of the GL draw-and-read-back part of the passes (useGl).
 double timePrimaryPass(Renderer::Impl& im, const RenderConfig& cfg, bool useGl, RowExecutor& exec,
-                       int reps) noexcept;
+                       int reps, double* glRender_ms = nullptr) noexcept;
 // Brings the G-buffer up to date for this render's rows (parity < 0: all): primary rays where
 // the camera or the geometry changed, static data dropped where moving objects may change it.
 void updateGeometryBuffer(Ctx& c, int parity, RowExecutor& exec) noexcept;

@@ -153,10 +153,14 @@ class Renderer {
     // Wall time of one primary pass over the whole image on the current view [ms], each path,
     // the mean of `repetitions` after one untimed pass; gl_ms < 0 without an OpenGL pass. The GL
     // time includes drawing and reading back. The G-buffer is rebuilt at the next render.
+    // Wall times of one primary pass [ms]; glRender_ms is the GL pass's draw and read-back,
+    // the rest of gl_ms the G-buffer built from its hits. -1: not measured.
     struct PrimaryTiming {
-        double embree_ms = -1.0, gl_ms = -1.0;
+        double embree_ms = -1.0, gl_ms = -1.0, glRender_ms = -1.0;
     };
-    PrimaryTiming measurePrimaryPasses(RowExecutor& exec, int repetitions);
+    enum class PrimaryPaths { kBoth, kEmbree, kGl };
+    PrimaryTiming measurePrimaryPasses(RowExecutor& exec, int repetitions,
+                                       PrimaryPaths paths = PrimaryPaths::kBoth);
     // Embree alone, for the benchmarks (rt/bench times it): one pass of primary rays through
     // every pixel centre of the current view, as single rays (rtcIntersect1) or as coherent
     // 16-ray packets (rtcIntersect16, as the renderer casts them). Writes nothing; returns the

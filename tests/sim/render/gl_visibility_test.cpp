@@ -167,17 +167,17 @@ TEST(GlVisibility, MatchesRayTriangleReferencePerPixel) {
             ++hits;
             ASSERT_EQ(g.geomId, geom[bi]) << x << "," << y;
             ASSERT_EQ(g.primId, prim[bi]) << x << "," << y;
-            worstUv =
-                std::max({worstUv, std::abs(double{g.u} - best.u), std::abs(double{g.v} - best.v)});
-            worstT = std::max(worstT, std::abs(double{g.t_m} - best.t) / best.t);
+            worstUv = std::max({worstUv, std::abs(g.u - best.u), std::abs(g.v - best.v)});
+            worstT = std::max(worstT, std::abs(g.t_m - best.t) / best.t);
         }
     }
     std::printf("%d pixels checked (%d hits), %d on edges; worst |Δu|,|Δv| %.2g, worst Δt/t %.2g\n",
                 checked, hits, edge, worstUv, worstT);
     EXPECT_GT(hits, kW * kH / 4);
     EXPECT_LT(edge, kW * kH / 100);
-    EXPECT_LT(worstUv, 1e-4);
-    EXPECT_LT(worstT, 1e-5);
+    // GL decides which triangle; the point on it is computed in double (gl_visibility.h).
+    EXPECT_LT(worstUv, 1e-9);
+    EXPECT_LT(worstT, 1e-9);
 }
 
 // Reversed-Z float depth: two parallel planes 1 cm apart at 1 km; the nearer is seen at every
@@ -219,7 +219,7 @@ TEST(GlVisibility, ResolvesOneCentimetreAtOneKilometre) {
             const GlHit g = gl->hit(x, y);
             firstSeen += g.geomId == 1u ? 1 : 0;
             const Vec3 d = pixelRay(view, x + 0.5, y + 0.5);
-            worstT = std::max(worstT, std::abs(double{g.t_m} - 1000.0 / nvs::dot(d, view.forward)));
+            worstT = std::max(worstT, std::abs(g.t_m - 1000.0 / nvs::dot(d, view.forward)));
         }
     }
     EXPECT_EQ(firstSeen, kW * kH);
@@ -272,7 +272,7 @@ TEST(GlVisibility, BackendsAgree) {
         for (int x = 0; x < kW; ++x) {
             const GlHit p = a->hit(x, y), q = b->hit(x, y);
             differ += (p.geomId != q.geomId || p.primId != q.primId ||
-                       std::abs(p.t_m - q.t_m) > 1e-5f * p.t_m)
+                       std::abs(p.t_m - q.t_m) > 1e-9 * p.t_m)
                           ? 1
                           : 0;
         }
