@@ -22,7 +22,8 @@ enum ThreadId : int {
     kThreadCamera = 4,
     kThreadSink = 5,
     kThreadRenderWorker = 6,
-    kThreadCount = 7
+    kThreadCameraWorker = 7,
+    kThreadCount = 8
 };
 
 inline constexpr ThreadSpec kThreadTable[kThreadCount] = {
@@ -51,6 +52,10 @@ inline constexpr ThreadSpec kThreadTable[kThreadCount] = {
      "render_threads − 1 of them: rows of the render thread's frame or field, handed out in "
      "chunks (RowPool); the camera thread outranks them on its core",
      70, -1},
+    {"nvs-camera-w",
+     "camera_threads − 1 of them: rows of the camera chain's passes, handed out in chunks "
+     "(RowPool), at the camera thread's priority",
+     75, -1},
 };
 
 // Names the calling thread after its table entry and, when `realtime`, applies its priority

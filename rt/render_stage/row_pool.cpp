@@ -17,11 +17,11 @@ inline void cpuPause() {
 }
 }  // namespace
 
-RowPool::RowPool(int threads, bool realtime) : n_(threads < 1 ? 1 : threads) {
+RowPool::RowPool(int threads, bool realtime, ThreadId worker) : n_(threads < 1 ? 1 : threads) {
     for (int i = 1; i < n_; ++i) {
-        workers_.emplace_back([this, realtime] {
-            std::string refused;  // already reported by the render thread's own spec
-            applyThreadSpec(kThreadRenderWorker, realtime, refused);
+        workers_.emplace_back([this, realtime, worker] {
+            std::string refused;  // already reported by the calling thread's own spec
+            applyThreadSpec(worker, realtime, refused);
             loop();
         });
     }

@@ -19,6 +19,7 @@
 #include <thread>
 #include <vector>
 
+#include "rt/clock/threads.h"
 #include "sim/render/renderer.h"
 
 namespace nvs::rt {
@@ -27,7 +28,8 @@ class RowPool final : public render::RowExecutor {
   public:
     // `threads` ≥ 1 in total, the caller included. With `realtime` the workers take their
     // entry of the thread table (rt/clock/threads.h: SCHED_FIFO, the render thread's priority).
-    explicit RowPool(int threads, bool realtime = false);
+    // `worker`: the workers' entry of the thread table (the render's, or the camera's).
+    explicit RowPool(int threads, bool realtime = false, ThreadId worker = kThreadRenderWorker);
     ~RowPool() override;
     RowPool(const RowPool&) = delete;
     RowPool& operator=(const RowPool&) = delete;

@@ -375,7 +375,8 @@ int runScenario(const RunRequest& req, std::FILE* status) {
                                            : IiccdCameraStage::Controls::Preset,
             req.dirs.config, gammaTables);
         if (sc.cameraThreads > 1) {
-            cameraPool = std::make_unique<RowPool>(sc.cameraThreads, sc.realtime);
+            cameraPool =
+                std::make_unique<RowPool>(sc.cameraThreads, sc.realtime, kThreadCameraWorker);
             iiccd->setExecutor(cameraPool.get());
         }
         camera = std::move(iiccd);

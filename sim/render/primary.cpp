@@ -65,19 +65,47 @@ void primaryRows(void* vctx, int y0, int y1) {
     im.primary += prim;
 }
 
+// One triangle seen from the camera, set up once for the pixels that see it (neighbouring
+// pixels mostly do): its unit normal N̂ = (v1 − v0) × (v2 − v0) / |…|, the numerator of the
+// plane distance N̂·(v0 − o), and the dual vectors U = (e2 × N)/|N|², V = (N × e1)/|N|² that
+// give a point r = p − v0 of the plane its barycentric weights u = r·U (of v1), v = r·V (of v2),
+// with e1 = v1 − v0, e2 = v2 − v0, N = e1 × e2. Per pixel: t = N̂·(v0 − o) / N̂·d, p = o + t d.
+struct SeenTriangle {
+    std::uint32_t geom = kGlMiss, prim = kGlMiss;
+    bool ok = false;  // not degenerate
+    Vec3 v0, nUnit, dualU, dualV;
+    double planeNum = 0.0;
+    void set(std::uint32_t g, std::uint32_t p, const Vec3& a, const Vec3& b, const Vec3& c,
+             const Vec3& o) noexcept {
+        geom = g;
+        prim = p;
+        v0 = a;
+        const Vec3 e1 = b - a, e2 = c - a, n = cross(e1, e2);
+        const double n2 = dot(n, n);
+        ok = n2 > 0.0;
+        if (!ok) return;
+        nUnit = n * (1.0 / std::sqrt(n2));
+        dualU = cross(e2, n) * (1.0 / n2);
+        dualV = cross(n, e1) * (1.0 / n2);
+        planeNum = dot(nUnit, a - o);
+    }
+};
+
 // The G-buffer of the pass's rectangle from the OpenGL pass's hits (gl_visibility.h): the same
-// fields as primaryRows, through hitFields, from the triangle GL found at each pixel and the
-// point where the pixel-centre ray meets it (u, v, t in double: rayPlaneOfTriangle). The
-// geometric normal is Embree's for the triangle, Ng = e2 × e1 with e1 = v0 − v1, e2 = v2 − v0,
-// that is (v1 − v0) × (v2 − v0) (Embree 3, kernels/geometry/triangle_intersector_moeller.h),
-// so a hit's side, and with it the side's sky-view factors, is the one Embree's hit gives (the
-// test GlPrimary.* compares them).
+// fields as primaryRows, through hitFieldsUnit, from the triangle GL found at each pixel and
+// the point where the pixel-centre ray meets its plane, in double (SeenTriangle). The geometric
+// normal is Embree's for the triangle, Ng = e2 × e1 with e1 = v0 − v1, e2 = v2 − v0, that is
+// (v1 − v0) × (v2 − v0) (Embree 3, kernels/geometry/triangle_intersector_moeller.h), so a hit's
+// side, and with it the side's sky-view factors, is the one Embree's hit gives (the test
+// GlPrimary.* compares them).
 void glPrimaryRows(void* vctx, int y0, int y1) {
     const Ctx& c = *static_cast<const Ctx*>(vctx);
     Renderer::Impl& im = *c.im;
     const PinholeCamera& cam = c.cfg->camera;
     const std::uint32_t* ids = im.gl->ids();
     GlVisibility::IdRange mesh;  // the last pixel's
+    SeenTriangle seen;           // the last hit's
+    const Vec3 o = im.camPos;
     for (int yr = y0; yr < y1; ++yr) {
         const int y = c.rowLo + c.rowStride * rowAt(yr, c.rowStepRect, c.rowCount);
         for (int x = c.colLo; x < c.colHi; ++x) {
@@ -87,16 +115,16 @@ void glPrimaryRows(void* vctx, int y0, int y1) {
             if (ids[i] - 1u - mesh.firstId >= mesh.count) mesh = im.gl->idRange(ids[i]);
             const std::uint32_t geom = mesh.geomId, prim = ids[i] - 1u - mesh.firstId;
             const bool hit = mesh.count != 0 && geom < im.objects.size() &&
-                             prim < im.objects[geom].material.size();
-            const ObjectData* od = hit ? &im.objects[geom] : nullptr;
-            const std::uint32_t* tri =
-                hit ? &od->obj->mesh.triangles[3 * static_cast<std::size_t>(prim)] : nullptr;
-            Vec3 a, b, e;
-            double t = 0.0, u = 0.0, v = 0.0;
-            if (hit) {
-                a = toV(od->vbuf[tri[0]]), b = toV(od->vbuf[tri[1]]), e = toV(od->vbuf[tri[2]]);
+                       prim < im.objects[geom].material.size();
+            if (hit && (geom != seen.geom || prim != seen.prim)) {
+                const ObjectData& od = im.objects[geom];
+                const std::uint32_t* tri =
+                    &od.obj->mesh.triangles[3 * static_cast<std::size_t>(prim)];
+                seen.set(geom, prim, toV(od.vbuf[tri[0]]), toV(od.vbuf[tri[1]]),
+                         toV(od.vbuf[tri[2]]), o);
             }
-            if (!hit || !rayPlaneOfTriangle(im.camPos, d, a, b, e, &t, &u, &v)) {
+            const double nd = hit && seen.ok ? dot(seen.nUnit, d) : 0.0;
+            if (nd == 0.0) {
                 double gz, az;
                 skyGridPos(d, &gz, &az);
                 im.gMat[i] = kMiss;
@@ -105,10 +133,12 @@ void glPrimaryRows(void* vctx, int y0, int y1) {
                 put3(im.gNrm, i, Vec3{gz, az, 0.0});
                 continue;
             }
-            Vec3 p, n;
+            const Vec3 p = o + d * (seen.planeNum / nd), r = p - seen.v0;
+            Vec3 n;
             int m;
             double svf;
-            hitFields(im, geom, prim, u, v, t, cross(b - a, e - a), im.camPos, d, &p, &n, &m, &svf);
+            hitFieldsUnit(im, geom, prim, dot(r, seen.dualU), dot(r, seen.dualV), seen.nUnit, d, &n,
+                          &m, &svf);
             im.gMat[i] = static_cast<std::uint16_t>(m);
             im.gObj[i] = static_cast<std::int16_t>(geom);
             put3(im.gPos, i, p);

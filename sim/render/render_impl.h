@@ -391,11 +391,10 @@ inline void put3(std::vector<float>& a, std::size_t i, const Vec3& v) {
 // along the unit ray o + t d, geometric normal ng of either sign) → position, camera-facing unit
 // normal, material, sky-view factor. Embree's hits and the OpenGL pass's (glPrimaryRows) both
 // go through here.
-inline void hitFields(const Renderer::Impl& im, unsigned geom, unsigned prim, double u, double v,
-                      double t, Vec3 ng, const Vec3& o, const Vec3& d, Vec3* p, Vec3* n, int* m,
-                      double* svf) noexcept {
-    *p = o + d * t;
-    ng = normalized(ng);
+// hitFieldsUnit: the same with the position given and ng already of unit length.
+inline void hitFieldsUnit(const Renderer::Impl& im, unsigned geom, unsigned prim, double u,
+                          double v, Vec3 ng, const Vec3& d, Vec3* n, int* m,
+                          double* svf) noexcept {
     const bool back = dot(ng, d) > 0.0;
     if (back) ng = -ng;
     *n = ng;
@@ -404,6 +403,12 @@ inline void hitFields(const Renderer::Impl& im, unsigned geom, unsigned prim, do
     const std::size_t base = static_cast<std::size_t>(prim) * 6 + (back ? 3 : 0);
     *svf = (1.0 - u - v) * static_cast<double>(od.svf[base]) +
            u * static_cast<double>(od.svf[base + 1]) + v * static_cast<double>(od.svf[base + 2]);
+}
+inline void hitFields(const Renderer::Impl& im, unsigned geom, unsigned prim, double u, double v,
+                      double t, const Vec3& ng, const Vec3& o, const Vec3& d, Vec3* p, Vec3* n,
+                      int* m, double* svf) noexcept {
+    *p = o + d * t;
+    hitFieldsUnit(im, geom, prim, u, v, normalized(ng), d, n, m, svf);
 }
 
 // Hit of lane k → position, camera-facing unit normal, material, sky-view factor.

@@ -3,7 +3,11 @@
 // timeline event after the end, an unknown lamp — is a clear error naming file:line.
 #include <gtest/gtest.h>
 
+#include <cstdio>
+#include <filesystem>
 #include <fstream>
+#include <iterator>
+#include <optional>
 
 #include "rt/compose/scenario.h"
 #include "rt/run/run.h"
@@ -223,6 +227,56 @@ TEST(ScenarioFormat, BadScanAndTriggerNameFileAndLine) {
                                       "s.toml", test::configDir());
     ASSERT_TRUE(sc.trigger.has_value());
     EXPECT_EQ(*sc.trigger, "gpio:gpiochip0:18");
+}
+
+// [runtime] camera_threads: 1..16, and the camera chain's rows split over a pool give the same
+// video as one thread (the run's overrides, nvstim run --camera-threads and --render-threads,
+// take the same path); out-of-range values name file and line or the option.
+TEST(ScenarioFormat, CameraThreadsSplitTheChainWithTheSameBits) {
+    const std::string tables = "[camera]\npreset = \"pulnix-ag5745ef3\"\n";
+    const std::string size = "width = 96\nheight = 64\nseed = 5\n";
+    EXPECT_EQ(parseScenario(pattern(size, tables), "p.toml", test::configDir()).cameraThreads, 1);
+    for (const char* bad : {"0", "17"}) {
+        try {
+            parseScenario(pattern(size, tables + "[runtime]\ncamera_threads = " + bad + "\n"),
+                          "p.toml", test::configDir());
+            FAIL() << bad;
+        } catch (const SetupError& e) {
+            EXPECT_NE(std::string(e.what()).find("p.toml:"), std::string::npos) << e.what();
+            EXPECT_NE(std::string(e.what()).find("camera_threads"), std::string::npos) << e.what();
+        }
+    }
+    const std::filesystem::path d = std::filesystem::path(testing::TempDir()) / "nvs_camthreads";
+    std::filesystem::create_directories(d);
+    std::ofstream(d / "scenario.toml") << pattern(size, tables);
+    const auto run = [&](std::optional<int> cameraThreads, std::optional<int> renderThreads) {
+        RunRequest req;
+        req.scenario = (d / "scenario.toml").string();
+        req.dirs = test::dataDirs();
+        req.clock = ClockKind::Sim;
+        req.frames = 4;
+        req.cameraThreads = cameraThreads;
+        req.renderThreads = renderThreads;
+        const std::filesystem::path out = d / ("out" + std::to_string(cameraThreads.value_or(1)) +
+                                               ".y4m");
+        req.outputs = {"y4m:" + out.string()};
+        std::FILE* quiet = std::fopen("/dev/null", "w");
+        EXPECT_EQ(runScenario(req, quiet), 0);
+        std::fclose(quiet);
+        std::ifstream in(out, std::ios::binary);
+        return std::string(std::istreambuf_iterator<char>(in), {});
+    };
+    const std::string one = run(std::nullopt, std::nullopt), three = run(3, 1);
+    EXPECT_GT(one.size(), 4u * 96 * 64);
+    EXPECT_TRUE(one == three) << "camera_threads = 3 changed the video";
+    RunRequest req;
+    req.scenario = (d / "scenario.toml").string();
+    req.dirs = test::dataDirs();
+    req.clock = ClockKind::Sim;
+    req.cameraThreads = 17;
+    req.outputs = {"y4m:" + (d / "x.y4m").string()};
+    EXPECT_THROW(runScenario(req, stderr), SetupError);
+    std::filesystem::remove_all(d);
 }
 
 }  // namespace
