@@ -34,8 +34,8 @@ struct TimedItem {
     std::int64_t iterations = 0;
     double min_s = 0.0, p50_s = 0.0, p99_s = 0.0, mean_s = 0.0;
     std::vector<std::pair<std::string, double>> extra;
-    std::string note;   // one line `after` may add (e.g. the OpenGL renderer used)
-    std::string error;  // why setup failed (the item then did not run)
+    std::string note;               // one line `after` may add (e.g. the OpenGL renderer used)
+    std::string error;              // why setup failed (the item then did not run)
     std::vector<double> samples_s;  // the reported trial's per-iteration times
 };
 

@@ -375,12 +375,11 @@ void addPrimary1080Items(Items& items, const DataDirs& dirs,
         f->visibility = gl ? render::PrimaryVisibility::kGl : render::PrimaryVisibility::kEmbree;
         f->threads = threads;
         const Paths paths = gl ? Paths::kGl : Paths::kEmbree;
-        TimedItem& it = add(
-            items, gl ? "primary_air_1080p_gl" : "primary_air_1080p_embree",
-            std::string("airborne pass at 1920x1080, ") + std::to_string(threads) +
-                " threads, the primary pass alone (the whole geometry buffer) by " +
-                (gl ? "OpenGL" : "Embree packets") + ", camera moving",
-            gl ? std::optional<double>(1.0 / 120.0) : std::nullopt, 1.5);
+        TimedItem& it = add(items, gl ? "primary_air_1080p_gl" : "primary_air_1080p_embree",
+                            std::string("airborne pass at 1920x1080, ") + std::to_string(threads) +
+                                " threads, the primary pass alone (the whole geometry buffer) by " +
+                                (gl ? "OpenGL" : "Embree packets") + ", camera moving",
+                            gl ? std::optional<double>(1.0 / 120.0) : std::nullopt, 1.5);
         it.setup = [f] { f->get(); };
         it.iteration = [f, paths] {
             render::Renderer& r = f->sr->renderer();
@@ -391,7 +390,8 @@ void addPrimary1080Items(Items& items, const DataDirs& dirs,
             render::Renderer& r = f->sr->renderer();
             self.extra.emplace_back("threads", threads);
             if (!gl) return;
-            const render::Renderer::PrimaryTiming t = r.measurePrimaryPasses(*f->pool, 20, Paths::kGl);
+            const render::Renderer::PrimaryTiming t =
+                r.measurePrimaryPasses(*f->pool, 20, Paths::kGl);
             self.note = r.primaryVisibilityNote();
             if (t.gl_ms < 0.0) {
                 self.note += "; the GL pass failed (Embree made the G-buffer)";

@@ -365,7 +365,7 @@ int runScenario(const RunRequest& req, std::FILE* status) {
                 return sceneStage ? sceneStage->scenario().scene().lampIndex(name) : -1;
             }));
     }
-    GammaTableCache gammaTables;  // the MCP's Gamma tables, built here at setup
+    GammaTableCache gammaTables;          // the MCP's Gamma tables, built here at setup
     std::unique_ptr<RowPool> cameraPool;  // [runtime] camera_threads > 1; outlives the stage
     std::unique_ptr<CameraStage> camera;
     if (sc.camera.enabled) {

@@ -428,14 +428,15 @@ GlHit GlVisibility::hit(int x, int y) const noexcept {
     for (const Mesh& m : meshes_)
         if (m.firstId == r.firstId && m.indices.size() == 3 * std::size_t{r.count}) mesh = &m;
     const auto vertex = [&](std::uint32_t k) {
-        const float* p = &mesh->vertices_m[3 * static_cast<std::size_t>(mesh->indices[3 * prim + k])];
+        const float* p =
+            &mesh->vertices_m[3 * static_cast<std::size_t>(mesh->indices[3 * prim + k])];
         return Vec3{p[0], p[1], p[2]};
     };
     // The pixel-centre ray as the renderer casts it (Renderer::Impl::pixelDir).
     const GlView& v = lastView_;
-    const Vec3 d = normalized(v.forward * v.focalLength_m +
-                              v.right * ((x + 0.5 - 0.5 * width_) * v.pitchX_m) -
-                              v.up * ((y + 0.5 - 0.5 * height_) * v.pitchY_m));
+    const Vec3 d =
+        normalized(v.forward * v.focalLength_m + v.right * ((x + 0.5 - 0.5 * width_) * v.pitchX_m) -
+                   v.up * ((y + 0.5 - 0.5 * height_) * v.pitchY_m));
     double t = 0.0, u = 0.0, w = 0.0;
     if (!rayPlaneOfTriangle(v.position_m, d, vertex(0), vertex(1), vertex(2), &t, &u, &w)) return h;
     h.geomId = r.geomId;

@@ -115,7 +115,7 @@ void glPrimaryRows(void* vctx, int y0, int y1) {
             if (ids[i] - 1u - mesh.firstId >= mesh.count) mesh = im.gl->idRange(ids[i]);
             const std::uint32_t geom = mesh.geomId, prim = ids[i] - 1u - mesh.firstId;
             const bool hit = mesh.count != 0 && geom < im.objects.size() &&
-                       prim < im.objects[geom].material.size();
+                             prim < im.objects[geom].material.size();
             if (hit && (geom != seen.geom || prim != seen.prim)) {
                 const ObjectData& od = im.objects[geom];
                 const std::uint32_t* tri =

@@ -393,8 +393,7 @@ inline void put3(std::vector<float>& a, std::size_t i, const Vec3& v) {
 // go through here.
 // hitFieldsUnit: the same with the position given and ng already of unit length.
 inline void hitFieldsUnit(const Renderer::Impl& im, unsigned geom, unsigned prim, double u,
-                          double v, Vec3 ng, const Vec3& d, Vec3* n, int* m,
-                          double* svf) noexcept {
+                          double v, Vec3 ng, const Vec3& d, Vec3* n, int* m, double* svf) noexcept {
     const bool back = dot(ng, d) > 0.0;
     if (back) ng = -ng;
     *n = ng;

@@ -257,8 +257,8 @@ TEST(ScenarioFormat, CameraThreadsSplitTheChainWithTheSameBits) {
         req.frames = 4;
         req.cameraThreads = cameraThreads;
         req.renderThreads = renderThreads;
-        const std::filesystem::path out = d / ("out" + std::to_string(cameraThreads.value_or(1)) +
-                                               ".y4m");
+        const std::filesystem::path out =
+            d / ("out" + std::to_string(cameraThreads.value_or(1)) + ".y4m");
         req.outputs = {"y4m:" + out.string()};
         std::FILE* quiet = std::fopen("/dev/null", "w");
         EXPECT_EQ(runScenario(req, quiet), 0);
