@@ -16,6 +16,16 @@ void CcdParams::read(const PresetReader& root) {
     pitch_x_um = positive(ccd, "pitch_x_um", pitch_x_um);
     pitch_y_um = positive(ccd, "pitch_y_um", pitch_y_um);
     full_well_e = nonNegative(ccd, "full_well_e", full_well_e);
+    const std::string arch = ccd.get<std::string>("architecture", "full_frame");
+    if (arch == "interline")
+        architecture = CcdArchitecture::Interline;
+    else if (arch == "frame_transfer")
+        architecture = CcdArchitecture::FrameTransfer;
+    else if (arch == "full_frame")
+        architecture = CcdArchitecture::FullFrame;
+    else
+        ccd.fail("architecture", "must be interline, frame_transfer or full_frame");
+    const bool interline = architecture == CcdArchitecture::Interline;
     const std::string bl = ccd.get<std::string>("bloom", "vertical");
     if (bl == "off")
         bloom = BloomDirection::Off;
@@ -25,7 +35,22 @@ void CcdParams::read(const PresetReader& root) {
         bloom = BloomDirection::Horizontal;
     else
         ccd.fail("bloom", "must be off, vertical or horizontal");
-    smear_rel = nonNegative(ccd, "smear_rel", smear_rel);
+    if (interline && (ccd.inFile("bloom") || ccd.overridden("bloom")))
+        ccd.fail("bloom",
+                 "an interline CCD drains its overload (set overload_x); bloom is for "
+                 "frame_transfer and full_frame");
+    // Beyond the drain's capacity the charge spills into the vertical register: along columns.
+    if (interline) bloom = BloomDirection::Vertical;
+    overload_x = positive(ccd, "overload_x", overload_x);
+    require(overload_x >= 1.0, ccd, "overload_x", "must be >= 1 (a multiple of full_well_e)");
+    const double smearDb = ccd.get<double>("smear_dB", 0.0);
+    // smear_dB is the interline datasheet's figure (a frame-transfer or full-frame CCD's smear,
+    // from its transfer time, is smear_rel): ignored when the architecture is overridden.
+    if (interline && (ccd.inFile("smear_dB") || ccd.overridden("smear_dB"))) {
+        require(std::isfinite(smearDb) && smearDb < 0.0, ccd, "smear_dB", "must be < 0 dB");
+        smear_rel = smearRelFromDb(smearDb);
+    }
+    smear_rel = nonNegative(ccd, "smear_rel", smear_rel);  // a fit's smear_rel overrides
     dark_e_s = nonNegative(ccd, "dark_e_s", dark_e_s);
     read_noise_e = nonNegative(ccd, "read_noise_e", read_noise_e);
     prnu_rel = nonNegative(ccd, "prnu_rel", prnu_rel);
@@ -73,6 +98,17 @@ NVS_SIMD_CLONES void ccdLoadMaxKernel(const float* __restrict src, const float* 
 NVS_SIMD_CLONES void addRowKernel(const float* __restrict v, float* __restrict cs, int w) noexcept {
     for (int x = 0; x < w; ++x)
         cs[x] += v[x];
+}
+
+// Interline overflow drain: a cell keeps min(v, fw), plus what exceeds the drain's capacity
+// (v − cap, which then blooms along the column).
+NVS_SIMD_CLONES void drainKernel(float* __restrict v, int w, float fw, float cap) noexcept {
+    for (int x = 0; x < w; ++x) {
+        const float c = v[x];
+        const float over = c - cap;
+        const float kept = c < fw ? c : fw;
+        v[x] = kept + (over > 0.0f ? over : 0.0f);
+    }
 }
 
 // Read-out row: v += smear + σ·z.
@@ -234,6 +270,13 @@ std::int64_t CcdStage::bloomColumns(ImageView<float> e, float fw, const float* c
     return sat;
 }
 
+void CcdStage::drainRow(float* v) const noexcept {
+    const CameraParams& c = *cam_;
+    if (c.architecture != CcdArchitecture::Interline || !(c.full_well_e > 0.0)) return;
+    drainKernel(v, c.width, static_cast<float>(c.full_well_e),
+                static_cast<float>(c.overload_x * c.full_well_e));
+}
+
 std::int64_t CcdStage::apply(ImageView<float> e, const FieldContext& ctx) noexcept {
     begin(ctx);
     for (int y = 0; y < e.height(); ++y)
@@ -271,6 +314,9 @@ void CcdStage::loadRow(const float* src, float* dst, int y) noexcept {
     }
     ccdLoadKernel(src, prnu_.empty() ? nullptr : prnu_.row(y), dst, colMax_.get(), colSum_.get(), w,
                   dark_e_);
+    // Interline: the overflow drain, after the column sums (smear comes from the light the
+    // column sees, drained or not).
+    drainRow(dst);
     // Vertical blooming's down sweep, on the row while it is in cache (bloomColumns).
     if (!upCarry_.empty())
         bloomDownKernel(dst, line_.get() + w, upCarry_.row(y), w,
@@ -301,6 +347,10 @@ void CcdStage::finishLoad(ImageView<float> e) noexcept {
         for (int y = 0; y < e.height(); ++y)
             addRowKernel(e.row(y), colSum_.get(), w);
     }
+    if (cam_->architecture == CcdArchitecture::Interline) {
+        for (int y = 0; y < e.height(); ++y)
+            drainRow(e.row(y));
+    }
     // Vertical blooming's down sweep (loadRow's, after the loads: a row's sweep reads only its
     // own loaded values and the columns' carries), over the span of columns that reach full
     // well: elsewhere it changes nothing and bloomColumns reads nothing.
@@ -328,7 +378,9 @@ std::int64_t CcdStage::bloom(ImageView<float> e) noexcept {
         const float fw = static_cast<float>(c.full_well_e);
         const float* cmax = colMax_.get();
         if (c.bloom == BloomDirection::Vertical) {
-            saturated += bloomColumns(e, fw, cmax, smear ? cs : nullptr);
+            // Interline: the smear sums stay those of the light (before the drain).
+            const bool resum = smear && c.architecture != CcdArchitecture::Interline;
+            saturated += bloomColumns(e, fw, cmax, resum ? cs : nullptr);
         } else {
             bool any = false;
             for (int x = 0; x < w; ++x)

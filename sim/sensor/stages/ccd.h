@@ -2,6 +2,7 @@
 // Step 8, CCD (docs/sensor.md): fixed pattern, dark charge, full well, blooming, smear and
 // read noise.
 
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <memory>
@@ -16,13 +17,27 @@ class PresetReader;
 
 enum class BloomDirection { Off, Vertical, Horizontal };
 
+// How the CCD is built, from its datasheet (docs/sensor.md, step 8). An interline CCD has a
+// vertical overflow drain under each photodiode: charge above full well flows into the
+// substrate (up to the drain's overload capacity) instead of into its neighbours, and its
+// shielded vertical registers see a little stray light while they are clocked (smear). Frame
+// transfer and full-frame CCDs have no drain here: an overload blooms along `bloom`.
+enum class CcdArchitecture { Interline, FrameTransfer, FullFrame };
+
 struct CcdParams {
     // --- 8. CCD ---------------------------------------------------------------------------
     double pitch_x_um = 11.0;  // Table 11-2, cell 11 x 13 µm
     double pitch_y_um = 13.0;
     double full_well_e = 60000.0;  // [e] 0 = unlimited
-    BloomDirection bloom = BloomDirection::Vertical;
-    double smear_rel = 0.0;     // fraction of a column's mean charge added during transfer
+    CcdArchitecture architecture = CcdArchitecture::FullFrame;
+    BloomDirection bloom = BloomDirection::Vertical;  // frame transfer / full frame only
+    // Interline: the overflow drain takes charge up to overload_x·full_well_e in a cell; only
+    // what exceeds that spills into the vertical register (blooms along the column).
+    double overload_x = 1000.0;
+    double smear_rel = 0.0;  // fraction of a column's mean (undrained) charge added to its cells
+    // Interline: smear_dB, the datasheet's smear ratio by the 1/10 V method (a bright area of
+    // 1/10 of the height): smear / signal = 10^(dB/20); smear_rel = 10·10^(smear_dB/20).
+    static double smearRelFromDb(double smear_dB) { return 10.0 * std::pow(10.0, smear_dB / 20.0); }
     double dark_e_s = 0.0;      // [e/s] CCD dark current
     double read_noise_e = 0.0;  // [e rms]
     double prnu_rel = 0.0;      // fixed-pattern gain non-uniformity, rms fraction
@@ -59,6 +74,9 @@ class CcdStage {
                                   float* carryBuf) noexcept;
 
   private:
+    // Interline: the overflow drain on one loaded row (charge above full well leaves, up to
+    // the overload capacity).
+    void drainRow(float* v) const noexcept;
     std::int64_t bloomColumns(ImageView<float> e, float fw, const float* colMax,
                               float* colSum) noexcept;
     const CameraParams* cam_;
