@@ -54,6 +54,8 @@ void createEmbreeScene(Renderer::Impl& im, const scene::Scene& sc, const RenderC
 
 void Renderer::setTime(double t_s) noexcept {
     Impl& im = *impl_;
+    im.time_s = t_s;
+    placeAttachedLamps(im);
     bool changed = false, firstPlacement = false;
     for (ObjectData& od : im.objects) {
         const scene::Object& o = *od.obj;

@@ -66,8 +66,29 @@ void setUpLamps(Renderer::Impl& im, const scene::Scene& sc, const RenderConfig& 
                     integrateProduct_nm(sw, sc.materials[m].reflectance) / kPi;
             }
         }
+        if (l.attachObject >= 0) {
+            ld.attach = l.attachObject;
+            ld.local = l;
+        }
         im.lamps.push_back(std::move(ld));
     }
+    placeAttachedLamps(im);
+}
+
+void placeAttachedLamps(Renderer::Impl& im) noexcept {
+    bool moved = false;
+    for (LampData& ld : im.lamps) {
+        if (ld.attach < 0) continue;
+        Vec3 p, a;
+        ld.local.placeAt(im.objects[static_cast<std::size_t>(ld.attach)].obj, im.time_s, &p, &a);
+        if (p.x == ld.position.x && p.y == ld.position.y && p.z == ld.position.z &&
+            a.x == ld.axis.x && a.y == ld.axis.y && a.z == ld.axis.z)
+            continue;
+        ld.position = p;
+        ld.axis = a;
+        moved = true;
+    }
+    if (moved) std::fill(im.sValid.begin(), im.sValid.end(), std::uint8_t{0});
 }
 
 // Sky-view factors: cosine-weighted hemisphere rays from points near each triangle corner, for

@@ -97,6 +97,10 @@ struct LampData {
     BandValues glassRadiance{};    // ∫ L_glass w (what the camera sees)
     double radius_m = 0.0;         // visible emitter radius (bulb or aperture)
     double farDistance2_m2 = 0.0;  // (30 aperture radii)²: beyond, the disk is one sample
+    // A lamp riding on an object (scene::Lamp::attachObject ≥ 0): its pose in the object's
+    // frame, placed at each setTime (placeAttachedLamps).
+    int attach = -1;
+    scene::Lamp local;
 };
 
 struct ObjectData {
@@ -121,6 +125,7 @@ struct Renderer::Impl {
     std::vector<ObjectData> objects;
     std::vector<scene::Material> materials;
     std::vector<LampData> lamps;
+    double time_s = 0.0;  // the scene's time (setTime)
     // Camera
     Vec3 camPos, camFwd, camRight, camUp;
     // G-buffer
@@ -425,6 +430,9 @@ void createEmbreeScene(Renderer::Impl& im, const scene::Scene& sc, const RenderC
 void sourceMaterialCoefficients(const scene::Scene& sc, const RenderConfig& config,
                                 std::vector<double>* rhoMoon, std::vector<double>* rhoNight);
 void setUpLamps(Renderer::Impl& im, const scene::Scene& sc, const RenderConfig& config);
+// Places the lamps that ride on objects at im.time_s; if one moved or turned, the static data
+// (its shadow rays and factors) are rebuilt for every pixel. No allocation.
+void placeAttachedLamps(Renderer::Impl& im) noexcept;
 void computeSkyViewFactors(Renderer::Impl& im, const RenderConfig& config);
 // The static data's cover (lamps on, specular bounce) and the frame's coefficients kMoon,
 // kSky, kSpec, kLamp with the active lamps.

@@ -111,6 +111,25 @@ Spectrum greyReflectance(double rho) {
     return Spectrum(rho);
 }
 
+void Lamp::placeAt(const Object* attached, double t_s, Vec3* position_out,
+                   Vec3* axis_out) const noexcept {
+    if (attached == nullptr) {
+        *position_out = position_m;
+        *axis_out = axis;
+        return;
+    }
+    Vec3 pos;
+    double yaw = 0.0;
+    attached->poseAt(t_s, &pos, &yaw);
+    // Yaw turns the object's +y toward +x (east), as its vertices: x' = x cos + y sin.
+    const double c = std::cos(yaw), sn = std::sin(yaw);
+    const auto turn = [&](const Vec3& v) {
+        return Vec3{v.x * c + v.y * sn, -v.x * sn + v.y * c, v.z};
+    };
+    *position_out = pos + turn(position_m);
+    *axis_out = turn(axis);
+}
+
 void Object::poseAt(double t_s, Vec3* position_out, double* yaw_out) const noexcept {
     if (trajectory.empty()) {
         *position_out = position_m;
@@ -407,6 +426,13 @@ Scene loadScene(const std::filesystem::path& path) {
             t.fail("aperture_samples", "must lie in 1..64");
         }
         l.on = t.get<bool>("on", true);
+        if (t.contains("attach")) {
+            const auto obj = t.get<std::string>("attach", "");
+            for (std::size_t k = 0; k < s.objects.size(); ++k)
+                if (s.objects[k].name == obj) l.attachObject = static_cast<int>(k);
+            if (l.attachObject < 0) t.fail("attach", "no [[object]] named '" + obj + "'");
+            if (l.hasAperture()) t.fail("attach", "an attached lamp cannot have an aperture");
+        }
         if (s.lampIndex(l.name) >= 0) t.fail("name", "duplicate lamp '" + l.name + "'");
         s.lamps.push_back(l);
     }

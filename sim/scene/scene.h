@@ -77,7 +77,16 @@ struct Lamp {
     double apertureDiameter_m = 0.0;  // 0 = no aperture
     int apertureSamples = 16;
     bool on = true;
+    // ≥ 0: the lamp rides on this object (a vehicle's headlamp): position_m and axis are given
+    // in the object's frame and follow its pose (placeAt).
+    int attachObject = -1;
     FileLoc loc;
+
+    // Where the lamp is and where its axis points at time t (world): position_m and axis as
+    // given, or carried by the pose of `attached` (the object named by attachObject; the same
+    // rotation as the object's vertices). No allocation.
+    void placeAt(const Object* attached, double t_s, Vec3* position_out,
+                 Vec3* axis_out) const noexcept;
 
     // Spectral intensity of the bare filament [W sr⁻¹ nm⁻¹] (sim/core/planck.h).
     Spectrum spectralIntensity_W_sr_nm() const;

@@ -291,5 +291,59 @@ TEST(Render, ThesisAppendixIApertureFactorFromExtendedSource) {
     EXPECT_NEAR(factor, 14.0, 0.7);
 }
 
+// A lamp riding on a moving object (a vehicle's headlamp, `attach`): its light on the ground and
+// its image follow the object. At each time the picture is bit for bit that of a fresh renderer
+// whose lamp stands, unattached, where the object's pose puts it (offset and axis turned by the
+// yaw, as the object's vertices); and it moved.
+TEST(Render, AttachedLampFollowsItsObject) {
+    scene::Scene s;
+    s.materials = {grey("ground", 0.3), grey("car", 0.2)};
+    s.objects = {quad("ground", -40, 40, -40, 40, 0.0, 0), box("car", {-2, -1, 0}, {2, 1, 1.4}, 1)};
+    scene::Object& car = s.objects[1];
+    car.trajectory = {{0.0, {-10.0, 0.0, 0.0}, 1.5707963267948966},
+                      {2.0, {0.0, 2.0, 0.0}, 1.5707963267948966 + 0.3}};
+    scene::Lamp head = tungsten40W({0.0, 2.2, 0.7});  // in front of the car (its +y), car frame
+    head.axis = normalized(Vec3{0.0, 1.0, -0.2});
+    head.cutoff_rad = 0.5;
+    head.attachObject = 1;
+    s.lamps = {head};
+    s.camera = {{25.0, 3.0, 6.0}, {-5.0, 1.0, 0.0}, {0, 0, 1}, 0.0};
+    const RenderConfig cfg = baseConfig(160, 120, 1.0);
+    FrameSky sky;
+    sky.moonSkyHorizontal = {0, 0};
+    sky.nightSkyHorizontal = {0, 0};
+    Renderer moving(s, cfg);
+    moving.setCamera(s.camera);
+    const Images first = renderOnce(moving, sky);
+    for (double t : {0.7, 1.4, 2.0}) {
+        moving.setTime(t);
+        const Images got = renderOnce(moving, sky);
+        scene::Scene fixed = s;
+        Vec3 p, a;
+        head.placeAt(&s.objects[1], t, &p, &a);
+        fixed.lamps[0].attachObject = -1;
+        fixed.lamps[0].position_m = p;
+        fixed.lamps[0].axis = a;
+        Renderer fresh(fixed, cfg);
+        fresh.setCamera(s.camera);
+        fresh.setTime(t);
+        const Images want = renderOnce(fresh, sky);
+        int differ = 0, changed = 0;
+        for (int y = 0; y < 120; ++y) {
+            for (int x = 0; x < 160; ++x) {
+                differ += got.pe.view()(x, y) != want.pe.view()(x, y) ||
+                          got.w.view()(x, y) != want.w.view()(x, y);
+                changed += got.w.view()(x, y) != first.w.view()(x, y);
+            }
+        }
+        std::printf(
+            "t = %.1f s: lamp at (%.2f, %.2f, %.2f), %d px differ from the fresh "
+            "renderer, %d px changed since t = 0\n",
+            t, p.x, p.y, p.z, differ, changed);
+        EXPECT_EQ(differ, 0);
+        EXPECT_GT(changed, 1000);
+    }
+}
+
 }  // namespace
 }  // namespace nvs::render

@@ -132,6 +132,35 @@ TEST(Scene, TrajectoryInterpolatesPoseAlongTheShorterArc) {
     EXPECT_NEAR(std::remainder(yaw, 2 * 3.141592653589793), 0.0, 1e-12);
 }
 
+// A lamp riding on an object: placed by the object's pose (yaw turns +y toward +x, as the
+// vertices); an unknown object or an aperture is an error naming the line.
+TEST(Scene, AttachedLampIsPlacedByItsObjectsPose) {
+    TempDir t;
+    t.write("quad.obj", kQuadObj);
+    const std::string lamp =
+        "[[lamp]]\nname = \"head\"\nattach = \"ground\"\n"
+        "position_m = [0.0, 2.0, 0.5]\naxis = [0.0, 1.0, 0.0]\n";
+    const Scene s = loadScene(t.write("scene.toml", std::string(kScene) +
+                                                        "position_m = [10.0, 0.0, 0.0]\n"
+                                                        "yaw_deg = 90.0\n" +
+                                                        lamp));
+    ASSERT_EQ(s.lamps.size(), 1u);
+    EXPECT_EQ(s.lamps[0].attachObject, 0);
+    Vec3 p, a;
+    s.lamps[0].placeAt(&s.objects[0], 0.0, &p, &a);
+    EXPECT_NEAR(p.x, 12.0, 1e-12);  // the object's +y (2 m ahead) turned toward +x
+    EXPECT_NEAR(p.y, 0.0, 1e-12);
+    EXPECT_NEAR(p.z, 0.5, 1e-12);
+    EXPECT_NEAR(a.x, 1.0, 1e-12);
+    std::string bad = lamp;
+    bad.replace(bad.find("\"ground\""), 8, "\"truck\"");
+    std::string e = errorOf(t.write("bad.toml", std::string(kScene) + bad));
+    EXPECT_NE(e.find("bad.toml:11"), std::string::npos) << e;
+    EXPECT_NE(e.find("no [[object]] named 'truck'"), std::string::npos) << e;
+    e = errorOf(t.write("ap.toml", std::string(kScene) + lamp + "aperture_diameter_m = 0.02\n"));
+    EXPECT_NE(e.find("aperture"), std::string::npos) << e;
+}
+
 TEST(ConfigSkip, SkippedTablesAreNotUnknownButOthersStillAre) {
     const auto doc = ConfigDocument::parseString(
         "[platform]\nlat_deg = 1\n[runtime.sub]\nx = 2\n[mine]\nkey = 1\nstray = 2\n", "t.toml");
