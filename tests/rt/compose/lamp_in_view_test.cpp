@@ -40,11 +40,11 @@ double val(const ImageF& im, int x, int y) {
     return static_cast<double>(im(x, y));
 }
 
-Rendered renderNow(ScenarioRenderer& sr) {
+Rendered renderNow(ScenarioRenderer& sr, double t_s = 0.0) {
     const Scenario& sc = sr.scenario();
     Rendered r(sc.width, sc.height);
     ThreadExecutor ex;
-    sr.renderFrame(0.0, r.pe.view(), r.w.view(), ex);
+    sr.renderFrame(t_s, r.pe.view(), r.w.view(), ex);
     return r;
 }
 
@@ -413,6 +413,37 @@ TEST(LampInView, BareBulbWithBspIsARoundDiskNoSpindleAndLightsItsPool) {
     EXPECT_LT(v.info.bsp_factor, 1.0) << "BSP did not act on the bulb";
     EXPECT_LT(meanDc(v, asphaltRing(*sr, foot, 2.5, 3.0)), 0.9 * v.maxDc) << "the pool is clipped";
     EXPECT_NEAR((innerDc / outerDc) / (innerL / outerL), 1.0, 0.15);
+}
+
+// Headlights behave as the bulb at their own intensity: in the last frame of
+// scenarios/thesis-headlights (truck 27.5 m away, BSP) each headlamp's glare lobe is a round
+// saturated disk and neither blooms along its column.
+TEST(LampInView, HeadlightsAreTwoRoundDisksWithoutSpindles) {
+    const Scenario sc = loadScenario(kSource / "scenarios/thesis-headlights", kDirs.config);
+    auto sr = ScenarioRenderer::create(sc, kDirs);
+    const double t = sr->frameTime_s(29);
+    const sensor::CameraParams& cam = sc.camera.params;
+    const Rendered on = renderNow(*sr, t);
+    const Video v = runChain(sc, on.pe, sc.platform.gain_V, true, 6);
+    for (const char* name : {"head_left_glare", "head_right_glare"}) {
+        const int l = sr->scene().lampIndex(name);
+        ASSERT_GE(l, 0);
+        sr->renderer().setLampOn(l, false);
+        const Rendered off = renderNow(*sr, t);
+        sr->renderer().setLampOn(l, true);
+        int lx = 0, ly = 0;
+        lampPixel(on.pe, off.pe, &lx, &ly);
+        const Blob b = saturatedBlob(v, lx, ly);
+        const double hw = (b.heightPx() * cam.pitch_y_um) / (b.widthPx() * cam.pitch_x_um);
+        std::printf(
+            "%s at (%d, %d): saturated %d px, %d x %d px, h/w %.2f on the sensor, "
+            "longest saturated column run %d px; BSP factor %.5f\n",
+            name, lx, ly, b.count, b.widthPx(), b.heightPx(), hw, b.longestColumnRun,
+            v.info.bsp_factor);
+        ASSERT_GE(b.count, 50);
+        EXPECT_LT(std::abs(std::log(hw)), std::log(1.3));
+        EXPECT_LE(b.longestColumnRun, 1.3 * b.widthPx() * cam.pitch_x_um / cam.pitch_y_um);
+    }
 }
 
 }  // namespace
