@@ -25,12 +25,24 @@ inline sensor::CameraParams preset(const std::string& name, const sensor::Overri
 // gain").
 inline sensor::CameraParams calibrationTube(sensor::Overrides ov = {}) {
     ov.emplace("mcp.crossover_V", "520.0");
+    ov.emplace("video.gain_dc_per_e", "0.003738");  // Table 18-6's image gain at 6 V
     ov.emplace("spectral.qe_peak", "0.25");
     ov.emplace("photocathode.ebi_lm_cm2", "4.097e-11");
     ov.emplace("video.noise_dc", "0.0");
     ov.emplace("halo.enabled", "false");
     ov.emplace("mcp_saturation.enabled", "false");
     return preset("pulnix-ag5745ef3", ov);
+}
+
+// The thesis's frame grabber (640 x 480, 8 bit; the thesis, §7.5 and Appendix H §18.2), which
+// every frame of its tables went through: a horizontal low-pass exp(−(ξ/ξd)^nd), the whole
+// system's MTF (eq. 7.7, exp(−(ξ/6)^0.8), fitted by the thesis to the digitised path C) over
+// the preset's path-B MTF (tube, fibre, CCD, fitted to Table 18-2), fitted at Table 18-2's
+// frequencies (0.96–23 cyc/mm, rms 0.044): ξd = 21.9 cyc/mm, nd = 0.46. Not part of the camera
+// (docs/validation.md, "Tube gain"): tests that compare the chain with the thesis's frames add it.
+inline void addThesisGrabber(sensor::Overrides& ov) {
+    ov.emplace("mtf.digitiser_fc_cyc_mm", "21.9");
+    ov.emplace("mtf.digitiser_index", "0.46");
 }
 
 // The Gamma tables the chains of one test executable share (built once per shape step).
