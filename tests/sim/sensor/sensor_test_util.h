@@ -19,12 +19,16 @@ inline sensor::CameraParams preset(const std::string& name, const sensor::Overri
 
 // The PULNiX tube as the thesis's radiance calibration (Table 18-6) has it: Vc = 520 V, peak QE
 // 0.25, the EBI cathode current of 2.8e-11 lm/cm² at 1800 µA/lm (4.1e-11 lm/cm² at the
-// 1230 µA/lm a QE of 0.25 implies), no video noise, no halo, no MCP saturation. The mechanism tests
+// 1230 µA/lm a QE of 0.25 implies), eq. 6.1 unbounded, 50 e read noise, no video noise, no
+// halo, no MCP saturation. The mechanism tests
 // (loops, blooming, afterglow, the calibration tables) were built on it; the shipped preset's gain
 // is anchored to the measured noise instead (photon_transfer_test.cpp, docs/validation.md "Tube
 // gain").
 inline sensor::CameraParams calibrationTube(sensor::Overrides ov = {}) {
     ov.emplace("mcp.crossover_V", "520.0");
+    ov.emplace("mcp.gain_max", "0");                // eq. 6.1 without a ceiling
+    ov.emplace("mcp.detection_efficiency", "1");    // every photoelectron starts a channel
+    ov.emplace("ccd.read_noise_e", "50.0");         // the read noise the mechanism tests had
     ov.emplace("video.gain_dc_per_e", "0.003738");  // Table 18-6's image gain at 6 V
     ov.emplace("spectral.qe_peak", "0.25");
     ov.emplace("photocathode.ebi_lm_cm2", "4.097e-11");
