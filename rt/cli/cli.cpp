@@ -134,7 +134,11 @@ int runCli(int argc, const char* const* argv) {
     illumCmd->add_option("--visibility-km", illum.visibility_km,
                          "Horizontal visibility (meteorological range at 550 nm) [km], default 23");
     illumCmd->add_option("--camera", illum.camera,
-                         "Camera preset: also give photoelectron irradiance in its band");
+                         "Camera preset: also give photoelectron irradiance in its band and "
+                         "the tube's gain");
+    illumCmd->add_option("--gain-v", illum.gain_V,
+                         "With --camera: the tube's gain at this control voltage [V] (default: "
+                         "the preset's gain_V)");
 
     // render ---------------------------------------------------------------------------------
     RenderOptions render;

@@ -52,6 +52,7 @@ struct IllumOptions {
     std::string utc;
     std::optional<double> visibility_km;
     std::optional<std::string> camera;
+    std::optional<double> gain_V;  // tube gain control voltage for the camera's gain figures
 };
 
 struct RenderOptions {

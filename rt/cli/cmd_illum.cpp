@@ -42,9 +42,17 @@ int runIllum(const IllumOptions& opts) {
     }
     const DataDirs dirs = resolveDataDirs();
     std::string cameraName;
+    double gain_V = 0.0, luminousGain = 0.0, channelGain = 0.0, perPe = 0.0, qe = 0.0;
+    if (!opts.camera && opts.gain_V) throw SetupError("--gain-v: needs --camera");
     if (opts.camera) {
         const sensor::CameraParams cam = sensor::loadCamera(dirs.config, *opts.camera);
         cameraName = cam.name;
+        gain_V = opts.gain_V ? *opts.gain_V : cam.gain_V;
+        if (!(gain_V >= 0.0)) throw SetupError("--gain-v: must be >= 0");
+        luminousGain = cam.luminousGain_fL_fc(gain_V);
+        channelGain = cam.mcpChannelGain(gain_V);
+        perPe = cam.mcpGain(gain_V);
+        qe = cam.qe_peak;
         config.extraBands.push_back(
             {"pe", sky::photoelectronWeight(sensor::cameraResponse(cam) * cam.qe_peak)});
     }
@@ -72,6 +80,12 @@ int runIllum(const IllumOptions& opts) {
             "\"night_sky_over_moon\":%.4g}",
             moon, night, moon > 0.0 ? night / moon : 0.0);
         std::printf(",\"camera\":\"%s\"", cameraName.c_str());
+        // The tube at the control voltage: screen luminance per cathode illuminance (2856 K), a
+        // detected electron's channel gain, and MCP output electrons per photoelectron.
+        std::printf(
+            ",\"tube\":{\"gain_V\":%.4g,\"luminous_gain_fL_fc\":%.6g,\"mcp_electron_gain\":%.6g,"
+            "\"mcp_electrons_per_photoelectron\":%.6g,\"qe_peak\":%.4g}",
+            gain_V, luminousGain, channelGain, perPe, qe);
     }
     std::printf(
         ",\"moon\":{\"alt_deg\":%.4f,\"phase_angle_deg\":%.4f,\"illuminated_fraction\":%.5f,"

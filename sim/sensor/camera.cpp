@@ -75,7 +75,10 @@ void deriveFromDatasheet(const PresetReader& root, CameraParams& c) {
         const double gainRef = c.luminous_gain_fL_fc / perMcpGain;
         const double vmRef = c.mcp_offset_V + c.mcp_V_per_control_V * c.luminous_gain_control_V;
         require(vmRef > 0.0, mcp, "luminous_gain_control_V", "gives no MCP voltage");
-        c.mcp_crossover_V = vmRef / std::pow(gainRef, 1.0 / c.mcp_exponent);
+        require(!(c.mcp_gain_max > 0.0) ||
+                    gainRef / c.mcp_detection_efficiency < 0.999 * c.mcp_gain_max,
+                mcp, "luminous_gain_fL_fc", "needs an MCP gain at or above mcp.gain_max");
+        c.mcp_crossover_V = c.crossoverForGain(gainRef, c.luminous_gain_control_V);
     }
 }
 

@@ -30,6 +30,9 @@ void McpParams::read(const PresetReader& root) {
     mcp_exponent = positive(mcp, "exponent", mcp_exponent);
     mcp_offset_V = mcp.get<double>("offset_V", mcp_offset_V);
     mcp_V_per_control_V = positive(mcp, "V_per_control_V", mcp_V_per_control_V);
+    mcp_gain_max = nonNegative(mcp, "gain_max", mcp_gain_max);
+    mcp_detection_efficiency = positive(mcp, "detection_efficiency", mcp_detection_efficiency);
+    require(mcp_detection_efficiency <= 1.0, mcp, "detection_efficiency", "must be in (0, 1]");
     mcp_noise_factor = mcp.get<double>("noise_factor", mcp_noise_factor);
     require(mcp_noise_factor >= 1.0, mcp, "noise_factor", "F must be >= 1");
     mcp_noise = mcp.get<bool>("noise", mcp_noise);
@@ -40,17 +43,38 @@ void McpParams::read(const PresetReader& root) {
     mcpsat_recharge_s = positive(sat, "recharge_s", mcpsat_recharge_s);
 }
 
-double McpParams::mcpGain(double gainControl_V) const {
+double McpParams::mcpChannelGain(double gainControl_V) const {
     if (!mcp_enabled) return 1.0;
     const double vm = mcp_offset_V + mcp_V_per_control_V * gainControl_V;
     if (vm <= 0.0) return 0.0;
-    return std::pow(vm / mcp_crossover_V, mcp_exponent);
+    const double x = std::pow(vm / mcp_crossover_V, mcp_exponent);
+    return mcp_gain_max > 0.0 ? x / (1.0 + x / mcp_gain_max) : x;
 }
+
+double McpParams::mcpGain(double gainControl_V) const {
+    if (!mcp_enabled) return 1.0;
+    return mcp_detection_efficiency * mcpChannelGain(gainControl_V);
+}
+
+namespace {
+// The law's unbounded gain x for a channel gain under the ceiling (x/(1 + x/G_max) = g).
+double unboundedGain(double channel, double gainMax) {
+    if (!(gainMax > 0.0)) return channel;
+    return channel / (1.0 - std::min(channel / gainMax, 0.999));
+}
+}  // namespace
 
 double McpParams::controlVoltageForGain(double gain) const {
     if (!(gain > 0.0)) return 0.0;
-    const double vm = mcp_crossover_V * std::pow(gain, 1.0 / mcp_exponent);
+    const double x = unboundedGain(gain / mcp_detection_efficiency, mcp_gain_max);
+    const double vm = mcp_crossover_V * std::pow(x, 1.0 / mcp_exponent);
     return (vm - mcp_offset_V) / mcp_V_per_control_V;
+}
+
+double McpParams::crossoverForGain(double gain, double gainControl_V) const {
+    const double x = unboundedGain(gain / mcp_detection_efficiency, mcp_gain_max);
+    const double vm = mcp_offset_V + mcp_V_per_control_V * gainControl_V;
+    return vm / std::pow(x, 1.0 / mcp_exponent);
 }
 
 namespace {

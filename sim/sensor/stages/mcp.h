@@ -32,6 +32,13 @@ struct McpParams {
     double mcp_exponent = 10.0;            // g, eq. 6.1 (typical 8.5-13)
     double mcp_offset_V = 40.0;            // [V] Vm = offset + slope·gain_V
     double mcp_V_per_control_V = 190.0;
+    // Mean electron gain of a channel that an electron enters: eq. 6.1's law, bounded above by
+    // the plate's saturation (space charge in the channel, the supply's limit): G_ch = x/(1 +
+    // x/G_max), x = (Vm/Vc)^g; 0: no bound.
+    double mcp_gain_max = 0.0;
+    // Share of photoelectrons that start a channel (open-area ratio, ion-barrier film): the
+    // MCP's output per photoelectron is η·G_ch; F below is per photoelectron, η's loss included.
+    double mcp_detection_efficiency = 1.0;
     double mcp_noise_factor = 1.6;  // F, excess noise factor
     bool mcp_noise = true;
     bool mcp_enabled = true;
@@ -41,10 +48,16 @@ struct McpParams {
     double mcpsat_pixel_charge_e = 2.4e4;  // output electrons available per CCD-pixel area
     double mcpsat_recharge_s = 0.01;       // recharge time constant τ
 
-    // MCP gain at a control voltage, eq. 6.1: G = (Vm/Vc)^g, Vm = offset + slope·gain_V.
+    // A channel's electron gain at a control voltage: eq. 6.1, G = (Vm/Vc)^g, Vm = offset +
+    // slope·gain_V, under the ceiling mcp_gain_max.
+    double mcpChannelGain(double gainControl_V) const;
+    // MCP output electrons per photoelectron: η·G_ch.
     double mcpGain(double gainControl_V) const;
-    // Inverse of mcpGain (for the AGC loop).
+    // Inverse of mcpGain (for the AGC loop); a gain at or past the ceiling gives the voltage
+    // of 0.999 of it.
     double controlVoltageForGain(double gain) const;
+    // The crossover voltage Vc that gives `gain` electrons per photoelectron at gainControl_V.
+    double crossoverForGain(double gain, double gainControl_V) const;
 
     // Reads [bsp], [mcp], [mcp_saturation] of the preset over the defaults above; errors name
     // file:line or the --set KEY.

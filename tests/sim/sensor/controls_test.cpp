@@ -70,9 +70,13 @@ TEST(CommandedControls, ManualGainReachesTheMcpEachFieldByEq6_1) {
     const CameraParams cam = linearCamera();
     const ImageF in = uniformFor(cam, 150.0);
     IiccdChain chain(cam, 1, test::configDir(), test::gammaTables(), {}, ControlSource::Command);
+    // Eq. 6.1 under the preset's channel-gain ceiling: η·x/(1 + x/G_max).
     const auto G = [&](double v) {
-        return std::pow((cam.mcp_offset_V + cam.mcp_V_per_control_V * v) / cam.mcp_crossover_V,
-                        cam.mcp_exponent);
+        const double x =
+            std::pow((cam.mcp_offset_V + cam.mcp_V_per_control_V * v) / cam.mcp_crossover_V,
+                     cam.mcp_exponent);
+        const double ch = cam.mcp_gain_max > 0.0 ? x / (1.0 + x / cam.mcp_gain_max) : x;
+        return cam.mcp_detection_efficiency * ch;
     };
     const double volts[4] = {6.0, 5.5, 6.0, 5.0};
     double signal[4];

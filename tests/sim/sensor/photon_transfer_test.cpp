@@ -123,25 +123,42 @@ TEST_P(ChainPhotonTransfer, SlopeIsDeclaredGainTimesExcessNoiseTimesNea) {
 INSTANTIATE_TEST_SUITE_P(Presets, ChainPhotonTransfer,
                          ::testing::Values("pulnix-ag5745ef3", "gen2-s25-p20"));
 
+// Table 18-6's image bias [DC] at a gain control voltage.
+double table18_6Bias_dc(double gain_V) {
+    const CsvTable t = CsvTable::load(test::thesisData("table18-6_camera_gain_vs_image_gain.csv"));
+    for (std::size_t r = 0; r < t.rowCount(); ++r) {
+        if (std::fabs(t.number(r, t.column("camera_gain_V")) - gain_V) < 1e-9)
+            return t.number(r, t.column("image_bias_DC"));
+    }
+    ADD_FAILURE() << "no Table 18-6 row at " << gain_V << " V";
+    return 0.0;
+}
+
 // Table 18-5: twenty frames of the uniform calibration field at 5.5 V, mean and σ in DC (the
 // bias, 29.8 DC at 5.5 V, Table 18-6, included in the mean). The preset, with everything on,
 // fed a uniform input that gives each measured mean, must give σ within 30 %.
 TEST(ChainPhotonTransferThesis, Table18_5SigmaWithin30Percent) {
     const CsvTable t =
         CsvTable::load(test::thesisData("table18-5_radiometric_calibration_gain5p5V.csv"));
-    CameraParams cam = preset("pulnix-ag5745ef3", {{"width", "256"}, {"height", "256"}});
+    // The frames went through the thesis's grabber: its blur is part of their noise.
+    Overrides ov{{"width", "256"}, {"height", "256"}};
+    test::addThesisGrabber(ov);
+    CameraParams cam = preset("pulnix-ag5745ef3", ov);
     cam.gain_V = 5.5;
+    // The frames' bias at 5.5 V is Table 18-6's (29.8 DC), not the preset's offset (the bias
+    // extrapolated to zero tube gain): the signal above it is what the tube gave.
+    const double bias_dc = table18_6Bias_dc(5.5);
     const double k = cam.dcPerPhotoelectron(cam.gain_V);
     std::printf(
-        "qe_peak %.4g, S_k %.4g uA/lm, G(5.5 V) %.4g, K %.4g DC/pe, luminous gain %.4g fL/fc "
-        "at 5.5 V, %.4g at 6 V\n",
-        cam.qe_peak, cam.cathode_sensitivity_uA_lm, cam.mcpGain(5.5), k,
+        "qe_peak %.4g, S_k %.4g uA/lm, G(5.5 V) %.4g (channel %.4g), K %.4g DC/pe, luminous gain "
+        "%.4g fL/fc at 5.5 V, %.4g at 6 V\n",
+        cam.qe_peak, cam.cathode_sensitivity_uA_lm, cam.mcpGain(5.5), cam.mcpChannelGain(5.5), k,
         cam.luminousGain_fL_fc(5.5), cam.luminousGain_fL_fc(6.0));
     double worst = 0.0;
     for (std::size_t r = 0; r < t.rowCount(); r += 3) {
         const double mean = t.number(r, t.column("mean_DC"));
         const double sd = t.number(r, t.column("stddev_DC"));
-        const double s = mean - cam.video_offset_dc;
+        const double s = mean - bias_dc;
         ASSERT_GT(s, 0.0);
         // Field scan: statistics over the rows of the field read out; enough fields for the
         // afterglow to reach its steady state.
@@ -151,7 +168,8 @@ TEST(ChainPhotonTransferThesis, Table18_5SigmaWithin30Percent) {
         IiccdChain chain(cam, 11, test::configDir(), test::gammaTables());
         for (int f = 0; f < 40; ++f)
             (void)chain.process(in.cview());
-        const test::Stats st = test::roiStats(chain.counts().cview(), 24, 24, 208, 208);
+        test::Stats st = test::roiStats(chain.counts().cview(), 24, 24, 208, 208);
+        st.mean += bias_dc - cam.video_offset_dc;  // the model's offset is the zero-gain bias
         const double ratio = st.sd() / sd;
         std::printf(
             "Table 18-5 frame %s: mean %.2f (model %.2f), sd %.2f (model %.2f) ratio %.2f\n",
@@ -167,7 +185,7 @@ TEST(ChainPhotonTransferThesis, Table18_5SigmaWithin30Percent) {
 // transmission, photocathode QE from its luminous sensitivity) turns that radiance into
 // photoelectrons per pixel and field; the frame's mean above the bias divided by them is the DC
 // per photoelectron the radiance calibration implies. Photon transfer (the same frames' σ) says
-// K(5.5 V) = dcPerPhotoelectron. They differ by the factor the docs state: about 20.
+// K(5.5 V) = dcPerPhotoelectron. They differ by the factor the docs state: about 8.
 TEST(ChainPhotonTransferThesis, RadianceCalibrationImpliesFewerPhotoelectronsPerDc) {
     const CsvTable t =
         CsvTable::load(test::thesisData("table18-5_radiometric_calibration_gain5p5V.csv"));
@@ -177,7 +195,7 @@ TEST(ChainPhotonTransferThesis, RadianceCalibrationImpliesFewerPhotoelectronsPer
     const Spectrum box =
         Spectrum::fromFunction([](double nm) { return nm >= 480.0 && nm <= 940.0 ? 1.0 : 0.0; });
     const double lpePerL = peRadiancePerBandRadiance(cam, planckRadiance_W_m2_sr_nm(2856.0), box);
-    const double bias_dc = 29.822;  // Table 18-6 at 5.5 V
+    const double bias_dc = table18_6Bias_dc(5.5);
     double sumRatio = 0.0;
     for (std::size_t r = 0; r < t.rowCount(); ++r) {
         const double L = t.number(r, t.column("reduced_radiance_W_m-2_sr-1"));
@@ -189,23 +207,53 @@ TEST(ChainPhotonTransferThesis, RadianceCalibrationImpliesFewerPhotoelectronsPer
     std::printf(
         "Table 18-5: radiance calibration %.4g DC/pe vs photon transfer %.4g DC/pe: x%.1f\n",
         ratio * cam.dcPerPhotoelectron(5.5), cam.dcPerPhotoelectron(5.5), ratio);
-    EXPECT_GT(ratio, 15.0);
-    EXPECT_LT(ratio, 25.0);
+    // Photon transfer through the thesis's grabber (K 2.52x the grabber-less 5.6 DC/pe) leaves
+    // ×7.8; the bounds hold ±30 % (the ND densities' spread, docs/validation.md).
+    EXPECT_GT(ratio, 5.5);
+    EXPECT_LT(ratio, 10.0);
 }
 
-// The Gen III preset's luminous gain, derived through the whole tube (cathode sensitivity, MCP
-// law, screen), at its default setting (6 V) and at the thesis's 5.5 V, lies in the range sold
-// for Gen III tubes: 1e4–1e5 fL/fc (gain measured as MIL-I-49428 specifies: screen luminance in
-// fL per fc on the cathode; the thesis's Table 11-1 gives 15 000 typical for this tube). Its
-// anchor is not a datasheet value but the noise (docs/validation.md), so this is a check.
-TEST(ChainPhotonTransferThesis, GenIIILuminousGainInThePublishedRange) {
+// The Gen III preset's luminous gain (cathode sensitivity, MCP law with its ceiling, screen),
+// measured as MIL-I-49428 specifies (screen luminance in fL per fc on the cathode):
+// - at the AGC's 9 V maximum it is the thesis's 15 000 (Appendix A, Table 11-1), read as
+//   cd m⁻² lx⁻¹ (x π in fL/fc), and lies in the range of Gen III tubes' maximum gain, 2e4-8e4;
+// - its ratios at 6 and 6.5 V to 5.5 V are Table 18-6's measured image-gain ratios (2.5, 5)
+//   within 10 %;
+// - the MCP's channel gain rises with voltage and stays under its ceiling.
+TEST(ChainPhotonTransferThesis, GenIIILuminousGainAtAppendixAsMaximumAndTable18_6Ratios) {
     const CameraParams cam = preset("pulnix-ag5745ef3");
-    for (const double v : {5.5, 6.0}) {
-        const double g = cam.luminousGain_fL_fc(v);
-        std::printf("pulnix luminous gain at %.1f V: %.3g fL/fc (MCP gain %.3g)\n", v, g,
-                    cam.mcpGain(v));
-        EXPECT_GT(g, 1e4);
-        EXPECT_LT(g, 1e5);
+    for (const double v : {5.0, 5.5, 6.0, 6.5, 7.8, 9.0}) {
+        std::printf(
+            "pulnix at %.1f V: luminous gain %.4g fL/fc, MCP channel gain %.4g, %.4g MCP "
+            "electrons per photoelectron, K %.4g DC/pe\n",
+            v, cam.luminousGain_fL_fc(v), cam.mcpChannelGain(v), cam.mcpGain(v),
+            cam.dcPerPhotoelectron(v));
+    }
+    const double g9 = cam.luminousGain_fL_fc(9.0);
+    EXPECT_NEAR(g9, 15000.0 * 3.14159265358979, 0.01 * g9);
+    EXPECT_GT(g9, 2e4);
+    EXPECT_LT(g9, 8e4);
+    const CsvTable t = CsvTable::load(test::thesisData("table18-6_camera_gain_vs_image_gain.csv"));
+    const auto imageGain = [&](double v) {
+        for (std::size_t r = 0; r < t.rowCount(); ++r) {
+            if (std::fabs(t.number(r, t.column("camera_gain_V")) - v) < 1e-9)
+                return t.number(r, t.column("image_gain_f11_DC_per_W_m-2_sr-1"));
+        }
+        ADD_FAILURE() << "no Table 18-6 row at " << v << " V";
+        return 1.0;
+    };
+    for (const double v : {6.0, 6.5}) {
+        const double model = cam.luminousGain_fL_fc(v) / cam.luminousGain_fL_fc(5.5);
+        const double measured = imageGain(v) / imageGain(5.5);
+        std::printf("gain ratio %.1f V : 5.5 V: model %.3f, Table 18-6 %.3f\n", v, model, measured);
+        EXPECT_NEAR(model / measured, 1.0, 0.10) << v << " V";
+    }
+    double previous = 0.0;
+    for (double v = 3.5; v <= 9.0; v += 0.5) {
+        const double ch = cam.mcpChannelGain(v);
+        EXPECT_GT(ch, previous) << v << " V";
+        EXPECT_LT(ch, cam.mcp_gain_max) << v << " V";
+        previous = ch;
     }
     // The derivation reproduces the anchor it was given.
     EXPECT_NEAR(cam.luminousGain_fL_fc(cam.luminous_gain_control_V), cam.luminous_gain_fL_fc,

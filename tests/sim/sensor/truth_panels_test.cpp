@@ -170,7 +170,10 @@ TEST(TruthPanels, ThesisEq71ReproducesTables9_3To9_7StageByStage) {
 // fewer photoelectrons per DC than the noise does (docs/validation.md, "Tube gain").
 TEST(TruthPanels, PulnixPresetNoiseOnTheTruthPanels) {
     const CsvTable t = CsvTable::load(test::thesisData("table9-3_to_9-7_roi_truth_vs_sig.csv"));
-    CameraParams cam = preset("pulnix-ag5745ef3", {{"optics.cos4", "false"}});
+    // The truth frames went through the thesis's grabber (its blur is in their σ).
+    Overrides ov{{"optics.cos4", "false"}};
+    test::addThesisGrabber(ov);
+    CameraParams cam = preset("pulnix-ag5745ef3", ov);
     cam.gain_V = 6.0;  // Table 9-3's truth frames
     const double k = cam.dcPerPhotoelectron(cam.gain_V);
     const double t_s = cam.integrationPeriod_s();
