@@ -59,10 +59,16 @@ sensor::Overrides baseOverrides(const GenSpec& s) {
             {"ccd.full_well_e", "0.0"},
             // The chain's own halo and MCP saturation off: the model without the effects the
             // sweep hides. The tube as Table 18-6's radiance calibration has it (peak QE 0.25,
-            // Vc 520 V, no video noise), on which the sweep's ranges were set.
+            // Vc 520 V, eq. 6.1 without a ceiling, every photoelectron detected, Table 18-6's
+            // 0.003738 DC/e, 50 e read noise, no video noise), on which the sweep's ranges were
+            // set.
             {"halo.enabled", "false"},
             {"mcp_saturation.enabled", "false"},
             {"mcp.crossover_V", "520.0"},
+            {"mcp.gain_max", "0"},
+            {"mcp.detection_efficiency", "1"},
+            {"video.gain_dc_per_e", "0.003738"},
+            {"ccd.read_noise_e", "50.0"},
             {"spectral.qe_peak", "0.25"},
             {"video.noise_dc", "0.0"}};
 }

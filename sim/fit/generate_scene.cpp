@@ -39,7 +39,10 @@ SceneSetup sceneSetupFor(const std::string& effect) {
         // 0.3–0.5° there, 10–17 px, and delays its setting by minutes.
         s.utcStart = "1998-09-02T05:57:00Z";
         s.framePeriod_s = 20.0;
-        s.gain_V = 4.0;
+        // The Moon's disk in view: 3.62 V gives the 0.267 DC per photoelectron that 4 V gave
+        // before the tube's gain was re-anchored (docs/validation.md, "Tube gain"), so the disk
+        // stays below the ADC's top.
+        s.gain_V = 3.62;
         s.posed = true;
         s.cameraHeight_m = 15.6;
         s.yaw_deg = 242.5;

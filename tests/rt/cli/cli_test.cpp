@@ -124,6 +124,25 @@ TEST(Cli, GenIIAndGenIIIPresetsWorkInEveryCommand) {
     fs::remove_all(dir);
 }
 
+// `illum --camera` prints the tube at a control voltage (docs/contracts.md, "illum"): at the
+// AGC's 9 V the PULNiX tube's luminous gain is the thesis's typical 15 000 (Appendix A, Table
+// 11-1) in cd m⁻² lx⁻¹, 15 000·π fL/fc; --gain-v without --camera is a usage error.
+TEST(Cli, IllumCameraPrintsTheTubeGainAtAControlVoltage) {
+    const std::string base =
+        "illum --lat 43.17 --lon -77.62 --height-m 218 --utc 1998-09-02T01:00:00Z";
+    Result r = runNvstim(base + " --camera pulnix-ag5745ef3 --gain-v 9");
+    ASSERT_EQ(r.status, 0) << r.out;
+    const std::size_t at = r.out.find("\"luminous_gain_fL_fc\":");
+    ASSERT_NE(at, std::string::npos) << r.out;
+    const double g = std::stod(r.out.substr(at + 22));
+    EXPECT_NEAR(g, 15000.0 * 3.14159265358979, 0.01 * g) << r.out;
+    for (const char* key : {"\"tube\":{\"gain_V\":9", "\"mcp_electron_gain\":",
+                            "\"mcp_electrons_per_photoelectron\":", "\"qe_peak\":"})
+        EXPECT_NE(r.out.find(key), std::string::npos) << key << " in " << r.out;
+    r = runNvstim(base + " --gain-v 9");
+    EXPECT_NE(r.status, 0) << r.out;
+}
+
 // `nvstim sensor` on a full disk: a non-zero exit, no truncated output renamed into place and
 // no temporary left (before: the PNG's fclose went unchecked, a truncated file was renamed into
 // place, and a failed write left `.tmp` files). A file-size limit stands in for the full disk.
