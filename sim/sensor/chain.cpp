@@ -90,14 +90,24 @@ void IiccdChain::opticsPass(ImageView<const float> lpe, FieldContext& ctx) noexc
     // With the halo, bands of whole cell rows: each band's rows, then its cells' sums.
     const int units = halo ? halo_.cellRows() : h;
     const int rowsPer = halo ? HaloStage::kBlock : 1;
+    const bool veil = optics_.veiled();
     auto optics = [&](int b) {
         const int u0 = bandStart(b, units), u1 = bandStart(b + 1, units);
         for (int y = u0 * rowsPer; y < std::min(h, u1 * rowsPer); ++y)
             rowBad_[y] = optics_.applyRow(lpe.row(y), rate_.row(y), y, rowOptics_[y]);
-        if (halo) halo_.sumCells(rate_.cview(), u0, u1);
+        if (halo && !veil) halo_.sumCells(rate_.cview(), u0, u1);
     };
     forEachIndex(*exec_, kChainSlots, optics);
-    addOpticsSums(ctx);
+    const double total = addOpticsSums(ctx);
+    // Veiling glare needs the whole image's rate first (OpticsStage::apply's order).
+    const double veilMean = veil ? optics_.veilMean(total) : 0.0;
+    auto veilBand = [&](int b) {
+        const int u0 = bandStart(b, units), u1 = bandStart(b + 1, units);
+        for (int y = u0 * rowsPer; y < std::min(h, u1 * rowsPer); ++y)
+            optics_.veilRow(rate_.row(y), veilMean);
+        if (halo) halo_.sumCells(rate_.cview(), u0, u1);
+    };
+    if (veil) forEachIndex(*exec_, kChainSlots, veilBand);
     // 3b: a share of the photoelectrons lands on the halo disk (added to each row below).
     if (halo) halo_.spread(*exec_);
     cathode_.begin(ctx, w, h);
@@ -110,7 +120,7 @@ void IiccdChain::run(ImageView<const float> lpe, FieldContext& ctx) noexcept {
     // same sums, in the same order, however the bands ran.
     // 1. optics: the whole image first only where the gain depends on it (BSP: the cathode
     // current) or the halo spreads it; otherwise row by row below.
-    const bool opticsFirst = bsp_.enabled() || halo_.enabled();
+    const bool opticsFirst = bsp_.enabled() || halo_.enabled() || optics_.veiled();
     const bool halo = halo_.enabled();
     if (opticsFirst) opticsPass(lpe, ctx);
     // 4. bright-source protection (the gain for this field), 5. MCP gain
@@ -175,7 +185,7 @@ void IiccdChain::run(ImageView<const float> lpe, FieldContext& ctx) noexcept {
     readOut(ctx);
 }
 
-void IiccdChain::addOpticsSums(FieldContext& ctx) noexcept {
+double IiccdChain::addOpticsSums(FieldContext& ctx) noexcept {
     std::int64_t bad = 0;
     double total = 0.0;
     for (int y = 0; y < cam_.height; ++y) {
@@ -184,6 +194,7 @@ void IiccdChain::addOpticsSums(FieldContext& ctx) noexcept {
     }
     info_.bad_input_px = bad;
     ctx.cathodeRate_pe_s += total;
+    return total;
 }
 
 void IiccdChain::readOut(const FieldContext& ctx) noexcept {

@@ -107,8 +107,8 @@ class IiccdChain {
     void run(ImageView<const float> lpe, FieldContext& ctx) noexcept;
     void readOut(const FieldContext& ctx) noexcept;
     void opticsPass(ImageView<const float> lpe, FieldContext& ctx) noexcept;
-    // The optics' bad pixels and rate of every row, added up in row order.
-    void addOpticsSums(FieldContext& ctx) noexcept;
+    // The optics' bad pixels and rate of every row, added up in row order (returns the rate).
+    double addOpticsSums(FieldContext& ctx) noexcept;
 
     CameraParams cam_;
     GainControl control_;  // step 10: each field's gain and gate (sim/sensor/control.h)

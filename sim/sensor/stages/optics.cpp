@@ -27,6 +27,9 @@ void OpticsParams::read(const PresetReader& root) {
         solid_angle = SolidAngleModel::CcdArea;
     else
         optics.fail("solid_angle", "must be lens or ccd_area");
+    veiling_glare_index = optics.get<double>("veiling_glare_index", veiling_glare_index);
+    require(veiling_glare_index >= 0.0 && veiling_glare_index < 0.5, optics, "veiling_glare_index",
+            "must lie in [0, 0.5)");
 }
 
 namespace {
@@ -75,6 +78,8 @@ NVS_SIMD_CLONES int opticsRowKernel(const float* __restrict in, const float* __r
 
 OpticsStage::OpticsStage(const CameraParams& c)
     : onAxis_(static_cast<float>(c.peRatePerLpe_on_axis())),
+      glare_(static_cast<float>(c.veiling_glare_index)),
+      pixels_(static_cast<double>(c.width) * c.height),
       dx2_(static_cast<std::size_t>(c.width), 0.0f),
       dy2_(static_cast<std::size_t>(c.height), 0.0f) {
     // cos⁴θ off axis: cos θ = f / sqrt(f² + r²), r the distance on the cathode, so
@@ -104,8 +109,21 @@ std::int64_t OpticsStage::apply(ImageView<const float> lpe, ImageView<float> rat
         bad += applyRow(lpe.row(y), rate.row(y), y, rowSum);
         total += rowSum;
     }
+    if (veiled()) {
+        const double mean = veilMean(total);
+        for (int y = 0; y < rate.height(); ++y)
+            veilRow(rate.row(y), mean);
+    }
     ctx.cathodeRate_pe_s += total;
     return bad;
+}
+
+void OpticsStage::veilRow(float* rate, double mean) const noexcept {
+    const float keep = 1.0f - glare_;
+    const float veil = static_cast<float>(static_cast<double>(glare_) * mean);
+    const int w = static_cast<int>(dx2_.size());
+    for (int x = 0; x < w; ++x)
+        rate[x] = keep * rate[x] + veil;
 }
 
 int OpticsStage::applyRow(const float* lpe, float* rate, int y, double& rowSum) const noexcept {

@@ -23,6 +23,11 @@ struct OpticsParams {
     bool cos4 = true;
     double optics_fill_factor = 1.0;  // fraction of the pixel footprint that collects
     SolidAngleModel solid_angle = SolidAngleModel::Lens;
+    // Veiling glare: the lens's stray light as a uniform veil, the veiling glare index of ISO
+    // 9358 (the share of a uniform field's illuminance found in the image of a small black
+    // spot): rate' = (1 − g)·rate + g·mean(rate), the total kept. 0 (default): off; a preset
+    // states it with its source.
+    double veiling_glare_index = 0.0;
 
     // Reads f_number, [optics] of the preset over the defaults above; errors name
     // file:line or the --set KEY.
@@ -39,9 +44,16 @@ class OpticsStage {
                        FieldContext& ctx) const noexcept;
     // Row y of apply(): returns the bad pixels; rowSum = the row's expected rate.
     int applyRow(const float* lpe, float* rate, int y, double& rowSum) const noexcept;
+    // Veiling glare (after every row of apply(), apply() does it): the image's mean rate from
+    // its total, then each row in place.
+    bool veiled() const noexcept { return glare_ > 0.0f; }
+    double veilMean(double total) const noexcept { return total / pixels_; }
+    void veilRow(float* rate, double mean) const noexcept;
 
   private:
     float onAxis_;            // pe/s per pixel per unit Lpe on the axis
+    float glare_;             // veiling glare index g
+    double pixels_;           // width × height
     std::vector<float> dx2_;  // (dx/f)² of each column (0 without cos⁴θ)
     std::vector<float> dy2_;  // (dy/f)² of each row
 };

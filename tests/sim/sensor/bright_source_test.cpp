@@ -21,6 +21,42 @@ namespace {
 
 using test::preset;
 
+// Veiling glare as ISO 9358 measures it: a uniform field with a small black spot; the spot's
+// image receives g · (the field's illuminance) · (1 − a) / (1 − g·a), a the spot's share of the
+// image (the veil is g times the image's mean; the field keeps 1 − g of its own). The optics'
+// total rate is kept. cos⁴θ off so that the field is uniform.
+TEST(Optics, VeilingGlareIndexIsTheBlackSpotsShareOfAUniformField) {
+    const double g = 0.03;
+    const CameraParams cam = test::preset(
+        "pulnix-ag5745ef3", {{"optics.veiling_glare_index", "0.03"}, {"optics.cos4", "false"}});
+    const CameraParams plain = test::preset("pulnix-ag5745ef3", {{"optics.cos4", "false"}});
+    ImageF lpe(cam.width, cam.height);
+    lpe.fill(1.0e12f);
+    const int s = 40, x0 = cam.width / 2 - s / 2, y0 = cam.height / 2 - s / 2;
+    for (int y = y0; y < y0 + s; ++y)
+        for (int x = x0; x < x0 + s; ++x)
+            lpe(x, y) = 0.0f;
+    ImageF veiled(cam.width, cam.height), bare(cam.width, cam.height);
+    FieldContext c1, c2;
+    OpticsStage(cam).apply(lpe.cview(), veiled.view(), c1);
+    OpticsStage(plain).apply(lpe.cview(), bare.view(), c2);
+    const double a = static_cast<double>(s * s) / (cam.width * cam.height);
+    const double spot = static_cast<double>(veiled(x0 + s / 2, y0 + s / 2));
+    const double field = static_cast<double>(veiled(10, 10));
+    const double want = g * (1.0 - a) / (1.0 - g * a);
+    double sumV = 0.0, sumB = 0.0;
+    for (int y = 0; y < cam.height; ++y)
+        for (int x = 0; x < cam.width; ++x)
+            sumV += static_cast<double>(veiled(x, y)), sumB += static_cast<double>(bare(x, y));
+    std::printf(
+        "veiling glare index %.3f: black spot / field %.6f (ISO 9358: %.6f); total "
+        "rate ratio %.8f\n",
+        g, spot / field, want, sumV / sumB);
+    EXPECT_NEAR(spot / field, want, 1e-5);
+    EXPECT_NEAR(sumV / sumB, 1.0, 1e-6);
+    EXPECT_EQ(bare(x0 + s / 2, y0 + s / 2), 0.0f);  // without it the spot is black
+}
+
 TEST(Halo, KernelIsADiskOfTwiceTheGapDensestAtItsRim) {
     const CameraParams cam = preset("pulnix-ag5745ef3");
     ASSERT_TRUE(cam.halo_enabled);

@@ -134,5 +134,15 @@ TEST(ComposedStages, EqualTheChainBitForBitWithHaloAndBsp) {
         {{"halo.enabled", "true"}, {"halo.fraction", "0.1"}, {"agc", "bsp"}}));
 }
 
+// With the lens's veiling glare (whole image first: its mean), alone and with halo and BSP.
+TEST(ComposedStages, EqualTheChainBitForBitWithVeilingGlare) {
+    expectChainEqualsComposedStages(
+        test::calibrationTube({{"optics.veiling_glare_index", "0.03"}}));
+    expectChainEqualsComposedStages(test::calibrationTube({{"optics.veiling_glare_index", "0.03"},
+                                                           {"halo.enabled", "true"},
+                                                           {"halo.fraction", "0.1"},
+                                                           {"agc", "bsp"}}));
+}
+
 }  // namespace
 }  // namespace nvs::sensor
