@@ -96,7 +96,7 @@ void lampPixel(const ImageF& on, const ImageF& off, int* px, int* py) {
 }
 
 // The saturated cells connected to (x0, y0) (4-neighbours): count, bounding box and the
-// longest saturated run along any one column.
+// longest saturated run along any one column that passes through them.
 struct Blob {
     int count = 0, x0 = 1 << 30, x1 = -1, y0 = 1 << 30, y1 = -1, longestColumnRun = 0;
     int widthPx() const { return x1 - x0 + 1; }
@@ -129,11 +129,22 @@ Blob saturatedBlob(const Video& v, int sx, int sy) {
         b.y0 = std::min(b.y0, y), b.y1 = std::max(b.y1, y);
         push(x + 1, y), push(x - 1, y), push(x, y + 1), push(x, y - 1);
     }
+    // Runs that pass through the blob: a column spindle grows out of the disk along its
+    // column; a saturated patch elsewhere in the column (the lit ground under a bulb, beyond a
+    // gap) is not one.
     for (int x = b.x0; x <= b.x1; ++x) {
         int run = 0;
+        bool throughBlob = false;
         for (int y = 0; y < v.height; ++y) {
-            run = v.at(x, y) >= v.satDc ? run + 1 : 0;
-            b.longestColumnRun = std::max(b.longestColumnRun, run);
+            const std::size_t i = static_cast<std::size_t>(y * v.width + x);
+            if (v.at(x, y) >= v.satDc) {
+                ++run;
+                throughBlob = throughBlob || seen[i] != 0;
+            } else {
+                run = 0;
+                throughBlob = false;
+            }
+            if (throughBlob) b.longestColumnRun = std::max(b.longestColumnRun, run);
         }
     }
     return b;
