@@ -53,6 +53,11 @@ namespace {
 using rt::bench::TimedItem;
 using Items = std::vector<std::unique_ptr<TimedItem>>;
 
+// Every core of the machine, at most 16 (the renderer's and the camera's thread limit).
+int coresUpTo16() {
+    return std::clamp(static_cast<int>(std::thread::hardware_concurrency()), 1, 16);
+}
+
 TimedItem& add(Items& items, std::string name, std::string what, std::optional<double> target_s,
                double minTime_s) {
     items.push_back(std::make_unique<TimedItem>());
@@ -364,7 +369,7 @@ void addPrimary1080Items(Items& items, const DataDirs& dirs,
                          const std::filesystem::path& scenarios) {
     const std::filesystem::path air = scenarios / "airborne-pass" / "scenario.toml";
     if (!std::filesystem::exists(air)) return;
-    const int threads = std::clamp(static_cast<int>(std::thread::hardware_concurrency()), 1, 16);
+    const int threads = coresUpTo16();
     using Paths = render::Renderer::PrimaryPaths;
     for (const bool gl : {true, false}) {
         auto f = std::make_shared<Flight>();
@@ -544,8 +549,9 @@ std::vector<std::string> runEndToEndItems(const DataDirs& dirs,
     reqs[1].targetFields_per_s = 30.0;
     // The same with the primary pass by OpenGL (a GPU through EGL where there is one), the
     // render's rows on every core (at most 16) and the camera chain's on half of them.
-    const int cores = static_cast<int>(std::thread::hardware_concurrency());
-    const int threads = std::clamp(cores, 1, 16), cameraThreads = std::clamp(cores / 2, 1, 16);
+    const int threads = coresUpTo16();
+    const int cameraThreads =
+        std::clamp(static_cast<int>(std::thread::hardware_concurrency()) / 2, 1, 16);
     reqs[2] = reqs[1];
     reqs[2].name = "e2e_airborne_pass_sxga_1280x1024p_gl";
     reqs[2].what = reqs[1].what + ", primary visibility by OpenGL, " + std::to_string(threads) +

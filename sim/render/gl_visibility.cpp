@@ -407,26 +407,27 @@ GlStatus GlVisibility::render(const GlView& view, int x0, int y0, int x1, int y1
     return st;
 }
 
-GlVisibility::IdRange GlVisibility::idRange(std::uint32_t word) const noexcept {
-    if (word == 0 || word > nextId_) return {};
+const GlVisibility::Mesh* GlVisibility::meshOf(std::uint32_t word) const noexcept {
+    if (word == 0 || word > nextId_) return nullptr;
     // The last mesh whose first id is ≤ word − 1 (meshes_ is in id order; an empty mesh shares
     // its first id with the next).
     const auto m = std::upper_bound(meshes_.begin(), meshes_.end(), word - 1u,
                                     [](std::uint32_t v, const Mesh& e) { return v < e.firstId; });
-    if (m == meshes_.begin()) return {};
-    const Mesh& mesh = *(m - 1);
-    return {mesh.firstId, static_cast<std::uint32_t>(mesh.indices.size() / 3), mesh.geomId};
+    return m == meshes_.begin() ? nullptr : &*(m - 1);
+}
+
+GlVisibility::IdRange GlVisibility::idRange(std::uint32_t word) const noexcept {
+    const Mesh* mesh = meshOf(word);
+    if (mesh == nullptr) return {};
+    return {mesh->firstId, static_cast<std::uint32_t>(mesh->indices.size() / 3), mesh->geomId};
 }
 
 GlHit GlVisibility::hit(int x, int y) const noexcept {
     GlHit h;
     const std::size_t i = static_cast<std::size_t>(y) * width_ + static_cast<std::size_t>(x);
-    const IdRange r = idRange(ids_[i]);
-    if (r.count == 0) return h;
-    const std::uint32_t prim = ids_[i] - 1u - r.firstId;
-    const Mesh* mesh = nullptr;
-    for (const Mesh& m : meshes_)
-        if (m.firstId == r.firstId && m.indices.size() == 3 * std::size_t{r.count}) mesh = &m;
+    const Mesh* mesh = meshOf(ids_[i]);
+    if (mesh == nullptr) return h;
+    const std::uint32_t prim = ids_[i] - 1u - mesh->firstId;
     const auto vertex = [&](std::uint32_t k) {
         const float* p =
             &mesh->vertices_m[3 * static_cast<std::size_t>(mesh->indices[3 * prim + k])];
@@ -439,7 +440,7 @@ GlHit GlVisibility::hit(int x, int y) const noexcept {
                    v.up * ((y + 0.5 - 0.5 * height_) * v.pitchY_m));
     double t = 0.0, u = 0.0, w = 0.0;
     if (!rayPlaneOfTriangle(v.position_m, d, vertex(0), vertex(1), vertex(2), &t, &u, &w)) return h;
-    h.geomId = r.geomId;
+    h.geomId = mesh->geomId;
     h.primId = prim;
     h.u = u;
     h.v = w;

@@ -129,6 +129,8 @@ class GlVisibility {
         std::uint32_t geomId = 0;
         bool enabled = true;
     };
+    // The mesh holding a raw word's triangle (nullptr: a miss or a word no mesh holds).
+    const Mesh* meshOf(std::uint32_t word) const noexcept;
     std::unique_ptr<GlContext> ctx_;
     std::unique_ptr<Gl> gl_;
     GlBackend backend_ = GlBackend::kNone;

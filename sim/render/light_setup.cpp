@@ -81,9 +81,7 @@ void placeAttachedLamps(Renderer::Impl& im) noexcept {
         if (ld.attach < 0) continue;
         Vec3 p, a;
         ld.local.placeAt(im.objects[static_cast<std::size_t>(ld.attach)].obj, im.time_s, &p, &a);
-        if (p.x == ld.position.x && p.y == ld.position.y && p.z == ld.position.z &&
-            a.x == ld.axis.x && a.y == ld.axis.y && a.z == ld.axis.z)
-            continue;
+        if (p == ld.position && a == ld.axis) continue;
         ld.position = p;
         ld.axis = a;
         moved = true;
