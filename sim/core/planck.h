@@ -26,6 +26,15 @@ double planckSpectralPhotonRadiance_nm(double wavelength_nm, double temperature_
 // The radiance curve on the grid [W m⁻² sr⁻¹ nm⁻¹].
 Spectrum planckRadiance_W_m2_sr_nm(double temperature_K);
 
+// Band radiance ∫ L_λ dλ over [lo, hi] µm [W m⁻² sr⁻¹], by the exact series for the
+// incomplete Planck integral (Widger & Woodall, "Integration of the Planck blackbody radiation
+// function", Bull. Am. Meteorol. Soc. 57(10), 1976):
+//   ∫_x^∞ t³/(eᵗ−1) dt = Σₙ e^(−n x) (x³/n + 3x²/n² + 6x/n³ + 6/n⁴),  x = h c /(λ k T).
+// Over (0, ∞) it is σT⁴/π. Used by the thermal band (8–14 µm) where no grid fits.
+double planckBandRadiance_W_m2_sr(double lo_um, double hi_um, double temperature_K);
+// d/dT of the band radiance [W m⁻² sr⁻¹ K⁻¹] (the same series, differentiated term by term).
+double planckBandRadianceDerivative_W_m2_sr_K(double lo_um, double hi_um, double temperature_K);
+
 // Mean projected area of a cylindrical filament (see above).
 double filamentProjectedArea_m2(double radius_m, double length_m);
 

@@ -112,5 +112,32 @@ TEST(Planck, PhotonRadianceIsEnergyOverPhotonEnergy) {
                 1.0, 1e-12);
 }
 
+// The band series against the law it must reach (σT⁴/π over all wavelengths) and against a
+// direct Simpson integration of the spectral law over 8–14 µm (another method).
+TEST(Planck, BandSeriesMatchesStefanBoltzmannAndDirectIntegration) {
+    for (double t_K : {200.0, 300.0, 350.0, 1000.0}) {
+        const double all = planckBandRadiance_W_m2_sr(0.0, 1e6, t_K);
+        const double law = kStefanBoltzmann_W_m2_K4 * std::pow(t_K, 4) / kPi;
+        EXPECT_NEAR(all / law, 1.0, 1e-9) << t_K;
+
+        const int n = 20000;  // even
+        const double lo_m = 8e-6, hi_m = 14e-6, h = (hi_m - lo_m) / n;
+        double sum = planckSpectralRadiance_W_m2_sr_m(lo_m, t_K) +
+                     planckSpectralRadiance_W_m2_sr_m(hi_m, t_K);
+        for (int i = 1; i < n; ++i)
+            sum += (i % 2 ? 4.0 : 2.0) * planckSpectralRadiance_W_m2_sr_m(lo_m + i * h, t_K);
+        const double simpson = sum * h / 3.0;
+        EXPECT_NEAR(planckBandRadiance_W_m2_sr(8.0, 14.0, t_K) / simpson, 1.0, 1e-9) << t_K;
+
+        const double dT = 1e-3;
+        const double fd = (planckBandRadiance_W_m2_sr(8.0, 14.0, t_K + dT) -
+                           planckBandRadiance_W_m2_sr(8.0, 14.0, t_K - dT)) /
+                          (2.0 * dT);
+        EXPECT_NEAR(planckBandRadianceDerivative_W_m2_sr_K(8.0, 14.0, t_K) / fd, 1.0, 1e-6) << t_K;
+    }
+    // Empty or reversed bands carry nothing.
+    EXPECT_EQ(planckBandRadiance_W_m2_sr(14.0, 8.0, 300.0), 0.0);
+}
+
 }  // namespace
 }  // namespace nvs
