@@ -66,6 +66,7 @@ sensor::Overrides baseOverrides(const GenSpec& s) {
             {"mcp_saturation.enabled", "false"},
             {"mcp.crossover_V", "520.0"},
             {"mcp.gain_max", "0"},
+            {"mcp.plate_max_V", "0"},
             {"mcp.detection_efficiency", "1"},
             {"video.gain_dc_per_e", "0.003738"},
             {"ccd.read_noise_e", "50.0"},

@@ -31,6 +31,7 @@ void McpParams::read(const PresetReader& root) {
     mcp_offset_V = mcp.get<double>("offset_V", mcp_offset_V);
     mcp_V_per_control_V = positive(mcp, "V_per_control_V", mcp_V_per_control_V);
     mcp_gain_max = nonNegative(mcp, "gain_max", mcp_gain_max);
+    mcp_plate_max_V = nonNegative(mcp, "plate_max_V", mcp_plate_max_V);
     mcp_detection_efficiency = positive(mcp, "detection_efficiency", mcp_detection_efficiency);
     require(mcp_detection_efficiency <= 1.0, mcp, "detection_efficiency", "must be in (0, 1]");
     mcp_noise_factor = mcp.get<double>("noise_factor", mcp_noise_factor);
@@ -43,9 +44,14 @@ void McpParams::read(const PresetReader& root) {
     mcpsat_recharge_s = positive(sat, "recharge_s", mcpsat_recharge_s);
 }
 
+double McpParams::plateVoltage_V(double gainControl_V) const {
+    const double vm = mcp_offset_V + mcp_V_per_control_V * gainControl_V;
+    return mcp_plate_max_V > 0.0 ? std::min(vm, mcp_plate_max_V) : vm;
+}
+
 double McpParams::mcpChannelGain(double gainControl_V) const {
     if (!mcp_enabled) return 1.0;
-    const double vm = mcp_offset_V + mcp_V_per_control_V * gainControl_V;
+    const double vm = plateVoltage_V(gainControl_V);
     if (vm <= 0.0) return 0.0;
     const double x = std::pow(vm / mcp_crossover_V, mcp_exponent);
     return mcp_gain_max > 0.0 ? x / (1.0 + x / mcp_gain_max) : x;
@@ -73,8 +79,7 @@ double McpParams::controlVoltageForGain(double gain) const {
 
 double McpParams::crossoverForGain(double gain, double gainControl_V) const {
     const double x = unboundedGain(gain / mcp_detection_efficiency, mcp_gain_max);
-    const double vm = mcp_offset_V + mcp_V_per_control_V * gainControl_V;
-    return vm / std::pow(x, 1.0 / mcp_exponent);
+    return plateVoltage_V(gainControl_V) / std::pow(x, 1.0 / mcp_exponent);
 }
 
 namespace {

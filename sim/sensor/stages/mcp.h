@@ -36,6 +36,9 @@ struct McpParams {
     // the plate's saturation (space charge in the channel, the supply's limit): G_ch = x/(1 +
     // x/G_max), x = (Vm/Vc)^g; 0: no bound.
     double mcp_gain_max = 0.0;
+    // The supply's ceiling on the plate voltage [V]: Vm = min(offset + slope·gain_V, this); above
+    // the control voltage that reaches it the gain no longer rises. 0: no ceiling.
+    double mcp_plate_max_V = 0.0;
     // Share of photoelectrons that start a channel (open-area ratio, ion-barrier film): the
     // MCP's output per photoelectron is η·G_ch; F below is per photoelectron, η's loss included.
     double mcp_detection_efficiency = 1.0;
@@ -48,13 +51,16 @@ struct McpParams {
     double mcpsat_pixel_charge_e = 2.4e4;  // output electrons available per CCD-pixel area
     double mcpsat_recharge_s = 0.01;       // recharge time constant τ
 
+    // The plate voltage at a control voltage, under the supply's ceiling.
+    double plateVoltage_V(double gainControl_V) const;
     // A channel's electron gain at a control voltage: eq. 6.1, G = (Vm/Vc)^g, Vm = offset +
-    // slope·gain_V, under the ceiling mcp_gain_max.
+    // slope·gain_V up to plate_max_V, under the ceiling mcp_gain_max.
     double mcpChannelGain(double gainControl_V) const;
     // MCP output electrons per photoelectron: η·G_ch.
     double mcpGain(double gainControl_V) const;
-    // Inverse of mcpGain (for the AGC loop); a gain at or past the ceiling gives the voltage
-    // of 0.999 of it.
+    // Inverse of mcpGain (for the AGC loop) by the law without the plate's ceiling, so a loop
+    // asking for more than the ceiling's gain winds up to its own limit, as a real loop's
+    // integrator does; a gain at or past mcp_gain_max gives the voltage of 0.999 of it.
     double controlVoltageForGain(double gain) const;
     // The crossover voltage Vc that gives `gain` electrons per photoelectron at gainControl_V.
     double crossoverForGain(double gain, double gainControl_V) const;

@@ -6,12 +6,12 @@
 // - An intensified camera's gain control: 2512–70795 (DVC-1412 Intensicam manual, Figure 9.5-1,
 //   "Luminous Gain versus IGN Argument", log-linear over the control's range;
 //   https://www.easymanua.ls/dvc/dvc-1412/manual?p=57).
-// The ranges are not bent to fit: the scenario voltages below the camera range are listed.
+// The ranges are not bent to fit; the preset's supply ceiling (plate_max_V) is placed between
+// what Table 18-6 and this range allow (docs/validation.md, "Tube gain").
 #include <gtest/gtest.h>
 
 #include <cstdio>
 #include <filesystem>
-#include <map>
 #include <set>
 #include <string>
 
@@ -58,11 +58,7 @@ std::set<double> commandedVoltages(const Scenario& sc) {
 }
 
 TEST(ScenarioTubeGain, EveryShippedScenarioVoltageAgainstThePublishedRanges) {
-    // Measured with the preset's law (docs/validation.md, "Tube gain"): 5.0 V and 5.5 V lie
-    // below the camera range's 2512 fL/fc. Listed, not hidden: a change either way fails.
-    const std::set<double> knownBelowCameraRange = {5.0, 5.5};
     int scenarios = 0;
-    std::map<double, std::string> below;
     for (const fs::path& file : shippedScenarios()) {
         const Scenario sc = loadScenario(file, test::configDir());
         if (!sc.camera.enabled) continue;
@@ -78,18 +74,10 @@ TEST(ScenarioTubeGain, EveryShippedScenarioVoltageAgainstThePublishedRanges) {
                         fs::relative(file, fs::path(NVS_SOURCE_DIR)).string().c_str(), v, g);
             EXPECT_LE(g, kCameraRangeHigh_fL_fc) << file << " at " << v << " V";
             EXPECT_LE(g, kGen3MaxGainHigh_fL_fc) << file << " at " << v << " V";
-            if (g < kCameraRangeLow_fL_fc) {
-                below[v] += fs::relative(file, fs::path(NVS_SOURCE_DIR)).string() + " ";
-            }
+            EXPECT_GE(g, kCameraRangeLow_fL_fc) << file << " at " << v << " V";
         }
     }
     EXPECT_GE(scenarios, 15);
-    std::set<double> belowVoltages;
-    for (const auto& [v, names] : below) {
-        std::printf("below the camera range at %.2f V: %s\n", v, names.c_str());
-        belowVoltages.insert(v);
-    }
-    EXPECT_EQ(belowVoltages, knownBelowCameraRange);
 }
 
 }  // namespace

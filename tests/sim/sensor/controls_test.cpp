@@ -70,11 +70,11 @@ TEST(CommandedControls, ManualGainReachesTheMcpEachFieldByEq6_1) {
     const CameraParams cam = linearCamera();
     const ImageF in = uniformFor(cam, 150.0);
     IiccdChain chain(cam, 1, test::configDir(), test::gammaTables(), {}, ControlSource::Command);
-    // Eq. 6.1 under the preset's channel-gain ceiling: η·x/(1 + x/G_max).
+    // Eq. 6.1 under the supply's plate ceiling and the channel-gain ceiling: η·x/(1 + x/G_max).
     const auto G = [&](double v) {
-        const double x =
-            std::pow((cam.mcp_offset_V + cam.mcp_V_per_control_V * v) / cam.mcp_crossover_V,
-                     cam.mcp_exponent);
+        double vm = cam.mcp_offset_V + cam.mcp_V_per_control_V * v;
+        if (cam.mcp_plate_max_V > 0.0) vm = std::min(vm, cam.mcp_plate_max_V);
+        const double x = std::pow(vm / cam.mcp_crossover_V, cam.mcp_exponent);
         const double ch = cam.mcp_gain_max > 0.0 ? x / (1.0 + x / cam.mcp_gain_max) : x;
         return cam.mcp_detection_efficiency * ch;
     };

@@ -27,6 +27,7 @@ inline sensor::CameraParams preset(const std::string& name, const sensor::Overri
 inline sensor::CameraParams calibrationTube(sensor::Overrides ov = {}) {
     ov.emplace("mcp.crossover_V", "520.0");
     ov.emplace("mcp.gain_max", "0");                // eq. 6.1 without a ceiling
+    ov.emplace("mcp.plate_max_V", "0");             // nor the supply's
     ov.emplace("mcp.detection_efficiency", "1");    // every photoelectron starts a channel
     ov.emplace("ccd.read_noise_e", "50.0");         // the read noise the mechanism tests had
     ov.emplace("video.gain_dc_per_e", "0.003738");  // Table 18-6's image gain at 6 V
