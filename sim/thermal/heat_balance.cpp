@@ -241,18 +241,25 @@ SurfaceTemperatureTable solveHeatBalance(const std::vector<SurfaceClass>& classe
             SurfaceSolver s(c.material, c.exposure, p.grid, meanAir);
             rep.spinupDays.push_back(spinUp(s, c, f, day, t0, p));
             rep.stateBytes += s.stateBytes();
-            const std::vector<double> spun = s.temperatures_K();
-            s.setTemperatures(spun);
+            const double spunSurface_K = s.surface_K();
             for (std::size_t i = 1; i <= last; ++i) {
                 s.step(f[i], sunlitAt(c, t0 + static_cast<double>(i) * p.dt_s), p.dt_s);
                 if (i >= first) table.sample(k, i - first) = static_cast<float>(s.surface_K());
             }
-            if (first == 0) table.sample(k, 0) = static_cast<float>(spun.front());
+            if (first == 0) table.sample(k, 0) = static_cast<float>(spunSurface_K);
         }
         if (!cacheDir.empty()) writeCache(rep.cacheFile, key, table);
     }
     if (report) *report = rep;
     return table;
+}
+
+double surfaceTemperature_K(const SurfaceClass& surfaceClass, const WeatherSeries& weather,
+                            const astro::Site& site, const HeatBalanceParams& p, double t_s,
+                            const std::filesystem::path& cacheDir) {
+    const SurfaceTemperatureTable t =
+        solveHeatBalance({surfaceClass}, weather, site, p, t_s, t_s, cacheDir);
+    return t.at(0, t_s);
 }
 
 }  // namespace nvs::thermal

@@ -91,6 +91,12 @@ SurfaceTemperatureTable solveHeatBalance(const std::vector<SurfaceClass>& classe
                                          const std::filesystem::path& cacheDir = {},
                                          HeatBalanceReport* report = nullptr);
 
+// One class's surface temperature at t_s: a table of that one instant (same spin-up, same
+// cache). Set-up code (it solves); per frame use the table.
+double surfaceTemperature_K(const SurfaceClass& surfaceClass, const WeatherSeries& weather,
+                            const astro::Site& site, const HeatBalanceParams& p, double t_s,
+                            const std::filesystem::path& cacheDir = {});
+
 // The cache key of a solve (FNV-1a over every input, with a format version).
 std::uint64_t heatBalanceKey(const std::vector<SurfaceClass>& classes, const WeatherSeries& weather,
                              const astro::Site& site, const HeatBalanceParams& p,

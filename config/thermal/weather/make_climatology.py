@@ -14,17 +14,22 @@ day of its date built from normals, stated as such in its header:
     and about 50 % at the maximum, the highest/lowest daily humidities those reports give for
     fair September days (93 % / 51 %, CLIROC 2013-09-20);
   - wind: 1.5 m/s at night, 4 m/s by day (Rochester's September mean about 3.6 m/s, 8 mph);
-  - sky: clear (cloud fraction 0.1, base 1500 m): the thesis nights were clear.
+  - sky: clear (cloud fraction 0.1, base 1500 m): the thesis nights were clear. The
+    overcast-starlight scenario's night gets an overcast variant (cloud fraction 1, base 600 m,
+    an assumption) whose diurnal range is cut to 5 K around the same mean and whose dew point
+    is 1 K below the minimum (assumptions: a cloud deck damps the daily swing and the air near
+    saturation).
 Run: python3 make_climatology.py (writes the three files beside it).
 """
 import datetime
 import math
 
 NIGHTS = [
-    # file, first UTC day, days, Tmax C, Tmin C, dew point C
-    ("rochester-1998-08-20.csv", (1998, 8, 18), 2.25, 25.6, 14.4, 13.4),
-    ("rochester-1998-09-02.csv", (1998, 8, 31), 2.25, 24.2, 13.3, 12.2),
-    ("rochester-1998-09-06.csv", (1998, 9, 4), 2.25, 23.3, 12.4, 11.4),
+    # file, first UTC day, days, Tmax C, Tmin C, dew point C, cloud fraction, base m
+    ("rochester-1998-08-20.csv", (1998, 8, 18), 2.25, 25.6, 14.4, 13.4, 0.1, 1500),
+    ("rochester-1998-08-20-overcast.csv", (1998, 8, 18), 2.25, 22.5, 17.5, 16.5, 1.0, 600),
+    ("rochester-1998-09-02.csv", (1998, 8, 31), 2.25, 24.2, 13.3, 12.2, 0.1, 1500),
+    ("rochester-1998-09-06.csv", (1998, 9, 4), 2.25, 23.3, 12.4, 11.4, 0.1, 1500),
 ]
 T_MIN_H, T_MAX_H = 10.5, 19.0
 
@@ -40,21 +45,22 @@ def air(h, tmax, tmin):
 
 
 def main():
-    for name, (y, m, d), days, tmax, tmin, dew in NIGHTS:
+    for name, (y, m, d), days, tmax, tmin, dew, cloud, base in NIGHTS:
         rows = []
         for k in range(int(days * 24) + 1):
             when = datetime.datetime(y, m, d) + datetime.timedelta(hours=k)
             h = when.hour
             t = air(h, tmax, tmin)
             wind = 4.0 if 13 <= h <= 22 else 1.5
-            rows.append(f"{when:%Y-%m-%dT%H}:00Z,{t:.1f},{dew:.1f},{wind:.1f},0.1,1500")
+            rows.append(f"{when:%Y-%m-%dT%H}:00Z,{t:.1f},{dew:.1f},{wind:.1f},{cloud},{base}")
         with open(name, "w") as f:
-            f.write("# source: climatology, not a record: a typical fair-weather day of the date at "
+            f.write("# source: climatology, not a record: a typical day of the date (fair weather; the -overcast file a cloud deck) at "
                     "Rochester NY (KROC) built from NWS Buffalo climate normals (CLIROC daily reports, "
                     "1971-2000/1981-2010 normals) by config/thermal/weather/make_climatology.py, which "
                     "states every assumption\n")
-            f.write(f"# normals used: max {tmax} C, min {tmin} C, dew point {dew} C; wind 1.5 m/s night, "
-                    "4 m/s day; clear sky (0.1, base 1500 m)\n")
+            sky = "clear sky" if cloud < 0.5 else "overcast (assumed)"
+            f.write(f"# values used: max {tmax} C, min {tmin} C, dew point {dew} C; wind 1.5 m/s night, "
+                    f"4 m/s day; {sky} (cloud fraction {cloud}, base {base} m)\n")
             f.write("utc,air_temperature_C,dew_point_C,wind_speed_m_s,cloud_fraction,cloud_base_m\n")
             f.write("\n".join(rows) + "\n")
 

@@ -154,8 +154,8 @@ TEST(ThermalInput, ShippedMaterialsAndWeatherLoad) {
                              "painted_metal", "glass", "aluminium_polished", "aluminium_bare",
                              "skin", "clothing", "brick", "engine_hood", "exhaust", "lamp_housing"})
         EXPECT_TRUE(lib.requireThermal(name, {}).hasThermal()) << name;
-    for (const char* f :
-         {"rochester-1998-08-20.csv", "rochester-1998-09-02.csv", "rochester-1998-09-06.csv"}) {
+    for (const char* f : {"rochester-1998-08-20.csv", "rochester-1998-08-20-overcast.csv",
+                          "rochester-1998-09-02.csv", "rochester-1998-09-06.csv"}) {
         const WeatherSeries w = WeatherSeries::load(kConfig + "weather/" + f);
         EXPECT_GE(w.end_s() - w.start_s(), 48.0 * 3600.0) << f;
         EXPECT_NE(w.source().find("climatology"), std::string::npos) << f;
