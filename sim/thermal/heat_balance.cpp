@@ -35,7 +35,7 @@ double sunlitAt(const SurfaceClass& c, double t_s) noexcept {
 
 namespace {
 
-constexpr std::uint64_t kFormatVersion = 1;
+constexpr std::uint64_t kFormatVersion = 2;
 constexpr char kMagic[8] = {'N', 'V', 'S', 'T', 'H', 'M', '1', '\0'};
 
 // POSIX seconds → UTC calendar (Hinnant's civil_from_days).
@@ -76,6 +76,7 @@ void hashMaterial(Fnv1a& h, const ThermalMaterial& m) {
     hashValue(h, static_cast<int>(m.angular));
     hashValue(h, static_cast<int>(m.back));
     hashValue(h, m.backFollowsAir);
+    hashValue(h, m.collectsDew);
     for (const Layer& l : m.layers)
         for (double v : {l.thickness_m, l.conductivity_W_mK, l.density_kg_m3, l.specificHeat_J_kgK})
             hashValue(h, v);
@@ -247,6 +248,7 @@ SurfaceTemperatureTable solveHeatBalance(const std::vector<SurfaceClass>& classe
                 if (i >= first) table.sample(k, i - first) = static_cast<float>(s.surface_K());
             }
             if (first == 0) table.sample(k, 0) = static_cast<float>(spunSurface_K);
+            rep.dew_kg_m2.push_back(s.dew_kg_m2());
         }
         if (!cacheDir.empty()) writeCache(rep.cacheFile, key, table);
     }

@@ -160,6 +160,7 @@ ThermalMaterial readMaterial(const ConfigTable& root, const std::string& name) {
         m.surfaceTemperature_K = positive(t, "surface_temperature_K");
         if (t.contains("layer")) t.fail("layer", "a fixed-temperature surface takes no layers");
     }
+    m.collectsDew = t.get<bool>("dew", true);
     for (const ConfigTable& l : t.tableArray("layer"))
         m.layers.push_back(readLayer(l));
     if (!m.layers.empty()) readBack(t, m);

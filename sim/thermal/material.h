@@ -64,6 +64,7 @@ struct ThermalMaterial {
     double backFilm_W_m2K = 0.0;        // AirNode: film coefficient
     double backFlux_W_m2 = 0.0;         // heat put in at the back (a lamp's power per area)
     double surfaceTemperature_K = 0.0;  // > 0: a source held at this temperature, no layers
+    bool collectsDew = true;            // dew condenses on it (and evaporates again)
 
     // Derived at load: the index fitted to ε_n and the hemispherical emissivity.
     double index_n = 1.0;  // real part (dielectric), n = k (metal)

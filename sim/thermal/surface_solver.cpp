@@ -173,17 +173,27 @@ void SurfaceSolver::step(const ForcingSample& f, double sunlitFraction, double d
         flux_.emitted_W_m2 = emissivity_ * sigma * ts * ts * ts * ts;
         flux_.convected_W_m2 = h(ts) * (ts - w.air_K);
         flux_.back_W_m2 = 0.0;
+        flux_.latent_W_m2 = 0.0;
         return;
     }
     const double tb = backTemperature_K(w);
     old_ = T_;  // same size: no allocation
-    double hc = 0.0;
+    // Dew: condensation, or evaporation of at most the water held.
+    const double maxEvaporation_W_m2 = kLatentHeat_J_kg * dew_kg_m2_ / dt_s;
+    auto latent = [&](double T, double hcT) {
+        if (!m_.collectsDew) return 0.0;
+        return std::max(dewFlux_W_m2(hcT, T, w.air_K, w.dewPoint_K), -maxEvaporation_W_m2);
+    };
+    double hc = 0.0, lat = 0.0;
     for (int it = 0; it < 40; ++it) {
-        // Newton on the emission, fixed point on h_c(T): q(T) ≈ q(ts) + q'(ts)(T − ts).
+        // Newton on the emission and the dew, fixed point on h_c(T):
+        // q(T) ≈ q(ts) + q'(ts)(T − ts).
         hc = h(ts);
         const double ts3 = ts * ts * ts;
-        const double q = absorbed - emissivity_ * sigma * ts3 * ts - hc * (ts - w.air_K);
-        const double dq = -4.0 * emissivity_ * sigma * ts3 - hc;
+        lat = latent(ts, hc);
+        const double dlat = (latent(ts + 1e-3, hc) - lat) / 1e-3;
+        const double q = absorbed - emissivity_ * sigma * ts3 * ts - hc * (ts - w.air_K) + lat;
+        const double dq = -4.0 * emissivity_ * sigma * ts3 - hc + dlat;
         const double next = solveStep(q, dq, ts, tb, false, dt_s);
         const double moved = std::abs(next - ts);
         ts = next;
@@ -192,6 +202,8 @@ void SurfaceSolver::step(const ForcingSample& f, double sunlitFraction, double d
     finishStep(tb);
     flux_.emitted_W_m2 = emissivity_ * sigma * ts * ts * ts * ts;
     flux_.convected_W_m2 = hc * (ts - w.air_K);
+    flux_.latent_W_m2 = lat;
+    dew_kg_m2_ = std::max(0.0, dew_kg_m2_ + lat / kLatentHeat_J_kg * dt_s);
 }
 
 }  // namespace nvs::thermal

@@ -12,7 +12,9 @@
 //   C_i (T_i' − T_i)/Δt = Σ_j G_ij (T_j' − T_i') + q_i(T'),
 // with q_0 the surface balance
 //   q_s(T) = α_s E_sw + ε_h [F L↓ + (1 − F) σT_a⁴] − ε_h σT⁴ − h_c(T)(T − T_a)
-// (surroundings below the horizon radiate as blackbodies at the air temperature), and at the
+// (surroundings below the horizon radiate as blackbodies at the air temperature), plus the latent
+// heat of dew (condensation below the dew point; evaporation of the water held, at most all of
+// it in one step; forcing.h dewFlux_W_m2), and at the
 // last node the back boundary (none, a fixed temperature, or h_b (T_b − T) + q_b). The surface
 // emission is linearised about the latest iterate and the tridiagonal system solved again until
 // the surface temperature moves less than 1e-7 K (Newton on εσT⁴, fixed point on h_c(T)), so
@@ -46,6 +48,7 @@ struct StepFluxes {
     double emitted_W_m2 = 0.0;    // ε_h σ T⁴ (leaves)
     double convected_W_m2 = 0.0;  // h_c (T − T_a) (leaves)
     double back_W_m2 = 0.0;       // into the stack through the back boundary
+    double latent_W_m2 = 0.0;     // dew: condensation (+) or its evaporation (−)
 };
 
 class SurfaceSolver {
@@ -69,6 +72,8 @@ class SurfaceSolver {
     const std::vector<double>& capacities_J_m2K() const { return C_; }
     void setTemperatures(const std::vector<double>& T_K) { T_ = T_K; }
     const StepFluxes& lastFluxes() const { return flux_; }
+    double dew_kg_m2() const { return dew_kg_m2_; }
+    void setDew_kg_m2(double d) { dew_kg_m2_ = d; }
     std::size_t stateBytes() const;
     const ThermalMaterial& material() const { return m_; }
     const Exposure& exposure() const { return e_; }
@@ -88,6 +93,7 @@ class SurfaceSolver {
     std::vector<double> z_, T_, C_, G_;            // nodes; G_[i] links node i and i + 1
     std::vector<double> a_, b_, c_, d_, x_, old_;  // work arrays (sized at construction)
     StepFluxes flux_;
+    double dew_kg_m2_ = 0.0;  // water held on the surface
 };
 
 }  // namespace nvs::thermal

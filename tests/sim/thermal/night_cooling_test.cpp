@@ -59,6 +59,7 @@ WeatherSeries overcast(const WeatherSeries& w) {
 
 struct Night {
     double grass_K, roof_K, side_K, air_K;
+    std::vector<double> dew_kg_m2;
 };
 
 Night solve(const WeatherSeries& w) {
@@ -75,7 +76,7 @@ Night solve(const WeatherSeries& w) {
         EXPECT_LT(d, 60);
     std::printf("spin-up days: grass %d, roof %d, side %d\n", rep.spinupDays[0], rep.spinupDays[1],
                 rep.spinupDays[2]);
-    return {table.at(0, t), table.at(1, t), table.at(2, t), w.at(t).air_K};
+    return {table.at(0, t), table.at(1, t), table.at(2, t), w.at(t).air_K, rep.dew_kg_m2};
 }
 
 TEST(HeatBalanceNight, ClearLightWindGrassAndRoofBelowAirInMeasuredRanges) {
@@ -94,6 +95,11 @@ TEST(HeatBalanceNight, ClearLightWindGrassAndRoofBelowAirInMeasuredRanges) {
     EXPECT_LE(roof, 8.0);
     // Appendix M: the roof, open to the whole sky, is colder than the sides.
     EXPECT_LT(clear.roof_K, clear.side_K - 0.5);
+    // Beysens et al. (2022): dew forms on the rooftop first, the lateral surfaces later or not.
+    EXPECT_GT(clear.dew_kg_m2[1], 0.0);
+    EXPECT_GT(clear.dew_kg_m2[1], clear.dew_kg_m2[2]);
+    std::printf("dew held at 06:00 UTC: grass %.4f, roof %.4f, side %.4f kg/m2\n",
+                clear.dew_kg_m2[0], clear.dew_kg_m2[1], clear.dew_kg_m2[2]);
 
     const Night cloudy = solve(overcast(w));
     const double grassO = cloudy.air_K - cloudy.grass_K, roofO = cloudy.air_K - cloudy.roof_K;
