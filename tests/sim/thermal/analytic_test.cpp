@@ -103,6 +103,33 @@ TEST(HeatBalanceAnalytic, PeriodicSurfaceTemperaturePenetration) {
     }
 }
 
+// Steady conduction through a composite wall (brick 0.1 m, k 0.72, over insulation 0.05 m,
+// k 0.04; the face held at 300 K, the back fixed at 280 K): the flux is ΔT/ΣR and the interface
+// sits at T_face − ΔT·R_brick/ΣR (series resistances; Incropera et al. §3.1.2).
+TEST(HeatBalanceAnalytic, CompositeWallSteadyStateFollowsSeriesResistances) {
+    ThermalMaterial m;
+    m.name = "wall";
+    m.layers.push_back({0.1, 0.72, 1920.0, 835.0});
+    m.layers.push_back({0.05, 0.04, 30.0, 1400.0});
+    m.back = BackBoundary::FixedTemperature;
+    m.backTemperature_K = 280.0;
+    finishMaterial(m);
+    SurfaceSolver s(m, Exposure{}, GridParams{}, 290.0);
+    for (int i = 0; i < 30 * 24; ++i)
+        s.stepPrescribedSurface(300.0, 290.0, 3600.0);
+    const double r1 = 0.1 / 0.72, r2 = 0.05 / 0.04;
+    const double flux = 20.0 / (r1 + r2);
+    EXPECT_NEAR(-s.lastFluxes().back_W_m2, flux, 1e-3 * flux);
+    const std::vector<double>& z = s.depths_m();
+    std::size_t at = 0;
+    for (std::size_t i = 0; i < z.size(); ++i)
+        if (std::abs(z[i] - 0.1) < std::abs(z[at] - 0.1)) at = i;
+    ASSERT_NEAR(z[at], 0.1, 1e-9);  // a node at the interface
+    EXPECT_NEAR(s.temperatures_K()[at], 300.0 - 20.0 * r1 / (r1 + r2), 1e-3);
+    std::printf("composite wall: back flux %.4f W/m2 (theory %.4f)\n", -s.lastFluxes().back_W_m2,
+                flux);
+}
+
 // The test can fail: a wrong diffusivity (conductivity doubled) misses theory by far more.
 TEST(HeatBalanceAnalytic, AWrongConductivityMissesTheory) {
     ThermalMaterial m = slab(1.5);
