@@ -5,8 +5,6 @@
 // Parameter table (name, unit, default, meaning, source):
 //   linkeTurbidity   –    3.0  Linke turbidity of the clear sky (rural mid-latitude
 //                              summer air, 3–3.5: Ineichen & Perez 2002, Fig. 4)
-//   groundAlbedo     –    0.2  short-wave reflectance of the ground a tilted surface sees
-//                              (grass 0.16–0.26: Oke, Boundary Layer Climates, Table 1.1)
 //   lapseRate_K_m    K/m  0.0065  cloud base temperature = air − Γ·base (ICAO standard
 //                              atmosphere, ISO 2533:1975)
 
@@ -17,9 +15,8 @@ namespace nvs::thermal {
 
 struct ForcingParams {
     double linkeTurbidity = 3.0;
-    double groundAlbedo = 0.2;
     double lapseRate_K_m = 0.0065;
-    double siteAltitude_m = 150.0;
+    double siteAltitude_m = 150.0;  // solveHeatBalance sets it from the site's height
 };
 
 struct SolarIrradiance {

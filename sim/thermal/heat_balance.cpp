@@ -2,9 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <fstream>
-#include <sstream>
 
 #include "sim/core/fnv.h"
 #include "sim/core/input_file.h"
@@ -199,9 +199,9 @@ std::uint64_t heatBalanceKey(const std::vector<SurfaceClass>& classes, const Wea
             hashValue(h, v);
     for (double v :
          {site.lat_deg, site.lon_deg, site.height_m, site.pressure_hPa, site.temperature_C,
-          site.relativeHumidity, p.forcing.linkeTurbidity, p.forcing.groundAlbedo,
-          p.forcing.lapseRate_K_m, p.forcing.siteAltitude_m, p.grid.firstCell_m, p.grid.growth,
-          p.grid.maxCell_m, p.dt_s, p.spinupTolerance_K, tableStart_s, tableEnd_s})
+          site.relativeHumidity, p.forcing.linkeTurbidity, p.forcing.lapseRate_K_m,
+          p.forcing.siteAltitude_m, p.grid.firstCell_m, p.grid.growth, p.grid.maxCell_m, p.dt_s,
+          p.spinupTolerance_K, tableStart_s, tableEnd_s})
         hashValue(h, v);
     hashValue(h, p.maxSpinupDays);
     return h.h;
@@ -231,8 +231,10 @@ SurfaceTemperatureTable solveHeatBalance(const std::vector<SurfaceClass>& classe
     }
     if (!rep.fromCache) {
         const std::size_t day = static_cast<std::size_t>(std::llround(86400.0 / p.dt_s));
+        ForcingParams fp = p.forcing;
+        fp.siteAltitude_m = site.height_m;
         const std::vector<ForcingSample> f =
-            forcingSeries(weather, site, p.forcing, t0, p.dt_s, std::max(last, day) + 1);
+            forcingSeries(weather, site, fp, t0, p.dt_s, std::max(last, day) + 1);
         double meanAir = 0.0;
         for (std::size_t i = 0; i < day; ++i)
             meanAir += f[i].weather.air_K / static_cast<double>(day);

@@ -37,6 +37,8 @@ struct GridParams {
 struct Exposure {
     Orientation orientation;
     double skyView = 1.0;  // sky-view factor F of the surface
+    // Short-wave reflectance of the ground the surface sees (grass 0.16–0.26: Oke, Boundary
+    // Layer Climates, Table 1.1).
     double groundAlbedo = 0.2;
     double deepTemperature_K = 0.0;  // > 0: replaces a fixed back's temperature
 };

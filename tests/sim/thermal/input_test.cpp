@@ -98,6 +98,20 @@ utc,air_temperature_C,dew_point_C,wind_speed_m_s,cloud_fraction,cloud_base_m
 1998-09-01T03:00Z,18,12,1.5,0.1,1500
 )";
 
+TEST(ThermalInput, WeatherTimesAndInterpolation) {
+    // POSIX time of 1998-09-02T00:00Z (Python calendar.timegm), with an offset applied.
+    EXPECT_EQ(utcSeconds("1998-09-02T00:00Z", "t"), 904694400.0);
+    EXPECT_EQ(utcSeconds("1998-09-01T20:00-04:00", "t"), 904694400.0);
+    EXPECT_EQ(utcSeconds("2000-03-01T00:00Z", "t") - utcSeconds("2000-02-28T00:00Z", "t"),
+              2.0 * 86400.0);  // a leap year
+    const WeatherSeries w = WeatherSeries::parse(kWeather, "w.csv");
+    const double t0 = utcSeconds("1998-09-01T00:00Z", "t");
+    EXPECT_NEAR(w.at(t0 + 1800.0).air_K, 19.5 + kCelsiusZero_K, 1e-9);
+    EXPECT_NEAR(w.at(t0 + 2.0 * 3600.0).air_K, 18.5 + kCelsiusZero_K, 1e-9);
+    EXPECT_NEAR(w.at(t0 - 1e6).air_K, 20.0 + kCelsiusZero_K, 1e-9);  // clamped
+    EXPECT_NEAR(w.at(t0 + 1e6).air_K, 18.0 + kCelsiusZero_K, 1e-9);
+}
+
 TEST(ThermalInput, WeatherGapOverThreeHoursNamesFileLine) {
     EXPECT_NO_THROW(WeatherSeries::parse(kWeather, "w.csv"));
     const std::string e =

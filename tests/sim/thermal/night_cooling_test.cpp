@@ -109,6 +109,31 @@ TEST(HeatBalanceNight, ClearLightWindGrassAndRoofBelowAirInMeasuredRanges) {
     EXPECT_LT(roofO, 0.5 * roof);
 }
 
+// The shipped overcast night (1998-08-20, the overcast-starlight scenario): no deficit to speak
+// of, against about 3–4 K on the clear file of the same date.
+TEST(HeatBalanceNight, ShippedOvercastNightBarelyCools) {
+    const MaterialLibrary lib = MaterialLibrary::load(kConfig + "materials.toml");
+    const std::vector<SurfaceClass> classes = {surface(lib, "grass", 0.0, 1.0),
+                                               surface(lib, "painted_metal", 0.0, 1.0)};
+    const double t = utcSeconds("1998-08-20T04:00Z", "test");
+    double deficit[2][2];
+    int k = 0;
+    for (const char* f : {"rochester-1998-08-20.csv", "rochester-1998-08-20-overcast.csv"}) {
+        const WeatherSeries w = WeatherSeries::load(kConfig + "weather/" + f);
+        const SurfaceTemperatureTable table =
+            solveHeatBalance(classes, w, rochester(), HeatBalanceParams{}, t, t);
+        for (int c = 0; c < 2; ++c)
+            deficit[k][c] = w.at(t).air_K - table.at(c, t);
+        ++k;
+    }
+    for (int c = 0; c < 2; ++c) {
+        EXPECT_GT(deficit[0][c], 1.0);
+        EXPECT_LT(deficit[1][c], 0.5 * deficit[0][c]);
+    }
+    std::printf("1998-08-20 04:00Z: clear grass %.2f, roof %.2f K below; overcast %.2f, %.2f\n",
+                deficit[0][0], deficit[0][1], deficit[1][0], deficit[1][1]);
+}
+
 TEST(HeatBalanceNight, CacheReturnsTheSameTableAndAPolishedFiducialIsColdest) {
     const WeatherSeries w = WeatherSeries::load(kConfig + "weather/rochester-1998-09-02.csv");
     const MaterialLibrary lib = MaterialLibrary::load(kConfig + "materials.toml");
