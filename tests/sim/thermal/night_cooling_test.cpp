@@ -18,6 +18,7 @@
 //    thesis (Appendix M) observed of the vehicle and aircraft tops.
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <cmath>
 #include <filesystem>
 
@@ -153,6 +154,27 @@ TEST(HeatBalanceNight, CacheReturnsTheSameTableAndAPolishedFiducialIsColdest) {
     EXPECT_TRUE(b.fromCache);
     EXPECT_TRUE(std::filesystem::exists(a.cacheFile));
     EXPECT_EQ(t1.data(), t2.data());
+    // A damaged cache file is not trusted: solved again and rewritten.
+    std::filesystem::resize_file(a.cacheFile, 40);
+    HeatBalanceReport c;
+    const SurfaceTemperatureTable t3 =
+        solveHeatBalance(classes, w, rochester(), HeatBalanceParams{}, t - 600.0, t, dir, &c);
+    EXPECT_FALSE(c.fromCache);
+    EXPECT_EQ(t3.data(), t1.data());
+    EXPECT_GT(std::filesystem::file_size(a.cacheFile), 40u);
+    // Another input, another key.
+    std::vector<SurfaceClass> other = classes;
+    other[0].exposure.skyView = 0.9;
+    EXPECT_NE(heatBalanceKey(other, w, rochester(), HeatBalanceParams{}, t - 600.0, t),
+              heatBalanceKey(classes, w, rochester(), HeatBalanceParams{}, t - 600.0, t));
+    // A cache folder that does not exist is a set-up error naming it.
+    try {
+        solveHeatBalance(classes, w, rochester(), HeatBalanceParams{}, t - 600.0, t,
+                         dir / "missing");
+        ADD_FAILURE() << "no error";
+    } catch (const SetupError& e) {
+        EXPECT_NE(std::string(e.what()).find("missing"), std::string::npos);
+    }
     // The fiducial (ε 0.05) loses almost nothing by radiation: its true temperature stays near
     // the air, but it emits 5 % of a blackbody: its radiance is far below the grass's.
     const double air = w.at(t).air_K;
@@ -175,8 +197,12 @@ TEST(HeatBalanceNight, StateOfManyClassesStaysFarBelow256MB) {
         classes.push_back(surface(lib, "painted_metal", 5.0 * i, 1.0 - i / 32.0));
     const double t = utcSeconds("1998-09-02T06:00Z", "test");
     HeatBalanceReport rep;
+    const auto start = std::chrono::steady_clock::now();
     const SurfaceTemperatureTable table = solveHeatBalance(
         classes, w, rochester(), HeatBalanceParams{}, t - 5.0 * 3600.0, t, {}, &rep);
+    const double seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    std::printf("16 classes solved in %.2f s (forcing series and spin-up included)\n", seconds);
     // Per class: the solver (nodes and work arrays) and its table row; shared: the forcing.
     EXPECT_LT(rep.stateBytes, 256u << 20);
     std::printf("16 classes, 5 h table: state %zu bytes, table %zu bytes\n", rep.stateBytes,
