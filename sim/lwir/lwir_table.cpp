@@ -1,0 +1,245 @@
+#include "sim/lwir/lwir_table.h"
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+
+#include "sim/core/error.h"
+#include "sim/core/fnv.h"
+#include "sim/core/units.h"
+
+namespace nvs::lwir {
+namespace {
+
+constexpr char kMagic[8] = {'N', 'V', 'S', 'L', 'W', 'I', 'R', 'T'};
+inline double logSpan() {
+    return std::log(LwirTable::kMaxRange_m / LwirTable::kMinRange_m);
+}
+
+std::uint64_t hashInputs(const LwirTableInputs& in, const AbsorptionData& data) {
+    Fnv1a f;
+    const std::uint32_t v = LwirTable::kFormatVersion;
+    f.bytes(&v, sizeof v);
+    const std::uint64_t d = data.hash(), b = in.band.hash();
+    f.bytes(&d, sizeof d);
+    f.bytes(&b, sizeof b);
+    f.bytes(&in.air, sizeof in.air);  // all doubles: no padding
+    f.bytes(&in.sky, sizeof in.sky);
+    return f.h;
+}
+
+double rangeAt(int k) {
+    return LwirTable::kMinRange_m * std::exp(logSpan() * k / (LwirTable::kRanges - 1));
+}
+
+void validateAir(const AirState& a) {
+    if (!(a.vapourPressure_Pa >= 0.0)) throw SetupError("lwir: water vapour pressure is negative");
+    if (!(a.temperature_K > 180.0 && a.temperature_K < 340.0)) {
+        throw SetupError("lwir: air temperature out of 180–340 K");
+    }
+    if (!(a.pressure_Pa > 3e4 && a.pressure_Pa < 1.1e5)) {
+        throw SetupError("lwir: pressure out of 300–1100 hPa");
+    }
+    if (!(a.co2_ppm >= 0.0 && a.o3_ppb >= 0.0)) throw SetupError("lwir: negative gas amount");
+}
+
+}  // namespace
+
+std::string LwirTable::cacheKey(const LwirTableInputs& inputs,
+                                const std::filesystem::path& configDir) {
+    char buf[17];
+    std::snprintf(
+        buf, sizeof buf, "%016llx",
+        static_cast<unsigned long long>(hashInputs(inputs, AbsorptionData::load(configDir))));
+    return buf;
+}
+
+LwirTable LwirTable::build(const LwirTableInputs& in, const std::filesystem::path& configDir) {
+    validateAir(in.air);
+    in.sky.validate();
+    const AbsorptionData data = AbsorptionData::load(configDir);
+    LwirTable t;
+    for (int k = 0; k < kRanges; ++k) {
+        const PathBand p = horizontalPath(data, in.band, in.air, rangeAt(k));
+        t.logTau_.push_back(std::log(std::max(p.transmittance, 1e-300)));
+        t.path_.push_back(p.pathRadiance_W_m2_sr);
+    }
+    t.sky_ = skyBandRadianceProfile(data, in.band, in.sky, kZeniths);
+    t.skyEmittance_ = skyBandEmittance(in.band, in.sky, t.sky_);
+    for (int k = 0; k < kTemperatures; ++k) {
+        t.planck_.push_back(
+            bandRadiance_W_m2_sr(in.band, kMinTemperature_K + kTemperatureStep_K * k));
+    }
+    return t;
+}
+
+PathBand LwirTable::path(double range_m) const {
+    PathBand out;
+    if (!(range_m > 0.0)) return out;
+    if (range_m < kMinRange_m) {
+        const double f = range_m / kMinRange_m;
+        out.transmittance = 1.0 - f * (1.0 - std::exp(logTau_[0]));
+        out.pathRadiance_W_m2_sr = f * path_[0];
+        return out;
+    }
+    double u = std::log(range_m / kMinRange_m) / logSpan() * (kRanges - 1);
+    u = std::min(u, kRanges - 1 - 1e-9);
+    const int i = static_cast<int>(u);
+    const double f = u - i;
+    out.transmittance = std::exp(logTau_[i] * (1.0 - f) + logTau_[i + 1] * f);
+    out.pathRadiance_W_m2_sr = path_[i] * (1.0 - f) + path_[i + 1] * f;
+    return out;
+}
+
+double LwirTable::skyRadiance_W_m2_sr(double zenith_rad) const {
+    double u = std::clamp(zenith_rad * kDegPerRad, 0.0, 90.0);
+    u = std::min(u, kZeniths - 1 - 1e-9);
+    const int i = static_cast<int>(u);
+    const double f = u - i;
+    return sky_[i] * (1.0 - f) + sky_[i + 1] * f;
+}
+
+double LwirTable::blackbody_W_m2_sr(double temperature_K) const {
+    double u = (temperature_K - kMinTemperature_K) / kTemperatureStep_K;
+    u = std::clamp(u, 0.0, kTemperatures - 1 - 1e-9);
+    const int i = static_cast<int>(u);
+    const double f = u - i;
+    return planck_[i] * (1.0 - f) + planck_[i + 1] * f;
+}
+
+double LwirTable::brightnessTemperature_K(double radiance_W_m2_sr) const {
+    // B_band rises with T: bisect the tabulated curve, then interpolate linearly.
+    if (radiance_W_m2_sr <= planck_.front()) return kMinTemperature_K;
+    if (radiance_W_m2_sr >= planck_.back()) {
+        return kMinTemperature_K + kTemperatureStep_K * (kTemperatures - 1);
+    }
+    const auto it = std::upper_bound(planck_.begin(), planck_.end(), radiance_W_m2_sr);
+    const int i = static_cast<int>(it - planck_.begin()) - 1;
+    const double f = (radiance_W_m2_sr - planck_[i]) / (planck_[i + 1] - planck_[i]);
+    return kMinTemperature_K + kTemperatureStep_K * (i + f);
+}
+
+// ---- cache ----------------------------------------------------------------------------------
+
+namespace {
+
+void putVec(std::string* out, const std::vector<double>& v) {
+    const std::uint64_t n = v.size();
+    out->append(reinterpret_cast<const char*>(&n), sizeof n);
+    out->append(reinterpret_cast<const char*>(v.data()), n * sizeof(double));
+}
+
+bool getVec(const std::string& in, std::size_t* pos, std::vector<double>* v, std::size_t expect) {
+    std::uint64_t n = 0;
+    if (*pos + sizeof n > in.size()) return false;
+    std::memcpy(&n, in.data() + *pos, sizeof n);
+    *pos += sizeof n;
+    if (n != expect || *pos + n * sizeof(double) > in.size()) return false;
+    v->resize(n);
+    std::memcpy(v->data(), in.data() + *pos, n * sizeof(double));
+    *pos += n * sizeof(double);
+    return true;
+}
+
+}  // namespace
+
+void LwirTable::save(const std::filesystem::path& file, std::uint64_t key) const {
+    std::string payload;
+    putVec(&payload, logTau_);
+    putVec(&payload, path_);
+    putVec(&payload, sky_);
+    putVec(&payload, planck_);
+    payload.append(reinterpret_cast<const char*>(&skyEmittance_), sizeof skyEmittance_);
+    Fnv1a sum;
+    sum.bytes(payload.data(), payload.size());
+    std::error_code ec;
+    std::filesystem::create_directories(file.parent_path(), ec);
+    const auto tmp = file.string() + ".tmp." + std::to_string(::getpid());
+    {
+        std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+        out.write(kMagic, sizeof kMagic);
+        const std::uint32_t version = kFormatVersion;
+        out.write(reinterpret_cast<const char*>(&version), sizeof version);
+        out.write(reinterpret_cast<const char*>(&key), sizeof key);
+        const std::uint64_t size = payload.size();
+        out.write(reinterpret_cast<const char*>(&size), sizeof size);
+        out.write(payload.data(), static_cast<std::streamsize>(payload.size()));
+        out.write(reinterpret_cast<const char*>(&sum.h), sizeof sum.h);
+        if (!out) {
+            std::filesystem::remove(tmp, ec);
+            std::fprintf(stderr, "nvstim: warning: could not write LWIR cache %s\n", file.c_str());
+            return;
+        }
+    }
+    std::filesystem::rename(tmp, file, ec);
+    if (ec) std::filesystem::remove(tmp, ec);
+}
+
+bool LwirTable::load(const std::filesystem::path& file, std::uint64_t key, std::string* why) {
+    std::ifstream in(file, std::ios::binary);
+    if (!in) return (*why = "no cache file", false);
+    const std::string data((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    const std::size_t head = sizeof kMagic + sizeof(std::uint32_t) + 2 * sizeof(std::uint64_t);
+    if (data.size() < head + sizeof(std::uint64_t) ||
+        std::memcmp(data.data(), kMagic, sizeof kMagic) != 0) {
+        return (*why = "not an nvstim LWIR table", false);
+    }
+    std::uint32_t version = 0;
+    std::uint64_t fileKey = 0, size = 0, stored = 0;
+    std::memcpy(&version, data.data() + 8, sizeof version);
+    std::memcpy(&fileKey, data.data() + 12, sizeof fileKey);
+    std::memcpy(&size, data.data() + 20, sizeof size);
+    if (version != kFormatVersion) return (*why = "format version mismatch", false);
+    if (fileKey != key) return (*why = "key mismatch (stale)", false);
+    if (data.size() != head + size + sizeof(std::uint64_t)) return (*why = "truncated", false);
+    const std::string payload = data.substr(head, size);
+    std::memcpy(&stored, data.data() + head + size, sizeof stored);
+    Fnv1a sum;
+    sum.bytes(payload.data(), payload.size());
+    if (sum.h != stored) return (*why = "checksum mismatch (corrupt)", false);
+    LwirTable t;
+    std::size_t pos = 0;
+    if (!getVec(payload, &pos, &t.logTau_, kRanges) || !getVec(payload, &pos, &t.path_, kRanges) ||
+        !getVec(payload, &pos, &t.sky_, kZeniths) ||
+        !getVec(payload, &pos, &t.planck_, kTemperatures) ||
+        pos + sizeof t.skyEmittance_ != payload.size()) {
+        return (*why = "malformed payload", false);
+    }
+    std::memcpy(&t.skyEmittance_, payload.data() + pos, sizeof t.skyEmittance_);
+    *this = std::move(t);
+    return true;
+}
+
+LwirTable LwirTable::loadOrBuild(const LwirTableInputs& inputs, const DataDirs& dirs,
+                                 bool* rebuilt) {
+    validateAir(inputs.air);
+    inputs.sky.validate();
+    if (dirs.cache.empty()) {
+        if (rebuilt != nullptr) *rebuilt = true;
+        return build(inputs, dirs.config);
+    }
+    const std::uint64_t key = hashInputs(inputs, AbsorptionData::load(dirs.config));
+    char name[40];
+    std::snprintf(name, sizeof name, "lwir-%016llx.bin", static_cast<unsigned long long>(key));
+    const auto file = dirs.cache / name;
+    LwirTable t;
+    std::string why;
+    if (t.load(file, key, &why)) {
+        if (rebuilt != nullptr) *rebuilt = false;
+        return t;
+    }
+    if (why != "no cache file") {
+        std::fprintf(stderr, "nvstim: LWIR cache %s unusable (%s); rebuilding\n", file.c_str(),
+                     why.c_str());
+    }
+    t = build(inputs, dirs.config);
+    t.save(file, key);
+    if (rebuilt != nullptr) *rebuilt = true;
+    return t;
+}
+
+}  // namespace nvs::lwir

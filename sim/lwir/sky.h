@@ -1,0 +1,52 @@
+#pragma once
+// Down-welling sky radiance in the thermal band against zenith angle (docs/lwir.md §4).
+//
+// Clear sky: a layered atmosphere from the ground to 40 km, integrated along the slant path
+// (spherical shells, no refraction):
+//   T(z) = T_air − Γ z up to the tropopause z_t, isothermal above   (US Standard Atmosphere
+//          1976, NOAA-S/T 76-1562: Γ = 6.5 K km⁻¹, z_t = 11 km)
+//   p(z) = p0 (T/T_air)^(g/(R_d Γ)) below z_t, exponential above (hydrostatic, the same source)
+//   ρ_w(z) = ρ_w(0) exp(−z/H_w), H_w = 2 km, capped at saturation (the mid-latitude summer
+//          profile of Anderson et al. 1986, AFGL-TR-86-0110, falls by e in ≈ 2 km below 4 km)
+//   CO2 well mixed; O3: the surface mixing ratio below z_t plus a Gaussian layer at 22 km,
+//          σ 5 km, holding the column (300 DU by default)
+//   L(λ, θ) = Σ_k B(λ, T_k) [t(0→z_k) − t(0→z_{k+1})]   (t by Curtis–Godson, absorption.h)
+// Clouds: a blackbody at the base, T_c = T_air − Γ z_base, seen through the sub-cloud path;
+//   L = (1 − f) L_clear + f [L_sub(θ) + t_sub(θ) B(T_c)], f the cloud fraction.
+// Setup-time code (the table, lwir_table.h, is what runs per pixel).
+
+#include "sim/lwir/absorption.h"
+#include "sim/lwir/band.h"
+
+namespace nvs::lwir {
+
+struct SkyParams {
+    double airTemperature_K = 288.15;
+    double vapourPressure_Pa = 1000.0;  // at screen level
+    double pressure_Pa = 101325.0;
+    double lapseRate_K_m = 0.0065;
+    double tropopause_m = 11000.0;
+    double waterScaleHeight_m = 2000.0;
+    double co2_ppm = 420.0;
+    double o3Surface_ppb = 30.0;
+    double o3Column_DU = 300.0;
+    double cloudFraction = 0.0;  // 0–1
+    double cloudBase_m = 1000.0;
+
+    // Throws SetupError on a value out of range.
+    void validate() const;
+    double cloudTemperature_K() const;
+};
+
+// Band radiance of the sky at zenith angle θ (0–90°) [W m⁻² sr⁻¹].
+double skyBandRadiance_W_m2_sr(const AbsorptionData& data, const BandResponse& band,
+                               const SkyParams& sky, double zenith_rad);
+// The same at `count` zenith angles from 0 to 90° inclusive, equally spaced (count ≥ 2).
+std::vector<double> skyBandRadianceProfile(const AbsorptionData& data, const BandResponse& band,
+                                           const SkyParams& sky, int count);
+// Band emittance of the sky: its hemispheric down-welling band irradiance over that of a
+// blackbody at the air temperature, ∫L cosθ dΩ / (π B_band(T_air)), from a profile as above.
+double skyBandEmittance(const BandResponse& band, const SkyParams& sky,
+                        const std::vector<double>& profile_W_m2_sr);
+
+}  // namespace nvs::lwir

@@ -1,0 +1,141 @@
+// The LWIR table: a blackbody panel through the tabulated path against a direct spectral
+// integration, the lookups' limits, and the cache.
+#include "sim/lwir/lwir_table.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <fstream>
+
+#include "sim/core/error.h"
+#include "sim/core/planck.h"
+#include "tests/sim/lwir/lwir_test_common.h"
+
+namespace nvs::lwir {
+namespace {
+
+LwirTableInputs inputs() {
+    LwirTableInputs in;
+    in.air.temperature_K = 288.15;
+    in.air.vapourPressure_Pa = 1400.0;
+    in.sky.airTemperature_K = 288.15;
+    in.sky.vapourPressure_Pa = 1400.0;
+    in.band = BandResponse::flat(7.5, 13.5);
+    return in;
+}
+
+const LwirTable& table() {
+    static const LwirTable t = LwirTable::build(inputs(), nvs::test::configDir());
+    return t;
+}
+
+// ∫_{7.5}^{13.5} [τ(λ) B(λ, T) + (1 − τ(λ)) B(λ, T_air)] dλ by Simpson's rule every 1 nm, with
+// τ(λ) from the spectral model interpolated linearly in wavenumber: independent of the table's
+// grid weights, band averaging and range interpolation.
+double direct(double panel_K, double range_m) {
+    const LwirTableInputs in = inputs();
+    const Spectral tau = homogeneousTransmittance(test::data(), in.air, range_m);
+    const auto tauAt = [&](double um) {
+        const double u = (1e4 / um - Grid::kFirst_cm1) / Grid::kStep_cm1;
+        const int i = static_cast<int>(u);
+        const double f = u - i;
+        return tau[i] * (1.0 - f) + tau[i + 1] * f;
+    };
+    const auto f = [&](double um) {
+        const double t = tauAt(um);
+        return (t * planckSpectralRadiance_W_m2_sr_m(um * 1e-6, panel_K) +
+                (1.0 - t) * planckSpectralRadiance_W_m2_sr_m(um * 1e-6, in.air.temperature_K)) *
+               1e-6;
+    };
+    const int n = 6000;
+    const double h = 6.0 / n;
+    double s = f(7.5) + f(13.5);
+    for (int k = 1; k < n; ++k)
+        s += (k % 2 ? 4.0 : 2.0) * f(7.5 + k * h);
+    return s * h / 3.0;
+}
+
+TEST(LwirTable, BlackbodyPanelWithinOnePercentOfDirectIntegration) {
+    for (double panel : {263.15, 300.0, 330.0}) {
+        for (double r : {10.0, 1000.0}) {
+            const double viaTable = table().apertureRadiance_W_m2_sr(1.0, panel, 0.0, r);
+            const double ref = direct(panel, r);
+            EXPECT_NEAR(viaTable / ref, 1.0, 0.01) << panel << " K at " << r << " m";
+        }
+    }
+}
+
+TEST(LwirTable, RangeLimits) {
+    // τ → 1 and L_path → 0 as r → 0; τ falls and L_path rises with range; L_path → B_band(T_air)
+    // as τ → 0 (checked on the direct path, band_test.cpp).
+    EXPECT_DOUBLE_EQ(table().path(0.0).transmittance, 1.0);
+    EXPECT_GT(table().path(1e-3).transmittance, 0.99999);
+    EXPECT_LT(table().path(1e-3).pathRadiance_W_m2_sr, 1e-4);
+    double prevT = 1.0, prevL = 0.0;
+    for (double r = 0.5; r < 20000.0; r *= 1.7) {
+        const PathBand p = table().path(r);
+        EXPECT_LT(p.transmittance, prevT);
+        EXPECT_GT(p.pathRadiance_W_m2_sr, prevL);
+        prevT = p.transmittance;
+        prevL = p.pathRadiance_W_m2_sr;
+    }
+}
+
+TEST(LwirTable, LookupsMatchTheDirectComputation) {
+    const LwirTableInputs in = inputs();
+    for (double r : {3.3, 77.0, 4321.0}) {
+        const PathBand d = horizontalPath(test::data(), in.band, in.air, r);
+        const PathBand t = table().path(r);
+        EXPECT_NEAR(t.transmittance / d.transmittance, 1.0, 2e-3) << r;
+        EXPECT_NEAR(t.pathRadiance_W_m2_sr / d.pathRadiance_W_m2_sr, 1.0, 5e-3) << r;
+    }
+    for (double t : {250.0, 288.15, 310.3}) {
+        EXPECT_NEAR(table().blackbody_W_m2_sr(t) / planckBandRadiance_W_m2_sr(7.5, 13.5, t), 1.0,
+                    1e-3);
+        EXPECT_NEAR(table().brightnessTemperature_K(table().blackbody_W_m2_sr(t)), t, 1e-6);
+    }
+    const double z = 0.7;
+    EXPECT_NEAR(
+        table().skyRadiance_W_m2_sr(z) / skyBandRadiance_W_m2_sr(test::data(), in.band, in.sky, z),
+        1.0, 2e-3);
+}
+
+std::filesystem::path freshDir(const char* name) {
+    const auto d = std::filesystem::temp_directory_path() / name;
+    std::filesystem::remove_all(d);
+    return d;
+}
+
+TEST(LwirTable, CacheIsReusedAndRebuiltWhenCorrupt) {
+    const DataDirs dirs{nvs::test::configDir(), freshDir("nvs_lwir_cache")};
+    bool rebuilt = false;
+    const LwirTable a = LwirTable::loadOrBuild(inputs(), dirs, &rebuilt);
+    EXPECT_TRUE(rebuilt);
+    const LwirTable b = LwirTable::loadOrBuild(inputs(), dirs, &rebuilt);
+    EXPECT_FALSE(rebuilt);
+    EXPECT_EQ(a.path(123.0).transmittance, b.path(123.0).transmittance);
+    EXPECT_EQ(a.skyRadiance_W_m2_sr(0.4), b.skyRadiance_W_m2_sr(0.4));
+    // Another night is another key.
+    LwirTableInputs wet = inputs();
+    wet.air.vapourPressure_Pa = 2000.0;
+    EXPECT_NE(LwirTable::cacheKey(wet, dirs.config), LwirTable::cacheKey(inputs(), dirs.config));
+    // Flip a byte in the payload: detected and rebuilt.
+    const auto file = dirs.cache / ("lwir-" + LwirTable::cacheKey(inputs(), dirs.config) + ".bin");
+    {
+        std::fstream f(file, std::ios::in | std::ios::out | std::ios::binary);
+        f.seekp(100);
+        f.put('\x5a');
+    }
+    LwirTable::loadOrBuild(inputs(), dirs, &rebuilt);
+    EXPECT_TRUE(rebuilt);
+}
+
+TEST(LwirTable, BadInputThrows) {
+    LwirTableInputs in = inputs();
+    in.air.vapourPressure_Pa = -1.0;
+    EXPECT_THROW(LwirTable::build(in, nvs::test::configDir()), SetupError);
+    EXPECT_THROW(LwirTable::build(inputs(), "/nonexistent/config"), SetupError);
+}
+
+}  // namespace
+}  // namespace nvs::lwir
