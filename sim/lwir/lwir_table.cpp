@@ -70,6 +70,7 @@ LwirTable LwirTable::build(const LwirTableInputs& in, const std::filesystem::pat
     }
     t.sky_ = skyBandRadianceProfile(data, in.band, in.sky, kZeniths);
     t.skyEmittance_ = skyBandEmittance(in.band, in.sky, t.sky_);
+    t.skyDiffuse_ = t.skyEmittance_ * bandRadiance_W_m2_sr(in.band, in.sky.airTemperature_K);
     for (int k = 0; k < kTemperatures; ++k) {
         t.planck_.push_back(
             bandRadiance_W_m2_sr(in.band, kMinTemperature_K + kTemperatureStep_K * k));
@@ -154,6 +155,7 @@ void LwirTable::save(const std::filesystem::path& file, std::uint64_t key) const
     putVec(&payload, sky_);
     putVec(&payload, planck_);
     payload.append(reinterpret_cast<const char*>(&skyEmittance_), sizeof skyEmittance_);
+    payload.append(reinterpret_cast<const char*>(&skyDiffuse_), sizeof skyDiffuse_);
     Fnv1a sum;
     sum.bytes(payload.data(), payload.size());
     std::error_code ec;
@@ -206,10 +208,11 @@ bool LwirTable::load(const std::filesystem::path& file, std::uint64_t key, std::
     if (!getVec(payload, &pos, &t.logTau_, kRanges) || !getVec(payload, &pos, &t.path_, kRanges) ||
         !getVec(payload, &pos, &t.sky_, kZeniths) ||
         !getVec(payload, &pos, &t.planck_, kTemperatures) ||
-        pos + sizeof t.skyEmittance_ != payload.size()) {
+        pos + 2 * sizeof(double) != payload.size()) {
         return (*why = "malformed payload", false);
     }
     std::memcpy(&t.skyEmittance_, payload.data() + pos, sizeof t.skyEmittance_);
+    std::memcpy(&t.skyDiffuse_, payload.data() + pos + sizeof(double), sizeof t.skyDiffuse_);
     *this = std::move(t);
     return true;
 }

@@ -9,6 +9,7 @@
 //   skyRadiance(θ)       sky band radiance against zenith angle, 0–90° every 1°
 //   blackbody(T)         B_band(T), 150–400 K every 0.5 K; brightnessTemperature(L) its inverse
 //   apertureRadiance     τ(r) [ε B(T) + (1 − ε) L_reflected] + L_path(r)
+//   skyDiffuseRadiance   E_sky/π, the sky a horizontal Lambertian surface reflects
 //
 // Cache file: <DataDirs::cache>/lwir-<key>.bin, key = hash of the coefficients, the band, the
 // air, the sky and the format version; a stale, truncated or corrupt file is rebuilt.
@@ -62,8 +63,10 @@ class LwirTable {
                                   (1.0 - emissivity) * reflected_W_m2_sr) +
                p.pathRadiance_W_m2_sr;
     }
-    // Hemispheric band emittance of the sky (the table's angles).
+    // Hemispheric band emittance of the sky (the table's angles), and the sky radiance a
+    // horizontal diffuse (Lambertian) surface reflects, E_sky/π = ε_sky B_band(T_air).
     double skyEmittance() const { return skyEmittance_; }
+    double skyDiffuseRadiance_W_m2_sr() const { return skyDiffuse_; }
 
     void save(const std::filesystem::path& file, std::uint64_t key) const;
     bool load(const std::filesystem::path& file, std::uint64_t key, std::string* why);
@@ -74,6 +77,7 @@ class LwirTable {
     std::vector<double> sky_;     // [kZeniths]
     std::vector<double> planck_;  // [kTemperatures]
     double skyEmittance_ = 0.0;
+    double skyDiffuse_ = 0.0;
 };
 
 }  // namespace nvs::lwir

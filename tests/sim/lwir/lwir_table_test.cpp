@@ -94,6 +94,22 @@ TEST(LwirTable, LookupsMatchTheDirectComputation) {
                     1e-3);
         EXPECT_NEAR(table().brightnessTemperature_K(table().blackbody_W_m2_sr(t)), t, 1e-6);
     }
+    // E_sky/π = 2 ∫ L(θ) cosθ sinθ dθ: a 3-point-per-degree Simpson sum of the direct sky.
+    {
+        const int n = 90;
+        const double h = 0.5 * 3.14159265358979323846 / n;
+        double s = 0.0;
+        for (int k = 0; k <= n; ++k) {
+            const double th = k * h;
+            const double w = (k == 0 || k == n) ? 1.0 : (k % 2 ? 4.0 : 2.0);
+            s += w * skyBandRadiance_W_m2_sr(test::data(), in.band, in.sky, th) * std::cos(th) *
+                 std::sin(th);
+        }
+        EXPECT_NEAR(table().skyDiffuseRadiance_W_m2_sr() / (2.0 * s * h / 3.0), 1.0, 2e-3);
+        // Between the zenith's radiance and the horizon's.
+        EXPECT_GT(table().skyDiffuseRadiance_W_m2_sr(), table().skyRadiance_W_m2_sr(0.0));
+        EXPECT_LT(table().skyDiffuseRadiance_W_m2_sr(), table().skyRadiance_W_m2_sr(1.5707));
+    }
     const double z = 0.7;
     EXPECT_NEAR(
         table().skyRadiance_W_m2_sr(z) / skyBandRadiance_W_m2_sr(test::data(), in.band, in.sky, z),
