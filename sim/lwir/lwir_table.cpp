@@ -11,6 +11,7 @@
 #include "sim/core/error.h"
 #include "sim/core/fnv.h"
 #include "sim/core/units.h"
+#include "sim/lwir/humidity.h"
 
 namespace nvs::lwir {
 namespace {
@@ -48,6 +49,30 @@ void validateAir(const AirState& a) {
 }
 
 }  // namespace
+
+LwirTableInputs LwirTableInputs::fromWeather(double airTemperature_K, double dewPoint_K,
+                                             double pressure_Pa, double cloudFraction,
+                                             double cloudBase_m, const BandResponse& band) {
+    if (!(dewPoint_K <= airTemperature_K + 0.1)) {
+        throw SetupError("lwir: dew point " + std::to_string(dewPoint_K) +
+                         " K is above the air temperature " + std::to_string(airTemperature_K) +
+                         " K");
+    }
+    LwirTableInputs in;
+    in.air.temperature_K = airTemperature_K;
+    in.air.pressure_Pa = pressure_Pa;
+    in.air.vapourPressure_Pa = vapourPressureFromDewPoint_Pa(dewPoint_K);
+    in.sky.airTemperature_K = airTemperature_K;
+    in.sky.pressure_Pa = pressure_Pa;
+    in.sky.vapourPressure_Pa = in.air.vapourPressure_Pa;
+    in.sky.co2_ppm = in.air.co2_ppm;
+    in.sky.cloudFraction = cloudFraction;
+    in.sky.cloudBase_m = cloudBase_m;
+    in.band = band;
+    validateAir(in.air);
+    in.sky.validate();
+    return in;
+}
 
 std::string LwirTable::cacheKey(const LwirTableInputs& inputs,
                                 const std::filesystem::path& configDir) {
@@ -97,7 +122,9 @@ PathBand LwirTable::path(double range_m) const {
 }
 
 double LwirTable::skyRadiance_W_m2_sr(double zenith_rad) const {
-    double u = std::clamp(zenith_rad * kDegPerRad, 0.0, 90.0);
+    // NaN and negative angles read the zenith (no undefined float-to-int conversion).
+    double u = zenith_rad * kDegPerRad;
+    if (!(u > 0.0)) u = 0.0;
     u = std::min(u, kZeniths - 1 - 1e-9);
     const int i = static_cast<int>(u);
     const double f = u - i;
@@ -106,7 +133,8 @@ double LwirTable::skyRadiance_W_m2_sr(double zenith_rad) const {
 
 double LwirTable::blackbody_W_m2_sr(double temperature_K) const {
     double u = (temperature_K - kMinTemperature_K) / kTemperatureStep_K;
-    u = std::clamp(u, 0.0, kTemperatures - 1 - 1e-9);
+    if (!(u > 0.0)) u = 0.0;
+    u = std::min(u, kTemperatures - 1 - 1e-9);
     const int i = static_cast<int>(u);
     const double f = u - i;
     return planck_[i] * (1.0 - f) + planck_[i + 1] * f;
@@ -114,7 +142,7 @@ double LwirTable::blackbody_W_m2_sr(double temperature_K) const {
 
 double LwirTable::brightnessTemperature_K(double radiance_W_m2_sr) const {
     // B_band rises with T: bisect the tabulated curve, then interpolate linearly.
-    if (radiance_W_m2_sr <= planck_.front()) return kMinTemperature_K;
+    if (!(radiance_W_m2_sr > planck_.front())) return kMinTemperature_K;
     if (radiance_W_m2_sr >= planck_.back()) {
         return kMinTemperature_K + kTemperatureStep_K * (kTemperatures - 1);
     }

@@ -30,6 +30,13 @@ struct LwirTableInputs {
     AirState air;   // screen-level air for horizontal paths
     SkyParams sky;  // the sky; its air temperature, vapour and pressure should match `air`
     BandResponse band = BandResponse::flat(7.5, 13.5);
+
+    // The inputs of one night from its weather: screen-level air temperature and dew point,
+    // station pressure, cloud fraction (0–1) and base; the other sky parameters default.
+    // A dew point above the air temperature (by more than 0.1 K) is a SetupError.
+    static LwirTableInputs fromWeather(double airTemperature_K, double dewPoint_K,
+                                       double pressure_Pa, double cloudFraction, double cloudBase_m,
+                                       const BandResponse& band);
 };
 
 class LwirTable {

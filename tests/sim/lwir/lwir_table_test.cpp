@@ -146,6 +146,32 @@ TEST(LwirTable, CacheIsReusedAndRebuiltWhenCorrupt) {
     EXPECT_TRUE(rebuilt);
 }
 
+TEST(LwirTable, LookupsSurviveNonFiniteInput) {
+    const double nan = std::nan("");
+    EXPECT_DOUBLE_EQ(table().path(nan).transmittance, 1.0);
+    EXPECT_DOUBLE_EQ(table().skyRadiance_W_m2_sr(nan), table().skyRadiance_W_m2_sr(0.0));
+    EXPECT_DOUBLE_EQ(table().blackbody_W_m2_sr(nan), table().blackbody_W_m2_sr(150.0));
+    EXPECT_DOUBLE_EQ(table().brightnessTemperature_K(nan), 150.0);
+    EXPECT_GT(table().path(1e9).transmittance, 0.0);  // beyond 20 km: the 20 km value
+    EXPECT_DOUBLE_EQ(table().path(1e9).transmittance, table().path(20000.0).transmittance);
+}
+
+TEST(LwirTable, InputsFromWeather) {
+    const LwirTableInputs in = LwirTableInputs::fromWeather(288.15, 278.15, 100000.0, 0.25, 800.0,
+                                                            BandResponse::flat(8, 14));
+    // Magnus at 5 °C: 610.94 exp(17.625·5/248.04) = 872.5 Pa (IAPWS-95: 872.6 Pa).
+    EXPECT_NEAR(in.air.vapourPressure_Pa, 872.6, 1.5);
+    EXPECT_EQ(in.sky.vapourPressure_Pa, in.air.vapourPressure_Pa);
+    EXPECT_EQ(in.sky.pressure_Pa, 100000.0);
+    EXPECT_EQ(in.sky.cloudFraction, 0.25);
+    EXPECT_THROW(
+        LwirTableInputs::fromWeather(280.0, 285.0, 1e5, 0.0, 1000.0, BandResponse::flat(8, 14)),
+        SetupError);
+    EXPECT_THROW(
+        LwirTableInputs::fromWeather(280.0, 275.0, 1e5, 1.5, 1000.0, BandResponse::flat(8, 14)),
+        SetupError);
+}
+
 TEST(LwirTable, BadInputThrows) {
     LwirTableInputs in = inputs();
     in.air.vapourPressure_Pa = -1.0;
