@@ -1,5 +1,6 @@
 #include "sim/lwir/absorption.h"
 
+#include <algorithm>
 #include <cmath>
 #include <string>
 
@@ -190,7 +191,7 @@ void PathAbsorption::add(const AirState& s, double length_m) {
         const double pe = pAtm * (1.0 + (b.b - 1.0) * fractions[k]);
         y[k] = b.beta0 * std::sqrt(b.tBeta_K / t) * std::pow(pe, b.n);
     }
-    for (int i = 0; i < Grid::kSize; ++i) {
+    for (int i = lo_; i <= hi_; ++i) {
         continuumDepth_[i] += continuumBase_cm2_atm_[i] * cont;
         if (h2oK_[i] > 0.0) {
             const double w = h2oK_[i] * std::exp(h2oA_[i] * dT + h2oB_[i] * dT * dT) * water_g_cm2;
@@ -207,6 +208,11 @@ void PathAbsorption::add(const AirState& s, double length_m) {
             wy_[k + 1][i] += w * y[k];
         }
     }
+}
+
+void PathAbsorption::setActive(int lo, int hi) {
+    lo_ = std::max(0, lo);
+    hi_ = std::min(Grid::kSize - 1, hi);
 }
 
 double PathAbsorption::transmittance(int i) const {

@@ -82,12 +82,16 @@ class PathAbsorption {
     void reset();
     // Adds a homogeneous segment of `length_m` (≥ 0) of air in `state`.
     void add(const AirState& state, double length_m);
-    // Mean transmittance of the accumulated path at grid point i.
+    // Mean transmittance of the accumulated path at grid point i (within the active range).
     double transmittance(int i) const;
+    // Restricts add() to grid points lo…hi (inclusive; a band's support) to save time; the
+    // default is the whole grid.
+    void setActive(int lo, int hi);
 
   private:
     static constexpr int kLineAbsorbers = 3;  // H2O lines, CO2, O3
     const AbsorptionData* data_;
+    int lo_ = 0, hi_ = Grid::kSize - 1;
     Spectral continuumBase_cm2_atm_{};  // a + b exp(−β ν)
     Spectral h2oK_{}, h2oY_{}, h2oA_{}, h2oB_{};
     Spectral continuumDepth_{};

@@ -82,6 +82,20 @@ BandResponse BandResponse::fromCsv(const std::filesystem::path& file) {
     return b;
 }
 
+int BandResponse::firstIndex() const {
+    int i = 0;
+    while (i < Grid::kSize - 1 && !(w_[i] > 0.0))
+        ++i;
+    return i;
+}
+
+int BandResponse::lastIndex() const {
+    int i = Grid::kSize - 1;
+    while (i > 0 && !(w_[i] > 0.0))
+        --i;
+    return i;
+}
+
 std::uint64_t BandResponse::hash() const {
     Fnv1a f;
     f.bytes(w_.data(), sizeof(double) * w_.size());

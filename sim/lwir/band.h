@@ -26,6 +26,9 @@ class BandResponse {
     static BandResponse fromCsv(const std::filesystem::path& file);
 
     double weight_um(int i) const { return w_[i]; }
+    // The first and last grid points with a non-zero weight.
+    int firstIndex() const;
+    int lastIndex() const;
     const std::string& name() const { return name_; }
     std::uint64_t hash() const;
 

@@ -30,11 +30,40 @@ std::uint64_t hashInputs(const LwirTableInputs& in, const AbsorptionData& data) 
     f.bytes(&b, sizeof b);
     f.bytes(&in.air, sizeof in.air);  // all doubles: no padding
     f.bytes(&in.sky, sizeof in.sky);
+    const unsigned char slant = in.slantPaths ? 1 : 0;
+    f.bytes(&slant, 1);
     return f.h;
 }
 
 double rangeAt(int k) {
     return LwirTable::kMinRange_m * std::exp(logSpan() * k / (LwirTable::kRanges - 1));
+}
+
+// Position of a range (≥ 1 m) on the log-spaced range grid.
+inline void rangePos(double range_m, int* i, double* f) {
+    double u = std::log(range_m / LwirTable::kMinRange_m) / logSpan() * (LwirTable::kRanges - 1);
+    u = std::min(u, LwirTable::kRanges - 1 - 1e-9);
+    *i = static_cast<int>(u);
+    *f = u - *i;
+}
+
+constexpr double kSlantZenithStep_rad = 3.0 * kRadPerDeg;
+
+void buildSlant(const LwirTableInputs& in, const AbsorptionData& data, std::vector<double>* lt,
+                std::vector<double>* lp) {
+    std::vector<double> ranges;
+    for (int k = 0; k < LwirTable::kRanges; ++k)
+        ranges.push_back(rangeAt(k));
+    for (double h : LwirTable::kSlantHeights_m) {
+        for (int iz = 0; iz < LwirTable::kSlantZeniths; ++iz) {
+            const auto p =
+                slantPathProfile(data, in.band, in.sky, h, iz * kSlantZenithStep_rad, ranges);
+            for (const PathBand& b : p) {
+                lt->push_back(std::log(std::max(b.transmittance, 1e-300)));
+                lp->push_back(b.pathRadiance_W_m2_sr);
+            }
+        }
+    }
 }
 
 void validateAir(const AirState& a) {
@@ -96,6 +125,7 @@ LwirTable LwirTable::build(const LwirTableInputs& in, const std::filesystem::pat
     t.sky_ = skyBandRadianceProfile(data, in.band, in.sky, kZeniths);
     t.skyEmittance_ = skyBandEmittance(in.band, in.sky, t.sky_);
     t.skyDiffuse_ = t.skyEmittance_ * bandRadiance_W_m2_sr(in.band, in.sky.airTemperature_K);
+    if (in.slantPaths) buildSlant(in, data, &t.slantLogTau_, &t.slantPath_);
     for (int k = 0; k < kTemperatures; ++k) {
         t.planck_.push_back(
             bandRadiance_W_m2_sr(in.band, kMinTemperature_K + kTemperatureStep_K * k));
@@ -112,12 +142,55 @@ PathBand LwirTable::path(double range_m) const {
         out.pathRadiance_W_m2_sr = f * path_[0];
         return out;
     }
-    double u = std::log(range_m / kMinRange_m) / logSpan() * (kRanges - 1);
-    u = std::min(u, kRanges - 1 - 1e-9);
-    const int i = static_cast<int>(u);
-    const double f = u - i;
+    int i = 0;
+    double f = 0.0;
+    rangePos(range_m, &i, &f);
     out.transmittance = std::exp(logTau_[i] * (1.0 - f) + logTau_[i + 1] * f);
     out.pathRadiance_W_m2_sr = path_[i] * (1.0 - f) + path_[i + 1] * f;
+    return out;
+}
+
+PathBand LwirTable::slantPath(double sensorHeight_m, double viewZenith_rad, double range_m) const {
+    if (slantLogTau_.empty()) return path(range_m);
+    PathBand out;
+    if (!(range_m > 0.0)) return out;
+    // Height: linear between the tabulated heights, clamped to 0–3 km.
+    int ih = 0;
+    while (ih < kSlantHeights - 2 && !(sensorHeight_m < kSlantHeights_m[ih + 1]))
+        ++ih;
+    double fh =
+        (sensorHeight_m - kSlantHeights_m[ih]) / (kSlantHeights_m[ih + 1] - kSlantHeights_m[ih]);
+    fh = (fh > 0.0) ? std::min(fh, 1.0) : 0.0;
+    double uz = viewZenith_rad / kSlantZenithStep_rad;
+    uz = (uz > 0.0) ? std::min(uz, kSlantZeniths - 1 - 1e-9) : 0.0;
+    const int iz = static_cast<int>(uz);
+    const double fz = uz - iz;
+    // Below 1 m: linear in r from (τ = 1, L = 0) to the 1 m node.
+    const bool near = range_m < kMinRange_m;
+    int ir = 0;
+    double fr = 0.0;
+    if (!near) rangePos(range_m, &ir, &fr);
+    // Corners: ln τ and L along range (as path()), then τ and L bilinear in height and angle,
+    // which keeps τ B(T) + L_path = B(T) exact for isothermal air.
+    double tau = 0.0, l = 0.0;
+    for (int dh = 0; dh < 2; ++dh) {
+        for (int dz = 0; dz < 2; ++dz) {
+            const double w = (dh ? fh : 1.0 - fh) * (dz ? fz : 1.0 - fz);
+            const std::size_t row =
+                (static_cast<std::size_t>(ih + dh) * kSlantZeniths + iz + dz) * kRanges;
+            if (near) {
+                const double f = range_m / kMinRange_m;
+                tau += w * (1.0 - f * (1.0 - std::exp(slantLogTau_[row])));
+                l += w * f * slantPath_[row];
+            } else {
+                tau += w * std::exp(slantLogTau_[row + ir] * (1.0 - fr) +
+                                    slantLogTau_[row + ir + 1] * fr);
+                l += w * (slantPath_[row + ir] * (1.0 - fr) + slantPath_[row + ir + 1] * fr);
+            }
+        }
+    }
+    out.transmittance = tau;
+    out.pathRadiance_W_m2_sr = l;
     return out;
 }
 
@@ -184,6 +257,8 @@ void LwirTable::save(const std::filesystem::path& file, std::uint64_t key) const
     putVec(&payload, planck_);
     payload.append(reinterpret_cast<const char*>(&skyEmittance_), sizeof skyEmittance_);
     payload.append(reinterpret_cast<const char*>(&skyDiffuse_), sizeof skyDiffuse_);
+    putVec(&payload, slantLogTau_);
+    putVec(&payload, slantPath_);
     Fnv1a sum;
     sum.bytes(payload.data(), payload.size());
     std::error_code ec;
@@ -236,11 +311,22 @@ bool LwirTable::load(const std::filesystem::path& file, std::uint64_t key, std::
     if (!getVec(payload, &pos, &t.logTau_, kRanges) || !getVec(payload, &pos, &t.path_, kRanges) ||
         !getVec(payload, &pos, &t.sky_, kZeniths) ||
         !getVec(payload, &pos, &t.planck_, kTemperatures) ||
-        pos + 2 * sizeof(double) != payload.size()) {
+        pos + 2 * sizeof(double) > payload.size()) {
         return (*why = "malformed payload", false);
     }
     std::memcpy(&t.skyEmittance_, payload.data() + pos, sizeof t.skyEmittance_);
     std::memcpy(&t.skyDiffuse_, payload.data() + pos + sizeof(double), sizeof t.skyDiffuse_);
+    pos += 2 * sizeof(double);
+    // The slant table is either absent or complete, the same size twice.
+    const std::size_t nSlant = static_cast<std::size_t>(kSlantHeights) * kSlantZeniths * kRanges;
+    std::uint64_t n = 0;
+    if (pos + sizeof n > payload.size()) return (*why = "malformed payload", false);
+    std::memcpy(&n, payload.data() + pos, sizeof n);
+    const std::size_t expect = n == 0 ? 0 : nSlant;
+    if (!getVec(payload, &pos, &t.slantLogTau_, expect) ||
+        !getVec(payload, &pos, &t.slantPath_, expect) || pos != payload.size()) {
+        return (*why = "malformed payload", false);
+    }
     *this = std::move(t);
     return true;
 }

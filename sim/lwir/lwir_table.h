@@ -30,6 +30,8 @@ struct LwirTableInputs {
     AirState air;   // screen-level air for horizontal paths
     SkyParams sky;  // the sky; its air temperature, vapour and pressure should match `air`
     BandResponse band = BandResponse::flat(7.5, 13.5);
+    // Also tabulate slant paths from a raised sensor (about 1 s more to build).
+    bool slantPaths = false;
 
     // The inputs of one night from its weather: screen-level air temperature and dew point,
     // station pressure, cloud fraction (0–1) and base; the other sky parameters default.
@@ -49,6 +51,11 @@ class LwirTable {
     static constexpr double kMinTemperature_K = 150.0;
     static constexpr double kTemperatureStep_K = 0.5;
     static constexpr std::uint32_t kFormatVersion = 1;
+    // Slant paths: sensor heights [m] (linear between), view zenith 0–180° every 3°, the
+    // same ranges.
+    static constexpr int kSlantHeights = 8;
+    static constexpr double kSlantHeights_m[kSlantHeights] = {0, 2, 10, 30, 100, 300, 1000, 3000};
+    static constexpr int kSlantZeniths = 61;
 
     // Builds the table (a fraction of a second) with the coefficients under configDir.
     static LwirTable build(const LwirTableInputs& inputs, const std::filesystem::path& configDir);
@@ -60,6 +67,12 @@ class LwirTable {
 
     // Per-pixel lookups: no allocation, no exceptions.
     PathBand path(double range_m) const;
+    // τ_band and L_path from a sensor `sensorHeight_m` above the ground (0–3 km, clamped) at
+    // view zenith θ (0 up, 90° horizontal, 180° down) over `range_m`, through the layered
+    // atmosphere of the sky (docs/lwir.md §5); the horizontal path(range_m) if the table was
+    // built without slant paths.
+    PathBand slantPath(double sensorHeight_m, double viewZenith_rad, double range_m) const;
+    bool hasSlantPaths() const { return !slantLogTau_.empty(); }
     double skyRadiance_W_m2_sr(double zenith_rad) const;
     double blackbody_W_m2_sr(double temperature_K) const;
     double brightnessTemperature_K(double radiance_W_m2_sr) const;
@@ -85,6 +98,8 @@ class LwirTable {
     std::vector<double> planck_;  // [kTemperatures]
     double skyEmittance_ = 0.0;
     double skyDiffuse_ = 0.0;
+    std::vector<double> slantLogTau_;  // [height][zenith][range], or empty
+    std::vector<double> slantPath_;
 };
 
 }  // namespace nvs::lwir

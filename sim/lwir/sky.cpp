@@ -38,7 +38,7 @@ double pressureAt(const SkyParams& s, double z) {
     return pt * std::exp(-kG_m_s2 * (z - s.tropopause_m) / (kRDry_J_kg_K * tt));
 }
 
-AirState airAt(const SkyParams& s, double z) {
+AirState airAtImpl(const SkyParams& s, double z) {
     AirState a;
     a.temperature_K = temperatureAt(s, z);
     a.pressure_Pa = pressureAt(s, z);
@@ -67,7 +67,7 @@ std::vector<Layer> layers(const SkyParams& s) {
             z.end());
     std::vector<Layer> out;
     for (std::size_t k = 0; k + 1 < z.size(); ++k) {
-        Layer l{z[k], z[k + 1], airAt(s, 0.5 * (z[k] + z[k + 1])), {}};
+        Layer l{z[k], z[k + 1], airAtImpl(s, 0.5 * (z[k] + z[k + 1])), {}};
         for (int i = 0; i < Grid::kSize; ++i) {
             l.planck[i] = planckGrid_W_m2_sr_um(i, l.air.temperature_K);
         }
@@ -98,7 +98,7 @@ double bandRadianceAt(const AbsorptionData& data, const BandResponse& band, cons
             belowBase = false;
         }
         path->add(l.air, slantDistance_m(l.z1_m, sinZ, cosZ) - slantDistance_m(l.z0_m, sinZ, cosZ));
-        for (int i = 0; i < Grid::kSize; ++i) {
+        for (int i = band.firstIndex(); i <= band.lastIndex(); ++i) {
             const double t = path->transmittance(i);
             lClear[i] += l.planck[i] * (tPrev[i] - t);
             tPrev[i] = t;
@@ -118,6 +118,53 @@ double bandRadianceAt(const AbsorptionData& data, const BandResponse& band, cons
 }
 
 }  // namespace
+
+AirState airAtHeight(const SkyParams& sky, double height_m) {
+    return airAtImpl(sky, std::clamp(height_m, 0.0, kTop_m));
+}
+
+std::vector<PathBand> slantPathProfile(const AbsorptionData& data, const BandResponse& band,
+                                       const SkyParams& sky, double sensorHeight_m,
+                                       double viewZenith_rad, const std::vector<double>& ranges_m) {
+    sky.validate();
+    if (!(sensorHeight_m >= 0.0 && sensorHeight_m < kTop_m)) {
+        throw SetupError("lwir: sensor height " + std::to_string(sensorHeight_m) +
+                         " m is outside 0–40 km");
+    }
+    const double mu = std::cos(viewZenith_rad);
+    PathAbsorption path(data);
+    path.setActive(band.firstIndex(), band.lastIndex());
+    path.reset();
+    Spectral tPrev, emitted{};
+    tPrev.fill(1.0);
+    const double bAir = bandRadiance_W_m2_sr(band, sky.airTemperature_K);
+    std::vector<PathBand> out;
+    double s0 = 0.0;
+    for (double r : ranges_m) {
+        if (!(r > s0)) throw SetupError("lwir: slant-path ranges must be positive and increase");
+        const double rise = std::fabs(mu) * (r - s0);
+        const int n = std::clamp(static_cast<int>(std::ceil(rise / (50.0 + 0.1 * s0))), 1, 400);
+        for (int k = 0; k < n; ++k) {
+            const double a = s0 + (r - s0) * k / n, b = s0 + (r - s0) * (k + 1) / n;
+            const AirState air = airAtHeight(sky, sensorHeight_m + mu * 0.5 * (a + b));
+            path.add(air, b - a);
+            for (int i = band.firstIndex(); i <= band.lastIndex(); ++i) {
+                const double t = path.transmittance(i);
+                emitted[i] += planckGrid_W_m2_sr_um(i, air.temperature_K) * (tPrev[i] - t);
+                tPrev[i] = t;
+            }
+        }
+        PathBand p;
+        p.transmittance = bandIntegral_W_m2_sr(band, tPrev, sky.airTemperature_K) / bAir;
+        double l = 0.0;
+        for (int i = 0; i < Grid::kSize; ++i)
+            l += band.weight_um(i) * emitted[i];
+        p.pathRadiance_W_m2_sr = l;
+        out.push_back(p);
+        s0 = r;
+    }
+    return out;
+}
 
 void SkyParams::validate() const {
     const auto bad = [](const std::string& what) { throw SetupError("lwir sky: " + what); };
@@ -143,6 +190,7 @@ double skyBandRadiance_W_m2_sr(const AbsorptionData& data, const BandResponse& b
     sky.validate();
     const std::vector<Layer> ls = layers(sky);
     PathAbsorption path(data);
+    path.setActive(band.firstIndex(), band.lastIndex());
     const double z = std::clamp(zenith_rad, 0.0, 0.5 * kPi);
     return bandRadianceAt(data, band, sky, ls, z, &path);
 }
@@ -153,6 +201,7 @@ std::vector<double> skyBandRadianceProfile(const AbsorptionData& data, const Ban
     if (count < 2) throw SetupError("lwir sky: a profile needs at least two angles");
     const std::vector<Layer> ls = layers(sky);
     PathAbsorption path(data);
+    path.setActive(band.firstIndex(), band.lastIndex());
     std::vector<double> out(static_cast<std::size_t>(count));
     for (int k = 0; k < count; ++k) {
         const double z = 0.5 * kPi * k / (count - 1);

@@ -38,6 +38,18 @@ struct SkyParams {
     double cloudTemperature_K() const;
 };
 
+// The air of the layered atmosphere at `height_m` above the ground.
+AirState airAtHeight(const SkyParams& sky, double height_m);
+
+// τ_band and L_path of a straight line of sight from a sensor `sensorHeight_m` above the ground
+// at view zenith θ (0 up, 90° horizontal, 180° down) at each of `ranges_m` (increasing, > 0),
+// through the layered atmosphere (flat earth; a line that would go below the ground keeps the
+// ground's air). Emission and Curtis–Godson absorption are summed over pieces of at most 50 m
+// (plus 10 % of the distance travelled) in height; τ_band is weighted by B(T_air at ground).
+std::vector<PathBand> slantPathProfile(const AbsorptionData& data, const BandResponse& band,
+                                       const SkyParams& sky, double sensorHeight_m,
+                                       double viewZenith_rad, const std::vector<double>& ranges_m);
+
 // Band radiance of the sky at zenith angle θ (0–90°) [W m⁻² sr⁻¹].
 double skyBandRadiance_W_m2_sr(const AbsorptionData& data, const BandResponse& band,
                                const SkyParams& sky, double zenith_rad);

@@ -36,6 +36,34 @@ void BM_ApertureRadiance(benchmark::State& state) {
 }
 BENCHMARK(BM_ApertureRadiance);
 
+const lwir::LwirTable& slantTable() {
+    static const lwir::LwirTable t = [] {
+        lwir::LwirTableInputs in = inputs();
+        in.slantPaths = true;
+        return lwir::LwirTable::build(in, test::configDir());
+    }();
+    return t;
+}
+
+void BM_SlantPath(benchmark::State& state) {
+    const lwir::LwirTable& t = slantTable();  // built before the timing starts
+    double r = 3.0, z = 1.6;
+    for (auto _ : state) {
+        benchmark::DoNotOptimize(t.slantPath(250.0, z, r));
+        r = r > 15000.0 ? 3.0 : r * 1.01;
+        z = z > 3.0 ? 1.6 : z + 1e-3;
+    }
+}
+BENCHMARK(BM_SlantPath);
+
+void BM_BuildSlantTable(benchmark::State& state) {
+    lwir::LwirTableInputs in = inputs();
+    in.slantPaths = true;
+    for (auto _ : state)
+        benchmark::DoNotOptimize(lwir::LwirTable::build(in, test::configDir()));
+}
+BENCHMARK(BM_BuildSlantTable)->Unit(benchmark::kMillisecond)->Iterations(1);
+
 void BM_SkyRadiance(benchmark::State& state) {
     double z = 0.0;
     for (auto _ : state) {

@@ -181,3 +181,99 @@ TEST(LwirTable, BadInputThrows) {
 
 }  // namespace
 }  // namespace nvs::lwir
+
+namespace nvs::lwir {
+namespace {
+
+LwirTableInputs slantInputs(double lapse_K_m, double waterScale_m) {
+    LwirTableInputs in = inputs();
+    in.sky.lapseRate_K_m = lapse_K_m;
+    in.sky.waterScaleHeight_m = waterScale_m;
+    in.slantPaths = true;
+    return in;
+}
+
+const LwirTable& slantTable() {
+    static const LwirTable t =
+        LwirTable::build(slantInputs(0.0065, 2000.0), nvs::test::configDir());
+    return t;
+}
+
+TEST(LwirSlant, HorizontalAtTheGroundIsTheHorizontalPath) {
+    ASSERT_TRUE(slantTable().hasSlantPaths());
+    ASSERT_FALSE(table().hasSlantPaths());
+    for (double r : {5.0, 250.0, 2000.0}) {
+        const PathBand s = slantTable().slantPath(0.0, 0.5 * 3.14159265358979, r);
+        const PathBand h = table().path(r);
+        EXPECT_NEAR(s.transmittance / h.transmittance, 1.0, 5e-3) << r;
+        EXPECT_NEAR(s.pathRadiance_W_m2_sr / h.pathRadiance_W_m2_sr, 1.0, 1e-2) << r;
+    }
+    // Without a slant table, slantPath is the horizontal path.
+    EXPECT_EQ(table().slantPath(300.0, 2.5, 700.0).transmittance,
+              table().path(700.0).transmittance);
+}
+
+TEST(LwirSlant, IsothermalAtmosphereIsABlackbodyAlongAnyLine) {
+    // Kirchhoff along a slant line: with no lapse the air is at T_air everywhere, so
+    // τ B(T_air) + L_path = B(T_air) whatever the height, direction and range.
+    const LwirTableInputs in = slantInputs(0.0, 2000.0);
+    const double b = bandRadiance_W_m2_sr(in.band, in.sky.airTemperature_K);
+    for (double h : {0.0, 50.0, 1000.0}) {
+        for (double z : {0.3, 1.6, 2.4}) {
+            const auto p =
+                slantPathProfile(test::data(), in.band, in.sky, h, z, {30.0, 900.0, 15000.0});
+            for (const PathBand& q : p) {
+                EXPECT_NEAR((q.transmittance * b + q.pathRadiance_W_m2_sr) / b, 1.0, 1e-9)
+                    << h << " m, " << z << " rad";
+            }
+        }
+    }
+    // The table's interpolation between heights and angles keeps the identity.
+    const LwirTable t = LwirTable::build(in, nvs::test::configDir());
+    for (double h : {7.0, 640.0}) {
+        for (double z : {0.31, 1.6, 2.47}) {
+            for (double r : {0.4, 31.0, 15000.0}) {
+                const PathBand q = t.slantPath(h, z, r);
+                EXPECT_NEAR((q.transmittance * b + q.pathRadiance_W_m2_sr) / b, 1.0, 1e-3)
+                    << h << " m, " << z << " rad, " << r << " m";
+            }
+        }
+    }
+}
+
+TEST(LwirSlant, LookingDownThroughDrierColderAirIsClearerAndDarker) {
+    // From 300 m at 45° below the horizon to the ground, 424 m: the air above the ground is
+    // drier (2 km scale height) and colder (6.5 K/km) than the ground's, so τ is higher and
+    // L_path lower than on a 424 m path at the ground.
+    const double down = 3.14159265358979 * 0.75, r = 300.0 / std::cos(3.14159265358979 * 0.25);
+    const PathBand s = slantTable().slantPath(300.0, down, r);
+    const PathBand h = table().path(r);
+    EXPECT_GT(s.transmittance, h.transmittance);
+    EXPECT_LT(s.pathRadiance_W_m2_sr, h.pathRadiance_W_m2_sr);
+    // Looking up through the same height gain is clearer still than looking along the ground.
+    EXPECT_GT(slantTable().slantPath(0.0, 0.25 * 3.14159265358979, r).transmittance,
+              h.transmittance);
+    // Near the tabulated heights and angles, the lookup matches the direct computation.
+    const LwirTableInputs in = slantInputs(0.0065, 2000.0);
+    const auto direct = slantPathProfile(test::data(), in.band, in.sky, 100.0,
+                                         1.5 * 3.14159265358979 / 3.0 * 2.0 / 2.0, {1234.0});
+    const PathBand l =
+        slantTable().slantPath(100.0, 1.5 * 3.14159265358979 / 3.0 * 2.0 / 2.0, 1234.0);
+    EXPECT_NEAR(l.transmittance / direct[0].transmittance, 1.0, 5e-3);
+    EXPECT_NEAR(l.pathRadiance_W_m2_sr / direct[0].pathRadiance_W_m2_sr, 1.0, 1e-2);
+}
+
+TEST(LwirSlant, CachedSlantTableRoundTrips) {
+    const DataDirs dirs{nvs::test::configDir(), freshDir("nvs_lwir_slant_cache")};
+    bool rebuilt = false;
+    const LwirTable a = LwirTable::loadOrBuild(slantInputs(0.0065, 2000.0), dirs, &rebuilt);
+    EXPECT_TRUE(rebuilt);
+    const LwirTable b = LwirTable::loadOrBuild(slantInputs(0.0065, 2000.0), dirs, &rebuilt);
+    EXPECT_FALSE(rebuilt);
+    EXPECT_TRUE(b.hasSlantPaths());
+    EXPECT_EQ(a.slantPath(77.0, 2.0, 640.0).transmittance,
+              b.slantPath(77.0, 2.0, 640.0).transmittance);
+}
+
+}  // namespace
+}  // namespace nvs::lwir
