@@ -125,6 +125,9 @@ LwirTable LwirTable::build(const LwirTableInputs& in, const std::filesystem::pat
     t.sky_ = skyBandRadianceProfile(data, in.band, in.sky, kZeniths);
     t.skyEmittance_ = skyBandEmittance(in.band, in.sky, t.sky_);
     t.skyDiffuse_ = t.skyEmittance_ * bandRadiance_W_m2_sr(in.band, in.sky.airTemperature_K);
+    for (int k = 0; k < kTilts; ++k) {
+        t.tilted_.push_back(lwir::tiltedSkyRadiance_W_m2_sr(t.sky_, k * 5.0 * kRadPerDeg));
+    }
     if (in.slantPaths) buildSlant(in, data, &t.slantLogTau_, &t.slantPath_);
     for (int k = 0; k < kTemperatures; ++k) {
         t.planck_.push_back(
@@ -194,6 +197,14 @@ PathBand LwirTable::slantPath(double sensorHeight_m, double viewZenith_rad, doub
     return out;
 }
 
+double LwirTable::tiltedSkyRadiance_W_m2_sr(double tilt_rad) const {
+    double u = tilt_rad * kDegPerRad / 5.0;
+    u = (u > 0.0) ? std::min(u, kTilts - 1 - 1e-9) : 0.0;
+    const int i = static_cast<int>(u);
+    const double f = u - i;
+    return tilted_[i] * (1.0 - f) + tilted_[i + 1] * f;
+}
+
 double LwirTable::skyRadiance_W_m2_sr(double zenith_rad) const {
     // NaN and negative angles read the zenith (no undefined float-to-int conversion).
     double u = zenith_rad * kDegPerRad;
@@ -255,6 +266,7 @@ void LwirTable::save(const std::filesystem::path& file, std::uint64_t key) const
     putVec(&payload, path_);
     putVec(&payload, sky_);
     putVec(&payload, planck_);
+    putVec(&payload, tilted_);
     payload.append(reinterpret_cast<const char*>(&skyEmittance_), sizeof skyEmittance_);
     payload.append(reinterpret_cast<const char*>(&skyDiffuse_), sizeof skyDiffuse_);
     putVec(&payload, slantLogTau_);
@@ -311,7 +323,7 @@ bool LwirTable::load(const std::filesystem::path& file, std::uint64_t key, std::
     if (!getVec(payload, &pos, &t.logTau_, kRanges) || !getVec(payload, &pos, &t.path_, kRanges) ||
         !getVec(payload, &pos, &t.sky_, kZeniths) ||
         !getVec(payload, &pos, &t.planck_, kTemperatures) ||
-        pos + 2 * sizeof(double) > payload.size()) {
+        !getVec(payload, &pos, &t.tilted_, kTilts) || pos + 2 * sizeof(double) > payload.size()) {
         return (*why = "malformed payload", false);
     }
     std::memcpy(&t.skyEmittance_, payload.data() + pos, sizeof t.skyEmittance_);

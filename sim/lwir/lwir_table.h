@@ -87,6 +87,10 @@ class LwirTable {
     // horizontal diffuse (Lambertian) surface reflects, E_sky/π = ε_sky B_band(T_air).
     double skyEmittance() const { return skyEmittance_; }
     double skyDiffuseRadiance_W_m2_sr() const { return skyDiffuse_; }
+    // The same for a plane tilted by β (0 up, π/2 a wall, π down), the sky part only (the
+    // ground's share is the renderer's): every 5°, interpolated.
+    static constexpr int kTilts = 37;
+    double tiltedSkyRadiance_W_m2_sr(double tilt_rad) const;
 
     void save(const std::filesystem::path& file, std::uint64_t key) const;
     bool load(const std::filesystem::path& file, std::uint64_t key, std::string* why);
@@ -98,6 +102,7 @@ class LwirTable {
     std::vector<double> planck_;  // [kTemperatures]
     double skyEmittance_ = 0.0;
     double skyDiffuse_ = 0.0;
+    std::vector<double> tilted_;       // [kTilts]
     std::vector<double> slantLogTau_;  // [height][zenith][range], or empty
     std::vector<double> slantPath_;
 };

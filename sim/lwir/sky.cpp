@@ -210,6 +210,30 @@ std::vector<double> skyBandRadianceProfile(const AbsorptionData& data, const Ban
     return out;
 }
 
+double tiltedSkyRadiance_W_m2_sr(const std::vector<double>& profile, double tilt_rad) {
+    // Midpoint sums: 0.5° in θ, 2° in φ; cos γ = cos θ cos β + sin θ sin β cos φ.
+    const int n = static_cast<int>(profile.size());
+    const double dz = 0.5 * kPi / (n - 1);
+    const int nTheta = 180, nPhi = 180;
+    const double dTheta = 0.5 * kPi / nTheta, dPhi = 2.0 * kPi / nPhi;
+    const double cb = std::cos(tilt_rad), sb = std::sin(tilt_rad);
+    double sum = 0.0;
+    for (int i = 0; i < nTheta; ++i) {
+        const double th = (i + 0.5) * dTheta;
+        const double u = th / dz;
+        const int k = std::min(static_cast<int>(u), n - 2);
+        const double l = profile[static_cast<std::size_t>(k)] * (1.0 - (u - k)) +
+                         profile[static_cast<std::size_t>(k) + 1] * (u - k);
+        double c = 0.0;
+        for (int j = 0; j < nPhi; ++j) {
+            const double g = std::cos(th) * cb + std::sin(th) * sb * std::cos((j + 0.5) * dPhi);
+            if (g > 0.0) c += g;
+        }
+        sum += l * c * std::sin(th) * dTheta * dPhi;
+    }
+    return sum / kPi;
+}
+
 double skyBandEmittance(const BandResponse& band, const SkyParams& sky,
                         const std::vector<double>& profile) {
     // ∫ L cosθ dΩ = 2π ∫ L(θ) cosθ sinθ dθ, trapezoid on the profile's angles.

@@ -58,6 +58,11 @@ std::vector<double> skyBandRadianceProfile(const AbsorptionData& data, const Ban
                                            const SkyParams& sky, int count);
 // Band emittance of the sky: its hemispheric down-welling band irradiance over that of a
 // blackbody at the air temperature, ∫L cosθ dΩ / (π B_band(T_air)), from a profile as above.
+// The sky a plane tilted by β from horizontal (0 faces up, 90° a wall, 180° faces down)
+// receives, over π: (1/π) ∫ L(θ) max(0, n·d) dΩ over the sky above the horizon [W m⁻² sr⁻¹],
+// from a profile as above (azimuth-independent sky; the ground's part is not included). For a
+// uniform sky L₀ it is L₀ (1 + cos β)/2, the sky-view factor.
+double tiltedSkyRadiance_W_m2_sr(const std::vector<double>& profile_W_m2_sr, double tilt_rad);
 double skyBandEmittance(const BandResponse& band, const SkyParams& sky,
                         const std::vector<double>& profile_W_m2_sr);
 

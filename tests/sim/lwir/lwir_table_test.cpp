@@ -109,6 +109,9 @@ TEST(LwirTable, LookupsMatchTheDirectComputation) {
         // Between the zenith's radiance and the horizon's.
         EXPECT_GT(table().skyDiffuseRadiance_W_m2_sr(), table().skyRadiance_W_m2_sr(0.0));
         EXPECT_LT(table().skyDiffuseRadiance_W_m2_sr(), table().skyRadiance_W_m2_sr(1.5707));
+        EXPECT_NEAR(table().tiltedSkyRadiance_W_m2_sr(0.0) / table().skyDiffuseRadiance_W_m2_sr(),
+                    1.0, 2e-3);
+        EXPECT_NEAR(table().tiltedSkyRadiance_W_m2_sr(3.14159265358979), 0.0, 1e-6);
     }
     const double z = 0.7;
     EXPECT_NEAR(

@@ -109,6 +109,28 @@ TEST(LwirSky, LowOvercastIsNearAirTemperature) {
     EXPECT_NEAR(skyBandRadiance_W_m2_sr(test::data(), b, half, 0.3), 0.5 * (lo + hi), 1e-5 * hi);
 }
 
+TEST(LwirSky, TiltedUniformSkyGivesTheSkyViewFactor) {
+    // A uniform sky L0 seen by a plane tilted by β: L0 (1 + cos β)/2 (view factor of the sky
+    // from a tilted plane over flat ground).
+    const std::vector<double> uniform(91, 10.0);
+    for (double deg : {0.0, 30.0, 60.0, 90.0, 135.0, 180.0}) {
+        const double b = deg * kRadPerDeg;
+        EXPECT_NEAR(tiltedSkyRadiance_W_m2_sr(uniform, b), 10.0 * 0.5 * (1.0 + std::cos(b)), 2e-3)
+            << deg;
+    }
+    // A real clear sky: a wall sees the warm horizon, so it receives more per unit sky-view
+    // than a roof (its half-sky mean exceeds the roof's hemispheric mean).
+    const BandResponse band = BandResponse::flat(8.0, 14.0);
+    const auto prof = skyBandRadianceProfile(test::data(), band, sky(288.15, 1000.0), 91);
+    EXPECT_GT(tiltedSkyRadiance_W_m2_sr(prof, 0.5 * kPi) / 0.5,
+              tiltedSkyRadiance_W_m2_sr(prof, 0.0));
+    // Upward: E_sky/π equals the band emittance times B_band(T_air).
+    EXPECT_NEAR(
+        tiltedSkyRadiance_W_m2_sr(prof, 0.0) / (skyBandEmittance(band, sky(288.15, 1000.0), prof) *
+                                                bandRadiance_W_m2_sr(band, 288.15)),
+        1.0, 2e-3);
+}
+
 TEST(LwirSky, BadSkyThrows) {
     const BandResponse b = BandResponse::flat(8.0, 14.0);
     SkyParams s = sky(288.0, -1.0);
