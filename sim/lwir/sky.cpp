@@ -174,6 +174,9 @@ void SkyParams::validate() const {
     if (!(pressure_Pa > 3e4 && pressure_Pa < 1.1e5)) bad("pressure out of 300–1100 hPa");
     if (!(lapseRate_K_m >= 0.0 && lapseRate_K_m < 0.0098)) bad("lapse rate out of 0–9.8 K/km");
     if (!(tropopause_m > 5e3 && tropopause_m < 20e3)) bad("tropopause out of 5–20 km");
+    if (!(airTemperature_K - lapseRate_K_m * tropopause_m > 160.0)) {
+        bad("the tropopause would be colder than 160 K (lapse rate × height too large)");
+    }
     if (!(waterScaleHeight_m > 100.0)) bad("water-vapour scale height must be > 100 m");
     if (!(co2_ppm >= 0.0 && o3Surface_ppb >= 0.0 && o3Column_DU >= 0.0)) bad("negative gas amount");
     if (!(cloudFraction >= 0.0 && cloudFraction <= 1.0)) bad("cloud fraction outside 0–1");

@@ -138,6 +138,12 @@ TEST(LwirSky, BadSkyThrows) {
     s = sky(288.0, 1000.0);
     s.cloudFraction = 1.5;
     EXPECT_THROW(skyBandRadiance_W_m2_sr(test::data(), b, s, 0.0), SetupError);
+    s = sky(200.0, 10.0);  // 200 K − 6.5 K/km × 11 km = 128.5 K at the tropopause
+    EXPECT_THROW(skyBandRadiance_W_m2_sr(test::data(), b, s, 0.0), SetupError);
+    s = sky(288.0, 1000.0);
+    s.cloudBase_m = -10.0;
+    s.cloudFraction = 0.5;
+    EXPECT_THROW(skyBandRadiance_W_m2_sr(test::data(), b, s, 0.0), SetupError);
 }
 
 }  // namespace
