@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <fstream>
 
+#include "sim/core/csv.h"
 #include "sim/core/error.h"
 #include "sim/core/planck.h"
 #include "sim/lwir/humidity.h"
@@ -92,27 +93,43 @@ TEST(LwirBand, PathLimits) {
     EXPECT_THROW(horizontalPath(test::data(), b, humid(), -10.0), SetupError);
 }
 
-// LOWTRAN 7 (Kneizys, F. X. et al. (1988), "Users guide to LOWTRAN 7", AFGL-TR-88-0177, Air
-// Force Geophysics Laboratory; revision 4.2 of 1 Feb 1992 as kept in the public repository
-// github.com/space-physics/lowtran, src/lowtran/fortran/lowtran7.f at commit b3b4e0b):
-// horizontal sea-level paths (ITYPE 1, H1 0) through its six model atmospheres, molecular
-// absorption only (IHAZE 0, no aerosol), 700–1340 cm⁻¹ every 5 cm⁻¹, column TX(9) (total
-// transmittance), averaged here over 8–14 µm with the weight B_λ(T_surface) dλ. Surface air of
-// each model (LOWTRAN's own profile tables, Anderson et al. 1986, AFGL-TR-86-0110): T [K],
-// p [hPa], H2O [ppmv]; CO2 330 ppmv (LOWTRAN 7's mixing ratio).
+// LOWTRAN 7 (Kneizys, F. X. et al. (1988), "Users guide to LOWTRAN 7", AFGL-TR-88-0177):
+// spectral transmittance of horizontal sea-level paths through its six model atmospheres,
+// molecular absorption only, 700–1340 cm⁻¹ every 5 cm⁻¹, at 0.1, 1 and 3 km
+// (tests/data/lowtran7/horizontal_sea_level_700_1340cm.csv says how it was run). The test
+// averages it over 8–14 µm with the weight B_λ(T_surface) dλ, as the model's band τ is.
+// Surface air of each model (LOWTRAN's own tables, Anderson et al. 1986, AFGL-TR-86-0110):
+// T [K], p [hPa], H2O [ppmv]; CO2 330 ppmv (LOWTRAN 7's mixing ratio).
 struct LowtranCase {
     const char* name;
     double t_K, p_hPa, h2o_ppmv;
-    double tau[3];  // at 0.1, 1 and 3 km
 };
 constexpr LowtranCase kLowtran7[] = {
-    {"tropical", 299.7, 1013.0, 2.593e4, {0.8929, 0.5401, 0.2422}},
-    {"mid-latitude summer", 294.2, 1013.0, 1.876e4, {0.9158, 0.6449, 0.3750}},
-    {"mid-latitude winter", 272.2, 1018.0, 4.316e3, {0.9558, 0.8433, 0.7285}},
-    {"sub-arctic summer", 287.2, 1010.0, 1.194e4, {0.9349, 0.7386, 0.5250}},
-    {"sub-arctic winter", 257.2, 1013.0, 1.405e3, {0.9654, 0.8843, 0.8115}},
-    {"US standard 1976", 288.2, 1013.0, 7.745e3, {0.9472, 0.8059, 0.6554}},
+    {"tropical", 299.7, 1013.0, 2.593e4},
+    {"mid-latitude summer", 294.2, 1013.0, 1.876e4},
+    {"mid-latitude winter", 272.2, 1018.0, 4.316e3},
+    {"sub-arctic summer", 287.2, 1010.0, 1.194e4},
+    {"sub-arctic winter", 257.2, 1013.0, 1.405e3},
+    {"US standard 1976", 288.2, 1013.0, 7.745e3},
 };
+
+// LOWTRAN's band transmittance over 8–14 µm for model m (1–6) and range [km].
+double lowtranBand(const CsvTable& t, int model, double range_km, double temperature_K) {
+    const std::size_t cm = t.column("model"), cr = t.column("range_km"),
+                      cv = t.column("wavenumber_cm-1"), ct = t.column("transmittance");
+    double num = 0.0, den = 0.0;
+    for (std::size_t i = 0; i < t.rowCount(); ++i) {
+        if (t.number(i, cm) != model || std::fabs(t.number(i, cr) - range_km) > 1e-9) continue;
+        const double nu = t.number(i, cv), um = 1e4 / nu;
+        if (um < 8.0 || um > 14.0) continue;
+        // B_λ dλ with dλ = 10⁴/ν² · 5 cm⁻¹.
+        const double w =
+            planckSpectralRadiance_W_m2_sr_m(um * 1e-6, temperature_K) * 1e4 / (nu * nu);
+        num += w * t.number(i, ct);
+        den += w;
+    }
+    return num / den;
+}
 
 TEST(LwirBand, HorizontalTransmittanceAgreesWithLowtran7) {
     // Within 0.025 of LOWTRAN 7 on the humid atmospheres (tropical, summers), where the
@@ -120,21 +137,25 @@ TEST(LwirBand, HorizontalTransmittanceAgreesWithLowtran7) {
     // ones, where LOWTRAN's weak window lines, CO2 hot and laser bands and N2O/CH4 near 8 µm,
     // which this model lacks, add 2–5 % absorption per km (docs/lwir.md §6). Never more
     // opaque than LOWTRAN by over 0.01.
+    const CsvTable lt = CsvTable::load(nvs::test::sourceDir() / "tests/data/lowtran7" /
+                                       "horizontal_sea_level_700_1340cm.csv");
     const BandResponse b = BandResponse::flat(8.0, 14.0);
-    const double ranges_m[3] = {100.0, 1000.0, 3000.0};
+    const double ranges_km[3] = {0.1, 1.0, 3.0};
+    int model = 0;
     for (const LowtranCase& c : kLowtran7) {
+        ++model;
         AirState a;
         a.temperature_K = c.t_K;
         a.pressure_Pa = c.p_hPa * 100.0;
         a.vapourPressure_Pa = c.h2o_ppmv * 1e-6 * a.pressure_Pa;
         a.co2_ppm = 330.0;
-        for (int k = 0; k < 3; ++k) {
-            const double model = horizontalPath(test::data(), b, a, ranges_m[k]).transmittance;
-            std::printf("%-20s %5.0f m: model %.4f LOWTRAN 7 %.4f\n", c.name, ranges_m[k], model,
-                        c.tau[k]);
+        for (double r : ranges_km) {
+            const double ours = horizontalPath(test::data(), b, a, r * 1e3).transmittance;
+            const double ref = lowtranBand(lt, model, r, c.t_K);
+            std::printf("%-20s %4.1f km: model %.4f LOWTRAN 7 %.4f\n", c.name, r, ours, ref);
             const bool humid = c.h2o_ppmv > 1e4;
-            EXPECT_NEAR(model, c.tau[k], humid ? 0.025 : 0.06) << c.name << " " << ranges_m[k];
-            EXPECT_GT(model, c.tau[k] - 0.01) << c.name << " " << ranges_m[k];
+            EXPECT_NEAR(ours, ref, humid ? 0.025 : 0.06) << c.name << " " << r << " km";
+            EXPECT_GT(ours, ref - 0.01) << c.name << " " << r << " km";
         }
     }
 }
