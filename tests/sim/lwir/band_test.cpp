@@ -58,6 +58,29 @@ TEST(LwirBand, BadResponseNamesFileAndLine) {
         EXPECT_NE(std::string(e.what()).find("nvs_lwir_bad_response.csv:3"), std::string::npos)
             << e.what();
     }
+    // A response that is zero everywhere, a wavelength outside the model's grid, a negative
+    // response, a non-number, too few rows: each names its file (and line where there is one).
+    const struct {
+        const char* text;
+        const char* where;
+    } bad[] = {
+        {"wavelength_um,response\n8.0,0\n12.0,0\n", "nvs_lwir_bad_response.csv:1"},
+        {"wavelength_um,response\n8.0,1\n25.0,1\n", "nvs_lwir_bad_response.csv:3"},
+        {"wavelength_um,response\n8.0,1\n9.0,-0.5\n", "nvs_lwir_bad_response.csv:3"},
+        {"wavelength_um,response\n8.0,1\n9.0,high\n", "nvs_lwir_bad_response.csv:3"},
+        {"wavelength_um,response\n8.0,1\n", "nvs_lwir_bad_response.csv:1"},
+        {"lambda,response\n8.0,1\n9.0,1\n", "nvs_lwir_bad_response.csv:1"},
+    };
+    for (const auto& c : bad) {
+        std::ofstream(f) << c.text;
+        try {
+            BandResponse::fromCsv(f);
+            ADD_FAILURE() << "no error for " << c.text;
+        } catch (const SetupError& e) {
+            EXPECT_NE(std::string(e.what()).find(c.where), std::string::npos) << e.what();
+        }
+    }
+    EXPECT_THROW(BandResponse::fromCsv("/nonexistent/response.csv"), SetupError);
     EXPECT_THROW(BandResponse::flat(5.0, 14.0), SetupError);
     EXPECT_THROW(BandResponse::flat(12.0, 8.0), SetupError);
 }

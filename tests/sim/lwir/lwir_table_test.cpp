@@ -175,6 +175,30 @@ TEST(LwirTable, InputsFromWeather) {
         SetupError);
 }
 
+TEST(LwirTable, ChangedCoefficientsChangeTheKey) {
+    // A cached table is keyed by the coefficient files' values: editing one makes a new key,
+    // so a stale table is never used.
+    const auto dir = std::filesystem::temp_directory_path() / "nvs_lwir_key_config";
+    std::filesystem::remove_all(dir);
+    std::filesystem::create_directories(dir / "lwir");
+    for (const auto& e : std::filesystem::directory_iterator(nvs::test::configDir() / "lwir")) {
+        std::filesystem::copy_file(e.path(), dir / "lwir" / e.path().filename());
+    }
+    const std::string before = LwirTable::cacheKey(inputs(), dir);
+    EXPECT_EQ(before, LwirTable::cacheKey(inputs(), nvs::test::configDir()));
+    const auto f = dir / "lwir" / "h2o_continuum_roberts1976.csv";
+    std::ifstream in(f);
+    std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    in.close();
+    text.replace(text.find("gamma,0.002"), 11, "gamma,0.003");
+    std::ofstream(f) << text;
+    EXPECT_NE(LwirTable::cacheKey(inputs(), dir), before);
+    // And another band, another key.
+    LwirTableInputs other = inputs();
+    other.band = BandResponse::flat(8.0, 12.0);
+    EXPECT_NE(LwirTable::cacheKey(other, nvs::test::configDir()), before);
+}
+
 TEST(LwirTable, BadInputThrows) {
     LwirTableInputs in = inputs();
     in.air.vapourPressure_Pa = -1.0;
