@@ -4,7 +4,9 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <fstream>
 
 #include "sim/core/error.h"
@@ -32,7 +34,7 @@ const LwirTable& table() {
 // ∫_{7.5}^{13.5} [τ(λ) B(λ, T) + (1 − τ(λ)) B(λ, T_air)] dλ by Simpson's rule every 1 nm, with
 // τ(λ) from the spectral model interpolated linearly in wavenumber: independent of the table's
 // grid weights, band averaging and range interpolation.
-double direct(double panel_K, double range_m) {
+double direct(double panel_K, double range_m, double (*response)(double um) = nullptr) {
     const LwirTableInputs in = inputs();
     const Spectral tau = homogeneousTransmittance(test::data(), in.air, range_m);
     const auto tauAt = [&](double um) {
@@ -43,7 +45,9 @@ double direct(double panel_K, double range_m) {
     };
     const auto f = [&](double um) {
         const double t = tauAt(um);
-        return (t * planckSpectralRadiance_W_m2_sr_m(um * 1e-6, panel_K) +
+        const double r = response != nullptr ? response(um) : 1.0;
+        return r *
+               (t * planckSpectralRadiance_W_m2_sr_m(um * 1e-6, panel_K) +
                 (1.0 - t) * planckSpectralRadiance_W_m2_sr_m(um * 1e-6, in.air.temperature_K)) *
                1e-6;
     };
@@ -60,7 +64,33 @@ TEST(LwirTable, BlackbodyPanelWithinOnePercentOfDirectIntegration) {
         for (double r : {10.0, 1000.0}) {
             const double viaTable = table().apertureRadiance_W_m2_sr(1.0, panel, 0.0, r);
             const double ref = direct(panel, r);
+            std::printf("flat 7.5-13.5 um, %.2f K at %5.0f m: table/direct − 1 = %+.2e\n", panel, r,
+                        viaTable / ref - 1.0);
             EXPECT_NEAR(viaTable / ref, 1.0, 0.01) << panel << " K at " << r << " m";
+        }
+    }
+}
+
+// A triangular response, 0 at 7.5 and 13.5 µm and 1 at 10.5 µm (a microbolometer's shape
+// more than a flat band's).
+double triangle(double um) {
+    return std::max(0.0, 1.0 - std::fabs(um - 10.5) / 3.0);
+}
+
+TEST(LwirTable, ShapedResponsePanelWithinOnePercentOfDirectIntegration) {
+    const auto csv = std::filesystem::temp_directory_path() / "nvs_lwir_triangle.csv";
+    std::ofstream(csv) << "# a triangular response written by the test\nwavelength_um,response\n"
+                          "7.5,0\n10.5,1\n13.5,0\n";
+    LwirTableInputs in = inputs();
+    in.band = BandResponse::fromCsv(csv);
+    const LwirTable t = LwirTable::build(in, nvs::test::configDir());
+    for (double panel : {263.15, 330.0}) {
+        for (double r : {10.0, 1000.0}) {
+            const double ratio =
+                t.apertureRadiance_W_m2_sr(1.0, panel, 0.0, r) / direct(panel, r, triangle);
+            std::printf("triangle, %.2f K at %5.0f m: table/direct − 1 = %+.2e\n", panel, r,
+                        ratio - 1.0);
+            EXPECT_NEAR(ratio, 1.0, 0.01) << panel << " K at " << r << " m";
         }
     }
 }
