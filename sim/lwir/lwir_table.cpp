@@ -3,6 +3,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -39,9 +40,22 @@ double rangeAt(int k) {
     return LwirTable::kMinRange_m * std::exp(logSpan() * k / (LwirTable::kRanges - 1));
 }
 
+// log₂ x of a positive normal double, to 3e-6: the exponent bits, and for the mantissa m in
+// [1, 2) the series log₂ m = (2/ln 2)(t + t³/3 + t⁵/5 + t⁷/7 + t⁹/9), t = (m − 1)/(m + 1) < 1/3
+// (truncation below 3e-6). Only a table position depends on it, and values are interpolated
+// between the right nodes whatever the error, so it replaces libm's log on the per-pixel path.
+inline double fastLog2(double x) {
+    const auto b = std::bit_cast<std::uint64_t>(x);
+    const double e = static_cast<double>(static_cast<int>((b >> 52) & 0x7ff) - 1023);
+    const double m = std::bit_cast<double>((b & 0x000fffffffffffffull) | 0x3ff0000000000000ull);
+    const double t = (m - 1.0) / (m + 1.0), t2 = t * t;
+    constexpr double kTwoOverLn2 = 2.8853900817779268;  // 2 / ln 2
+    return e + kTwoOverLn2 * t * (1.0 + t2 * (1.0 / 3 + t2 * (0.2 + t2 * (1.0 / 7 + t2 / 9))));
+}
+
 // Position of a range (≥ 1 m) on the log-spaced range grid.
-inline void rangePos(double range_m, int* i, double* f) {
-    double u = std::log(range_m / LwirTable::kMinRange_m) / logSpan() * (LwirTable::kRanges - 1);
+inline void rangePos(double range_m, double scale, int* i, double* f) {
+    double u = fastLog2(range_m / LwirTable::kMinRange_m) * scale;
     u = std::min(u, LwirTable::kRanges - 1 - 1e-9);
     *i = static_cast<int>(u);
     *f = u - *i;
@@ -59,7 +73,7 @@ void buildSlant(const LwirTableInputs& in, const AbsorptionData& data, std::vect
             const auto p =
                 slantPathProfile(data, in.band, in.sky, h, iz * kSlantZenithStep_rad, ranges);
             for (const PathBand& b : p) {
-                lt->push_back(std::log(std::max(b.transmittance, 1e-300)));
+                lt->push_back(b.transmittance);
                 lp->push_back(b.pathRadiance_W_m2_sr);
             }
         }
@@ -119,7 +133,7 @@ LwirTable LwirTable::build(const LwirTableInputs& in, const std::filesystem::pat
     LwirTable t;
     for (int k = 0; k < kRanges; ++k) {
         const PathBand p = horizontalPath(data, in.band, in.air, rangeAt(k));
-        t.logTau_.push_back(std::log(std::max(p.transmittance, 1e-300)));
+        t.tau_.push_back(p.transmittance);
         t.path_.push_back(p.pathRadiance_W_m2_sr);
     }
     t.sky_ = skyBandRadianceProfile(data, in.band, in.sky, kZeniths);
@@ -128,7 +142,7 @@ LwirTable LwirTable::build(const LwirTableInputs& in, const std::filesystem::pat
     for (int k = 0; k < kTilts; ++k) {
         t.tilted_.push_back(lwir::tiltedSkyRadiance_W_m2_sr(t.sky_, k * 5.0 * kRadPerDeg));
     }
-    if (in.slantPaths) buildSlant(in, data, &t.slantLogTau_, &t.slantPath_);
+    if (in.slantPaths) buildSlant(in, data, &t.slantTau_, &t.slantPath_);
     for (int k = 0; k < kTemperatures; ++k) {
         t.planck_.push_back(
             bandRadiance_W_m2_sr(in.band, kMinTemperature_K + kTemperatureStep_K * k));
@@ -141,20 +155,20 @@ PathBand LwirTable::path(double range_m) const {
     if (!(range_m > 0.0)) return out;
     if (range_m < kMinRange_m) {
         const double f = range_m / kMinRange_m;
-        out.transmittance = 1.0 - f * (1.0 - std::exp(logTau_[0]));
+        out.transmittance = 1.0 - f * (1.0 - tau_[0]);
         out.pathRadiance_W_m2_sr = f * path_[0];
         return out;
     }
     int i = 0;
     double f = 0.0;
-    rangePos(range_m, &i, &f);
-    out.transmittance = std::exp(logTau_[i] * (1.0 - f) + logTau_[i + 1] * f);
+    rangePos(range_m, rangeScale_, &i, &f);
+    out.transmittance = tau_[i] * (1.0 - f) + tau_[i + 1] * f;
     out.pathRadiance_W_m2_sr = path_[i] * (1.0 - f) + path_[i + 1] * f;
     return out;
 }
 
 PathBand LwirTable::slantPath(double sensorHeight_m, double viewZenith_rad, double range_m) const {
-    if (slantLogTau_.empty()) return path(range_m);
+    if (slantTau_.empty()) return path(range_m);
     PathBand out;
     if (!(range_m > 0.0)) return out;
     // Height: linear between the tabulated heights, clamped to 0–3 km.
@@ -172,9 +186,9 @@ PathBand LwirTable::slantPath(double sensorHeight_m, double viewZenith_rad, doub
     const bool near = range_m < kMinRange_m;
     int ir = 0;
     double fr = 0.0;
-    if (!near) rangePos(range_m, &ir, &fr);
-    // Corners: ln τ and L along range (as path()), then τ and L bilinear in height and angle,
-    // which keeps τ B(T) + L_path = B(T) exact for isothermal air.
+    if (!near) rangePos(range_m, rangeScale_, &ir, &fr);
+    // τ and L linear in ln r (as path()) and bilinear in height and angle: one set of weights
+    // for both, which keeps τ B(T) + L_path = B(T) exact for isothermal air.
     double tau = 0.0, l = 0.0;
     for (int dh = 0; dh < 2; ++dh) {
         for (int dz = 0; dz < 2; ++dz) {
@@ -183,11 +197,10 @@ PathBand LwirTable::slantPath(double sensorHeight_m, double viewZenith_rad, doub
                 (static_cast<std::size_t>(ih + dh) * kSlantZeniths + iz + dz) * kRanges;
             if (near) {
                 const double f = range_m / kMinRange_m;
-                tau += w * (1.0 - f * (1.0 - std::exp(slantLogTau_[row])));
+                tau += w * (1.0 - f * (1.0 - slantTau_[row]));
                 l += w * f * slantPath_[row];
             } else {
-                tau += w * std::exp(slantLogTau_[row + ir] * (1.0 - fr) +
-                                    slantLogTau_[row + ir + 1] * fr);
+                tau += w * (slantTau_[row + ir] * (1.0 - fr) + slantTau_[row + ir + 1] * fr);
                 l += w * (slantPath_[row + ir] * (1.0 - fr) + slantPath_[row + ir + 1] * fr);
             }
         }
@@ -262,14 +275,14 @@ bool getVec(const std::string& in, std::size_t* pos, std::vector<double>* v, std
 
 void LwirTable::save(const std::filesystem::path& file, std::uint64_t key) const {
     std::string payload;
-    putVec(&payload, logTau_);
+    putVec(&payload, tau_);
     putVec(&payload, path_);
     putVec(&payload, sky_);
     putVec(&payload, planck_);
     putVec(&payload, tilted_);
     payload.append(reinterpret_cast<const char*>(&skyEmittance_), sizeof skyEmittance_);
     payload.append(reinterpret_cast<const char*>(&skyDiffuse_), sizeof skyDiffuse_);
-    putVec(&payload, slantLogTau_);
+    putVec(&payload, slantTau_);
     putVec(&payload, slantPath_);
     Fnv1a sum;
     sum.bytes(payload.data(), payload.size());
@@ -320,7 +333,7 @@ bool LwirTable::load(const std::filesystem::path& file, std::uint64_t key, std::
     if (sum.h != stored) return (*why = "checksum mismatch (corrupt)", false);
     LwirTable t;
     std::size_t pos = 0;
-    if (!getVec(payload, &pos, &t.logTau_, kRanges) || !getVec(payload, &pos, &t.path_, kRanges) ||
+    if (!getVec(payload, &pos, &t.tau_, kRanges) || !getVec(payload, &pos, &t.path_, kRanges) ||
         !getVec(payload, &pos, &t.sky_, kZeniths) ||
         !getVec(payload, &pos, &t.planck_, kTemperatures) ||
         !getVec(payload, &pos, &t.tilted_, kTilts) || pos + 2 * sizeof(double) > payload.size()) {
@@ -335,7 +348,7 @@ bool LwirTable::load(const std::filesystem::path& file, std::uint64_t key, std::
     if (pos + sizeof n > payload.size()) return (*why = "malformed payload", false);
     std::memcpy(&n, payload.data() + pos, sizeof n);
     const std::size_t expect = n == 0 ? 0 : nSlant;
-    if (!getVec(payload, &pos, &t.slantLogTau_, expect) ||
+    if (!getVec(payload, &pos, &t.slantTau_, expect) ||
         !getVec(payload, &pos, &t.slantPath_, expect) || pos != payload.size()) {
         return (*why = "malformed payload", false);
     }

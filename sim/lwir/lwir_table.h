@@ -4,7 +4,7 @@
 // table (sim/sky/atmosphere_table.h), and interpolated without allocation:
 //
 //   path(r)              τ_band(r), L_path(r) of a horizontal path, r = 1 m … 20 km, 96 log
-//                        steps (ln τ and L interpolated linearly in ln r; below 1 m linearly
+//                        steps (τ and L interpolated linearly in ln r; below 1 m linearly
 //                        in r to τ = 1, L = 0 at r = 0; beyond 20 km the 20 km value)
 //   skyRadiance(θ)       sky band radiance against zenith angle, 0–90° every 1°
 //   blackbody(T)         B_band(T), 150–400 K every 0.5 K; brightnessTemperature(L) its inverse
@@ -14,6 +14,7 @@
 // Cache file: <DataDirs::cache>/lwir-<key>.bin, key = hash of the coefficients, the band, the
 // air, the sky and the format version; a stale, truncated or corrupt file is rebuilt.
 
+#include <cmath>
 #include <cstdint>
 #include <filesystem>
 #include <string>
@@ -50,7 +51,7 @@ class LwirTable {
     static constexpr int kTemperatures = 501;
     static constexpr double kMinTemperature_K = 150.0;
     static constexpr double kTemperatureStep_K = 0.5;
-    static constexpr std::uint32_t kFormatVersion = 1;
+    static constexpr std::uint32_t kFormatVersion = 2;
     // Slant paths: sensor heights [m] (linear between), view zenith 0–180° every 3°, the
     // same ranges.
     static constexpr int kSlantHeights = 8;
@@ -72,7 +73,7 @@ class LwirTable {
     // atmosphere of the sky (docs/lwir.md §5); the horizontal path(range_m) if the table was
     // built without slant paths.
     PathBand slantPath(double sensorHeight_m, double viewZenith_rad, double range_m) const;
-    bool hasSlantPaths() const { return !slantLogTau_.empty(); }
+    bool hasSlantPaths() const { return !slantTau_.empty(); }
     double skyRadiance_W_m2_sr(double zenith_rad) const;
     double blackbody_W_m2_sr(double temperature_K) const;
     double brightnessTemperature_K(double radiance_W_m2_sr) const;
@@ -96,14 +97,16 @@ class LwirTable {
     bool load(const std::filesystem::path& file, std::uint64_t key, std::string* why);
 
   private:
-    std::vector<double> logTau_;  // [kRanges]
+    // Grid steps per octave of range, (kRanges − 1)/log₂(max/min): set once, not per lookup.
+    double rangeScale_ = (kRanges - 1) / std::log2(kMaxRange_m / kMinRange_m);
+    std::vector<double> tau_;     // [kRanges]
     std::vector<double> path_;    // [kRanges]
     std::vector<double> sky_;     // [kZeniths]
     std::vector<double> planck_;  // [kTemperatures]
     double skyEmittance_ = 0.0;
     double skyDiffuse_ = 0.0;
-    std::vector<double> tilted_;       // [kTilts]
-    std::vector<double> slantLogTau_;  // [height][zenith][range], or empty
+    std::vector<double> tilted_;    // [kTilts]
+    std::vector<double> slantTau_;  // [height][zenith][range], or empty
     std::vector<double> slantPath_;
 };
 
