@@ -46,20 +46,12 @@ const FrameInfo& BolometerChain::process(ImageView<const float> radiance) noexce
     } else {
         shutter_.correct(volts_.view());
         // 6 ADC, 7 AGC.
-        info.clipped_px = adc_.apply(volts_.cview(), raw_.view());
+        info.clipped_px = adc_.apply(volts_.cview(), raw_.view(), sumRaw_);
         agc_.apply(raw_.cview(), display_.view());
     }
     info.ffc_count = shutter_.ffcCount();
     info.since_ffc_s = info.t_s - shutter_.lastFfc_s();
-    double sum = 0.0;
-    for (int y = 0; y < raw_.height(); ++y) {
-        const std::uint16_t* r = raw_.row(y);
-        std::uint64_t s = 0;
-        for (int x = 0; x < raw_.width(); ++x)
-            s += r[x];
-        sum += static_cast<double>(s);
-    }
-    info.mean_raw = sum / (static_cast<double>(cam_.width) * cam_.height);
+    info.mean_raw = sumRaw_ / (static_cast<double>(cam_.width) * cam_.height);
     ++frame_;
     info_ = info;
     return info_;

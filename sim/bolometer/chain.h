@@ -69,6 +69,7 @@ class BolometerChain {
     ImageF volts_;
     ImageU16 raw_;
     ImageU8 display_;
+    double sumRaw_ = 0.0;  // sum of the raw counts of the output frame
     FrameInfo info_;
 };
 

@@ -33,8 +33,10 @@ struct AdcParams {
 class AdcStage {
   public:
     explicit AdcStage(const ThermalCameraParams& cam);
-    // Quantises the volts; returns the number of pixels clipped at 0 or full scale.
-    std::int64_t apply(ImageView<const float> volts, ImageView<std::uint16_t> raw) const noexcept;
+    // Quantises the volts; returns the number of pixels clipped at 0 or full scale, and the
+    // sum of the counts in sum_counts. Rows up to 2^16 pixels.
+    std::int64_t apply(ImageView<const float> volts, ImageView<std::uint16_t> raw,
+                       double& sum_counts) const noexcept;
     int maxCount() const { return max_; }
     double countsPerVolt() const { return static_cast<double>(k_); }
 

@@ -104,8 +104,9 @@ void OpticsStage::buildTransfer(const ThermalCameraParams& cam) {
     fft_->spec = fftwf_alloc_complex(nc);
     fft_->transfer = fftwf_alloc_real(nc);
     if (!fft_->real || !fft_->spec || !fft_->transfer) throw SetupError("optics: out of memory");
-    // Scalar codelets, estimated plans: the same plan and bits on every x86-64 CPU.
-    const unsigned flags = FFTW_ESTIMATE | FFTW_NO_SIMD | FFTW_DESTROY_INPUT;
+    // Estimated plans (no measuring at set-up): the same plan, and bits, on every run on one
+    // CPU; another CPU's SIMD codelets may round differently (docs/bolometer.md).
+    const unsigned flags = FFTW_ESTIMATE | FFTW_DESTROY_INPUT;
     fft_->fwd = fftwf_plan_dft_r2c_2d(hp_, wp_, fft_->real, fft_->spec, flags);
     fft_->inv = fftwf_plan_dft_c2r_2d(hp_, wp_, fft_->spec, fft_->real, flags);
     if (!fft_->fwd || !fft_->inv) throw SetupError("optics: FFTW could not plan the MTF");
@@ -117,26 +118,36 @@ void OpticsStage::buildTransfer(const ThermalCameraParams& cam) {
     for (int i = 0; i <= kTable; ++i)
         diff[i] =
             bandDiffractionMtf(nuC * i / kTable, cam.f_number, cam.band_lo_um, cam.band_hi_um);
-    const auto mtf = [&](double vx, double vy) {
-        const double t = std::hypot(vx, vy) / nuC * kTable;
+    // H at (kx, ky): Σ over the aliases; the pixel's sincs tabulated per alias and index.
+    constexpr int kAlias = 2, kTerms = 2 * kAlias + 1;
+    const auto diffAt = [&](double vx, double vy) {
+        const double t = std::sqrt(vx * vx + vy * vy) / nuC * kTable;
         if (t >= kTable) return 0.0;
         const int i = static_cast<int>(t);
-        const double d = diff[i] + (diff[i + 1] - diff[i]) * (t - i);
-        return d * sinc(a_m * vx) * sinc(a_m * vy);
+        return diff[i] + (diff[i + 1] - diff[i]) * (t - i);
     };
-    const auto sampled = [&](double vx, double vy) {
+    std::vector<double> vxs(static_cast<std::size_t>(wc) * kTerms), sx(vxs.size());
+    for (int kx = 0; kx < wc; ++kx)
+        for (int m = 0; m < kTerms; ++m) {
+            const double v = kx / (wp_ * p_m) + (m - kAlias) / p_m;
+            vxs[kx * kTerms + m] = v;
+            sx[kx * kTerms + m] = sinc(a_m * v);
+        }
+    const auto sampled = [&](int kx, double vy0) {
         double s = 0.0;
-        for (int my = -2; my <= 2; ++my)
-            for (int mx = -2; mx <= 2; ++mx)
-                s += mtf(vx + mx / p_m, vy + my / p_m);
+        for (int my = -kAlias; my <= kAlias; ++my) {
+            const double vy = vy0 + my / p_m, sy = sinc(a_m * vy);
+            for (int m = 0; m < kTerms; ++m)
+                s += diffAt(vxs[kx * kTerms + m], vy) * sx[kx * kTerms + m] * sy;
+        }
         return s;
     };
-    const double norm = sampled(0.0, 0.0) * static_cast<double>(nr);
+    const double norm = sampled(0, 0.0) * static_cast<double>(nr);
     for (int ky = 0; ky < hp_; ++ky) {
         const double vy = (ky <= hp_ / 2 ? ky : ky - hp_) / (hp_ * p_m);
         for (int kx = 0; kx < wc; ++kx)
             fft_->transfer[static_cast<std::size_t>(ky) * wc + kx] =
-                static_cast<float>(sampled(kx / (wp_ * p_m), vy) / norm);
+                static_cast<float>(sampled(kx, vy) / norm);
     }
 }
 

@@ -11,6 +11,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <vector>
 
 #include "tests/sim/bolometer/bolometer_test_util.h"
@@ -73,6 +74,10 @@ TEST(Flicker, StationaryVarianceAndFlatAllanVariance) {
         }
         flick.push_back(acc / terms - white2 / n);
     }
+    std::printf(
+        "variance %.2f counts² (expected %.2f); 1/f Allan variance n=4..32: %.3f %.3f %.3f "
+        "%.3f\n",
+        var, white2 + 9.0 * sw * sw, flick[0], flick[1], flick[2], flick[3]);
     double mean = 0.0;
     for (double f : flick)
         mean += f / static_cast<double>(flick.size());

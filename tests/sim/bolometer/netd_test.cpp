@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 
 #include "sim/core/planck.h"
 #include "tests/sim/bolometer/bolometer_test_util.h"
@@ -55,6 +56,8 @@ constexpr double kLensFactor = 1.0 / 0.9;
 
 TEST(Netd, MeasuredFromFramesAtTheReferenceIsTheDatasheets) {
     const NetdMeasurement m = measureNetd("boson-640", 300.0);
+    std::printf("boson-640 at 300 K: NETD %.4f K measured, %.4f K expected; %.2f counts/K\n",
+                m.netd_K, kDatasheetNetd_K * kLensFactor, m.response_counts_K);
     EXPECT_NEAR(m.netd_K, kDatasheetNetd_K * kLensFactor, 0.10 * kDatasheetNetd_K * kLensFactor);
     // The response to a 1 K step at 300 K: the ADC's stated 50 counts/K (preset) times
     // (L(301) − L(300))/(dL/dT at 300 K), the band radiance being what the counts are linear in.
@@ -73,6 +76,8 @@ TEST(Netd, ScalesWithTheBandRadianceDerivativeOffTheReference) {
         const double scale = planckBandRadianceDerivative_W_m2_sr_K(7.5, 13.5, 300.0) /
                              planckBandRadianceDerivative_W_m2_sr_K(7.5, 13.5, T_K + 0.5);
         const double expected = kDatasheetNetd_K * kLensFactor * scale;
+        std::printf("boson-320 at %.2f K: NETD %.4f K measured, %.4f K expected\n", T_K, m.netd_K,
+                    expected);
         EXPECT_NEAR(m.netd_K, expected, 0.10 * expected) << T_K;
         // and it is not the reference's figure (the test can tell the two apart)
         EXPECT_GT(std::abs(m.netd_K - kDatasheetNetd_K * kLensFactor), 0.12 * expected) << T_K;
