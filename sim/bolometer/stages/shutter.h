@@ -1,0 +1,69 @@
+#pragma once
+// Step 5, shutter flat-field correction, FFC (docs/bolometer.md).
+//
+//   name            unit  default  meaning / source
+//   enabled         bool  true     a shutter is fitted (shutterless cores: false)
+//   interval_s      s     180      FFC at least this often (typical default, preset)
+//   delta_K         K     1.5      ... or when the focal plane moved this much since the last
+//   closed_frames   1     8        frames the shutter stays closed (output frozen, flagged)
+//   settle_frames   1     2        first closed frames not averaged (the pixels' lag settles)
+//
+// An FFC starts at the first frame (the core's start-up FFC), then whenever interval_s has
+// passed or |T_fpa − T_fpa,FFC| ≥ delta_K. While the shutter is closed the array sees a uniform
+// blackbody at the focal-plane temperature; the outputs stay frozen at the last good frame
+// and the frame info says so. The closed frames after the settling ones are averaged, V̄_i, and
+// the offset map becomes c_i = V̄_i − mean_j V̄_j: the corrected output V_i − c_i is flat on the
+// shutter and keeps its mean level. What remains afterwards is the noise of the average
+// (σ/√n), the gain non-uniformity times the scene's difference from the shutter, and the
+// offsets' drift with T_fpa since the FFC, which grows again until the next one.
+
+#include <cstdint>
+#include <vector>
+
+#include "sim/core/image.h"
+
+namespace nvs::bolometer {
+
+struct ThermalCameraParams;
+class Reader;
+
+struct ShutterParams {
+    bool shutter_enabled = true;
+    double ffc_interval_s = 180.0;
+    double ffc_delta_K = 1.5;
+    int ffc_closed_frames = 8;
+    int ffc_settle_frames = 2;
+
+    void read(const Reader& root);
+};
+
+class ShutterStage {
+  public:
+    explicit ShutterStage(const ThermalCameraParams& cam);
+    // Whether the shutter is in front of the array for the frame at t_s (starts an FFC when
+    // one is due).
+    bool closedFor(double t_s, double fpa_K) noexcept;
+    // While closed: takes this frame's volts (averaged after the settling frames); the last
+    // closed frame computes the new offset map.
+    void accumulate(ImageView<const float> volts) noexcept;
+    // V_i − c_i, in place.
+    void correct(ImageView<float> volts) const noexcept;
+    std::uint64_t ffcCount() const { return count_; }
+    double lastFfc_s() const { return lastT_s_; }
+    double lastFfcFpa_K() const { return lastFpa_K_; }
+
+  private:
+    void finish() noexcept;
+    bool enabled_;
+    double interval_s_, delta_K_;
+    int closedFrames_, settle_;
+    int closedLeft_ = 0;  // closed frames still to come in this FFC
+    int closedSeen_ = 0;  // closed frames taken so far
+    std::uint64_t count_ = 0;
+    double lastT_s_ = 0.0, lastFpa_K_ = 0.0;
+    double pendingT_s_ = 0.0, pendingFpa_K_ = 0.0;
+    ImageF sum_;         // Σ of the averaged closed frames [V]
+    ImageF correction_;  // c_i [V]
+};
+
+}  // namespace nvs::bolometer

@@ -1,0 +1,34 @@
+// The frame loop allocates nothing: global operator new is replaced in this test binary
+// (rt/bench/count_new.cpp) and counts every allocation while frames are processed, FFCs and
+// both AGC modes included.
+
+#include <gtest/gtest.h>
+
+#include <cstdint>
+
+#include "rt/bench/alloc_count.h"
+#include "tests/sim/bolometer/bolometer_test_util.h"
+
+namespace nvs::bolometer {
+namespace {
+
+TEST(BolometerAllocation, NoneWhileProcessingFrames) {
+    if (!rt::bench::allocationCounting())
+        GTEST_SKIP() << "operator new is not replaced in this build (AddressSanitizer)";
+    for (const char* mode : {"linear", "plateau"}) {
+        const ThermalCameraParams cam = test::thermalPreset(
+            "boson-320",
+            {{"width", "80"}, {"height", "64"}, {"agc.mode", mode}, {"shutter.interval_s", "0.5"}});
+        BolometerChain chain(cam, 9);
+        const ImageF in = test::blackbody(cam, 300.0);
+        chain.process(in.cview());  // warm-up
+        const std::uint64_t before = rt::bench::allocationCount();
+        for (int k = 0; k < 60; ++k)  // two FFCs
+            chain.process(in.cview());
+        EXPECT_EQ(rt::bench::allocationCount() - before, 0u) << mode;
+        EXPECT_GE(chain.lastInfo().ffc_count, 2u);
+    }
+}
+
+}  // namespace
+}  // namespace nvs::bolometer

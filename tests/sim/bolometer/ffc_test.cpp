@@ -1,0 +1,140 @@
+// Shutter flat-field correction: the residual fixed pattern after an FFC is below one NETD,
+// it grows with the focal plane's drift at the rate the preset's per-pixel drift coefficients
+// imply, a temperature change of delta_K starts the next FFC, and the frames the shutter is
+// closed are frozen and flagged.
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <vector>
+
+#include "tests/sim/bolometer/bolometer_test_util.h"
+
+namespace nvs::bolometer {
+namespace {
+
+// Residual fixed pattern [K]: the spatial σ of the mean of `frames` frames, divided by the
+// preset's 50 counts/K at 300 K (the scene is a 300 K blackbody).
+double residualFpn_K(BolometerChain& chain, const ImageF& scene, int frames) {
+    test::PixelStats s(static_cast<std::size_t>(scene.width() * scene.height()));
+    for (int k = 0; k < frames; ++k) {
+        EXPECT_FALSE(chain.process(scene.cview()).frozen);
+        s.add(chain.raw());
+    }
+    return s.spatialStdOfMeans() / 50.0;
+}
+
+// Focal plane drifting at 0.02 K/s (set rate), no self-heating; 1/f off (its slowest
+// generators would look like fixed pattern over a 1 s average).
+ThermalCameraParams driftingCamera() {
+    return test::thermalPreset("boson-640", {{"width", "128"},
+                                             {"height", "96"},
+                                             {"focal_plane.self_heating_K", "0"},
+                                             {"focal_plane.drift_K_s", "0.02"},
+                                             {"noise.flicker_rel", "0"}});
+}
+
+TEST(Ffc, ResidualBelowOneNetdAndGrowsWithDriftAtTheSetRate) {
+    const ThermalCameraParams cam = driftingCamera();
+    BolometerChain chain(cam, 3);
+    const ImageF scene = test::blackbody(cam, 300.0);
+    // Before any FFC the raw offsets (σ = 2 K) show: the first frame is frozen (start-up FFC).
+    test::pastStartupFfc(chain, scene, 0);
+    const double t0 = chain.lastInfo().t_s;
+    const double netd_K = 0.040 / 0.9;  // the camera's NETD (netd_test.cpp)
+    const double r0 = residualFpn_K(chain, scene, 60);
+    EXPECT_LT(r0, netd_K);
+    // What remains is the temporal noise of the two averages: the shutter's 24 − 4 = 20 frames
+    // (preset: closed_frames − settle_frames) and the 60 measured, σ = NETD·√(1/20 + 1/60).
+    // (The gain pattern, 0.2 %, times the scene's signal less the shutter's adds little here:
+    // the 300 K scene through the 0.9 lens gives nearly the 293 K shutter's signal.)
+    const double expected0 = netd_K * std::sqrt(1.0 / 20.0 + 1.0 / 60.0);
+    EXPECT_NEAR(r0, expected0, 0.15 * expected0);
+    // Growth: σ(t)² = σ₀² + (σ_c·rate·t)², σ_c = 0.3 K/K (preset), rate = 0.02 K/s, so the
+    // pattern's σ grows at σ_c·rate = 0.006 K/s once it dominates. Measured 15–60 s after the
+    // FFC (ΔT_fpa 0.3–1.2 K, below delta_K = 1.5 K).
+    std::vector<double> t, g;
+    for (int step = 1; step <= 4; ++step) {
+        while (chain.lastInfo().t_s - t0 < 15.0 * step)
+            chain.process(scene.cview());
+        const double tm = chain.lastInfo().t_s + 0.5 * 60.0 / cam.frame_rate_Hz;
+        const double r = residualFpn_K(chain, scene, 60);
+        t.push_back(tm - t0);
+        g.push_back(std::sqrt(std::max(r * r - r0 * r0, 0.0)));
+    }
+    // Least-squares slope through the origin.
+    double num = 0.0, den = 0.0;
+    for (std::size_t i = 0; i < t.size(); ++i) {
+        num += t[i] * g[i];
+        den += t[i] * t[i];
+    }
+    std::printf("residual after FFC %.4f K; growth %.5f K/s (expected 0.006)\n", r0, num / den);
+    for (std::size_t i = 0; i < t.size(); ++i)
+        std::printf("  t %.1f s after FFC: drift part %.4f K\n", t[i], g[i]);
+    EXPECT_NEAR(num / den, 0.3 * 0.02, 0.10 * 0.3 * 0.02);
+    EXPECT_GT(g.back(), 5.0 * netd_K);  // by then the pattern is far above the noise
+}
+
+TEST(Ffc, TemperatureChangeStartsTheNextOneAndRestoresTheResidual) {
+    const ThermalCameraParams cam = driftingCamera();
+    BolometerChain chain(cam, 4);
+    const ImageF scene = test::blackbody(cam, 300.0);
+    test::pastStartupFfc(chain, scene, 0);
+    // The start-up FFC began at t = 0 with T_fpa = ambient; at 0.02 K/s, |ΔT| reaches 1.5 K at
+    // 75 s: the next FFC starts with the first frame at or after 75 s.
+    double started_s = -1.0;
+    for (int k = 0; k < 80 * 60 && started_s < 0.0; ++k)
+        if (chain.process(scene.cview()).ffc_started) started_s = chain.lastInfo().t_s;
+    EXPECT_NEAR(started_s, 75.0, 1.0 / 60.0 + 1e-9);
+    EXPECT_EQ(chain.lastInfo().ffc_count, 1u);  // the start-up one; this one is under way
+    while (chain.process(scene.cview()).frozen) {
+    }
+    EXPECT_EQ(chain.lastInfo().ffc_count, 2u);
+    EXPECT_LT(residualFpn_K(chain, scene, 60), 0.040 / 0.9);
+}
+
+TEST(Ffc, ClosedFramesAreFrozenAndFlagged) {
+    const ThermalCameraParams cam = test::thermalPreset(
+        "boson-320", {{"width", "64"}, {"height", "48"}, {"shutter.interval_s", "2.0"}});
+    BolometerChain chain(cam, 8);
+    ImageF scene = test::blackbody(cam, 300.0);
+    for (int y = 10; y < 20; ++y)
+        for (int x = 10; x < 30; ++x)
+            scene(x, y) = static_cast<float>(
+                planckBandRadiance_W_m2_sr(cam.band_lo_um, cam.band_hi_um, 310.0));
+    // Start-up: 12 closed frames (preset), nothing good to show yet.
+    int frozen = 0;
+    while (chain.process(scene.cview()).frozen)
+        ++frozen;
+    EXPECT_EQ(frozen, cam.ffc_closed_frames);
+    // Run to the interval FFC; each closed frame repeats the last good frame's bits.
+    ImageU16 lastRaw(cam.width, cam.height);
+    ImageU8 lastDisplay(cam.width, cam.height);
+    int closedRun = 0, runs = 0;
+    for (int k = 0; k < 150; ++k) {
+        const FrameInfo& info = chain.process(scene.cview());
+        if (info.frozen) {
+            ++closedRun;
+            EXPECT_EQ(info.ffc_started, closedRun == 1);
+            for (int y = 0; y < cam.height; ++y) {
+                ASSERT_EQ(0, std::memcmp(chain.raw().row(y), lastRaw.row(y), 2 * cam.width));
+                ASSERT_EQ(0, std::memcmp(chain.display().row(y), lastDisplay.row(y), cam.width));
+            }
+        } else {
+            if (closedRun > 0) {
+                EXPECT_EQ(closedRun, cam.ffc_closed_frames);
+                ++runs;
+            }
+            closedRun = 0;
+            lastRaw.copyFrom(chain.raw().cview());
+            lastDisplay.copyFrom(chain.display().cview());
+        }
+    }
+    // Started at t = 2 s (frame 60 of 30 Hz) and 4 s: two FFCs in frames 12 … 161.
+    EXPECT_EQ(runs, 2);
+}
+
+}  // namespace
+}  // namespace nvs::bolometer

@@ -1,0 +1,88 @@
+// NETD as a laboratory measures it: a uniform blackbody fills the view, a pixel's temporal σ
+// over many frames [counts] is divided by the measured response to a 1 K step of the blackbody
+// [counts/K]. Expected values: the preset's datasheet NETD (FLIR Boson datasheet: < 40 mK at
+// f/1.0), carried to the camera by the laws stated in each test. The 1/f noise is off here (it is
+// not part of a datasheet NETD, which is measured over short records; flicker_test.cpp checks
+// it), and so is the focal plane's self-heating (the offsets' slow drift would add to σ).
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+
+#include "sim/core/planck.h"
+#include "tests/sim/bolometer/bolometer_test_util.h"
+
+namespace nvs::bolometer {
+namespace {
+
+struct NetdMeasurement {
+    double netd_K;
+    double response_counts_K;
+};
+
+NetdMeasurement measureNetd(const std::string& preset, double T_K) {
+    const ThermalCameraParams cam =
+        test::thermalPreset(preset, {{"width", "96"},
+                                     {"height", "80"},
+                                     {"noise.flicker_rel", "0"},
+                                     {"focal_plane.self_heating_K", "0"}});
+    BolometerChain chain(cam, 11);
+    const ImageF a = test::blackbody(cam, T_K);
+    const ImageF b = test::blackbody(cam, T_K + 1.0);
+    test::pastStartupFfc(chain, a, 10);
+    test::PixelStats sa(static_cast<std::size_t>(cam.width * cam.height));
+    for (int k = 0; k < 300; ++k) {
+        EXPECT_FALSE(chain.process(a.cview()).frozen);
+        sa.add(chain.raw());
+    }
+    // The 1 K step: 20 frames to settle (≥ 10 τ), then the mean of 100.
+    for (int k = 0; k < 20; ++k)
+        chain.process(b.cview());
+    test::PixelStats sb(static_cast<std::size_t>(cam.width * cam.height));
+    for (int k = 0; k < 100; ++k) {
+        chain.process(b.cview());
+        sb.add(chain.raw());
+    }
+    const double response = sb.grandMean() - sa.grandMean();
+    return {std::sqrt(sa.meanTemporalVariance()) / response, response};
+}
+
+// The datasheet's NETD is the core's at f/1 (τ = 1); through a lens of transmission τ and
+// f-number N the signal per kelvin falls by τ·(1 + 4N_ref²)/(1 + 4N²) and the noise stays:
+// NETD_camera = NETD_core·(1 + 4N²)/((1 + 4N_ref²)·τ). Boson preset: f/1.0, τ = 0.9.
+constexpr double kDatasheetNetd_K = 0.040;
+constexpr double kLensFactor = 1.0 / 0.9;
+
+TEST(Netd, MeasuredFromFramesAtTheReferenceIsTheDatasheets) {
+    const NetdMeasurement m = measureNetd("boson-640", 300.0);
+    std::printf("boson-640 at 300 K: NETD %.4f K measured, %.4f K expected; %.2f counts/K\n",
+                m.netd_K, kDatasheetNetd_K * kLensFactor, m.response_counts_K);
+    EXPECT_NEAR(m.netd_K, kDatasheetNetd_K * kLensFactor, 0.10 * kDatasheetNetd_K * kLensFactor);
+    // The response to a 1 K step at 300 K: the ADC's stated 50 counts/K (preset) times
+    // (L(301) − L(300))/(dL/dT at 300 K), the band radiance being what the counts are linear in.
+    const double lin = (planckBandRadiance_W_m2_sr(7.5, 13.5, 301.0) -
+                        planckBandRadiance_W_m2_sr(7.5, 13.5, 300.0)) /
+                       planckBandRadianceDerivative_W_m2_sr_K(7.5, 13.5, 300.0);
+    EXPECT_NEAR(m.response_counts_K, 50.0 * lin, 0.02 * 50.0);
+}
+
+// Off the reference the noise [W] is the same and the signal per kelvin follows dL/dT, so
+// NETD(T) = NETD(T_ref)·(dL/dT at T_ref)/(dL/dT at T): at 0 °C in 7.5–13.5 µm that is ~1.3×
+// the 300 K figure, at 60 °C ~0.8× (the numbers come from Planck's law below).
+TEST(Netd, ScalesWithTheBandRadianceDerivativeOffTheReference) {
+    for (const double T_K : {273.15, 333.15}) {
+        const NetdMeasurement m = measureNetd("boson-320", T_K);
+        const double scale = planckBandRadianceDerivative_W_m2_sr_K(7.5, 13.5, 300.0) /
+                             planckBandRadianceDerivative_W_m2_sr_K(7.5, 13.5, T_K + 0.5);
+        const double expected = kDatasheetNetd_K * kLensFactor * scale;
+        std::printf("boson-320 at %.2f K: NETD %.4f K measured, %.4f K expected\n", T_K, m.netd_K,
+                    expected);
+        EXPECT_NEAR(m.netd_K, expected, 0.10 * expected) << T_K;
+        // and it is not the reference's figure (the test can tell the two apart)
+        EXPECT_GT(std::abs(m.netd_K - kDatasheetNetd_K * kLensFactor), 0.12 * expected) << T_K;
+    }
+}
+
+}  // namespace
+}  // namespace nvs::bolometer
