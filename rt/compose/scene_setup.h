@@ -68,6 +68,8 @@ class ScenarioRenderer {
     }
     const scene::Scene& scene() const { return scene_; }
     const sensor::CameraParams& camera() const { return camera_; }
+    // The AstroTime of the scenario's start (utc_start).
+    const astro::AstroTime& epoch() const { return epoch_; }
     const astro::SunMoonState& sunMoon() const { return sunMoon_; }
     const sky::SkyModel& sky() const { return *sky_; }
     // The atmosphere table's band of each renderer band.

@@ -178,6 +178,20 @@ for r in rows[1:]:
     mats.append((name, float(sp)))
 layers = [l.split(",") for l in open(os.path.join(THESIS_DATA, "table14-1_autocad_layers.csv")).read().splitlines()[1:]]
 
+# The thermal channel's material of each (config/thermal/materials.toml, docs/thermal.md): the
+# panels and resolution targets are painted boards, the sign a painted metal plate, the truck's
+# body painted steel, its molding and tyres rubber, the aluminium fiducials polished aluminium.
+THERMAL = {"blk_panel": "painted_plywood", "wht_panel": "painted_plywood",
+           "lt_gray_panel": "painted_plywood", "md_gray_panel": "painted_plywood",
+           "dk_gray_panel": "painted_plywood", "red_panel": "painted_plywood",
+           "blue_panel": "painted_plywood", "res_trgt_wht": "painted_plywood",
+           "res_trgt_blk": "painted_plywood", "asphalt": "asphalt", "yellow_line": "asphalt",
+           "grass": "grass", "dirt": "soil_dry", "concrete": "concrete", "brick": "brick",
+           "sign": "painted_metal", "flesh": "skin", "lt_clothes": "clothing",
+           "md_clothes": "clothing", "dk_clothes": "clothing", "red_truck": "painted_metal",
+           "blk_truck": "painted_metal", "molding": "rubber", "rubber": "rubber", "glass": "glass",
+           "mirrored_glass": "glass", "polished_aluminum": "aluminium_polished"}
+
 cam = (-13.700 * IN, -784.700 * IN, (612.597 + 0.634) * IN)
 def write_scene(path, drive=False, air=False):
     """scene.toml; with drive=True scene_drive.toml (the truck drives through the lot); with
@@ -190,7 +204,7 @@ def write_scene(path, drive=False, air=False):
         f.write("position_m = [%.4f, %.4f, %.4f]\n" % enu(*cam))
         f.write("target_m = [0.0, 0.0, 0.0]\n\n")
         for name, sp in mats:
-            f.write('[[material]]\nname = "%s"\nreflectance_file = "reflectance/%s.csv"\nspecularity = %.2f\n\n' % (name, name, sp))
+            f.write('[[material]]\nname = "%s"\nthermal = "%s"\nreflectance_file = "reflectance/%s.csv"\nspecularity = %.2f\n\n' % (name, THERMAL[name], name, sp))
         f.write("[layers]  # thesis Table 14-1\n")
         for l in layers:
             if l[0].startswith("face_"):

@@ -135,6 +135,10 @@ struct Renderer::Impl {
     std::vector<float> gSvf;
     std::vector<std::uint16_t> gMat;
     std::vector<std::int16_t> gObj;
+    // Thermal classes (thermal.cpp): the classes and, per class key, the class that stands
+    // for it (the nearest present class where a key has no face of its own).
+    std::vector<ThermalSurface> thermal;
+    std::vector<std::int32_t> thermalOfKey;
     // Static lighting data per pixel: everything about a pixel's light that depends only on the
     // geometry, the camera and the lamps' placement, kept as long as the G-buffer is (a fixed
     // camera over a static scene computes it once). Built lazily for the pixels that are shaded

@@ -93,6 +93,41 @@ struct RenderConfig {
 using RowExecutor = nvs::RowExecutor;
 using SerialExecutor = nvs::SerialExecutor;
 
+// The thermal band (docs/thermal.md, "Rendering"). The scene's surfaces are grouped into classes
+// by material, orientation (5 tilt bands, 4 azimuth quadrants for the inclined ones) and sky-view
+// factor (4 bands), each face of a triangle on its own; the composition root solves each class's
+// heat balance and hands the frame its temperatures.
+inline constexpr int kThermalCosBins = 11;  // ε(cos θ) at cos θ = i/10
+
+struct ThermalSurface {
+    int material = 0;  // scene material index
+    int key = 0;       // (material, tilt band, azimuth quadrant, sky-view band)
+    Vec3 normal{0.0, 0.0, 1.0};
+    double tilt_rad = 0.0;     // mean normal from the zenith
+    double azimuth_rad = 0.0;  // from north through east
+    double skyView = 1.0;      // mean sky-view factor
+    double area_m2 = 0.0;
+    std::vector<Vec3> samples_m;  // points on the class (world, objects at t = 0): Sun shadows
+};
+
+// One thermal frame's inputs (tables the composition root fills from sim/thermal and
+// sim/lwir; no allocation per frame). Radiances are band radiances [W m⁻² sr⁻¹].
+struct ThermalFrame {
+    const float* surfaceTemperature_K = nullptr;  // per ThermalSurface
+    const float* emissivity = nullptr;            // per ThermalSurface × kThermalCosBins
+    const float* blackbody = nullptr;             // B(T) at T = blackbodyT0_K + i·step
+    double blackbodyT0_K = 150.0, blackbodyStep_K = 0.1;
+    int blackbodyCount = 0;
+    const float* pathTau = nullptr;  // τ(r) and L_path(r) at ln r = lnRange0 + i·step
+    const float* pathRadiance = nullptr;
+    double lnRange0 = 0.0, lnRangeStep = 0.1;
+    int rangeCount = 0;
+    const float* skyRadiance = nullptr;  // at view zenith i·90°/(skyCount − 1)
+    int skyCount = 0;
+    double skyDiffuse = 0.0;   // the sky's radiance averaged for a diffuse reflector
+    double airRadiance = 0.0;  // B(T_air): the surroundings a surface sees besides the sky
+};
+
 struct RenderStats {
     std::uint64_t primaryRays = 0;
     std::uint64_t shadowRays = 0;
@@ -130,6 +165,22 @@ class Renderer {
     // Truth boxes of tracked objects in the current pose [px]: id, x, y, w, h (boxes entirely
     // behind the camera are left out). Returns the count written (≤ maxBoxes).
     int truthBoxes(int* ids, float* xywh, int maxBoxes) const noexcept;
+
+    // Thermal band. Setup: groups the scene's faces into classes (at most `maxSamples` sample
+    // points each) and keeps the pixel → class map; returns the classes.
+    const std::vector<ThermalSurface>& prepareThermal(int maxSamples = 32);
+    // Setup: the share of a class's sample points that see the direction `towardSun` (unit,
+    // world), by shadow rays through the scene as placed now.
+    double sunlitFraction(const ThermalSurface& surface, const Vec3& towardSun) const;
+    // Per frame (after prepareThermal): the band radiance at the aperture,
+    //   L = τ(r)·(ε(θ)·B(T) + (1 − ε(θ))·L_env) + L_path(r),
+    // L_env = s·L_mirror + (1 − s)·(F·L_sky,diffuse + (1 − F)·B(T_air)) (s the material's
+    // specularity, F the sky-view factor); rays that miss see the sky radiance at their zenith
+    // angle (B(T_air) below the horizon). Shares the G-buffer with render().
+    void renderThermal(const ThermalFrame& frame, ImageView<float> radiance,
+                       RowExecutor& exec) noexcept;
+    // The thermal class of a pixel's primary hit (−1: sky), after renderThermal.
+    int thermalClassOfPixel(int x, int y) const noexcept;
 
     // Introspection for tests.
     // The primary hit of a pixel: false on a miss.

@@ -336,6 +336,10 @@ Scene loadScene(const std::filesystem::path& path) {
         if (!(m.specularity >= 0.0 && m.specularity <= 1.0)) {
             t.fail("specularity", "must lie in [0, 1]");
         }
+        // The thermal channel's material (config/thermal/materials.toml; docs/thermal.md). It
+        // is checked there, against the library the scenario names.
+        m.thermal = t.get<std::string>("thermal", "");
+        if (t.contains("thermal")) m.thermalLoc = t.location("thermal");
         s.materials.push_back(std::move(m));
     }
 

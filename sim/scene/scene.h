@@ -25,6 +25,10 @@ struct Material {
     double specularity = 0.0;  // fraction of ρ reflected as a mirror (DIRSIG's SPECULARITY)
     std::string source;        // provenance of the reflectance ("# source:" of its CSV)
     FileLoc loc;
+    // The thermal material it is made of (a name in the thermal material library); empty:
+    // none given (a thermal scenario then fails at its place).
+    std::string thermal;
+    FileLoc thermalLoc;
 };
 
 // A triangle mesh in its own (object) frame, metres. One material index per triangle.

@@ -1,0 +1,187 @@
+// The thermal band on the shipped RIT scene (docs/thermal.md, "Rendering"): the scene's surface
+// classes through the heat balance over the thesis night's weather, rendered with the night's
+// LWIR table, checked against an independent spectral integration and against what the thesis
+// used the scene for (aluminium fiducials cold against grass at night, §4; vehicle tops colder
+// than their sides under the clear sky, Appendix M).
+#include "rt/compose/thermal_scene.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <map>
+#include <vector>
+
+#include "rt/compose/scenario.h"
+#include "rt/compose/scene_setup.h"
+#include "sim/lwir/absorption.h"
+#include "sim/lwir/humidity.h"
+
+namespace nvs::rt {
+namespace {
+namespace fs = std::filesystem;
+
+const fs::path kSource = NVS_SOURCE_DIR;
+const DataDirs kDirs{kSource / "config", fs::path(NVS_BINARY_DIR) / "nvstim-cache"};
+
+struct Night {
+    std::unique_ptr<ScenarioRenderer> sr;
+    std::unique_ptr<ThermalScene> thermal;
+    double t_s = 0.0;  // POSIX
+    ImageF radiance;
+};
+
+Night& nolight() {
+    static Night n = [] {
+        Night night;
+        fs::create_directories(kDirs.cache);
+        night.sr =
+            ScenarioRenderer::create(kSource / "scenarios/thesis-nolight/scenario.toml", kDirs);
+        const Scenario& sc = night.sr->scenario();
+        night.t_s = sc.utcStart_unix_s;
+        ThermalSceneSpec spec;
+        spec.weatherFile = kSource / "config/thermal/weather/rochester-1998-09-02.csv";
+        spec.materialsFile = kSource / "config/thermal/materials.toml";
+        night.sr->prepare(0.0);
+        night.thermal = std::make_unique<ThermalScene>(
+            night.sr->scene(), night.sr->renderer(), sc.scene.site, night.sr->epoch(),
+            sc.utcStart_unix_s, night.t_s, night.t_s + 60.0, spec, kDirs);
+        const Renderer& r = night.sr->renderer();
+        night.radiance = ImageF(r.camera().width, r.camera().height);
+        SerialExecutor exec;
+        night.sr->renderer().renderThermal(night.thermal->frame(night.t_s), night.radiance.view(),
+                                           exec);
+        // The frame as brightness temperature, 275-300 K on 0-255, to look at.
+        std::FILE* f = std::fopen((fs::path(NVS_BINARY_DIR) / "thermal_nolight.pgm").c_str(), "wb");
+        if (f) {
+            std::fprintf(f, "P5\n%d %d\n255\n", night.radiance.width(), night.radiance.height());
+            for (int y = 0; y < night.radiance.height(); ++y) {
+                for (int x = 0; x < night.radiance.width(); ++x) {
+                    const double t = night.thermal->lwirTable().brightnessTemperature_K(
+                        static_cast<double>(night.radiance(x, y)));
+                    std::fputc(static_cast<int>(std::clamp((t - 275.0) / 25.0 * 255.0, 0.0, 255.0)),
+                               f);
+                }
+            }
+            std::fclose(f);
+        }
+        return night;
+    }();
+    return n;
+}
+
+// Mean brightness temperature of the pixels whose primary hit is on `material`.
+double brightnessOf(Night& n, const std::string& material, int* count) {
+    const Renderer& r = n.sr->renderer();
+    const int m = n.sr->scene().materialIndex(material);
+    double sum = 0.0;
+    *count = 0;
+    for (int y = 0; y < r.camera().height; ++y) {
+        for (int x = 0; x < r.camera().width; ++x) {
+            Vec3 p;
+            int mat = -1, obj = -1;
+            if (!r.pixelHit(x, y, &p, &mat, &obj) || mat != m) continue;
+            sum += n.thermal->lwirTable().brightnessTemperature_K(
+                static_cast<double>(n.radiance(x, y)));
+            ++*count;
+        }
+    }
+    return *count > 0 ? sum / *count : 0.0;
+}
+
+TEST(ThermalScene, AluminiumFiducialsAreColdAgainstGrassAtNight) {
+    Night& n = nolight();
+    int nAl = 0, nGrass = 0, nAsphalt = 0, nWhite = 0;
+    const double al = brightnessOf(n, "polished_aluminum", &nAl);
+    const double grass = brightnessOf(n, "grass", &nGrass);
+    const double asphalt = brightnessOf(n, "asphalt", &nAsphalt);
+    const double white = brightnessOf(n, "wht_panel", &nWhite);
+    const double air = n.thermal->weather().at(n.t_s).air_K;
+    std::printf(
+        "1998-09-02 01:00Z, air %.2f K; brightness temperature: aluminium %.2f K (%d px), "
+        "grass %.2f K (%d px), asphalt %.2f K (%d px), white panel %.2f K (%d px)\n",
+        air, al, nAl, grass, nGrass, asphalt, nAsphalt, white, nWhite);
+    ASSERT_GT(nAl, 20);
+    ASSERT_GT(nGrass, 1000);
+    // Polished aluminium (ε 0.05) emits little and mirrors the sky and the surroundings: colder
+    // than the grass beside it (the thesis, §4).
+    EXPECT_LT(al, grass - 2.0);
+    // A clear night: asphalt, which stored the day's heat, is warmer than grass.
+    EXPECT_GT(asphalt, grass);
+}
+
+// Each pixel against a direct spectral integration through sim/lwir's absorption model:
+//   L = ε ∫R τ(λ) B(λ, T) dλ + ∫R (1 − τ(λ)) B(λ, T_air) dλ + (1 − ε) τ_band L_env
+// (the last term, 2 % of grass's radiance, from the renderer's own environment).
+TEST(ThermalScene, GrassPixelsMatchADirectSpectralIntegration) {
+    Night& n = nolight();
+    const Renderer& r = n.sr->renderer();
+    const lwir::AbsorptionData data = lwir::AbsorptionData::load(kDirs.config);
+    const thermal::WeatherSample w = n.thermal->weather().at(n.t_s);
+    lwir::AirState air;
+    air.temperature_K = w.air_K;
+    air.vapourPressure_Pa = lwir::vapourPressureFromDewPoint_Pa(w.dewPoint_K);
+    const lwir::BandResponse band = lwir::BandResponse::flat(7.5, 13.5);
+    const int grass = n.sr->scene().materialIndex("grass");
+    int checked = 0;
+    double worst = 0.0;
+    for (int y = 10; y < r.camera().height; y += 37) {
+        for (int x = 10; x < r.camera().width; x += 41) {
+            Vec3 p;
+            int mat = -1, obj = -1;
+            if (!r.pixelHit(x, y, &p, &mat, &obj) || mat != grass) continue;
+            const int cls = r.thermalClassOfPixel(x, y);
+            ASSERT_GE(cls, 0);
+            const double range_m = norm(p - n.sr->scene().camera.position_m);
+            const double t_K = n.thermal->temperatures().at(static_cast<std::size_t>(cls), n.t_s);
+            Vec3 normal;
+            double svf = 0.0;
+            r.pixelSurface(x, y, &normal, &svf);
+            const Vec3 view = normalized(n.sr->scene().camera.position_m - p);
+            const double eps = thermal::directionalEmissivity(
+                n.thermal->classes()[static_cast<std::size_t>(cls)].material, dot(normal, view));
+            const lwir::Spectral tau = lwir::homogeneousTransmittance(data, air, range_m);
+            lwir::Spectral absorb{};
+            for (std::size_t i = 0; i < absorb.size(); ++i)
+                absorb[i] = 1.0 - tau[i];
+            const double env = svf * n.thermal->lwirTable().skyDiffuseRadiance_W_m2_sr() +
+                               (1.0 - svf) * n.thermal->lwirTable().blackbody_W_m2_sr(w.air_K);
+            const double direct =
+                eps * lwir::bandIntegral_W_m2_sr(band, tau, t_K) +
+                lwir::bandIntegral_W_m2_sr(band, absorb, w.air_K) +
+                (1.0 - eps) * n.thermal->lwirTable().path(range_m).transmittance * env;
+            const double rel = static_cast<double>(n.radiance(x, y)) / direct - 1.0;
+            worst = std::max(worst, std::fabs(rel));
+            ++checked;
+        }
+    }
+    std::printf("%d grass pixels, worst |rendered/direct - 1| = %.4f\n", checked, worst);
+    ASSERT_GT(checked, 20);
+    EXPECT_LT(worst, 0.01);
+}
+
+// Appendix M: the vehicle's top is colder than its sides, exposed to the clear sky.
+TEST(ThermalScene, TruckRoofColderThanItsSides) {
+    Night& n = nolight();
+    const auto& surfaces = n.thermal->surfaces();
+    const int red = n.sr->scene().materialIndex("red_truck");
+    double roof = 0.0, roofArea = 0.0, side = 0.0, sideArea = 0.0;
+    for (std::size_t i = 0; i < surfaces.size(); ++i) {
+        const render::ThermalSurface& s = surfaces[i];
+        if (s.material != red) continue;
+        const double t_K = n.thermal->temperatures().at(i, n.t_s);
+        const double tilt_deg = s.tilt_rad * 180.0 / 3.14159265358979;
+        if (tilt_deg < 22.5 && s.skyView > 0.75) roof += t_K * s.area_m2, roofArea += s.area_m2;
+        if (tilt_deg > 67.5 && tilt_deg < 112.5) side += t_K * s.area_m2, sideArea += s.area_m2;
+    }
+    ASSERT_GT(roofArea, 0.5);
+    ASSERT_GT(sideArea, 0.5);
+    std::printf("red truck: roof %.2f K (%.1f m2), sides %.2f K (%.1f m2)\n", roof / roofArea,
+                roofArea, side / sideArea, sideArea);
+    EXPECT_LT(roof / roofArea, side / sideArea - 0.5);
+}
+
+}  // namespace
+}  // namespace nvs::rt
