@@ -181,6 +181,9 @@ class Renderer {
                        RowExecutor& exec) noexcept;
     // The thermal class of a pixel's primary hit (−1: sky), after renderThermal.
     int thermalClassOfPixel(int x, int y) const noexcept;
+    // The surface temperature renderThermal gives a pixel's hit (its class's, interpolated in
+    // sky view between neighbouring classes); 0 for the sky.
+    double thermalPixelTemperature_K(const ThermalFrame& frame, int x, int y) const noexcept;
 
     // Introspection for tests.
     // The primary hit of a pixel: false on a miss.

@@ -123,6 +123,26 @@ float skyAt(const ThermalFrame& f, double dirZ) noexcept {
     return lerpTable(f.skyRadiance, f.skyCount, zenith_deg / 90.0 * (f.skyCount - 1));
 }
 
+// The surface temperature of pixel i: its class's, and between the classes of the two sky-view
+// bands around its own sky-view factor, linear in the classes' mean sky-view factors (a surface
+// whose sky view changes across it has no steps at the bands' edges).
+double pixelTemperature_K(const ThermalCtx& c, std::size_t i, int cls) noexcept {
+    const Renderer::Impl& im = *c.im;
+    const double svf = im.gSvf[i];
+    const ThermalSurface& s0 = im.thermal[static_cast<std::size_t>(cls)];
+    const int band = skyViewBand(svf);
+    const int other = svf * kSkyViews - band < 0.5 ? band - 1 : band + 1;
+    const double t0 = c.f->surfaceTemperature_K[cls];
+    if (other < 0 || other >= kSkyViews) return t0;
+    const int key = classKey(im.gMat[i], g3(im.gNrm, i), svf) - band + other;
+    const int cls1 = im.thermalOfKey[static_cast<std::size_t>(key)];
+    if (cls1 < 0 || cls1 == cls) return t0;
+    const ThermalSurface& s1 = im.thermal[static_cast<std::size_t>(cls1)];
+    if (std::fabs(s1.skyView - s0.skyView) < 1e-3) return t0;
+    const double w = std::clamp((svf - s0.skyView) / (s1.skyView - s0.skyView), 0.0, 1.0);
+    return t0 + w * (static_cast<double>(c.f->surfaceTemperature_K[cls1]) - t0);
+}
+
 float surfaceRadiance(const ThermalCtx& c, std::size_t i, const Vec3& view, int cls) noexcept {
     const Renderer::Impl& im = *c.im;
     const ThermalFrame& f = *c.f;
@@ -130,7 +150,7 @@ float surfaceRadiance(const ThermalCtx& c, std::size_t i, const Vec3& view, int 
     const double cosT = std::clamp(dot(n, view), 0.0, 1.0);
     const float* eps = f.emissivity + static_cast<std::size_t>(cls) * kThermalCosBins;
     const double e = lerpTable(eps, kThermalCosBins, cosT * (kThermalCosBins - 1));
-    const double t = f.surfaceTemperature_K[cls];
+    const double t = pixelTemperature_K(c, i, cls);
     const double b =
         lerpTable(f.blackbody, f.blackbodyCount, (t - f.blackbodyT0_K) / f.blackbodyStep_K);
     const double svf = im.gSvf[i];
@@ -207,6 +227,13 @@ void Renderer::renderThermal(const ThermalFrame& frame, ImageView<float> radianc
     updateGeometryBuffer(c, -1, exec);
     ThermalCtx tc{&im, &config_, &frame, radiance};
     exec.run(im.H, &thermalRows, &tc);
+}
+
+double Renderer::thermalPixelTemperature_K(const ThermalFrame& frame, int x, int y) const noexcept {
+    const int cls = thermalClassOfPixel(x, y);
+    if (cls < 0) return 0.0;
+    const ThermalCtx c{impl_.get(), &config_, &frame, ImageView<float>{}};
+    return pixelTemperature_K(c, static_cast<std::size_t>(y) * impl_->W + x, cls);
 }
 
 int Renderer::thermalClassOfPixel(int x, int y) const noexcept {

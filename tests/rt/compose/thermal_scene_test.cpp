@@ -135,7 +135,7 @@ TEST(ThermalScene, GrassPixelsMatchADirectSpectralIntegration) {
             const int cls = r.thermalClassOfPixel(x, y);
             ASSERT_GE(cls, 0);
             const double range_m = norm(p - n.sr->scene().camera.position_m);
-            const double t_K = n.thermal->temperatures().at(static_cast<std::size_t>(cls), n.t_s);
+            const double t_K = r.thermalPixelTemperature_K(n.thermal->frame(n.t_s), x, y);
             Vec3 normal;
             double svf = 0.0;
             r.pixelSurface(x, y, &normal, &svf);
