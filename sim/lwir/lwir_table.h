@@ -94,9 +94,12 @@ class LwirTable {
     double tiltedSkyRadiance_W_m2_sr(double tilt_rad) const;
 
     void save(const std::filesystem::path& file, std::uint64_t key) const;
+    // Replaces this table by the file's if it is usable; else says why and leaves it.
     bool load(const std::filesystem::path& file, std::uint64_t key, std::string* why);
 
   private:
+    // Only build() and loadOrBuild() make tables, so no lookup ever meets an empty one.
+    LwirTable() = default;
     // Grid steps per octave of range, (kRanges − 1)/log₂(max/min): set once, not per lookup.
     double rangeScale_ = (kRanges - 1) / std::log2(kMaxRange_m / kMinRange_m);
     std::vector<double> tau_;     // [kRanges]
