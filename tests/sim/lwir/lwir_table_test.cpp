@@ -249,6 +249,24 @@ TEST(LwirTable, ChangedCoefficientsChangeTheKey) {
     EXPECT_NE(LwirTable::cacheKey(other, nvs::test::configDir()), before);
 }
 
+TEST(LwirTable, UnwritableCacheStillGivesATable) {
+    // A cache "folder" that is a file: nothing can be written there; the table is built, used,
+    // and the failure is a warning, not an error.
+    const auto file = std::filesystem::temp_directory_path() / "nvs_lwir_cache_is_a_file";
+    std::filesystem::remove_all(file);
+    std::ofstream(file) << "not a folder\n";
+    bool rebuilt = false;
+    const LwirTable t =
+        LwirTable::loadOrBuild(inputs(), DataDirs{nvs::test::configDir(), file}, &rebuilt);
+    EXPECT_TRUE(rebuilt);
+    EXPECT_EQ(t.path(500.0).transmittance, table().path(500.0).transmittance);
+    // No cache folder at all: built each time.
+    const LwirTable u =
+        LwirTable::loadOrBuild(inputs(), DataDirs{nvs::test::configDir(), {}}, &rebuilt);
+    EXPECT_TRUE(rebuilt);
+    EXPECT_EQ(u.skyRadiance_W_m2_sr(0.2), table().skyRadiance_W_m2_sr(0.2));
+}
+
 TEST(LwirTable, BadInputThrows) {
     LwirTableInputs in = inputs();
     in.air.vapourPressure_Pa = -1.0;
