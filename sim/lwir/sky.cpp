@@ -83,8 +83,8 @@ double slantDistance_m(double z_m, double sinZ, double cosZ) {
     return std::sqrt(std::max(0.0, r * r - rs * rs)) - kEarthRadius_m * cosZ;
 }
 
-double bandRadianceAt(const AbsorptionData& data, const BandResponse& band, const SkyParams& s,
-                      const std::vector<Layer>& ls, double zenith_rad, PathAbsorption* path) {
+double bandRadianceAt(const BandResponse& band, const SkyParams& s, const std::vector<Layer>& ls,
+                      double zenith_rad, PathAbsorption* path) {
     const double sinZ = std::sin(zenith_rad), cosZ = std::cos(zenith_rad);
     Spectral tPrev, lClear{}, lSub{}, tBase{};
     tPrev.fill(1.0);
@@ -113,7 +113,6 @@ double bandRadianceAt(const AbsorptionData& data, const BandResponse& band, cons
         if (s.cloudFraction > 0.0)
             cloudy += w * (lSub[i] + tBase[i] * planckGrid_W_m2_sr_um(i, tc));
     }
-    (void)data;
     return (1.0 - s.cloudFraction) * clear + s.cloudFraction * cloudy;
 }
 
@@ -195,7 +194,7 @@ double skyBandRadiance_W_m2_sr(const AbsorptionData& data, const BandResponse& b
     PathAbsorption path(data);
     path.setActive(band.firstIndex(), band.lastIndex());
     const double z = std::clamp(zenith_rad, 0.0, 0.5 * kPi);
-    return bandRadianceAt(data, band, sky, ls, z, &path);
+    return bandRadianceAt(band, sky, ls, z, &path);
 }
 
 std::vector<double> skyBandRadianceProfile(const AbsorptionData& data, const BandResponse& band,
@@ -208,7 +207,7 @@ std::vector<double> skyBandRadianceProfile(const AbsorptionData& data, const Ban
     std::vector<double> out(static_cast<std::size_t>(count));
     for (int k = 0; k < count; ++k) {
         const double z = 0.5 * kPi * k / (count - 1);
-        out[static_cast<std::size_t>(k)] = bandRadianceAt(data, band, sky, ls, z, &path);
+        out[static_cast<std::size_t>(k)] = bandRadianceAt(band, sky, ls, z, &path);
     }
     return out;
 }

@@ -137,14 +137,15 @@ constexpr LowtranCase kLowtran7[] = {
 };
 
 // LOWTRAN's band transmittance over 8–14 µm for model m (1–6) and range [km].
-double lowtranBand(const CsvTable& t, int model, double range_km, double temperature_K) {
+double lowtranBand(const CsvTable& t, int model, double range_km, double temperature_K,
+                   double lo_um, double hi_um) {
     const std::size_t cm = t.column("model"), cr = t.column("range_km"),
                       cv = t.column("wavenumber_cm-1"), ct = t.column("transmittance");
     double num = 0.0, den = 0.0;
     for (std::size_t i = 0; i < t.rowCount(); ++i) {
         if (t.number(i, cm) != model || std::fabs(t.number(i, cr) - range_km) > 1e-9) continue;
         const double nu = t.number(i, cv), um = 1e4 / nu;
-        if (um < 8.0 || um > 14.0) continue;
+        if (um < lo_um || um > hi_um) continue;
         // B_λ dλ with dλ = 10⁴/ν² · 5 cm⁻¹.
         const double w =
             planckSpectralRadiance_W_m2_sr_m(um * 1e-6, temperature_K) * 1e4 / (nu * nu);
@@ -162,23 +163,28 @@ TEST(LwirBand, HorizontalTransmittanceAgreesWithLowtran7) {
     // opaque than LOWTRAN by over 0.01.
     const CsvTable lt = CsvTable::load(nvs::test::sourceDir() / "tests/data/lowtran7" /
                                        "horizontal_sea_level_700_1340cm.csv");
-    const BandResponse b = BandResponse::flat(8.0, 14.0);
-    const double ranges_km[3] = {0.1, 1.0, 3.0};
-    int model = 0;
-    for (const LowtranCase& c : kLowtran7) {
-        ++model;
-        AirState a;
-        a.temperature_K = c.t_K;
-        a.pressure_Pa = c.p_hPa * 100.0;
-        a.vapourPressure_Pa = c.h2o_ppmv * 1e-6 * a.pressure_Pa;
-        a.co2_ppm = 330.0;
-        for (double r : ranges_km) {
-            const double ours = horizontalPath(test::data(), b, a, r * 1e3).transmittance;
-            const double ref = lowtranBand(lt, model, r, c.t_K);
-            std::printf("%-20s %4.1f km: model %.4f LOWTRAN 7 %.4f\n", c.name, r, ours, ref);
-            const bool humid = c.h2o_ppmv > 1e4;
-            EXPECT_NEAR(ours, ref, humid ? 0.025 : 0.06) << c.name << " " << r << " km";
-            EXPECT_GT(ours, ref - 0.01) << c.name << " " << r << " km";
+    // Both the 8–14 µm band and a microbolometer's 7.5–13.5 µm (which reaches into the 6.3 µm
+    // water band's edge, where the model's 1200–1350 cm⁻¹ interval is one constant).
+    for (const auto& [lo, hi] : {std::pair{8.0, 14.0}, std::pair{7.5, 13.5}}) {
+        const BandResponse b = BandResponse::flat(lo, hi);
+        const double ranges_km[3] = {0.1, 1.0, 3.0};
+        int model = 0;
+        for (const LowtranCase& c : kLowtran7) {
+            ++model;
+            AirState a;
+            a.temperature_K = c.t_K;
+            a.pressure_Pa = c.p_hPa * 100.0;
+            a.vapourPressure_Pa = c.h2o_ppmv * 1e-6 * a.pressure_Pa;
+            a.co2_ppm = 330.0;
+            for (double r : ranges_km) {
+                const double ours = horizontalPath(test::data(), b, a, r * 1e3).transmittance;
+                const double ref = lowtranBand(lt, model, r, c.t_K, lo, hi);
+                std::printf("%.1f-%.1f um %-20s %4.1f km: model %.4f LOWTRAN 7 %.4f\n", lo, hi,
+                            c.name, r, ours, ref);
+                const bool humid = c.h2o_ppmv > 1e4;
+                EXPECT_NEAR(ours, ref, humid ? 0.025 : 0.06) << c.name << " " << r << " km";
+                EXPECT_GT(ours, ref - 0.01) << c.name << " " << r << " km";
+            }
         }
     }
 }

@@ -9,6 +9,7 @@
 #include <cstdio>
 #include <fstream>
 
+#include "sim/core/csv.h"
 #include "sim/core/error.h"
 #include "sim/core/planck.h"
 #include "tests/sim/lwir/lwir_test_common.h"
@@ -248,6 +249,24 @@ TEST(LwirTable, ChangedCoefficientsChangeTheKey) {
     EXPECT_NE(LwirTable::cacheKey(other, nvs::test::configDir()), before);
 }
 
+TEST(LwirTable, UnwritableCacheStillGivesATable) {
+    // A cache "folder" that is a file: nothing can be written there; the table is built, used,
+    // and the failure is a warning, not an error.
+    const auto file = std::filesystem::temp_directory_path() / "nvs_lwir_cache_is_a_file";
+    std::filesystem::remove_all(file);
+    std::ofstream(file) << "not a folder\n";
+    bool rebuilt = false;
+    const LwirTable t =
+        LwirTable::loadOrBuild(inputs(), DataDirs{nvs::test::configDir(), file}, &rebuilt);
+    EXPECT_TRUE(rebuilt);
+    EXPECT_EQ(t.path(500.0).transmittance, table().path(500.0).transmittance);
+    // No cache folder at all: built each time.
+    const LwirTable u =
+        LwirTable::loadOrBuild(inputs(), DataDirs{nvs::test::configDir(), {}}, &rebuilt);
+    EXPECT_TRUE(rebuilt);
+    EXPECT_EQ(u.skyRadiance_W_m2_sr(0.2), table().skyRadiance_W_m2_sr(0.2));
+}
+
 TEST(LwirTable, BadInputThrows) {
     LwirTableInputs in = inputs();
     in.air.vapourPressure_Pa = -1.0;
@@ -337,6 +356,54 @@ TEST(LwirSlant, LookingDownThroughDrierColderAirIsClearerAndDarker) {
         slantTable().slantPath(100.0, 1.5 * 3.14159265358979 / 3.0 * 2.0 / 2.0, 1234.0);
     EXPECT_NEAR(l.transmittance / direct[0].transmittance, 1.0, 5e-3);
     EXPECT_NEAR(l.pathRadiance_W_m2_sr / direct[0].pathRadiance_W_m2_sr, 1.0, 1e-2);
+}
+
+TEST(LwirSlant, LinesOfSightToTheGroundAgainstLowtran7) {
+    // LOWTRAN 7 slant paths from 0.3, 1 and 3 km down to the ground through its US Standard 1976
+    // atmosphere (tests/data/lowtran7/slant_us76_to_ground_700_1340cm.csv): band τ and path
+    // radiance over 8–14 µm, the ground's emission taken out (SUMVV − τ B(288.2 K)). The model
+    // gets LOWTRAN's surface air, lapse, CO2, ozone and a 2.8 km water scale height. As on
+    // horizontal paths it is the clearer (docs/lwir.md §6): τ within 0.04 and never lower by
+    // over 0.01, L_path within 25 %.
+    const CsvTable lt = CsvTable::load(nvs::test::sourceDir() / "tests/data/lowtran7" /
+                                       "slant_us76_to_ground_700_1340cm.csv");
+    const std::size_t ch = lt.column("height_km"), cz = lt.column("zenith_deg"),
+                      cv = lt.column("wavenumber_cm-1"), ct = lt.column("transmittance"),
+                      cr = lt.column("radiance_W_cm-2_sr-1_um-1");
+    SkyParams s;
+    s.airTemperature_K = 288.2;
+    s.pressure_Pa = 101300.0;
+    s.vapourPressure_Pa = 7.745e-3 * 101300.0;
+    s.waterScaleHeight_m = 2800.0;
+    s.co2_ppm = 330.0;
+    s.o3Column_DU = 345.0;
+    s.o3Surface_ppb = 25.0;
+    const BandResponse band = BandResponse::flat(8.0, 14.0);
+    const double cases[5][2] = {
+        {0.3, 135.0}, {0.3, 180.0}, {1.0, 135.0}, {1.0, 180.0}, {3.0, 180.0}};
+    for (const auto& c : cases) {
+        double num = 0.0, den = 0.0, lPath = 0.0;
+        for (std::size_t i = 0; i < lt.rowCount(); ++i) {
+            if (lt.number(i, ch) != c[0] || lt.number(i, cz) != c[1]) continue;
+            const double nu = lt.number(i, cv);
+            const double lo = std::max(8.0, 1e4 / (nu + 2.5)),
+                         hi = std::min(14.0, 1e4 / (nu - 2.5));
+            if (!(hi > lo)) continue;
+            const double b = planckSpectralRadiance_W_m2_sr_m(1e-2 / nu, 288.2) * 1e-6;
+            const double tau = lt.number(i, ct);
+            num += tau * b * (hi - lo);
+            den += b * (hi - lo);
+            lPath += (lt.number(i, cr) * 1e4 - tau * b) * (hi - lo);
+        }
+        const double z = c[1] * 3.14159265358979 / 180.0;
+        const double r = c[0] * 1e3 / std::fabs(std::cos(z));
+        const PathBand ours = slantPathProfile(test::data(), band, s, c[0] * 1e3, z, {r})[0];
+        std::printf("%.1f km at %.0f°: τ %.4f / LOWTRAN %.4f, L_path %.3f / %.3f\n", c[0], c[1],
+                    ours.transmittance, num / den, ours.pathRadiance_W_m2_sr, lPath);
+        EXPECT_NEAR(ours.transmittance, num / den, 0.04);
+        EXPECT_GT(ours.transmittance, num / den - 0.01);
+        EXPECT_NEAR(ours.pathRadiance_W_m2_sr / lPath, 1.0, 0.25);
+    }
 }
 
 TEST(LwirSlant, CachedSlantTableRoundTrips) {

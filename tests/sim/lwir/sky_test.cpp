@@ -4,12 +4,14 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <iterator>
 #include <utility>
 #include <vector>
 
+#include "sim/core/csv.h"
 #include "sim/core/error.h"
 #include "sim/core/units.h"
 #include "sim/lwir/humidity.h"
@@ -69,6 +71,55 @@ TEST(LwirSky, ClearSkyEmittanceAgreesWithIdso1981) {
     const double bias = (sumModel - sumIdso) / std::size(nights);
     std::printf("mean model − Idso: %.3f\n", bias);
     EXPECT_LT(std::fabs(bias), 0.06);
+}
+
+// LOWTRAN 7's clear-sky radiance from sea level through its US Standard 1976 atmosphere
+// (tests/data/lowtran7/sky_us76_zenith_angles_700_1340cm.csv says how it was run), integrated
+// over 8–14 µm with each 5 cm⁻¹ bin's overlap with the band.
+double lowtranSky(const CsvTable& t, double zenith_deg) {
+    const std::size_t cz = t.column("zenith_deg"), cv = t.column("wavenumber_cm-1"),
+                      cr = t.column("radiance_W_cm-2_sr-1_um-1");
+    double l = 0.0;
+    for (std::size_t i = 0; i < t.rowCount(); ++i) {
+        if (t.number(i, cz) != zenith_deg) continue;
+        const double nu = t.number(i, cv);
+        const double lo = std::max(8.0, 1e4 / (nu + 2.5)), hi = std::min(14.0, 1e4 / (nu - 2.5));
+        if (hi > lo) l += t.number(i, cr) * 1e4 * (hi - lo);  // W cm⁻² → W m⁻²
+    }
+    return l;
+}
+
+TEST(LwirSky, ClearSkyAgainstLowtran7) {
+    // The same surface air as LOWTRAN's US 1976 (288.2 K, 1013 hPa, 7.745e3 ppmv H2O, 330 ppmv
+    // CO2), its 6.5 K/km lapse to 11 km, its ozone (345 DU, 25 ppb at the ground), and a water
+    // scale height of 2.8 km (LOWTRAN's US 1976 vapour density falls to 0.49 at 2 km). The model
+    // is colder by up to 8 K (its dry-air deficit, docs/lwir.md §6), never warmer by over 1 K,
+    // and brightens from zenith to 85° by LOWTRAN's amount within 6 K.
+    const CsvTable lt = CsvTable::load(nvs::test::sourceDir() / "tests/data/lowtran7" /
+                                       "sky_us76_zenith_angles_700_1340cm.csv");
+    const BandResponse b = BandResponse::flat(8.0, 14.0);
+    SkyParams s = sky(288.2, 7.745e-3 * 101300.0);
+    s.pressure_Pa = 101300.0;
+    s.waterScaleHeight_m = 2800.0;
+    s.co2_ppm = 330.0;
+    s.o3Column_DU = 345.0;
+    s.o3Surface_ppb = 25.0;
+    double rise[2] = {0.0, 0.0};
+    for (double z : {0.0, 30.0, 45.0, 60.0, 70.0, 80.0, 85.0}) {
+        const double ours =
+            brightnessTemperature_K(b, skyBandRadiance_W_m2_sr(test::data(), b, s, z * kRadPerDeg));
+        const double ref = brightnessTemperature_K(b, lowtranSky(lt, z));
+        std::printf("zenith %2.0f°: model %.1f K, LOWTRAN 7 %.1f K\n", z, ours, ref);
+        EXPECT_NEAR(ours, ref, 8.0) << z;
+        EXPECT_LT(ours, ref + 1.0) << z;
+        if (z == 0.0) {
+            rise[0] = ours;
+            rise[1] = ref;
+        }
+        if (z == 85.0) {
+            EXPECT_NEAR(ours - rise[0], ref - rise[1], 6.0);
+        }
+    }
 }
 
 TEST(LwirSky, BrightnessTemperatureRisesTowardTheHorizon) {
