@@ -34,7 +34,7 @@ ThermalScene::ThermalScene(const scene::Scene& scene, render::Renderer& renderer
     const thermal::WeatherSample w = weather_.at(start_s);
     const lwir::LwirTableInputs in = lwir::LwirTableInputs::fromWeather(
         w.air_K, w.dewPoint_K, spec.pressure_Pa, w.cloudFraction, w.cloudBase_m, spec.band);
-    lwir_ = lwir::LwirTable::loadOrBuild(in, dirs);
+    lwir_ = std::make_unique<lwir::LwirTable>(lwir::LwirTable::loadOrBuild(in, dirs));
     fillTables();
     frame(start_s);
 }
@@ -93,7 +93,7 @@ void ThermalScene::fillTables() {
     blackbody_.resize(kTemps);
     for (int i = 0; i < kTemps; ++i)
         blackbody_[static_cast<std::size_t>(i)] =
-            static_cast<float>(lwir_.blackbody_W_m2_sr(kT0_K + kStep_K * i));
+            static_cast<float>(lwir_->blackbody_W_m2_sr(kT0_K + kStep_K * i));
     const double ln0 = std::log(lwir::LwirTable::kMinRange_m);
     const double ln1 = std::log(lwir::LwirTable::kMaxRange_m);
     constexpr int kRanges = 256;
@@ -101,7 +101,7 @@ void ThermalScene::fillTables() {
     tau_.resize(kRanges);
     path_.resize(kRanges);
     for (int i = 0; i < kRanges; ++i) {
-        const lwir::PathBand p = lwir_.path(std::exp(ln0 + step * i));
+        const lwir::PathBand p = lwir_->path(std::exp(ln0 + step * i));
         tau_[static_cast<std::size_t>(i)] = static_cast<float>(p.transmittance);
         path_[static_cast<std::size_t>(i)] = static_cast<float>(p.pathRadiance_W_m2_sr);
     }
@@ -109,7 +109,7 @@ void ThermalScene::fillTables() {
     sky_.resize(kSky);
     for (int i = 0; i < kSky; ++i)
         sky_[static_cast<std::size_t>(i)] =
-            static_cast<float>(lwir_.skyRadiance_W_m2_sr(i * kPi / 180.0));
+            static_cast<float>(lwir_->skyRadiance_W_m2_sr(i * kPi / 180.0));
     frame_.surfaceTemperature_K = temperature_K_.data();
     frame_.emissivity = emissivity_.data();
     frame_.blackbody = blackbody_.data();
@@ -123,13 +123,13 @@ void ThermalScene::fillTables() {
     frame_.rangeCount = kRanges;
     frame_.skyRadiance = sky_.data();
     frame_.skyCount = kSky;
-    frame_.skyDiffuse = lwir_.skyDiffuseRadiance_W_m2_sr();
+    frame_.skyDiffuse = lwir_->skyDiffuseRadiance_W_m2_sr();
 }
 
 const render::ThermalFrame& ThermalScene::frame(double t_s) noexcept {
     for (std::size_t i = 0; i < temperature_K_.size(); ++i)
         temperature_K_[i] = static_cast<float>(table_.at(i, t_s));
-    frame_.airRadiance = lwir_.blackbody_W_m2_sr(weather_.at(t_s).air_K);
+    frame_.airRadiance = lwir_->blackbody_W_m2_sr(weather_.at(t_s).air_K);
     return frame_;
 }
 

@@ -8,6 +8,7 @@
 // ThermalFrame. Setup throws SetupError naming file:line; per frame nothing allocates.
 
 #include <filesystem>
+#include <memory>
 #include <vector>
 
 #include "sim/astro/ephemeris.h"
@@ -46,7 +47,7 @@ class ThermalScene {
     const std::vector<render::ThermalSurface>& surfaces() const { return surfaces_; }
     const std::vector<thermal::SurfaceClass>& classes() const { return classes_; }
     const thermal::SurfaceTemperatureTable& temperatures() const { return table_; }
-    const lwir::LwirTable& lwirTable() const { return lwir_; }
+    const lwir::LwirTable& lwirTable() const { return *lwir_; }
     const thermal::WeatherSeries& weather() const { return weather_; }
     const thermal::HeatBalanceReport& report() const { return report_; }
 
@@ -62,7 +63,7 @@ class ThermalScene {
     std::vector<thermal::SurfaceClass> classes_;
     thermal::SurfaceTemperatureTable table_;
     thermal::HeatBalanceReport report_;
-    lwir::LwirTable lwir_;
+    std::unique_ptr<lwir::LwirTable> lwir_;
     std::vector<float> temperature_K_, emissivity_, blackbody_, tau_, path_, sky_;
     render::ThermalFrame frame_;
 };
