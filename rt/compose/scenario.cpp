@@ -61,6 +61,20 @@ T getOr(const std::optional<ConfigTable>& t, std::string_view key, const T& def)
     return t ? t->get<T>(key, def) : def;
 }
 
+void readIiccdCamera(const ConfigTable& t, std::optional<int> width, std::optional<int> height,
+                     std::optional<int> bits, const std::filesystem::path& configDir,
+                     sensor::Overrides ov, CameraSpec& out);
+void readThermalCamera(const ConfigTable& t, std::optional<int> width, std::optional<int> height,
+                       std::optional<int> bits, const std::filesystem::path& configDir,
+                       sensor::Overrides ov, CameraSpec& out);
+
+// A preset name found under config/thermal_cameras, or a file in a thermal_cameras folder.
+bool isThermalPreset(const std::filesystem::path& configDir, const std::string& preset) {
+    const std::filesystem::path p = preset;
+    if (p.extension() == ".toml") return p.parent_path().filename() == "thermal_cameras";
+    return pathExists(configDir / "thermal_cameras" / (preset + ".toml"));
+}
+
 // [camera]: the preset with its overrides; the scenario's explicit size and ADC depth are
 // applied as overrides so that the preset's own validation sees them.
 void readCamera(const ConfigTable& t, std::optional<int> width, std::optional<int> height,
@@ -74,6 +88,25 @@ void readCamera(const ConfigTable& t, std::optional<int> width, std::optional<in
         t.fail("set", e.what());
     }
     out.presetOverrides = ov;
+    if (isThermalPreset(configDir, out.preset)) {
+        readThermalCamera(t, width, height, bits, configDir, ov, out);
+    } else {
+        readIiccdCamera(t, width, height, bits, configDir, ov, out);
+    }
+    const std::int64_t seed = t.get<std::int64_t>("seed", static_cast<std::int64_t>(defaultSeed));
+    if (seed < 0) t.fail("seed", "must not be negative");
+    out.seed = static_cast<std::uint64_t>(seed);
+    const std::string controls = t.get<std::string>("controls", "platform");
+    if (controls != "platform" && controls != "preset") {
+        t.fail("controls", "must be \"platform\" or \"preset\"");
+    }
+    out.controlsFromPlatform = controls == "platform";
+    out.enabled = true;
+}
+
+void readIiccdCamera(const ConfigTable& t, std::optional<int> width, std::optional<int> height,
+                     std::optional<int> bits, const std::filesystem::path& configDir,
+                     sensor::Overrides ov, CameraSpec& out) {
     const auto put = [&](const char* key, std::optional<int> v) {
         if (!v) return;
         if (ov.count(key) != 0) t.fail("set", std::string(key) + " is also given in [scenario]");
@@ -93,15 +126,34 @@ void readCamera(const ConfigTable& t, std::optional<int> width, std::optional<in
     } catch (const SetupError& e) {
         t.fail("spectrum", e.what());
     }
-    const std::int64_t seed = t.get<std::int64_t>("seed", static_cast<std::int64_t>(defaultSeed));
-    if (seed < 0) t.fail("seed", "must not be negative");
-    out.seed = static_cast<std::uint64_t>(seed);
-    const std::string controls = t.get<std::string>("controls", "platform");
-    if (controls != "platform" && controls != "preset") {
-        t.fail("controls", "must be \"platform\" or \"preset\"");
+}
+
+// A thermal preset: the bolometer's parameters, and the loop's format in `params` (frame scan
+// at the core's frame rate, its size, 8 bits of display or the raw ADC's depth).
+void readThermalCamera(const ConfigTable& t, std::optional<int> width, std::optional<int> height,
+                       std::optional<int> bits, const std::filesystem::path& configDir,
+                       sensor::Overrides ov, CameraSpec& out) {
+    if (width) ov["width"] = std::to_string(*width);
+    if (height) ov["height"] = std::to_string(*height);
+    try {
+        out.thermalParams = bolometer::loadThermalCamera(configDir, out.preset, ov);
+    } catch (const SetupError& e) {
+        t.fail("preset", e.what());
     }
-    out.controlsFromPlatform = controls == "platform";
-    out.enabled = true;
+    const bolometer::ThermalCameraParams& tp = *out.thermalParams;
+    if (bits && *bits != 8 && *bits != tp.adc_bits) {
+        t.fail("preset", "a thermal camera gives 8 bits (display) or its ADC's " +
+                             std::to_string(tp.adc_bits) + " bits (raw), not " +
+                             std::to_string(*bits));
+    }
+    out.thermal = true;
+    out.params = sensor::CameraParams{};
+    out.params.width = tp.width;
+    out.params.height = tp.height;
+    out.params.scan = sensor::ScanMode::Frame;
+    out.params.field_rate_Hz = 2.0 * tp.frame_rate_Hz;  // frame scan: the loop's rate is half
+    out.params.adc_bits = bits ? *bits : 8;
+    out.spectrum = "thermal";
 }
 
 double finiteIn(const ConfigTable& t, std::string_view key, double fallback, double lo, double hi) {
@@ -113,7 +165,8 @@ double finiteIn(const ConfigTable& t, std::string_view key, double fallback, dou
 }
 
 // [site], [atmosphere], [scene] of a rendered scenario (docs/scene.md).
-void readSceneTables(const ConfigTable& root, const std::filesystem::path& file, SceneSpec& out) {
+void readSceneTables(const ConfigTable& root, const std::filesystem::path& file,
+                     const std::filesystem::path& configDir, SceneSpec& out) {
     const ConfigTable site = root.table("site");
     out.site.lat_deg = finiteIn(site, "lat_deg", 0.0, -90.0, 90.0);
     out.site.lon_deg = finiteIn(site, "lon_deg", 0.0, -180.0, 360.0);
@@ -141,6 +194,22 @@ void readSceneTables(const ConfigTable& root, const std::filesystem::path& file,
         scn.fail("file", "scene file not found: " + out.sceneFile.string());
     }
     out.lampsOn = scn.optional<std::vector<std::string>>("lamps_on");
+    if (const auto th = root.optionalTable("thermal")) {
+        ThermalSpec ts;
+        ts.loc = root.location("thermal");
+        const auto w = th->require<std::string>("weather");
+        ts.weatherFile = std::filesystem::absolute(file.parent_path() / w);
+        if (!pathExists(ts.weatherFile))
+            th->fail("weather", "file not found: " + ts.weatherFile.string());
+        ts.materialsFile = std::filesystem::absolute(
+            th->contains("materials") ? file.parent_path() / th->require<std::string>("materials")
+                                      : configDir / "thermal" / "materials.toml");
+        if (!pathExists(ts.materialsFile)) {
+            th->fail("materials", "file not found: " + ts.materialsFile.string());
+        }
+        ts.focalLength_mm = finiteIn(*th, "focal_length_mm", ts.focalLength_mm, 1.0, 1000.0);
+        out.thermal = ts;
+    }
     try {
         out.atmosphere.validate();
     } catch (const SetupError& e) {
@@ -215,6 +284,7 @@ void readScenarioTable(const ConfigTable& root, const std::filesystem::path& con
     // The camera runs at the loop's rate: one call per emitted frame (progressive), or one per
     // field, two per emitted frame (interlaced).
     if (cam) sc.camera.params.field_rate_Hz = fieldPerFrame ? sc.rate.hz() : 2.0 * sc.rate.hz();
+    if (sc.camera.thermal) sc.camera.thermalParams->frame_rate_Hz = sc.rate.hz();
     sc.exposure_s = finiteIn(s, "exposure_s", 0.0, 0.0, 1000.0);
     sc.utcStart = s.get<std::string>("utc_start", sc.utcStart);
     if (!parseIso8601Utc(sc.utcStart, &sc.utcStart_unix_s)) {
@@ -315,7 +385,8 @@ void readRuntime(const ConfigTable& root, Scenario& sc) {
 }
 
 // The frames: rendered from a scene, or the test pattern of one [[source]].
-void readFrames(const ConfigTable& root, const std::string& file, Scenario& sc) {
+void readFrames(const ConfigTable& root, const std::string& file,
+                const std::filesystem::path& configDir, Scenario& sc) {
     if (sc.rendered) {
         if (root.contains("source")) {
             throw SetupError(root.location("source"), "[[source]] and [scene] exclude each other");
@@ -323,7 +394,15 @@ void readFrames(const ConfigTable& root, const std::string& file, Scenario& sc) 
         if (!sc.camera.enabled) {
             throw SetupError(root.location("scene"), "a rendered scenario needs a [camera] preset");
         }
-        readSceneTables(root, file, sc.scene);
+        readSceneTables(root, file, configDir, sc.scene);
+        if (sc.camera.thermal && !sc.scene.thermal) {
+            throw SetupError(root.location("camera"),
+                             "a thermal camera preset needs a [thermal] table (weather, "
+                             "materials, focal_length_mm: docs/scenarios.md)");
+        }
+        if (!sc.camera.thermal && sc.scene.thermal) {
+            throw SetupError(sc.scene.thermal->loc, "[thermal] needs a thermal camera preset");
+        }
         return;
     }
     const auto sources = root.tableArray("source");
@@ -423,7 +502,7 @@ Scenario fromDocument(const ConfigDocument& doc, const std::string& file,
     readScenarioTable(root, configDir, sc);
     readPlatform(root, sc);
     readRuntime(root, sc);
-    readFrames(root, file, sc);
+    readFrames(root, file, configDir, sc);
     readTelemetry(root, file, sc);
     readEvents(root, sc);
     doc.finish();

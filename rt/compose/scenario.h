@@ -80,6 +80,7 @@
 #include "rt/loop/frame_loop.h"
 #include "rt/loop/stages.h"
 #include "sim/astro/ephemeris.h"
+#include "sim/bolometer/camera.h"
 #include "sim/render/renderer.h"
 #include "sim/sensor/camera.h"
 #include "sim/sky/atmosphere.h"
@@ -100,6 +101,11 @@ struct TestPatternSpec {
 struct CameraSpec {
     bool enabled = false;
     sensor::CameraParams params;
+    // A thermal preset (config/thermal_cameras/PRESET.toml): the uncooled microbolometer
+    // (sim/bolometer) instead of the intensified camera; `params` then carries only the format
+    // (size, frame scan and rate, depth) the loop runs at.
+    bool thermal = false;
+    std::optional<bolometer::ThermalCameraParams> thermalParams;
     // The preset and its [camera] set overrides as given, without the scenario's size, depth
     // and rate: the sensor as designed, whose field of view the renderer keeps.
     std::string preset;
@@ -123,7 +129,16 @@ struct TimelineEvent {
 };
 
 // [site], [atmosphere] and [scene]: what the renderer's composition needs (rt/compose).
+// [thermal]: what a thermal camera's scene needs besides the visible one (docs/thermal.md).
+struct ThermalSpec {
+    std::filesystem::path weatherFile;    // absolute
+    std::filesystem::path materialsFile;  // absolute; default config/thermal/materials.toml
+    double focalLength_mm = 18.0;         // the lens
+    FileLoc loc;                          // the [thermal] table
+};
+
 struct SceneSpec {
+    std::optional<ThermalSpec> thermal;  // with a thermal camera preset
     astro::Site site;
     sky::AtmosphereParams atmosphere;
     // [atmosphere] lunar_sky_scale: the Moon's light scattered by the atmosphere, 1 as the

@@ -35,6 +35,24 @@ RenderConfig renderConfigFor(const sensor::CameraParams& cam, int width, int hei
     return c;
 }
 
+RenderConfig thermalRenderConfig(const bolometer::ThermalCameraParams& cam, double focalLength_mm,
+                                 int width, int height) {
+    RenderConfig c;
+    c.camera.width = width;
+    c.camera.height = height;
+    c.camera.focalLength_m = focalLength_mm * 1e-3;
+    // The focal-plane array's pitch; another image size keeps the array's field of view.
+    c.camera.pitchX_m = cam.pitch_um * 1e-6 * cam.width / width;
+    c.camera.pitchY_m = cam.pitch_um * 1e-6 * cam.height / height;
+    // The visible bands are not rendered for a thermal camera (renderThermal draws the frame);
+    // the renderer's setup still needs weights.
+    const Spectrum one = Spectrum::fromFunction([](double) { return 1.0; });
+    c.bandWeight[kBandPe] = sky::photoelectronWeight(one);
+    c.bandWeight[kBandW] = one;
+    c.embreeIsa = embreeIsaPin();
+    return c;
+}
+
 void ThreadExecutor::run(int rows, void (*fn)(void*, int, int), void* ctx) noexcept {
     const int n = std::max(1, std::min(8, static_cast<int>(std::thread::hardware_concurrency())));
     std::vector<std::thread> ts;
@@ -67,14 +85,20 @@ std::unique_ptr<ScenarioRenderer> ScenarioRenderer::create(const Scenario& sc, c
             r->scene_.lamps[static_cast<std::size_t>(i)].on = true;
         }
     }
-    // The sensor as designed (the scenario's size may differ: renderConfigFor keeps its field
-    // of view).
-    r->camera_ = sensor::loadCamera(dirs.config, sc.camera.preset, sc.camera.presetOverrides);
     r->ephemeris_ = std::make_unique<astro::Ephemeris>(spec.site);
     r->epoch_ = astro::astroTimeFromUtc(astro::parseIsoUtc(sc.utcStart, sc.file + ": utc_start"),
                                         sc.file + ": utc_start");
-
-    RenderConfig cfg = renderConfigFor(r->camera_, sc.width, sc.height);
+    RenderConfig cfg;
+    if (sc.camera.thermal) {
+        r->camera_ = sc.camera.params;
+        cfg = thermalRenderConfig(*sc.camera.thermalParams, spec.thermal->focalLength_mm, sc.width,
+                                  sc.height);
+    } else {
+        // The sensor as designed (the scenario's size may differ: renderConfigFor keeps its
+        // field of view).
+        r->camera_ = sensor::loadCamera(dirs.config, sc.camera.preset, sc.camera.presetOverrides);
+        cfg = renderConfigFor(r->camera_, sc.width, sc.height);
+    }
     cfg.coarseFactor = coarseFactor;
     cfg.primaryVisibility = sc.primaryVisibility;
     sky::SkyModelConfig skyConfig;

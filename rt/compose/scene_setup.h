@@ -31,6 +31,9 @@ using render::Renderer;
 // The renderer's camera and band weights from a camera preset: w_pe = QE(λ) λ/(hc) with
 // QE = qe_peak β, w_W = β; the pinhole's focal length and the pixel pitch at the photocathode.
 RenderConfig renderConfigFor(const sensor::CameraParams& cam, int width, int height);
+// The same for a thermal camera: its focal-plane array behind a lens of focal length f.
+RenderConfig thermalRenderConfig(const bolometer::ThermalCameraParams& cam, double focalLength_mm,
+                                 int width, int height);
 
 // Row ranges on the machine's cores (up to 8), with threads started per call: for commands that
 // render a frame at a time outside the frame loop (render, diagnose); the loop has its RowPool.

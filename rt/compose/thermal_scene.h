@@ -43,6 +43,12 @@ class ThermalScene {
 
     // The renderer's inputs at t_s (POSIX UTC seconds). No allocation, no throw.
     const render::ThermalFrame& frame(double t_s) noexcept;
+    // The air's band radiance at t_s (setup and tests; frame() keeps it current per frame).
+    render::ThermalFrame frameAt(double t_s) const {
+        render::ThermalFrame f = frame_;
+        f.airRadiance = lwir_->blackbody_W_m2_sr(weather_.at(t_s).air_K);
+        return f;
+    }
 
     const std::vector<render::ThermalSurface>& surfaces() const { return surfaces_; }
     const std::vector<thermal::SurfaceClass>& classes() const { return classes_; }

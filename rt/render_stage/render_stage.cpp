@@ -1,5 +1,6 @@
 #include "rt/render_stage/render_stage.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include "sim/core/error.h"
@@ -20,6 +21,21 @@ std::unique_ptr<SceneRenderStage> SceneRenderStage::create(const Scenario& sc,
         s->heldBand_ = ImageF(sc.width, sc.height);
     }
     s->epochUnix_s_ = sc.utcStart_unix_s;
+    if (sc.camera.thermal) {
+        // The classes from the scene at the start; the heat balance over the run (at least a
+        // minute: the table's span).
+        const ThermalSpec& ts = *rs.thermal;
+        ThermalSceneSpec spec;
+        spec.weatherFile = ts.weatherFile;
+        spec.materialsFile = ts.materialsFile;
+        const bolometer::ThermalCameraParams& cam = *sc.camera.thermalParams;
+        spec.band = lwir::BandResponse::flat(cam.band_lo_um, cam.band_hi_um);
+        s->sr_->prepare(0.0);
+        const double end_s = sc.utcStart_unix_s + std::max(sc.duration_s.value_or(60.0), 60.0);
+        s->thermal_ = std::make_unique<ThermalScene>(s->sr_->scene(), s->sr_->renderer(), rs.site,
+                                                     s->sr_->epoch(), sc.utcStart_unix_s,
+                                                     sc.utcStart_unix_s, end_s, spec, dirs);
+    }
     s->pose_ = PlatformPose(rs.site);
     const auto& lamps = s->sr_->scene().lamps;
     s->lampCount_ = static_cast<int>(std::min<std::size_t>(lamps.size(), 32));
@@ -62,7 +78,10 @@ void SceneRenderStage::render(const FrameRequest& req, RadianceTarget out,
         }
     }
     if (held) heldFrames_.fetch_add(1, std::memory_order_relaxed);
-    if (holdRows_) {
+    if (thermal_) {
+        (void)sr_->prepare(t_s);  // objects and time
+        r.renderThermal(thermal_->frame(epochUnix_s_ + t_s), out.band_W_m2_sr, *pool_);
+    } else if (holdRows_) {
         const int parity = heldValid_ ? req.rowParity : -1;
         sr_->renderFrame(t_s, heldLpe_.view(), heldBand_.view(), *pool_, parity);
         heldValid_ = true;

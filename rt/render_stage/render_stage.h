@@ -26,6 +26,7 @@
 
 #include "rt/compose/platform_pose.h"
 #include "rt/compose/scene_setup.h"
+#include "rt/compose/thermal_scene.h"
 #include "rt/loop/stages.h"
 #include "rt/render_stage/row_pool.h"
 
@@ -39,7 +40,8 @@ class SceneRenderStage final : public RenderStage {
     static std::unique_ptr<SceneRenderStage> create(const Scenario& scenario, const DataDirs& dirs);
 
     // Both images: Lpe for the camera, and the band radiance of the same frame.
-    Outputs outputs() const noexcept override { return {true, true}; }
+    // A thermal camera: the band radiance of the thermal band only (Renderer::renderThermal).
+    Outputs outputs() const noexcept override { return {!thermal_, true}; }
     void render(const FrameRequest& req, RadianceTarget out, FrameMeta& meta) noexcept override;
 
     // Lamps of the scene switched on by the scenario at the start, as a lamp mask.
@@ -53,6 +55,7 @@ class SceneRenderStage final : public RenderStage {
     static bool poseUsable(const scene::CameraPose& pose) noexcept;
     // Frames rendered with the last good time or camera because the request's platform state
     // was not finite (never expected: telemetry is checked where it enters).
+    const ThermalScene* thermal() const noexcept { return thermal_.get(); }
     // The renderer's primary-visibility line (Renderer::primaryVisibilityNote), chosen at setup.
     const std::string& primaryVisibilityNote() const noexcept { return visibilityNote_; }
     std::int64_t heldFrames() const noexcept { return heldFrames_.load(std::memory_order_relaxed); }
@@ -60,6 +63,7 @@ class SceneRenderStage final : public RenderStage {
   private:
     SceneRenderStage() = default;
     std::unique_ptr<ScenarioRenderer> sr_;
+    std::unique_ptr<ThermalScene> thermal_;  // with a thermal camera
     std::unique_ptr<RowPool> pool_;
     std::string visibilityNote_;
     ImageF band_;  // scratch band image when the target has none

@@ -10,6 +10,7 @@
 #include <thread>
 
 #include "drivers/sinks/sinks.h"
+#include "rt/camera_stage/bolometer_stage.h"
 #include "rt/camera_stage/camera_stage.h"
 #include "rt/clock/threads.h"
 #include "rt/render_stage/render_stage.h"
@@ -368,7 +369,12 @@ int runScenario(const RunRequest& req, std::FILE* status) {
     GammaTableCache gammaTables;          // the MCP's Gamma tables, built here at setup
     std::unique_ptr<RowPool> cameraPool;  // [runtime] camera_threads > 1; outlives the stage
     std::unique_ptr<CameraStage> camera;
-    if (sc.camera.enabled) {
+    if (sc.camera.thermal) {
+        // The camera powered up before the run, its start-up shutter done facing the night.
+        const double start = sceneStage->thermal()->frameAt(sc.utcStart_unix_s).airRadiance;
+        camera = std::make_unique<BolometerCameraStage>(*sc.camera.thermalParams, sc.bits,
+                                                        sc.camera.seed, start);
+    } else if (sc.camera.enabled) {
         auto iiccd = std::make_unique<IiccdCameraStage>(
             sc.camera.params, sc.camera.spectrum, sc.camera.seed,
             sc.camera.controlsFromPlatform ? IiccdCameraStage::Controls::Platform
