@@ -198,7 +198,7 @@ void readSceneTables(const ConfigTable& root, const std::filesystem::path& file,
         ThermalSpec ts;
         ts.loc = root.location("thermal");
         const auto w = th->require<std::string>("weather");
-        ts.weatherFile = std::filesystem::absolute(file.parent_path() / w);
+        ts.weatherFile = std::filesystem::absolute(file.parent_path() / w).lexically_normal();
         if (!pathExists(ts.weatherFile))
             th->fail("weather", "file not found: " + ts.weatherFile.string());
         ts.materialsFile = std::filesystem::absolute(

@@ -370,6 +370,12 @@ int runScenario(const RunRequest& req, std::FILE* status) {
     std::unique_ptr<RowPool> cameraPool;  // [runtime] camera_threads > 1; outlives the stage
     std::unique_ptr<CameraStage> camera;
     if (sc.camera.thermal) {
+        const ThermalScene& th = *sceneStage->thermal();
+        std::fprintf(status,
+                     "nvstim run: thermal: %zu surface classes, heat balance %s (%zu kB of "
+                     "state), weather %s\n",
+                     th.surfaces().size(), th.report().fromCache ? "from the cache" : "solved",
+                     th.report().stateBytes / 1024, th.weather().file().c_str());
         // The camera powered up before the run, its start-up shutter done facing the night.
         const double start = sceneStage->thermal()->frameAt(sc.utcStart_unix_s).airRadiance;
         camera = std::make_unique<BolometerCameraStage>(*sc.camera.thermalParams, sc.bits,
