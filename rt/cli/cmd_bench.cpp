@@ -19,6 +19,7 @@
 //                   chain time, chain time over the memcpy
 
 #include <algorithm>
+#include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -35,10 +36,12 @@
 #include "rt/cli/data_dirs.h"
 #include "rt/compose/platform_pose.h"
 #include "rt/compose/scene_setup.h"
+#include "rt/compose/thermal_scene.h"
 #include "rt/render_stage/row_pool.h"
 #include "rt/run/run.h"
 #include "rt/run/telemetry_factory.h"
 #include "sim/astro/ephemeris.h"
+#include "sim/bolometer/chain.h"
 #include "sim/core/error.h"
 #include "sim/core/output_file.h"
 #include "sim/core/units.h"
@@ -250,6 +253,7 @@ struct Flight {
     int width = 0, height = 0;
     std::optional<render::PrimaryVisibility> visibility;
     int threads = 2;
+    std::function<void(rt::Scenario&)> adjust;  // edits the loaded scenario (thermal items)
     std::unique_ptr<rt::ScenarioRenderer> sr;
     std::vector<scene::CameraPose> poses;
     std::size_t next = 0;
@@ -261,6 +265,7 @@ struct Flight {
         if (width > 0) loaded.width = width;
         if (height > 0) loaded.height = height;
         if (visibility) loaded.primaryVisibility = *visibility;
+        if (adjust) adjust(loaded);
         sr = rt::ScenarioRenderer::create(loaded, dirs, coarse);
         const rt::Scenario& sc = sr->scenario();
         if (!sc.telemetry) throw SetupError(file.string() + ": no [telemetry] to fly");
@@ -408,6 +413,76 @@ void addPrimary1080Items(Items& items, const DataDirs& dirs,
             std::fprintf(stderr, "  %s: %s\n", self.name.c_str(), self.note.c_str());
         };
     }
+}
+
+// The thermal channel on the airborne pass (docs/performance.md, "Thermal channel"): the flight
+// seen by a 640 × 512 microbolometer (boson-640, 18 mm lens) with a pose of its own, the camera
+// moving a frame (1/30 s) apart, on one thread: each iteration casts the primary rays, shades
+// the thermal band and runs the bolometer chain. The budget is half of one core at 30 Hz:
+// 16.7 ms a frame. After timing, the bolometer's share (20 frames) goes to the extras.
+void addThermalItems(Items& items, const DataDirs& dirs, const std::filesystem::path& scenarios) {
+    const std::filesystem::path air = scenarios / "airborne-pass" / "scenario.toml";
+    const std::filesystem::path weather =
+        dirs.config / "thermal" / "weather" / "rochester-1998-09-02.csv";
+    if (!std::filesystem::exists(air) || !std::filesystem::exists(weather)) return;
+    struct Thermal {
+        std::unique_ptr<rt::ThermalScene> scene;
+        std::unique_ptr<bolometer::BolometerChain> chain;
+        render::SerialExecutor one;
+    };
+    auto f = std::make_shared<Flight>();
+    auto th = std::make_shared<Thermal>();
+    f->file = air;
+    f->dirs = dirs;
+    f->threads = 1;
+    f->width = 640;
+    f->height = 512;
+    f->adjust = [dirs, weather](rt::Scenario& sc) {
+        sc.camera.thermal = true;
+        sc.camera.thermalParams = bolometer::loadThermalCamera(dirs.config, "boson-640");
+        sc.camera.thermalParams->frame_rate_Hz = 30.0;
+        rt::ThermalSpec ts;
+        ts.weatherFile = weather;
+        ts.materialsFile = dirs.config / "thermal" / "materials.toml";
+        sc.scene.thermal = ts;
+    };
+    TimedItem& it = add(items, "thermal_air_640x512_1t",
+                        "airborne pass seen by a 640x512 microbolometer with its own pose, one "
+                        "thread: primary rays, thermal shading and the bolometer chain, camera "
+                        "moving",
+                        1.0 / 60.0, 1.5);
+    it.setup = [f, th] {
+        rt::ScenarioRenderer& sr = f->get();
+        if (th->scene) return;
+        const rt::Scenario& sc = sr.scenario();
+        rt::ThermalSceneSpec spec;
+        spec.weatherFile = sc.scene.thermal->weatherFile;
+        spec.materialsFile = sc.scene.thermal->materialsFile;
+        sr.prepare(0.0);
+        th->scene = std::make_unique<rt::ThermalScene>(
+            sr.scene(), sr.renderer(), sc.scene.site, sr.epoch(), sc.utcStart_unix_s,
+            sc.utcStart_unix_s, sc.utcStart_unix_s + 60.0, spec, f->dirs);
+        th->chain = std::make_unique<bolometer::BolometerChain>(*sc.camera.thermalParams, 1);
+    };
+    it.iteration = [f, th] {
+        rt::ScenarioRenderer& sr = f->get();
+        const std::size_t k = f->next++ % f->poses.size();
+        sr.renderer().setCamera(f->poses[k]);
+        sr.renderer().renderThermal(
+            th->scene->frame(sr.scenario().utcStart_unix_s + static_cast<double>(k) / 30.0),
+            f->band.view(), th->one);
+        (void)th->chain->process(f->band.cview());
+    };
+    it.after = [f, th](TimedItem& self) {
+        const auto t0 = std::chrono::steady_clock::now();
+        for (int i = 0; i < 20; ++i)
+            (void)th->chain->process(f->band.cview());
+        const double chain_s =
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() / 20.0;
+        self.extra.emplace_back("bolometer_ms", chain_s * 1e3);
+        self.extra.emplace_back("surface_classes",
+                                static_cast<double>(th->scene->surfaces().size()));
+    };
 }
 
 // The eq. 7.1 reference set up like the camera preset: the same mean photoelectrons per pixel
@@ -705,6 +780,7 @@ int runBench(const BenchOptions& opts) {
     if (std::filesystem::exists(drive)) addTruckItems(items, dirs, drive);
     addAirborneItems(items, dirs, scenarios);
     addPrimary1080Items(items, dirs, scenarios);
+    addThermalItems(items, dirs, scenarios);
     addMemcpyItems(items);
     bool any = !e2e.empty();
     for (const auto& it : items)
