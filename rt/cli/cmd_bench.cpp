@@ -446,6 +446,12 @@ void addThermalItems(Items& items, const DataDirs& dirs, const std::filesystem::
         ts.materialsFile = dirs.config / "thermal" / "materials.toml";
         sc.scene.thermal = ts;
     };
+    // The same frame with the camera held (the geometry buffer and each pixel's class, range
+    // and emissivity kept): what a channel that shares its primary hits pays per frame.
+    TimedItem& held = add(items, "thermal_air_640x512_held_1t",
+                          "airborne pass seen by a 640x512 microbolometer, one thread, camera "
+                          "held (primary hits reused): thermal shading and the bolometer chain",
+                          1.0 / 60.0, 1.5);
     TimedItem& it = add(items, "thermal_air_640x512_1t",
                         "airborne pass seen by a 640x512 microbolometer with its own pose, one "
                         "thread: primary rays, thermal shading and the bolometer chain, camera "
@@ -471,6 +477,13 @@ void addThermalItems(Items& items, const DataDirs& dirs, const std::filesystem::
         sr.renderer().renderThermal(
             th->scene->frame(sr.scenario().utcStart_unix_s + static_cast<double>(k) / 30.0),
             f->band.view(), th->one);
+        (void)th->chain->process(f->band.cview());
+    };
+    held.setup = [ip = &it] { ip->setup(); };
+    held.iteration = [f, th] {
+        rt::ScenarioRenderer& sr = f->get();
+        sr.renderer().renderThermal(th->scene->frame(sr.scenario().utcStart_unix_s), f->band.view(),
+                                    th->one);
         (void)th->chain->process(f->band.cview());
     };
     it.after = [f, th](TimedItem& self) {

@@ -297,6 +297,7 @@ void invalidateStaticRows(void* vctx, int y0, int y1) {
 
 // Primary rays of the rows in `missing` (bit 0 the even rows, bit 1 the odd ones).
 void castRows(Ctx& c, unsigned missing, RowExecutor& exec) noexcept {
+    ++c.im->gGeneration;
     Renderer::Impl& im = *c.im;
     const int p = missing == 3u ? -1 : (missing == 2u ? 1 : 0);
     c.rowLo = p < 0 ? 0 : p;
@@ -314,6 +315,7 @@ void castRows(Ctx& c, unsigned missing, RowExecutor& exec) noexcept {
 // Objects moved under a fixed camera: the primary rays of the pixels their boxes cover on screen
 // and the static data whose rays may cross a box.
 void redoMovedObjects(Ctx& c, RowExecutor& exec) noexcept {
+    ++c.im->gGeneration;
     Renderer::Impl& im = *c.im;
     // Objects moved under a fixed camera: the primary rays of the pixels their boxes cover
     // on screen (a pixel's ray through its centre meets a box only inside the box's

@@ -139,6 +139,17 @@ struct Renderer::Impl {
     // for it (the nearest present class where a key has no face of its own).
     std::vector<ThermalSurface> thermal;
     std::vector<std::int32_t> thermalOfKey;
+    // Per pixel, what the thermal band takes from the G-buffer alone (thermal.cpp), valid for
+    // G-buffer generation thermalGeneration: the two classes and the weight between them, the
+    // emissivity toward the camera, the environment's sky part and its air-radiance weight,
+    // τ(r) and L_path(r) (the sky: class −1, its radiance in path).
+    struct ThermalPixel {
+        std::int32_t cls0 = -1, cls1 = -1;
+        float w = 0.0f, eps = 0.0f, envSky = 0.0f, envAir = 0.0f, tau = 1.0f, path = 0.0f;
+    };
+    std::vector<ThermalPixel> thermalPx;
+    std::uint64_t thermalGeneration = 0;
+    const void* thermalFrameTables = nullptr;  // the ThermalFrame tables they came from
     // Static lighting data per pixel: everything about a pixel's light that depends only on the
     // geometry, the camera and the lamps' placement, kept as long as the G-buffer is (a fixed
     // camera over a static scene computes it once). Built lazily for the pixels that are shaded
@@ -172,6 +183,9 @@ struct Renderer::Impl {
     // Rows of the G-buffer that match the current camera and geometry: bit 0 the even rows,
     // bit 1 the odd ones (a field renders only its own rows, Renderer::render).
     unsigned gValidRows = 0;
+    // Counts every change of the G-buffer (castRows, redoMovedObjects): per-pixel data derived
+    // from it (the thermal band's) is rebuilt when this moved.
+    std::uint64_t gGeneration = 1;
     // Objects that moved since the last render while the camera stayed: each leaves a box (the
     // union of its bounds before and after) through which every ray whose result may have
     // changed passes. The next render redoes only the primary rays of the pixels the boxes

@@ -123,66 +123,96 @@ float skyAt(const ThermalFrame& f, double dirZ) noexcept {
     return lerpTable(f.skyRadiance, f.skyCount, zenith_deg / 90.0 * (f.skyCount - 1));
 }
 
-// The surface temperature of pixel i: its class's, and between the classes of the two sky-view
-// bands around its own sky-view factor, linear in the classes' mean sky-view factors (a surface
-// whose sky view changes across it has no steps at the bands' edges).
-double pixelTemperature_K(const ThermalCtx& c, std::size_t i, int cls) noexcept {
-    const Renderer::Impl& im = *c.im;
+// The classes a pixel's temperature comes from: its class, and the class of the neighbouring
+// sky-view band toward its own sky-view factor with the weight between them, linear in the
+// classes' mean sky-view factors (a surface whose sky view changes across it has no steps at
+// the bands' edges).
+void pixelClasses(const Renderer::Impl& im, std::size_t i, int cls, std::int32_t* cls1,
+                  float* w) noexcept {
+    *cls1 = -1;
+    *w = 0.0f;
     const double svf = im.gSvf[i];
-    const ThermalSurface& s0 = im.thermal[static_cast<std::size_t>(cls)];
     const int band = skyViewBand(svf);
     const int other = svf * kSkyViews - band < 0.5 ? band - 1 : band + 1;
-    const double t0 = c.f->surfaceTemperature_K[cls];
-    if (other < 0 || other >= kSkyViews) return t0;
+    if (other < 0 || other >= kSkyViews) return;
     const int key = classKey(im.gMat[i], g3(im.gNrm, i), svf) - band + other;
-    const int cls1 = im.thermalOfKey[static_cast<std::size_t>(key)];
-    if (cls1 < 0 || cls1 == cls) return t0;
-    const ThermalSurface& s1 = im.thermal[static_cast<std::size_t>(cls1)];
-    if (std::fabs(s1.skyView - s0.skyView) < 1e-3) return t0;
-    const double w = std::clamp((svf - s0.skyView) / (s1.skyView - s0.skyView), 0.0, 1.0);
-    return t0 + w * (static_cast<double>(c.f->surfaceTemperature_K[cls1]) - t0);
+    const int c1 = im.thermalOfKey[static_cast<std::size_t>(key)];
+    if (c1 < 0 || c1 == cls) return;
+    const double s0 = im.thermal[static_cast<std::size_t>(cls)].skyView;
+    const double s1 = im.thermal[static_cast<std::size_t>(c1)].skyView;
+    if (std::fabs(s1 - s0) < 1e-3) return;
+    *cls1 = c1;
+    *w = static_cast<float>(std::clamp((svf - s0) / (s1 - s0), 0.0, 1.0));
 }
 
-float surfaceRadiance(const ThermalCtx& c, std::size_t i, const Vec3& view, int cls) noexcept {
+// What pixel i takes from the G-buffer and the frame's fixed tables (Impl::ThermalPixel).
+Renderer::Impl::ThermalPixel thermalPixel(const ThermalCtx& c, int x, int y) noexcept {
     const Renderer::Impl& im = *c.im;
     const ThermalFrame& f = *c.f;
+    const std::size_t i = static_cast<std::size_t>(y) * im.W + x;
+    Renderer::Impl::ThermalPixel p;
+    if (im.gMat[i] == kMiss) {  // the sky at its zenith angle; the surroundings below it
+        const double dz = im.pixelDir(x + 0.5, y + 0.5, c.cfg->camera).z;
+        p.envSky = dz > 0.0 ? skyAt(f, dz) : 0.0f;
+        p.envAir = dz > 0.0 ? 0.0f : 1.0f;
+        return p;
+    }
+    const Vec3 d = g3(im.gPos, i) - im.camPos;
+    const double r = std::max(norm(d), 1e-3);
+    const Vec3 view = d * (-1.0 / r);
+    const double k = (std::log(r) - f.lnRange0) / f.lnRangeStep;
+    p.tau = lerpTable(f.pathTau, f.rangeCount, k);
+    p.path = lerpTable(f.pathRadiance, f.rangeCount, k);
     const Vec3 n = g3(im.gNrm, i);
+    p.cls0 = im.thermalOfKey[static_cast<std::size_t>(classKey(im.gMat[i], n, im.gSvf[i]))];
+    if (p.cls0 < 0) {  // a material without a class: the air's temperature, black
+        p.envAir = 1.0f;
+        return p;
+    }
+    pixelClasses(im, i, p.cls0, &p.cls1, &p.w);
     const double cosT = std::clamp(dot(n, view), 0.0, 1.0);
-    const float* eps = f.emissivity + static_cast<std::size_t>(cls) * kThermalCosBins;
-    const double e = lerpTable(eps, kThermalCosBins, cosT * (kThermalCosBins - 1));
-    const double t = pixelTemperature_K(c, i, cls);
-    const double b =
-        lerpTable(f.blackbody, f.blackbodyCount, (t - f.blackbodyT0_K) / f.blackbodyStep_K);
+    const float* eps = f.emissivity + static_cast<std::size_t>(p.cls0) * kThermalCosBins;
+    p.eps = lerpTable(eps, kThermalCosBins, cosT * (kThermalCosBins - 1));
+    // L_env = s·L_mirror + (1 − s)·(F·L_sky,diffuse + (1 − F)·B(T_air)), its sky and air parts.
     const double svf = im.gSvf[i];
-    const double diffuse = svf * f.skyDiffuse + (1.0 - svf) * f.airRadiance;
     const double s = im.materials[im.gMat[i]].specularity;
     const Vec3 mirror = n * (2.0 * cosT) - view;
-    const double env = s * static_cast<double>(skyAt(f, mirror.z)) + (1.0 - s) * diffuse;
-    return static_cast<float>(e * b + (1.0 - e) * env);
+    const bool mirrorUp = mirror.z > 0.0;
+    p.envSky = static_cast<float>((mirrorUp ? s * static_cast<double>(skyAt(f, mirror.z)) : 0.0) +
+                                  (1.0 - s) * svf * f.skyDiffuse);
+    p.envAir = static_cast<float>((mirrorUp ? 0.0 : s) + (1.0 - s) * (1.0 - svf));
+    return p;
 }
 
+void thermalPixelRows(void* arg, int y0, int y1) noexcept {
+    const ThermalCtx& c = *static_cast<const ThermalCtx*>(arg);
+    for (int y = y0; y < y1; ++y) {
+        for (int x = 0; x < c.im->W; ++x)
+            c.im->thermalPx[static_cast<std::size_t>(y) * c.im->W + x] = thermalPixel(c, x, y);
+    }
+}
+
+// Per frame: L = τ·(ε·B(T) + (1 − ε)·(L_sky + a·B(T_air))) + L_path, T between the classes.
 void thermalRows(void* arg, int y0, int y1) noexcept {
     const ThermalCtx& c = *static_cast<const ThermalCtx*>(arg);
-    Renderer::Impl& im = *c.im;
+    const Renderer::Impl& im = *c.im;
     const ThermalFrame& f = *c.f;
+    const float air = static_cast<float>(f.airRadiance);
+    const float t0 = static_cast<float>(f.blackbodyT0_K);
+    const float perK = static_cast<float>(1.0 / f.blackbodyStep_K);
     for (int y = y0; y < y1; ++y) {
         float* row = c.out.row(y);
+        const Renderer::Impl::ThermalPixel* px = &im.thermalPx[static_cast<std::size_t>(y) * im.W];
         for (int x = 0; x < im.W; ++x) {
-            const std::size_t i = static_cast<std::size_t>(y) * im.W + x;
-            if (im.gMat[i] == kMiss) {
-                row[x] = skyAt(f, im.pixelDir(x + 0.5, y + 0.5, c.cfg->camera).z);
-                continue;
+            const Renderer::Impl::ThermalPixel& p = px[x];
+            float b = 0.0f;
+            if (p.cls0 >= 0) {
+                float t = f.surfaceTemperature_K[p.cls0];
+                if (p.cls1 >= 0) t += p.w * (f.surfaceTemperature_K[p.cls1] - t);
+                b = lerpTable(f.blackbody, f.blackbodyCount, static_cast<double>((t - t0) * perK));
             }
-            const Vec3 d = g3(im.gPos, i) - im.camPos;
-            const double r = std::max(norm(d), 1e-3);
-            const Vec3 view = d * (-1.0 / r);
-            const int cls = im.thermalOfKey[static_cast<std::size_t>(
-                classKey(im.gMat[i], g3(im.gNrm, i), im.gSvf[i]))];
-            const float ls =
-                cls >= 0 ? surfaceRadiance(c, i, view, cls) : static_cast<float>(f.airRadiance);
-            const double k = (std::log(r) - f.lnRange0) / f.lnRangeStep;
-            const float tau = lerpTable(f.pathTau, f.rangeCount, k);
-            row[x] = tau * ls + lerpTable(f.pathRadiance, f.rangeCount, k);
+            const float env = p.envSky + p.envAir * air;
+            row[x] = p.tau * (p.eps * b + (1.0f - p.eps) * env) + p.path;
         }
     }
 }
@@ -226,14 +256,26 @@ void Renderer::renderThermal(const ThermalFrame& frame, ImageView<float> radianc
     Ctx c{&im, &config_, &kNoSky, radiance, radiance, 1, 0u, false, false, rowStep(im.H), 1};
     updateGeometryBuffer(c, -1, exec);
     ThermalCtx tc{&im, &config_, &frame, radiance};
+    if (im.thermalGeneration != im.gGeneration || im.thermalFrameTables != frame.pathTau ||
+        im.thermalPx.empty()) {
+        im.thermalPx.resize(static_cast<std::size_t>(im.W) * im.H);  // once: the image's size
+        exec.run(im.H, &thermalPixelRows, &tc);
+        im.thermalGeneration = im.gGeneration;
+        im.thermalFrameTables = frame.pathTau;
+    }
     exec.run(im.H, &thermalRows, &tc);
 }
 
 double Renderer::thermalPixelTemperature_K(const ThermalFrame& frame, int x, int y) const noexcept {
     const int cls = thermalClassOfPixel(x, y);
     if (cls < 0) return 0.0;
-    const ThermalCtx c{impl_.get(), &config_, &frame, ImageView<float>{}};
-    return pixelTemperature_K(c, static_cast<std::size_t>(y) * impl_->W + x, cls);
+    std::int32_t cls1 = -1;
+    float w = 0.0f;
+    pixelClasses(*impl_, static_cast<std::size_t>(y) * impl_->W + x, cls, &cls1, &w);
+    const double t0 = frame.surfaceTemperature_K[cls];
+    if (cls1 < 0) return t0;
+    return t0 +
+           static_cast<double>(w) * (static_cast<double>(frame.surfaceTemperature_K[cls1]) - t0);
 }
 
 int Renderer::thermalClassOfPixel(int x, int y) const noexcept {
