@@ -86,13 +86,22 @@ double convectionCoefficient_W_m2K(double wind_m_s, double surface_K, double air
     return hn + roughnessMultiplier * (hGlass - hn);
 }
 
-double dewFlux_W_m2(double hc_W_m2K, double surface_K, double air_K, double dewPoint_K) noexcept {
-    constexpr double kRv = 461.5, kRd = 287.05, kCp = 1007.0, kLewis = 0.87;
+double massTransfer_m_s(double hc_W_m2K, double air_K) noexcept {
+    constexpr double kRd = 287.05, kCp = 1007.0, kLewis = 0.87;
     const double rhoAir = 101325.0 / (kRd * air_K);
-    const double hm = hc_W_m2K / (rhoAir * kCp * std::pow(kLewis, 2.0 / 3.0));  // m/s
+    return hc_W_m2K / (rhoAir * kCp * std::pow(kLewis, 2.0 / 3.0));
+}
+
+double latentFlux_W_m2(double conductance_m_s, double surface_K, double air_K,
+                       double dewPoint_K) noexcept {
+    constexpr double kRv = 461.5;
     const double rhoVapAir = 100.0 * vapourPressure_hPa(dewPoint_K) / (kRv * air_K);
     const double rhoVapSurface = 100.0 * vapourPressure_hPa(surface_K) / (kRv * surface_K);
-    return kLatentHeat_J_kg * hm * (rhoVapAir - rhoVapSurface);
+    return kLatentHeat_J_kg * conductance_m_s * (rhoVapAir - rhoVapSurface);
+}
+
+double dewFlux_W_m2(double hc_W_m2K, double surface_K, double air_K, double dewPoint_K) noexcept {
+    return latentFlux_W_m2(massTransfer_m_s(hc_W_m2K, air_K), surface_K, air_K, dewPoint_K);
 }
 
 ForcingSample forcingAt(const astro::Ephemeris& eph, const astro::AstroTime& t0, double t0_s,

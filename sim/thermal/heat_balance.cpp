@@ -35,7 +35,7 @@ double sunlitAt(const SurfaceClass& c, double t_s) noexcept {
 
 namespace {
 
-constexpr std::uint64_t kFormatVersion = 2;
+constexpr std::uint64_t kFormatVersion = 3;
 constexpr char kMagic[8] = {'N', 'V', 'S', 'T', 'H', 'M', '1', '\0'};
 
 // POSIX seconds → UTC calendar (Hinnant's civil_from_days).
@@ -77,6 +77,8 @@ void hashMaterial(Fnv1a& h, const ThermalMaterial& m) {
     hashValue(h, static_cast<int>(m.back));
     hashValue(h, m.backFollowsAir);
     hashValue(h, m.collectsDew);
+    hashValue(h, m.surfaceResistanceDay_s_m);
+    hashValue(h, m.surfaceResistanceNight_s_m);
     for (const Layer& l : m.layers)
         for (double v : {l.thickness_m, l.conductivity_W_mK, l.density_kg_m3, l.specificHeat_J_kgK})
             hashValue(h, v);

@@ -174,15 +174,29 @@ void SurfaceSolver::step(const ForcingSample& f, double sunlitFraction, double d
         flux_.convected_W_m2 = h(ts) * (ts - w.air_K);
         flux_.back_W_m2 = 0.0;
         flux_.latent_W_m2 = 0.0;
+        flux_.transpiration_W_m2 = 0.0;
         return;
     }
     const double tb = backTemperature_K(w);
     old_ = T_;  // same size: no allocation
     // Dew: condensation, or evaporation of at most the water held.
+    // Transpiration: through the stomata (resistance by day or night) while the leaves are dry.
     const double maxEvaporation_W_m2 = kLatentHeat_J_kg * dew_kg_m2_ / dt_s;
+    const double rs =
+        f.sunAlt_rad > 0.0 ? m_.surfaceResistanceDay_s_m : m_.surfaceResistanceNight_s_m;
+    const bool transpires = rs > 0.0 && dew_kg_m2_ <= 0.0;
+    double dewPart = 0.0;
     auto latent = [&](double T, double hcT) {
-        if (!m_.collectsDew) return 0.0;
-        return std::max(dewFlux_W_m2(hcT, T, w.air_K, w.dewPoint_K), -maxEvaporation_W_m2);
+        const double hm = massTransfer_m_s(hcT, w.air_K);
+        const double dew = m_.collectsDew ? std::max(latentFlux_W_m2(hm, T, w.air_K, w.dewPoint_K),
+                                                     -maxEvaporation_W_m2)
+                                          : 0.0;
+        const double leaves =
+            transpires
+                ? std::min(0.0, latentFlux_W_m2(1.0 / (1.0 / hm + rs), T, w.air_K, w.dewPoint_K))
+                : 0.0;
+        dewPart = dew;
+        return dew + leaves;
     };
     double hc = 0.0, lat = 0.0;
     for (int it = 0; it < 40; ++it) {
@@ -190,8 +204,8 @@ void SurfaceSolver::step(const ForcingSample& f, double sunlitFraction, double d
         // q(T) ≈ q(ts) + q'(ts)(T − ts).
         hc = h(ts);
         const double ts3 = ts * ts * ts;
-        lat = latent(ts, hc);
-        const double dlat = (latent(ts + 1e-3, hc) - lat) / 1e-3;
+        const double dlat = (latent(ts + 1e-3, hc) - latent(ts, hc)) / 1e-3;
+        lat = latent(ts, hc);  // last: leaves dewPart at ts
         const double q = absorbed - emissivity_ * sigma * ts3 * ts - hc * (ts - w.air_K) + lat;
         const double dq = -4.0 * emissivity_ * sigma * ts3 - hc + dlat;
         const double next = solveStep(q, dq, ts, tb, false, dt_s);
@@ -203,7 +217,8 @@ void SurfaceSolver::step(const ForcingSample& f, double sunlitFraction, double d
     flux_.emitted_W_m2 = emissivity_ * sigma * ts * ts * ts * ts;
     flux_.convected_W_m2 = hc * (ts - w.air_K);
     flux_.latent_W_m2 = lat;
-    dew_kg_m2_ = std::max(0.0, dew_kg_m2_ + lat / kLatentHeat_J_kg * dt_s);
+    flux_.transpiration_W_m2 = lat - dewPart;
+    dew_kg_m2_ = std::max(0.0, dew_kg_m2_ + dewPart / kLatentHeat_J_kg * dt_s);
 }
 
 }  // namespace nvs::thermal

@@ -47,10 +47,11 @@ struct Exposure {
 struct StepFluxes {
     double absorbedShortwave_W_m2 = 0.0;
     double absorbedLongwave_W_m2 = 0.0;
-    double emitted_W_m2 = 0.0;    // ε_h σ T⁴ (leaves)
-    double convected_W_m2 = 0.0;  // h_c (T − T_a) (leaves)
-    double back_W_m2 = 0.0;       // into the stack through the back boundary
-    double latent_W_m2 = 0.0;     // dew: condensation (+) or its evaporation (−)
+    double emitted_W_m2 = 0.0;        // ε_h σ T⁴ (leaves)
+    double convected_W_m2 = 0.0;      // h_c (T − T_a) (leaves)
+    double back_W_m2 = 0.0;           // into the stack through the back boundary
+    double latent_W_m2 = 0.0;         // dew and transpiration: condensation (+), evaporation (−)
+    double transpiration_W_m2 = 0.0;  // of which through the leaves (≤ 0)
 };
 
 class SurfaceSolver {
