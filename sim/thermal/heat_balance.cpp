@@ -253,6 +253,7 @@ SurfaceTemperatureTable solveHeatBalance(const std::vector<SurfaceClass>& classe
             }
             if (first == 0) table.sample(k, 0) = static_cast<float>(spunSurface_K);
             rep.dew_kg_m2.push_back(s.dew_kg_m2());
+            rep.unconvergedSteps += s.unconvergedSteps();
         }
         if (!cacheDir.empty()) writeCache(rep.cacheFile, key, table);
     }

@@ -8,6 +8,11 @@
 namespace nvs::thermal {
 
 namespace {
+// Less water than this (a micrometre-thin film is 1e-3 kg/m²) counts as a dry surface.
+constexpr double kDryBelow_kg_m2 = 1e-9;
+}  // namespace
+
+namespace {
 
 // Appends one layer's cells to the grid: geometric sizes from `cell`, scaled to fill the layer.
 // Returns the next cell size.
@@ -199,7 +204,8 @@ void SurfaceSolver::step(const ForcingSample& f, double sunlitFraction, double d
         return dew + leaves;
     };
     double hc = 0.0, lat = 0.0;
-    for (int it = 0; it < 40; ++it) {
+    bool converged = false;
+    for (int it = 0; it < 60; ++it) {
         // Newton on the emission and the dew, fixed point on h_c(T):
         // q(T) ≈ q(ts) + q'(ts)(T − ts).
         hc = h(ts);
@@ -210,15 +216,22 @@ void SurfaceSolver::step(const ForcingSample& f, double sunlitFraction, double d
         const double dq = -4.0 * emissivity_ * sigma * ts3 - hc + dlat;
         const double next = solveStep(q, dq, ts, tb, false, dt_s);
         const double moved = std::abs(next - ts);
-        ts = next;
-        if (moved < 1e-7) break;
+        // Newton first; past 8 solves (a kink of the latent term — dew point, a drying
+        // surface — can make it alternate) half steps, which settle on the continuous balance.
+        ts = it < 8 ? next : ts + 0.5 * (next - ts);
+        if (moved < 1e-7) {
+            converged = true;
+            break;
+        }
     }
+    if (!converged) ++unconverged_;
     finishStep(tb);
     flux_.emitted_W_m2 = emissivity_ * sigma * ts * ts * ts * ts;
     flux_.convected_W_m2 = hc * (ts - w.air_K);
     flux_.latent_W_m2 = lat;
     flux_.transpiration_W_m2 = lat - dewPart;
-    dew_kg_m2_ = std::max(0.0, dew_kg_m2_ + dewPart / kLatentHeat_J_kg * dt_s);
+    dew_kg_m2_ += dewPart / kLatentHeat_J_kg * dt_s;
+    if (dew_kg_m2_ < kDryBelow_kg_m2) dew_kg_m2_ = 0.0;  // rounding leftovers: dry
 }
 
 }  // namespace nvs::thermal

@@ -20,6 +20,7 @@
 // the surface temperature moves less than 1e-7 K (Newton on εσT⁴, fixed point on h_c(T)), so
 // the step conserves energy to that tolerance: Σ C_i ΔT_i = Δt (q_s(T_0') − q_back).
 
+#include <cstdint>
 #include <vector>
 
 #include "sim/thermal/forcing.h"
@@ -76,6 +77,9 @@ class SurfaceSolver {
     void setTemperatures(const std::vector<double>& T_K) { T_ = T_K; }
     const StepFluxes& lastFluxes() const { return flux_; }
     double dew_kg_m2() const { return dew_kg_m2_; }
+    // Steps whose surface iteration had not settled to 1e-7 K after 60 solves (a counter, not
+    // an error: the step keeps its last iterate).
+    std::uint64_t unconvergedSteps() const { return unconverged_; }
     void setDew_kg_m2(double d) { dew_kg_m2_ = d; }
     std::size_t stateBytes() const;
     const ThermalMaterial& material() const { return m_; }
@@ -97,6 +101,7 @@ class SurfaceSolver {
     std::vector<double> a_, b_, c_, d_, x_, old_;  // work arrays (sized at construction)
     StepFluxes flux_;
     double dew_kg_m2_ = 0.0;  // water held on the surface
+    std::uint64_t unconverged_ = 0;
 };
 
 }  // namespace nvs::thermal

@@ -99,7 +99,8 @@ Budget runDay(const ThermalMaterial& m, const Exposure& e) {
         const double leaves =
             rs > 0.0 && water <= 0.0 ? std::min(0.0, latent_W_m2(hc, T, Ta, Td, rs)) : 0.0;
         const double latent = dew + leaves;
-        water = std::max(0.0, water + dew / 2.45e6 * dt);
+        water += dew / 2.45e6 * dt;
+        if (water < 1e-9) water = 0.0;  // the solver's dry threshold
         b.transpired_kg_m2 -= leaves / 2.45e6 * dt;
         b.evaporated_kg_m2 -= latent / 2.45e6 * dt;
         b.ghi_J_m2 += f.sun.ghi_W_m2 * dt;

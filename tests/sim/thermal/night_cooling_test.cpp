@@ -75,8 +75,10 @@ Night solve(const WeatherSeries& w) {
         solveHeatBalance(classes, w, rochester(), HeatBalanceParams{}, t - 3600.0, t, {}, &rep);
     for (int d : rep.spinupDays)
         EXPECT_LT(d, 60);
-    std::printf("spin-up days: grass %d, roof %d, side %d\n", rep.spinupDays[0], rep.spinupDays[1],
-                rep.spinupDays[2]);
+    std::printf("spin-up days: grass %d, roof %d, side %d; unconverged steps %llu\n",
+                rep.spinupDays[0], rep.spinupDays[1], rep.spinupDays[2],
+                static_cast<unsigned long long>(rep.unconvergedSteps));
+    EXPECT_EQ(rep.unconvergedSteps, 0u);
     return {table.at(0, t), table.at(1, t), table.at(2, t), w.at(t).air_K, rep.dew_kg_m2};
 }
 
