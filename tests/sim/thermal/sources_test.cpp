@@ -114,6 +114,17 @@ TEST(HeatBalanceSources, ShadedConcreteIsCoolerInTheAfternoon) {
                 t.at(1, at), f.w.at(at).air_K);
 }
 
+// A panel facing the ground (a vehicle's underside: tilt 180°, no sky) stays near the air at
+// night: it sees only surroundings at the air temperature.
+TEST(HeatBalanceSources, AnUndersideStaysNearTheAir) {
+    const Fixture f;
+    SurfaceClass c = f.horizontal("painted_metal");
+    c.exposure.orientation.tilt_rad = kPi;
+    c.exposure.skyView = 0.0;
+    const double T = surfaceTemperature_K(c, f.w, rochester(), HeatBalanceParams{}, f.t);
+    EXPECT_NEAR(T, f.w.at(f.t).air_K, 1.0);
+}
+
 // The night-cooling ranges can fail: a roof that sees no sky (sky-view 0) does not cool.
 TEST(HeatBalanceSources, ARoofWithoutSkyDoesNotCool) {
     const Fixture f;
