@@ -70,6 +70,34 @@ double clearSkyEmissivity(double air_K, double dewPoint_K) noexcept;
 // do (tests compare the two).
 double longwaveDown_W_m2(const WeatherSample& w, double lapseRate_K_m) noexcept;
 
+// The sky's long-wave radiance is not isotropic: it is least at the zenith and nearly that of a
+// blackbody at the air temperature at the horizon. A grey isothermal slab gives its directional
+// emissivity (Granqvist & Hjortsberg 1981, "Radiative cooling to low temperatures: general
+// considerations and application to selectively emitting SiO films", J. Appl. Phys. 52(6),
+// 4205–4220):  ε(θ) = 1 − (1 − ε₀)^{1/cos θ},
+// with ε₀ fitted so that its horizontal hemispherical mean 2∫ε(θ) cos θ sin θ dθ equals the
+// whole sky's effective emissivity ε_eff = L↓/σT_a⁴ (clouds included). A plane tilted by β sees
+// the sky in front of it weighted by cos γ (γ from its normal); the ratio of that weighted mean
+// to the horizontal one scales L↓ for the plane's sky part: 1 for β = 0, above 1 for walls,
+// which see more of the low, warm sky.
+class TiltedSky {
+  public:
+    explicit TiltedSky(double tilt_rad = 0.0);
+    // The ratio for the sky's effective emissivity (clamped to [0.3, 1]); per step: no
+    // allocation, no throw.
+    double ratio(double effectiveEmissivity) const noexcept;
+
+    static constexpr int kTable = 71;  // ε_eff from 0.3 to 1.0 by 0.01
+
+  private:
+    double table_[kTable] = {};
+};
+// The slab's horizontal hemispherical emissivity for a zenith emissivity ε₀, and its inverse.
+double slabHemisphericalEmissivity(double zenithEmissivity) noexcept;
+double slabZenithEmissivity(double hemisphericalEmissivity) noexcept;
+// The cos γ-weighted mean emissivity of the sky in front of a plane tilted by β.
+double slabMeanEmissivityOnTilt(double zenithEmissivity, double tilt_rad) noexcept;
+
 // Exterior convection coefficient [W/m²K], the DOE-2 model (ASHRAE Handbook of Fundamentals;
 // EnergyPlus Engineering Reference, "Exterior convection: DOE-2 model", after Walton 1983,
 // "Thermal Analysis Research Program reference manual", NBSIR 83-2655):

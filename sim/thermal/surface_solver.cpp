@@ -41,7 +41,7 @@ double addLayer(const Layer& l, double cell, const GridParams& g, std::vector<do
 
 SurfaceSolver::SurfaceSolver(const ThermalMaterial& m, const Exposure& e, const GridParams& g,
                              double initial_K)
-    : m_(m), e_(e), emissivity_(m.emissivityHemispherical) {
+    : m_(m), e_(e), sky_(e.orientation.tilt_rad), emissivity_(m.emissivityHemispherical) {
     if (!m.hasThermal()) throw SetupError(m.loc, "material '" + m.name + "' has no thermal layers");
     if (!(e.skyView >= 0.0 && e.skyView <= 1.0))
         throw SetupError("surface class of '" + m.name + "': sky-view factor outside [0, 1]");
@@ -168,7 +168,9 @@ void SurfaceSolver::step(const ForcingSample& f, double sunlitFraction, double d
     flux_.absorbedShortwave_W_m2 =
         m_.solarAbsorptance *
         planeShortwave_W_m2(f, e_.orientation, F, sunlitFraction, e_.groundAlbedo);
-    flux_.absorbedLongwave_W_m2 = emissivity_ * (F * f.longwaveDown_W_m2 + (1.0 - F) * sigma * ta4);
+    const double skyRatio = sky_.ratio(f.longwaveDown_W_m2 / (sigma * ta4));
+    flux_.absorbedLongwave_W_m2 =
+        emissivity_ * (F * skyRatio * f.longwaveDown_W_m2 + (1.0 - F) * sigma * ta4);
     const double absorbed = flux_.absorbedShortwave_W_m2 + flux_.absorbedLongwave_W_m2;
     double ts = T_[0];
     auto h = [&](double T) {

@@ -11,8 +11,9 @@
 // Crank–Nicolson would give), all fluxes at the step's end:
 //   C_i (T_i' − T_i)/Δt = Σ_j G_ij (T_j' − T_i') + q_i(T'),
 // with q_0 the surface balance
-//   q_s(T) = α_s E_sw + ε_h [F L↓ + (1 − F) σT_a⁴] − ε_h σT⁴ − h_c(T)(T − T_a)
-// (surroundings below the horizon radiate as blackbodies at the air temperature), plus the latent
+//   q_s(T) = α_s E_sw + ε_h [F r L↓ + (1 − F) σT_a⁴] − ε_h σT⁴ − h_c(T)(T − T_a)
+// (r: the anisotropic sky's weight for the tilt, forcing.h TiltedSky; surroundings below the
+// horizon radiate as blackbodies at the air temperature), plus the latent
 // heat of dew (condensation below the dew point; evaporation of the water held, at most all of
 // it in one step; forcing.h dewFlux_W_m2), and at the
 // last node the back boundary (none, a fixed temperature, or h_b (T_b − T) + q_b). The surface
@@ -96,6 +97,7 @@ class SurfaceSolver {
 
     ThermalMaterial m_;
     Exposure e_;
+    TiltedSky sky_;  // the anisotropic sky's weight for this orientation
     double emissivity_ = 0.95;
     std::vector<double> z_, T_, C_, G_;            // nodes; G_[i] links node i and i + 1
     std::vector<double> a_, b_, c_, d_, x_, old_;  // work arrays (sized at construction)

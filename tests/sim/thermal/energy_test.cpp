@@ -74,6 +74,7 @@ Budget runDay(const ThermalMaterial& m, const Exposure& e) {
     const double cosTilt = std::cos(e.orientation.tilt_rad);
     const double sigma = kStefanBoltzmann_W_m2_K4;
     const double eps = m.emissivityHemispherical;
+    const TiltedSky sky(e.orientation.tilt_rad);
     Budget b;
     double water = 0.0;  // kg/m² of dew
     b.stored_J_m2 = -stored_J_m2(s);
@@ -82,9 +83,12 @@ Budget runDay(const ThermalMaterial& m, const Exposure& e) {
         const ForcingSample f = forcingAt(eph, at0, t0, w, fp, t0 + i * dt);
         s.step(f, 1.0, dt);
         const double T = s.surface_K(), Ta = f.weather.air_K;
+        // The sky part weighted for the tilt (the anisotropic sky, forcing.h TiltedSky).
+        const double r = sky.ratio(f.longwaveDown_W_m2 / (sigma * std::pow(Ta, 4.0)));
         const double absorbed =
             m.solarAbsorptance * planeShortwave_W_m2(f, e.orientation, e.skyView, 1.0, 0.2) +
-            eps * (e.skyView * f.longwaveDown_W_m2 + (1.0 - e.skyView) * sigma * std::pow(Ta, 4.0));
+            eps * (e.skyView * r * f.longwaveDown_W_m2 +
+                   (1.0 - e.skyView) * sigma * std::pow(Ta, 4.0));
         const double emitted = eps * sigma * std::pow(T, 4.0);
         const double hc =
             convectionCoefficient_W_m2K(f.weather.wind_m_s, T, Ta, cosTilt, m.roughnessMultiplier);
