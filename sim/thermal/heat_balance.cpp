@@ -216,7 +216,9 @@ SurfaceTemperatureTable solveHeatBalance(const std::vector<SurfaceClass>& classe
                                          HeatBalanceReport* report) {
     checkInputs(classes, weather, p, tableStart_s, tableEnd_s);
     const double t0 = weather.start_s();
-    const std::size_t first = static_cast<std::size_t>(std::ceil((tableStart_s - t0) / p.dt_s));
+    // The table's samples cover [tableStart_s, tableEnd_s]: the grid point at or before the start
+    // to the one at or after the end.
+    const std::size_t first = static_cast<std::size_t>(std::floor((tableStart_s - t0) / p.dt_s));
     const std::size_t last = static_cast<std::size_t>(std::ceil((tableEnd_s - t0) / p.dt_s));
     const double tableT0 = t0 + static_cast<double>(first) * p.dt_s;
     SurfaceTemperatureTable table(classes.size(), last - first + 1, tableT0, p.dt_s);
