@@ -88,7 +88,12 @@ TEST(ThermalConfig, BadValuesNameTheirLine) {
     EXPECT_NE(
         setupError([] { read(replaced(kScenario, "[1.0, 0.0]", "[1.0]")); }).find("scn.toml:15"),
         std::string::npos);
-    // A weather file with a gap is named with its own file:line.
+    // A misspelt key: strict TOML names it, with the nearest valid key.
+    const std::string misspelt =
+        setupError([] { read(replaced(kScenario, "sky_view = 1.0", "skyview = 1.0")); });
+    EXPECT_NE(misspelt.find("scn.toml:7"), std::string::npos) << misspelt;
+    EXPECT_NE(misspelt.find("sky_view"), std::string::npos) << misspelt;
+    // A weather file that is not there is named.
     EXPECT_NE(setupError([] {
                   read(replaced(kScenario, "rochester-1998-09-02", "nowhere"));
               }).find("nowhere.csv"),
