@@ -13,13 +13,14 @@
 // with q_0 the surface balance
 //   q_s(T) = α_s E_sw + ε_h [F r L↓ + (1 − F) σT_a⁴] − ε_h σT⁴ − h_c(T)(T − T_a)
 // (r: the anisotropic sky's weight for the tilt, forcing.h TiltedSky; surroundings below the
-// horizon radiate as blackbodies at the air temperature), plus the latent
-// heat of dew (condensation below the dew point; evaporation of the water held, at most all of
-// it in one step; forcing.h dewFlux_W_m2), and at the
-// last node the back boundary (none, a fixed temperature, or h_b (T_b − T) + q_b). The surface
-// emission is linearised about the latest iterate and the tridiagonal system solved again until
-// the surface temperature moves less than 1e-7 K (Newton on εσT⁴, fixed point on h_c(T)), so
-// the step conserves energy to that tolerance: Σ C_i ΔT_i = Δt (q_s(T_0') − q_back).
+// horizon radiate as blackbodies at the air temperature), plus the latent heat q_lat(T) of dew
+// (condensation below the dew point; evaporation of the water held, at most all of it in one
+// step) and of transpiration through a surface resistance while the surface is dry
+// (forcing.h latentFlux_W_m2), and at the last node the back boundary (none, a fixed
+// temperature, or h_b (T_b − T) + q_b). The surface terms are linearised about the latest
+// iterate and the tridiagonal system solved again until the surface temperature moves less than
+// 1e-7 K (Newton on εσT⁴ and q_lat, fixed point on h_c(T), half steps after 8 solves), so the
+// step conserves energy to that tolerance: Σ C_i ΔT_i = Δt (q_s(T_0') + q_back).
 
 #include <cstdint>
 #include <vector>
