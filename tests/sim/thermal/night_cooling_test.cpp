@@ -112,6 +112,27 @@ TEST(HeatBalanceNight, ClearLightWindGrassAndRoofBelowAirInMeasuredRanges) {
     EXPECT_LT(roofO, 0.5 * roof);
 }
 
+// Wind mixes the air's heat down: the clear-night deficit shrinks as the night wind grows (the
+// "clear and calm" condition of every radiation-frost forecast; Brugge 2011).
+TEST(HeatBalanceNight, DeficitShrinksWithWind) {
+    const WeatherSeries w = WeatherSeries::load(kConfig + "weather/rochester-1998-09-02.csv");
+    const MaterialLibrary lib = MaterialLibrary::load(kConfig + "materials.toml");
+    const double t = utcSeconds("1998-09-02T06:00Z", "test");
+    double previous = 1e9;
+    for (double night_m_s : {0.5, 1.5, 3.0, 6.0}) {
+        std::vector<WeatherSample> s = w.samples();
+        for (WeatherSample& x : s)
+            if (x.wind_m_s < 2.0) x.wind_m_s = night_m_s;
+        const WeatherSeries windy = WeatherSeries::fromSamples(w.times_s(), s, "wind variant");
+        const double T = surfaceTemperature_K(surface(lib, "painted_metal", 0.0, 1.0), windy,
+                                              rochester(), HeatBalanceParams{}, t);
+        const double deficit = windy.at(t).air_K - T;
+        std::printf("night wind %.1f m/s: roof %.2f K below air\n", night_m_s, deficit);
+        EXPECT_LT(deficit, previous);
+        previous = deficit;
+    }
+}
+
 // The shipped overcast night (1998-08-20, the overcast-starlight scenario): no deficit to speak
 // of, against about 3–4 K on the clear file of the same date.
 TEST(HeatBalanceNight, ShippedOvercastNightBarelyCools) {
