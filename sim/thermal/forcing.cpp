@@ -67,6 +67,74 @@ double longwaveDown_W_m2(const WeatherSample& w, double lapseRate_K_m) noexcept 
     return kStefanBoltzmann_W_m2_K4 * (eps * ta4 + c * (1.0 - eps) * tc4);
 }
 
+double slabHemisphericalEmissivity(double zenithEmissivity) noexcept {
+    // 2∫₀^{π/2} ε(θ) cos θ sin θ dθ, midpoint rule in θ (ε(θ) → 1 smoothly at the horizon).
+    constexpr int kSteps = 120;
+    const double h = 0.5 * kPi / kSteps, tr = 1.0 - zenithEmissivity;
+    double sum = 0.0;
+    for (int i = 0; i < kSteps; ++i) {
+        const double th = (i + 0.5) * h, c = std::cos(th);
+        sum += (1.0 - std::pow(tr, 1.0 / c)) * c * std::sin(th);
+    }
+    return 2.0 * sum * h;
+}
+
+double slabZenithEmissivity(double hemisphericalEmissivity) noexcept {
+    // The hemispherical mean rises monotonically with ε₀ from 0 to 1: bisection to 1e-8.
+    double lo = 0.0, hi = 1.0;
+    for (int i = 0; i < 27; ++i) {
+        const double mid = 0.5 * (lo + hi);
+        (slabHemisphericalEmissivity(mid) < hemisphericalEmissivity ? lo : hi) = mid;
+    }
+    return 0.5 * (lo + hi);
+}
+
+namespace {
+
+// ∫₀^{2π} max(0, a + b cos φ) dφ for b ≥ 0: 2πa when a ≥ b, 0 when a ≤ −b, otherwise
+// 2(a φ₀ + b sin φ₀) with cos φ₀ = −a/b.
+double positiveCosineIntegral(double a, double b) noexcept {
+    if (a >= b) return kTwoPi * a;
+    if (a <= -b) return 0.0;
+    const double phi0 = std::acos(-a / b);
+    return 2.0 * (a * phi0 + b * std::sin(phi0));
+}
+
+}  // namespace
+
+double slabMeanEmissivityOnTilt(double zenithEmissivity, double tilt_rad) noexcept {
+    // Over the sky (θ < 90°) in front of the plane (cos γ > 0), cos γ = cos β cos θ +
+    // sin β sin θ cos φ (φ from the plane's azimuth): the φ integral in closed form, the θ
+    // integral by the midpoint rule.
+    constexpr int kTheta = 180;
+    const double dth = 0.5 * kPi / kTheta, tr = 1.0 - zenithEmissivity;
+    const double cb = std::cos(tilt_rad), sb = std::abs(std::sin(tilt_rad));
+    double num = 0.0, den = 0.0;
+    for (int i = 0; i < kTheta; ++i) {
+        const double th = (i + 0.5) * dth, ct = std::cos(th), st = std::sin(th);
+        const double w = st * positiveCosineIntegral(cb * ct, sb * st);
+        num += (1.0 - std::pow(tr, 1.0 / ct)) * w;
+        den += w;
+    }
+    return den > 0.0 ? num / den : 1.0;
+}
+
+TiltedSky::TiltedSky(double tilt_rad) {
+    for (int k = 0; k < kTable; ++k) {
+        const double eff = 0.3 + 0.01 * k;
+        const double e0 = slabZenithEmissivity(eff);
+        const double flat = slabMeanEmissivityOnTilt(e0, 0.0);
+        table_[k] = flat > 0.0 ? slabMeanEmissivityOnTilt(e0, tilt_rad) / flat : 1.0;
+    }
+}
+
+double TiltedSky::ratio(double effectiveEmissivity) const noexcept {
+    const double u = (std::clamp(effectiveEmissivity, 0.3, 1.0) - 0.3) / 0.01;
+    const int i = std::min(static_cast<int>(u), kTable - 2);
+    const double f = u - i;
+    return table_[i] + f * (table_[i + 1] - table_[i]);
+}
+
 double convectionCoefficient_W_m2K(double wind_m_s, double surface_K, double air_K, double cosTilt,
                                    double roughnessMultiplier) noexcept {
     const double dT = surface_K - air_K;
@@ -86,13 +154,22 @@ double convectionCoefficient_W_m2K(double wind_m_s, double surface_K, double air
     return hn + roughnessMultiplier * (hGlass - hn);
 }
 
-double dewFlux_W_m2(double hc_W_m2K, double surface_K, double air_K, double dewPoint_K) noexcept {
-    constexpr double kRv = 461.5, kRd = 287.05, kCp = 1007.0, kLewis = 0.87;
+double massTransfer_m_s(double hc_W_m2K, double air_K) noexcept {
+    constexpr double kRd = 287.05, kCp = 1007.0, kLewis = 0.87;
     const double rhoAir = 101325.0 / (kRd * air_K);
-    const double hm = hc_W_m2K / (rhoAir * kCp * std::pow(kLewis, 2.0 / 3.0));  // m/s
+    return hc_W_m2K / (rhoAir * kCp * std::pow(kLewis, 2.0 / 3.0));
+}
+
+double latentFlux_W_m2(double conductance_m_s, double surface_K, double air_K,
+                       double dewPoint_K) noexcept {
+    constexpr double kRv = 461.5;
     const double rhoVapAir = 100.0 * vapourPressure_hPa(dewPoint_K) / (kRv * air_K);
     const double rhoVapSurface = 100.0 * vapourPressure_hPa(surface_K) / (kRv * surface_K);
-    return kLatentHeat_J_kg * hm * (rhoVapAir - rhoVapSurface);
+    return kLatentHeat_J_kg * conductance_m_s * (rhoVapAir - rhoVapSurface);
+}
+
+double dewFlux_W_m2(double hc_W_m2K, double surface_K, double air_K, double dewPoint_K) noexcept {
+    return latentFlux_W_m2(massTransfer_m_s(hc_W_m2K, air_K), surface_K, air_K, dewPoint_K);
 }
 
 ForcingSample forcingAt(const astro::Ephemeris& eph, const astro::AstroTime& t0, double t0_s,

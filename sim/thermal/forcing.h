@@ -70,6 +70,34 @@ double clearSkyEmissivity(double air_K, double dewPoint_K) noexcept;
 // do (tests compare the two).
 double longwaveDown_W_m2(const WeatherSample& w, double lapseRate_K_m) noexcept;
 
+// The sky's long-wave radiance is not isotropic: it is least at the zenith and nearly that of a
+// blackbody at the air temperature at the horizon. A grey isothermal slab gives its directional
+// emissivity (Granqvist & Hjortsberg 1981, "Radiative cooling to low temperatures: general
+// considerations and application to selectively emitting SiO films", J. Appl. Phys. 52(6),
+// 4205–4220):  ε(θ) = 1 − (1 − ε₀)^{1/cos θ},
+// with ε₀ fitted so that its horizontal hemispherical mean 2∫ε(θ) cos θ sin θ dθ equals the
+// whole sky's effective emissivity ε_eff = L↓/σT_a⁴ (clouds included). A plane tilted by β sees
+// the sky in front of it weighted by cos γ (γ from its normal); the ratio of that weighted mean
+// to the horizontal one scales L↓ for the plane's sky part: 1 for β = 0, above 1 for walls,
+// which see more of the low, warm sky.
+class TiltedSky {
+  public:
+    explicit TiltedSky(double tilt_rad = 0.0);
+    // The ratio for the sky's effective emissivity (clamped to [0.3, 1]); per step: no
+    // allocation, no throw.
+    double ratio(double effectiveEmissivity) const noexcept;
+
+    static constexpr int kTable = 71;  // ε_eff from 0.3 to 1.0 by 0.01
+
+  private:
+    double table_[kTable] = {};
+};
+// The slab's horizontal hemispherical emissivity for a zenith emissivity ε₀, and its inverse.
+double slabHemisphericalEmissivity(double zenithEmissivity) noexcept;
+double slabZenithEmissivity(double hemisphericalEmissivity) noexcept;
+// The cos γ-weighted mean emissivity of the sky in front of a plane tilted by β.
+double slabMeanEmissivityOnTilt(double zenithEmissivity, double tilt_rad) noexcept;
+
 // Exterior convection coefficient [W/m²K], the DOE-2 model (ASHRAE Handbook of Fundamentals;
 // EnergyPlus Engineering Reference, "Exterior convection: DOE-2 model", after Walton 1983,
 // "Thermal Analysis Research Program reference manual", NBSIR 83-2655):
@@ -81,16 +109,21 @@ double longwaveDown_W_m2(const WeatherSample& w, double lapseRate_K_m) noexcept;
 double convectionCoefficient_W_m2K(double wind_m_s, double surface_K, double air_K, double cosTilt,
                                    double roughnessMultiplier) noexcept;
 
-// Latent heat of dew: condensation onto a surface below the dew point, and the evaporation of
-// what it holds, by the heat–mass transfer analogy (Chilton–Colburn; Incropera et al.,
+// Latent heat: dew condensing on a surface below the dew point, the evaporation of what it holds,
+// and transpiration, by the heat–mass transfer analogy (Chilton–Colburn; Incropera et al.,
 // "Fundamentals of Heat and Mass Transfer", 6th ed., §6.7.2):
-//   h_m = h_c / (ρ c_p Le^{2/3}),  q_lat = L_v h_m (ρ_v,air − ρ_v,sat(T_s)),  ρ_v = e/(R_v T),
-// ρ = 101325 Pa/(R_d T_a), c_p = 1007 J/kgK, Le = 0.87 (air–water vapour near 298 K: α = 22.5e-6
-// over D = 26e-6 m²/s, Incropera Tables A.4 and A.8), L_v = 2.45e6 J/kg (Table A.6, 293 K),
-// R_v = 461.5 and R_d = 287.05 J/kgK; e_sat by the Magnus form above (over water).
-// Positive: condensation, heat into the surface. Uncapped: the solver limits evaporation to
-// the water the surface holds.
+//   h_m = h_c / (ρ c_p Le^{2/3}),  q_lat = L_v g (ρ_v,air − ρ_v,sat(T_s)),  ρ_v = e/(R_v T),
+// with g = h_m for a wet or dewy surface and g = 1/(1/h_m + r_s) through leaves' stomata
+// (surface resistance r_s, the Penman–Monteith form); ρ = 101325 Pa/(R_d T_a),
+// c_p = 1007 J/kgK, Le = 0.87 (air–water vapour near 298 K: α = 22.5e-6 over D = 26e-6 m²/s,
+// Incropera Tables A.4 and A.8), L_v = 2.45e6 J/kg (Table A.6, 293 K), R_v = 461.5 and
+// R_d = 287.05 J/kgK; e_sat by the Magnus form above (over water).
+// Positive: condensation, heat into the surface.
 inline constexpr double kLatentHeat_J_kg = 2.45e6;
+double massTransfer_m_s(double hc_W_m2K, double air_K) noexcept;
+double latentFlux_W_m2(double conductance_m_s, double surface_K, double air_K,
+                       double dewPoint_K) noexcept;
+// Of a wet surface (g = h_m): dew while negative evaporation is not capped by the water held.
 double dewFlux_W_m2(double hc_W_m2K, double surface_K, double air_K, double dewPoint_K) noexcept;
 
 // One instant's forcing, shared by every surface class.

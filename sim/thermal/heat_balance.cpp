@@ -35,7 +35,7 @@ double sunlitAt(const SurfaceClass& c, double t_s) noexcept {
 
 namespace {
 
-constexpr std::uint64_t kFormatVersion = 2;
+constexpr std::uint64_t kFormatVersion = 3;
 constexpr char kMagic[8] = {'N', 'V', 'S', 'T', 'H', 'M', '1', '\0'};
 
 // POSIX seconds → UTC calendar (Hinnant's civil_from_days).
@@ -77,6 +77,8 @@ void hashMaterial(Fnv1a& h, const ThermalMaterial& m) {
     hashValue(h, static_cast<int>(m.back));
     hashValue(h, m.backFollowsAir);
     hashValue(h, m.collectsDew);
+    hashValue(h, m.surfaceResistanceDay_s_m);
+    hashValue(h, m.surfaceResistanceNight_s_m);
     for (const Layer& l : m.layers)
         for (double v : {l.thickness_m, l.conductivity_W_mK, l.density_kg_m3, l.specificHeat_J_kgK})
             hashValue(h, v);
@@ -214,7 +216,9 @@ SurfaceTemperatureTable solveHeatBalance(const std::vector<SurfaceClass>& classe
                                          HeatBalanceReport* report) {
     checkInputs(classes, weather, p, tableStart_s, tableEnd_s);
     const double t0 = weather.start_s();
-    const std::size_t first = static_cast<std::size_t>(std::ceil((tableStart_s - t0) / p.dt_s));
+    // The table's samples cover [tableStart_s, tableEnd_s]: the grid point at or before the start
+    // to the one at or after the end.
+    const std::size_t first = static_cast<std::size_t>(std::floor((tableStart_s - t0) / p.dt_s));
     const std::size_t last = static_cast<std::size_t>(std::ceil((tableEnd_s - t0) / p.dt_s));
     const double tableT0 = t0 + static_cast<double>(first) * p.dt_s;
     SurfaceTemperatureTable table(classes.size(), last - first + 1, tableT0, p.dt_s);
@@ -251,6 +255,7 @@ SurfaceTemperatureTable solveHeatBalance(const std::vector<SurfaceClass>& classe
             }
             if (first == 0) table.sample(k, 0) = static_cast<float>(spunSurface_K);
             rep.dew_kg_m2.push_back(s.dew_kg_m2());
+            rep.unconvergedSteps += s.unconvergedSteps();
         }
         if (!cacheDir.empty()) writeCache(rep.cacheFile, key, table);
     }

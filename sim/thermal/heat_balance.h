@@ -74,9 +74,10 @@ class SurfaceTemperatureTable {
 
 // What a solve reports besides the table.
 struct HeatBalanceReport {
-    std::vector<int> spinupDays;    // per class
-    std::vector<double> dew_kg_m2;  // per class: water held at the end (empty from the cache)
-    std::size_t stateBytes = 0;     // solvers + forcing series + table
+    std::vector<int> spinupDays;         // per class
+    std::vector<double> dew_kg_m2;       // per class: water held at the end (empty from the cache)
+    std::uint64_t unconvergedSteps = 0;  // all classes (SurfaceSolver::unconvergedSteps)
+    std::size_t stateBytes = 0;          // solvers + forcing series + table
     bool fromCache = false;
     std::filesystem::path cacheFile;  // empty without a cache folder
 };

@@ -161,6 +161,10 @@ ThermalMaterial readMaterial(const ConfigTable& root, const std::string& name) {
         if (t.contains("layer")) t.fail("layer", "a fixed-temperature surface takes no layers");
     }
     m.collectsDew = t.get<bool>("dew", true);
+    if (t.contains("surface_resistance_day_s_m") || t.contains("surface_resistance_night_s_m")) {
+        m.surfaceResistanceDay_s_m = positive(t, "surface_resistance_day_s_m");
+        m.surfaceResistanceNight_s_m = positive(t, "surface_resistance_night_s_m");
+    }
     for (const ConfigTable& l : t.tableArray("layer"))
         m.layers.push_back(readLayer(l));
     if (!m.layers.empty()) readBack(t, m);

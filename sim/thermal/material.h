@@ -65,6 +65,9 @@ struct ThermalMaterial {
     double backFlux_W_m2 = 0.0;         // heat put in at the back (a lamp's power per area)
     double surfaceTemperature_K = 0.0;  // > 0: a source held at this temperature, no layers
     bool collectsDew = true;            // dew condenses on it (and evaporates again)
+    // Transpiration through a surface resistance [s/m] by day (Sun up) and by night; 0: none.
+    double surfaceResistanceDay_s_m = 0.0;
+    double surfaceResistanceNight_s_m = 0.0;
 
     // Derived at load: the index fitted to ε_n and the hemispherical emissivity.
     double index_n = 1.0;  // real part (dielectric), n = k (metal)

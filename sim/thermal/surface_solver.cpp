@@ -8,6 +8,11 @@
 namespace nvs::thermal {
 
 namespace {
+// Less water than this (a micrometre-thin film is 1e-3 kg/m²) counts as a dry surface.
+constexpr double kDryBelow_kg_m2 = 1e-9;
+}  // namespace
+
+namespace {
 
 // Appends one layer's cells to the grid: geometric sizes from `cell`, scaled to fill the layer.
 // Returns the next cell size.
@@ -36,7 +41,7 @@ double addLayer(const Layer& l, double cell, const GridParams& g, std::vector<do
 
 SurfaceSolver::SurfaceSolver(const ThermalMaterial& m, const Exposure& e, const GridParams& g,
                              double initial_K)
-    : m_(m), e_(e), emissivity_(m.emissivityHemispherical) {
+    : m_(m), e_(e), sky_(e.orientation.tilt_rad), emissivity_(m.emissivityHemispherical) {
     if (!m.hasThermal()) throw SetupError(m.loc, "material '" + m.name + "' has no thermal layers");
     if (!(e.skyView >= 0.0 && e.skyView <= 1.0))
         throw SetupError("surface class of '" + m.name + "': sky-view factor outside [0, 1]");
@@ -163,7 +168,9 @@ void SurfaceSolver::step(const ForcingSample& f, double sunlitFraction, double d
     flux_.absorbedShortwave_W_m2 =
         m_.solarAbsorptance *
         planeShortwave_W_m2(f, e_.orientation, F, sunlitFraction, e_.groundAlbedo);
-    flux_.absorbedLongwave_W_m2 = emissivity_ * (F * f.longwaveDown_W_m2 + (1.0 - F) * sigma * ta4);
+    const double skyRatio = sky_.ratio(f.longwaveDown_W_m2 / (sigma * ta4));
+    flux_.absorbedLongwave_W_m2 =
+        emissivity_ * (F * skyRatio * f.longwaveDown_W_m2 + (1.0 - F) * sigma * ta4);
     const double absorbed = flux_.absorbedShortwave_W_m2 + flux_.absorbedLongwave_W_m2;
     double ts = T_[0];
     auto h = [&](double T) {
@@ -174,36 +181,59 @@ void SurfaceSolver::step(const ForcingSample& f, double sunlitFraction, double d
         flux_.convected_W_m2 = h(ts) * (ts - w.air_K);
         flux_.back_W_m2 = 0.0;
         flux_.latent_W_m2 = 0.0;
+        flux_.transpiration_W_m2 = 0.0;
         return;
     }
     const double tb = backTemperature_K(w);
     old_ = T_;  // same size: no allocation
     // Dew: condensation, or evaporation of at most the water held.
+    // Transpiration: through the stomata (resistance by day or night) while the leaves are dry.
     const double maxEvaporation_W_m2 = kLatentHeat_J_kg * dew_kg_m2_ / dt_s;
+    const double rs =
+        f.sunAlt_rad > 0.0 ? m_.surfaceResistanceDay_s_m : m_.surfaceResistanceNight_s_m;
+    const bool transpires = rs > 0.0 && dew_kg_m2_ <= 0.0;
+    double dewPart = 0.0;
     auto latent = [&](double T, double hcT) {
-        if (!m_.collectsDew) return 0.0;
-        return std::max(dewFlux_W_m2(hcT, T, w.air_K, w.dewPoint_K), -maxEvaporation_W_m2);
+        const double hm = massTransfer_m_s(hcT, w.air_K);
+        const double dew = m_.collectsDew ? std::max(latentFlux_W_m2(hm, T, w.air_K, w.dewPoint_K),
+                                                     -maxEvaporation_W_m2)
+                                          : 0.0;
+        const double leaves =
+            transpires
+                ? std::min(0.0, latentFlux_W_m2(1.0 / (1.0 / hm + rs), T, w.air_K, w.dewPoint_K))
+                : 0.0;
+        dewPart = dew;
+        return dew + leaves;
     };
     double hc = 0.0, lat = 0.0;
-    for (int it = 0; it < 40; ++it) {
+    bool converged = false;
+    for (int it = 0; it < 60; ++it) {
         // Newton on the emission and the dew, fixed point on h_c(T):
         // q(T) ≈ q(ts) + q'(ts)(T − ts).
         hc = h(ts);
         const double ts3 = ts * ts * ts;
-        lat = latent(ts, hc);
-        const double dlat = (latent(ts + 1e-3, hc) - lat) / 1e-3;
+        const double dlat = (latent(ts + 1e-3, hc) - latent(ts, hc)) / 1e-3;
+        lat = latent(ts, hc);  // last: leaves dewPart at ts
         const double q = absorbed - emissivity_ * sigma * ts3 * ts - hc * (ts - w.air_K) + lat;
         const double dq = -4.0 * emissivity_ * sigma * ts3 - hc + dlat;
         const double next = solveStep(q, dq, ts, tb, false, dt_s);
         const double moved = std::abs(next - ts);
-        ts = next;
-        if (moved < 1e-7) break;
+        // Newton first; past 8 solves (a kink of the latent term — dew point, a drying
+        // surface — can make it alternate) half steps, which settle on the continuous balance.
+        ts = it < 8 ? next : ts + 0.5 * (next - ts);
+        if (moved < 1e-7) {
+            converged = true;
+            break;
+        }
     }
+    if (!converged) ++unconverged_;
     finishStep(tb);
     flux_.emitted_W_m2 = emissivity_ * sigma * ts * ts * ts * ts;
     flux_.convected_W_m2 = hc * (ts - w.air_K);
     flux_.latent_W_m2 = lat;
-    dew_kg_m2_ = std::max(0.0, dew_kg_m2_ + lat / kLatentHeat_J_kg * dt_s);
+    flux_.transpiration_W_m2 = lat - dewPart;
+    dew_kg_m2_ += dewPart / kLatentHeat_J_kg * dt_s;
+    if (dew_kg_m2_ < kDryBelow_kg_m2) dew_kg_m2_ = 0.0;  // rounding leftovers: dry
 }
 
 }  // namespace nvs::thermal

@@ -11,15 +11,18 @@
 // Crank–Nicolson would give), all fluxes at the step's end:
 //   C_i (T_i' − T_i)/Δt = Σ_j G_ij (T_j' − T_i') + q_i(T'),
 // with q_0 the surface balance
-//   q_s(T) = α_s E_sw + ε_h [F L↓ + (1 − F) σT_a⁴] − ε_h σT⁴ − h_c(T)(T − T_a)
-// (surroundings below the horizon radiate as blackbodies at the air temperature), plus the latent
-// heat of dew (condensation below the dew point; evaporation of the water held, at most all of
-// it in one step; forcing.h dewFlux_W_m2), and at the
-// last node the back boundary (none, a fixed temperature, or h_b (T_b − T) + q_b). The surface
-// emission is linearised about the latest iterate and the tridiagonal system solved again until
-// the surface temperature moves less than 1e-7 K (Newton on εσT⁴, fixed point on h_c(T)), so
-// the step conserves energy to that tolerance: Σ C_i ΔT_i = Δt (q_s(T_0') − q_back).
+//   q_s(T) = α_s E_sw + ε_h [F r L↓ + (1 − F) σT_a⁴] − ε_h σT⁴ − h_c(T)(T − T_a)
+// (r: the anisotropic sky's weight for the tilt, forcing.h TiltedSky; surroundings below the
+// horizon radiate as blackbodies at the air temperature), plus the latent heat q_lat(T) of dew
+// (condensation below the dew point; evaporation of the water held, at most all of it in one
+// step) and of transpiration through a surface resistance while the surface is dry
+// (forcing.h latentFlux_W_m2), and at the last node the back boundary (none, a fixed
+// temperature, or h_b (T_b − T) + q_b). The surface terms are linearised about the latest
+// iterate and the tridiagonal system solved again until the surface temperature moves less than
+// 1e-7 K (Newton on εσT⁴ and q_lat, fixed point on h_c(T), half steps after 8 solves), so the
+// step conserves energy to that tolerance: Σ C_i ΔT_i = Δt (q_s(T_0') + q_back).
 
+#include <cstdint>
 #include <vector>
 
 #include "sim/thermal/forcing.h"
@@ -47,10 +50,11 @@ struct Exposure {
 struct StepFluxes {
     double absorbedShortwave_W_m2 = 0.0;
     double absorbedLongwave_W_m2 = 0.0;
-    double emitted_W_m2 = 0.0;    // ε_h σ T⁴ (leaves)
-    double convected_W_m2 = 0.0;  // h_c (T − T_a) (leaves)
-    double back_W_m2 = 0.0;       // into the stack through the back boundary
-    double latent_W_m2 = 0.0;     // dew: condensation (+) or its evaporation (−)
+    double emitted_W_m2 = 0.0;        // ε_h σ T⁴ (leaves)
+    double convected_W_m2 = 0.0;      // h_c (T − T_a) (leaves)
+    double back_W_m2 = 0.0;           // into the stack through the back boundary
+    double latent_W_m2 = 0.0;         // dew and transpiration: condensation (+), evaporation (−)
+    double transpiration_W_m2 = 0.0;  // of which through the leaves (≤ 0)
 };
 
 class SurfaceSolver {
@@ -75,6 +79,9 @@ class SurfaceSolver {
     void setTemperatures(const std::vector<double>& T_K) { T_ = T_K; }
     const StepFluxes& lastFluxes() const { return flux_; }
     double dew_kg_m2() const { return dew_kg_m2_; }
+    // Steps whose surface iteration had not settled to 1e-7 K after 60 solves (a counter, not
+    // an error: the step keeps its last iterate).
+    std::uint64_t unconvergedSteps() const { return unconverged_; }
     void setDew_kg_m2(double d) { dew_kg_m2_ = d; }
     std::size_t stateBytes() const;
     const ThermalMaterial& material() const { return m_; }
@@ -91,11 +98,13 @@ class SurfaceSolver {
 
     ThermalMaterial m_;
     Exposure e_;
+    TiltedSky sky_;  // the anisotropic sky's weight for this orientation
     double emissivity_ = 0.95;
     std::vector<double> z_, T_, C_, G_;            // nodes; G_[i] links node i and i + 1
     std::vector<double> a_, b_, c_, d_, x_, old_;  // work arrays (sized at construction)
     StepFluxes flux_;
     double dew_kg_m2_ = 0.0;  // water held on the surface
+    std::uint64_t unconverged_ = 0;
 };
 
 }  // namespace nvs::thermal

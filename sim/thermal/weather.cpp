@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 
 #include "sim/core/csv.h"
 #include "sim/core/input_file.h"
@@ -46,9 +47,12 @@ template <class Loc>
 void checkTimes(const std::vector<double>& t, Loc loc) {
     for (std::size_t i = 1; i < t.size(); ++i) {
         if (!(t[i] > t[i - 1])) throw SetupError(loc(i), "time not after the previous row's");
-        if (t[i] - t[i - 1] > kMaxWeatherGap_s)
-            throw SetupError(loc(i), "gap of " + std::to_string((t[i] - t[i - 1]) / 3600.0) +
-                                         " h since the previous row (at most 3 h)");
+        if (t[i] - t[i - 1] > kMaxWeatherGap_s) {
+            char gap[32];
+            std::snprintf(gap, sizeof gap, "%.2f", (t[i] - t[i - 1]) / 3600.0);
+            throw SetupError(
+                loc(i), std::string("gap of ") + gap + " h since the previous row (at most 3 h)");
+        }
     }
 }
 

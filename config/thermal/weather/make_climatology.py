@@ -4,17 +4,21 @@
 No hourly record of Rochester (KROC) for 1998 was at hand, so each file is a typical fair-weather
 day of its date built from normals, stated as such in its header:
   - daily maximum/minimum: NWS Buffalo daily climate reports for Rochester NY (CLIROC), normals
-    1971-2000: Sep 8 73/54 F; 1981-2010: Sep 20 70/51 F, so about -0.2 F/day in September;
-    August 20 78/58 F from the same reports' trend (NWS Buffalo monthly normals 1991-2020,
-    weather.gov/buf/newnormals, Aug 79.0/61.7 F at Buffalo);
+    1971-2000: Sep 8 73/54 F; 1981-2010: Sep 20 70/51 F, so about -0.2 F/day in September, which
+    gives Sep 1 about 75.5/56 F (24.2/13.3 C) and Sep 5 about 74/54.5 F (23.3/12.4 C);
+    August 20: 78/58 F (25.6/14.4 C) is an estimate, not a normal: the Buffalo August normals
+    1991-2020 (79.0/61.7 F, weather.gov/buf/newnormals) with Rochester's cooler nights;
   - diurnal shape: minimum at sunrise (10:30 UTC, 06:30 EDT), maximum at 19:00 UTC (15:00 EDT),
     half-cosines between them (the usual two-part sine/cosine interpolation of daily extremes,
     e.g. Reicosky et al. 1989, Agric. For. Meteorol. 46, 193-209);
   - dew point: constant at the value that puts the relative humidity at about 93 % at the minimum
     and about 50 % at the maximum, the highest/lowest daily humidities those reports give for
     fair September days (93 % / 51 %, CLIROC 2013-09-20);
-  - wind: 1.5 m/s at night, 4 m/s by day (Rochester's September mean about 3.6 m/s, 8 mph);
-  - sky: clear (cloud fraction 0.1, base 1500 m): the thesis nights were clear. The
+  - wind: 1.5 m/s at night, 4 m/s by day (the same reports' daily average winds on fair
+    September days: 5.4-8.2 mph, 2.4-3.7 m/s);
+  - sky: clear (cloud fraction 0.1, base 1500 m): the scenes the thesis planned (§3: cloud-free
+    nights). The thesis reports partly cloudy skies at some acquisitions (§3, §9); edit the
+    cloud columns for those. The
     overcast-starlight scenario's night gets an overcast variant (cloud fraction 1, base 600 m,
     an assumption) whose diurnal range is cut to 5 K around the same mean and whose dew point
     is 1 K below the minimum (assumptions: a cloud deck damps the daily swing and the air near

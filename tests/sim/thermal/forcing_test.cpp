@@ -88,6 +88,40 @@ TEST(ThermalForcing, LowOvercastApproachesCrawfordDuchon) {
     EXPECT_LT(half, bb);
 }
 
+// The grey-slab sky (Granqvist & Hjortsberg 1981): its fitted zenith emissivity reproduces the
+// hemispherical one; the slab's closed form at the zenith and the horizon; a wall sees a
+// warmer sky than a roof, a blackbody sky is the same for all; a horizontal plane's weight is 1.
+TEST(ThermalForcing, AnisotropicSkyOnTiltedPlanes) {
+    for (double eff : {0.7, 0.8, 0.9}) {
+        const double e0 = slabZenithEmissivity(eff);
+        EXPECT_NEAR(slabHemisphericalEmissivity(e0), eff, 1e-6);
+        // The closed-form φ integral against a brute-force sum over azimuth (a wall).
+        double num = 0.0, den = 0.0;
+        for (int i = 0; i < 300; ++i)
+            for (int j = 0; j < 600; ++j) {
+                const double th = (i + 0.5) * kPi / 600.0, ph = (j + 0.5) * kTwoPi / 600.0;
+                const double cg = std::sin(th) * std::cos(ph);
+                if (cg <= 0.0) continue;
+                num += (1.0 - std::pow(1.0 - e0, 1.0 / std::cos(th))) * cg * std::sin(th);
+                den += cg * std::sin(th);
+            }
+        EXPECT_NEAR(slabMeanEmissivityOnTilt(e0, kPi / 2.0), num / den, 1e-3);
+        EXPECT_LT(e0, eff);  // the zenith is the clearest direction
+        // Over a horizontal plane the cos-weighted mean is the hemispherical emissivity.
+        EXPECT_NEAR(slabMeanEmissivityOnTilt(e0, 0.0), eff, 2e-3);
+    }
+    const TiltedSky flat(0.0), wall(kPi / 2.0), tilted(kPi / 4.0);
+    for (double eff : {0.6, 0.75, 0.85, 0.95}) {
+        EXPECT_NEAR(flat.ratio(eff), 1.0, 1e-12);
+        EXPECT_GT(wall.ratio(eff), tilted.ratio(eff));
+        EXPECT_GT(tilted.ratio(eff), 1.0);
+    }
+    EXPECT_NEAR(wall.ratio(1.0), 1.0, 1e-4);
+    // A clear humid sky (ε_eff 0.8): a wall's sky is about 10 % brighter than a roof's.
+    std::printf("wall/roof sky weight at eps_eff 0.8: %.4f, 45 deg: %.4f\n", wall.ratio(0.8),
+                tilted.ratio(0.8));
+}
+
 TEST(ThermalForcing, ConvectionDoe2Limits) {
     // Calm: natural convection only; stable (cold surface facing up) below unstable.
     const double stable = convectionCoefficient_W_m2K(0.0, 280.0, 288.0, 1.0, 1.0);

@@ -78,6 +78,48 @@ TEST(ThermalInput, UnknownBackAndUnknownKeyNameFileLine) {
     EXPECT_NE(e.find("m.toml:5"), std::string::npos) << e;
 }
 
+TEST(ThermalInput, MoreMaterialErrorsNameTheirLine) {
+    // A layer without its density: the layer's table is named.
+    EXPECT_NE(setupError([] {
+                  MaterialLibrary::parse(replaced(kGoodMaterial, "density_kg_m3 = 1000.0\n", ""),
+                                         "m.toml");
+              }).find("m.toml:6"),
+              std::string::npos);
+    // A fixed back without its temperature.
+    EXPECT_NE(setupError([] {
+                  MaterialLibrary::parse(replaced(kGoodMaterial, "\"insulated\"", "\"fixed\""),
+                                         "m.toml");
+              }).find("back_temperature_K"),
+              std::string::npos);
+    // A held surface temperature with layers.
+    EXPECT_NE(setupError([] {
+                  MaterialLibrary::parse(replaced(kGoodMaterial, "emissivity = 0.9",
+                                                  "emissivity = 0.9\nsurface_temperature_K = 400"),
+                                         "m.toml");
+              }).find("m.toml:"),
+              std::string::npos);
+    // A metal with a dielectric's emissivity, and an unknown angular model.
+    EXPECT_NE(setupError([] {
+                  MaterialLibrary::parse(replaced(kGoodMaterial, "emissivity = 0.9",
+                                                  "emissivity = 0.9\nangular = \"metal\""),
+                                         "m.toml");
+              }).find("m.toml:2"),
+              std::string::npos);
+    EXPECT_NE(setupError([] {
+                  MaterialLibrary::parse(replaced(kGoodMaterial, "emissivity = 0.9",
+                                                  "emissivity = 0.9\nangular = \"mirror\""),
+                                         "m.toml");
+              }).find("m.toml:5"),
+              std::string::npos);
+    // A material without a source.
+    EXPECT_NE(setupError([] {
+                  MaterialLibrary::parse(
+                      replaced(kGoodMaterial, "[plate]\nsource = \"test\"\n", "[plate]\n"),
+                      "m.toml");
+              }).find("source"),
+              std::string::npos);
+}
+
 TEST(ThermalInput, MaterialWithoutThermalPropertiesNamesBothPlaces) {
     const MaterialLibrary lib = MaterialLibrary::parse(
         "source = \"t\"\n[paint]\nsource = \"t\"\nemissivity = 0.9\n", "m.toml");
@@ -174,6 +216,29 @@ TEST(ThermalInput, ShippedMaterialsAndWeatherLoad) {
         EXPECT_GE(w.end_s() - w.start_s(), 48.0 * 3600.0) << f;
         EXPECT_NE(w.source().find("climatology"), std::string::npos) << f;
     }
+}
+
+TEST(ThermalInput, WeatherNotANumberOrTooShortNamesFileLine) {
+    EXPECT_NE(setupError([] {
+                  WeatherSeries::parse(replaced(kWeather, "19,12", "nan,12"), "w.csv");
+              }).find("w.csv:4"),
+              std::string::npos);
+    EXPECT_NE(setupError([] {
+                  WeatherSeries::parse(replaced(kWeather, "19,12", "warm,12"), "w.csv");
+              }).find("w.csv:4"),
+              std::string::npos);
+    EXPECT_NE(setupError([] {
+                  WeatherSeries::parse(
+                      "# source: t\nutc,air_temperature_C,dew_point_C,wind_speed_m_s,"
+                      "cloud_fraction,cloud_base_m\n1998-09-01T00:00Z,20,12,1.5,0.1,1500\n",
+                      "w.csv");
+              }).find("w.csv"),
+              std::string::npos);
+    EXPECT_NE(setupError([] {
+                  WeatherSeries::parse(replaced(kWeather, "1998-09-01T01:00Z", "1998-09-01 1am"),
+                                       "w.csv");
+              }).find("w.csv:4"),
+              std::string::npos);
 }
 
 }  // namespace

@@ -75,8 +75,10 @@ Night solve(const WeatherSeries& w) {
         solveHeatBalance(classes, w, rochester(), HeatBalanceParams{}, t - 3600.0, t, {}, &rep);
     for (int d : rep.spinupDays)
         EXPECT_LT(d, 60);
-    std::printf("spin-up days: grass %d, roof %d, side %d\n", rep.spinupDays[0], rep.spinupDays[1],
-                rep.spinupDays[2]);
+    std::printf("spin-up days: grass %d, roof %d, side %d; unconverged steps %llu\n",
+                rep.spinupDays[0], rep.spinupDays[1], rep.spinupDays[2],
+                static_cast<unsigned long long>(rep.unconvergedSteps));
+    EXPECT_EQ(rep.unconvergedSteps, 0u);
     return {table.at(0, t), table.at(1, t), table.at(2, t), w.at(t).air_K, rep.dew_kg_m2};
 }
 
@@ -108,6 +110,27 @@ TEST(HeatBalanceNight, ClearLightWindGrassAndRoofBelowAirInMeasuredRanges) {
                 roofO, grass, roof);
     EXPECT_LT(grassO, 0.5 * grass);
     EXPECT_LT(roofO, 0.5 * roof);
+}
+
+// Wind mixes the air's heat down: the clear-night deficit shrinks as the night wind grows (the
+// "clear and calm" condition of every radiation-frost forecast; Brugge 2011).
+TEST(HeatBalanceNight, DeficitShrinksWithWind) {
+    const WeatherSeries w = WeatherSeries::load(kConfig + "weather/rochester-1998-09-02.csv");
+    const MaterialLibrary lib = MaterialLibrary::load(kConfig + "materials.toml");
+    const double t = utcSeconds("1998-09-02T06:00Z", "test");
+    double previous = 1e9;
+    for (double night_m_s : {0.5, 1.5, 3.0, 6.0}) {
+        std::vector<WeatherSample> s = w.samples();
+        for (WeatherSample& x : s)
+            if (x.wind_m_s < 2.0) x.wind_m_s = night_m_s;
+        const WeatherSeries windy = WeatherSeries::fromSamples(w.times_s(), s, "wind variant");
+        const double T = surfaceTemperature_K(surface(lib, "painted_metal", 0.0, 1.0), windy,
+                                              rochester(), HeatBalanceParams{}, t);
+        const double deficit = windy.at(t).air_K - T;
+        std::printf("night wind %.1f m/s: roof %.2f K below air\n", night_m_s, deficit);
+        EXPECT_LT(deficit, previous);
+        previous = deficit;
+    }
 }
 
 // The shipped overcast night (1998-08-20, the overcast-starlight scenario): no deficit to speak

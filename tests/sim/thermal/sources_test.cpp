@@ -114,6 +114,32 @@ TEST(HeatBalanceSources, ShadedConcreteIsCoolerInTheAfternoon) {
                 t.at(1, at), f.w.at(at).air_K);
 }
 
+// A panel facing the ground (a vehicle's underside: tilt 180°, no sky) stays near the air at
+// night: it sees only surroundings at the air temperature.
+TEST(HeatBalanceSources, AnUndersideStaysNearTheAir) {
+    const Fixture f;
+    SurfaceClass c = f.horizontal("painted_metal");
+    c.exposure.orientation.tilt_rad = kPi;
+    c.exposure.skyView = 0.0;
+    const double T = surfaceTemperature_K(c, f.w, rochester(), HeatBalanceParams{}, f.t);
+    EXPECT_NEAR(T, f.w.at(f.t).air_K, 1.0);
+}
+
+// The table covers the requested range even off the step grid, and reads between samples
+// linearly.
+TEST(HeatBalanceSources, TableCoversItsRangeOffTheGrid) {
+    const Fixture f;
+    const double start = f.t - 90.0, end = f.t + 30.0;  // 05:00Z is on the 60-s grid
+    const SurfaceTemperatureTable t = solveHeatBalance(
+        {f.horizontal("painted_metal")}, f.w, rochester(), HeatBalanceParams{}, start, end);
+    EXPECT_LE(t.t0_s(), start);
+    EXPECT_GE(t.t0_s() + t.dt_s() * static_cast<double>(t.samples() - 1), end);
+    const double mid = t.t0_s() + 0.25 * t.dt_s();
+    const double expected =
+        0.75 * static_cast<double>(t.sample(0, 0)) + 0.25 * static_cast<double>(t.sample(0, 1));
+    EXPECT_NEAR(t.at(0, mid), expected, 1e-9);
+}
+
 // The night-cooling ranges can fail: a roof that sees no sky (sky-view 0) does not cool.
 TEST(HeatBalanceSources, ARoofWithoutSkyDoesNotCool) {
     const Fixture f;

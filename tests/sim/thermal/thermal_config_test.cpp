@@ -3,6 +3,8 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
 #include <string>
 
 namespace nvs::thermal {
@@ -86,11 +88,58 @@ TEST(ThermalConfig, BadValuesNameTheirLine) {
     EXPECT_NE(
         setupError([] { read(replaced(kScenario, "[1.0, 0.0]", "[1.0]")); }).find("scn.toml:15"),
         std::string::npos);
-    // A weather file with a gap is named with its own file:line.
+    // A misspelt key: strict TOML names it, with the nearest valid key.
+    const std::string misspelt =
+        setupError([] { read(replaced(kScenario, "sky_view = 1.0", "skyview = 1.0")); });
+    EXPECT_NE(misspelt.find("scn.toml:7"), std::string::npos) << misspelt;
+    EXPECT_NE(misspelt.find("sky_view"), std::string::npos) << misspelt;
+    // A weather file that is not there is named.
     EXPECT_NE(setupError([] {
                   read(replaced(kScenario, "rochester-1998-09-02", "nowhere"));
               }).find("nowhere.csv"),
               std::string::npos);
+}
+
+// The shipped example for the RIT nolight night (config/thermal/rit-nolight.toml), solved at
+// the scenario's instant: the person warmest, the truck's roof colder than its side, the
+// polished fiducial's exitance far below everything else's (the thesis's reason to use it, §4),
+// every surface within the night's physical bounds (sky-cooled below the air, the body's core).
+TEST(ThermalConfig, RitNolightExampleOrdersAsPhysicsSays) {
+    const ConfigDocument doc = ConfigDocument::parseFile(kData / "rit-nolight.toml");
+    const ThermalSetup s = readThermalSetup(doc.root().table("thermal"), kData);
+    doc.finish();
+    astro::Site site;
+    site.lat_deg = 43.16856;
+    site.lon_deg = -77.61583;
+    site.height_m = 218.0;
+    const double t = utcSeconds("1998-09-02T01:00Z", "t");
+    const SurfaceTemperatureTable table =
+        solveHeatBalance(s.classes, s.weather, site, s.params, t, t);
+    auto temp = [&](const char* name) {
+        for (std::size_t k = 0; k < s.classes.size(); ++k)
+            if (s.classes[k].name == name) return table.at(k, t);
+        ADD_FAILURE() << name;
+        return 0.0;
+    };
+    const double air = s.weather.at(t).air_K;
+    std::printf("RIT nolight 01:00Z, air %.2f K:\n", air);
+    double minExitanceOthers = 1e30;
+    for (std::size_t k = 0; k < s.classes.size(); ++k) {
+        const double T = table.at(k, t);
+        const double exitance = s.classes[k].material.emissivityHemispherical * std::pow(T, 4.0);
+        std::printf("  %-16s %.2f K (%+.2f), exitance/sigma %.3g\n", s.classes[k].name.c_str(), T,
+                    T - air, exitance);
+        EXPECT_GT(T, air - 10.0) << s.classes[k].name;
+        EXPECT_LT(T, 310.15) << s.classes[k].name;
+        if (s.classes[k].name != "fiducial")
+            minExitanceOthers = std::min(minExitanceOthers, exitance);
+    }
+    EXPECT_GT(temp("person face"), temp("person clothes"));
+    EXPECT_GT(temp("person clothes"), air);
+    EXPECT_LT(temp("truck roof"), temp("truck side"));
+    EXPECT_LT(temp("grass"), air);
+    const double al = 0.05 * std::pow(temp("fiducial"), 4.0);
+    EXPECT_LT(al, 0.2 * minExitanceOthers);
 }
 
 }  // namespace
