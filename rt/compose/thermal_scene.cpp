@@ -110,6 +110,10 @@ void ThermalScene::fillTables() {
     for (int i = 0; i < kSky; ++i)
         sky_[static_cast<std::size_t>(i)] =
             static_cast<float>(lwir_->skyRadiance_W_m2_sr(i * kPi / 180.0));
+    for (std::size_t i = 0; i < n; ++i) {
+        if (surfaces_[i].tilt_rad < 22.5 * kPi / 180.0 && surfaces_[i].skyView > 0.75)
+            groundClasses_.push_back(i);
+    }
     frame_.surfaceTemperature_K = temperature_K_.data();
     frame_.emissivity = emissivity_.data();
     frame_.blackbody = blackbody_.data();
@@ -129,8 +133,18 @@ void ThermalScene::fillTables() {
 const render::ThermalFrame& ThermalScene::frame(double t_s) noexcept {
     for (std::size_t i = 0; i < temperature_K_.size(); ++i)
         temperature_K_[i] = static_cast<float>(table_.at(i, t_s));
-    frame_.airRadiance = lwir_->blackbody_W_m2_sr(weather_.at(t_s).air_K);
+    frame_.groundRadiance = groundRadianceAt(t_s);
     return frame_;
+}
+
+double ThermalScene::groundRadianceAt(double t_s) const noexcept {
+    double area = 0.0, sum = 0.0;
+    for (const std::size_t i : groundClasses_) {
+        const double a = surfaces_[i].area_m2;
+        area += a;
+        sum += a * lwir_->blackbody_W_m2_sr(table_.at(i, t_s));
+    }
+    return area > 0.0 ? sum / area : lwir_->blackbody_W_m2_sr(weather_.at(t_s).air_K);
 }
 
 }  // namespace nvs::rt

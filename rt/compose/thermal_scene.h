@@ -43,12 +43,10 @@ class ThermalScene {
 
     // The renderer's inputs at t_s (POSIX UTC seconds). No allocation, no throw.
     const render::ThermalFrame& frame(double t_s) noexcept;
-    // The air's band radiance at t_s (setup and tests; frame() keeps it current per frame).
-    render::ThermalFrame frameAt(double t_s) const {
-        render::ThermalFrame f = frame_;
-        f.airRadiance = lwir_->blackbody_W_m2_sr(weather_.at(t_s).air_K);
-        return f;
-    }
+    // The band radiance of the ground a surface sees besides the sky at t_s: the open,
+    // upward-facing classes' radiance weighted by their area (the air's where the scene has
+    // none). No allocation, no throw.
+    double groundRadianceAt(double t_s) const noexcept;
 
     const std::vector<render::ThermalSurface>& surfaces() const { return surfaces_; }
     const std::vector<thermal::SurfaceClass>& classes() const { return classes_; }
@@ -71,6 +69,7 @@ class ThermalScene {
     thermal::HeatBalanceReport report_;
     std::unique_ptr<lwir::LwirTable> lwir_;
     std::vector<float> temperature_K_, emissivity_, blackbody_, tau_, path_, sky_;
+    std::vector<std::size_t> groundClasses_;  // open ground: up-facing, sky view > 0.75
     render::ThermalFrame frame_;
 };
 

@@ -377,7 +377,7 @@ int runScenario(const RunRequest& req, std::FILE* status) {
                      th.surfaces().size(), th.report().fromCache ? "from the cache" : "solved",
                      th.report().stateBytes / 1024, th.weather().file().c_str());
         // The camera powered up before the run, its start-up shutter done facing the night.
-        const double start = sceneStage->thermal()->frameAt(sc.utcStart_unix_s).airRadiance;
+        const double start = sceneStage->thermal()->groundRadianceAt(sc.utcStart_unix_s);
         camera = std::make_unique<BolometerCameraStage>(*sc.camera.thermalParams, sc.bits,
                                                         sc.camera.seed, start);
     } else if (sc.camera.enabled) {

@@ -181,11 +181,11 @@ layers = [l.split(",") for l in open(os.path.join(THESIS_DATA, "table14-1_autoca
 # The thermal channel's material of each (config/thermal/materials.toml, docs/thermal.md): the
 # panels and resolution targets are painted boards, the sign a painted metal plate, the truck's
 # body painted steel, its molding and tyres rubber, the aluminium fiducials polished aluminium.
-THERMAL = {"blk_panel": "painted_plywood", "wht_panel": "painted_plywood",
-           "lt_gray_panel": "painted_plywood", "md_gray_panel": "painted_plywood",
-           "dk_gray_panel": "painted_plywood", "red_panel": "painted_plywood",
-           "blue_panel": "painted_plywood", "res_trgt_wht": "painted_plywood",
-           "res_trgt_blk": "painted_plywood", "asphalt": "asphalt", "yellow_line": "asphalt",
+THERMAL = {"blk_panel": "painted_wood", "wht_panel": "painted_wood",
+           "lt_gray_panel": "painted_wood", "md_gray_panel": "painted_wood",
+           "dk_gray_panel": "painted_wood", "red_panel": "painted_wood",
+           "blue_panel": "painted_wood", "res_trgt_wht": "painted_wood",
+           "res_trgt_blk": "painted_wood", "asphalt": "asphalt", "yellow_line": "asphalt",
            "grass": "grass", "dirt": "soil_dry", "concrete": "concrete", "brick": "brick",
            "sign": "painted_metal", "flesh": "skin", "lt_clothes": "clothing",
            "md_clothes": "clothing", "dk_clothes": "clothing", "red_truck": "painted_metal",

@@ -145,7 +145,7 @@ struct Renderer::Impl {
     // τ(r) and L_path(r) (the sky: class −1, its radiance in path).
     struct ThermalPixel {
         std::int32_t cls0 = -1, cls1 = -1;
-        float w = 0.0f, eps = 0.0f, envSky = 0.0f, envAir = 0.0f, tau = 1.0f, path = 0.0f;
+        float w = 0.0f, eps = 0.0f, envSky = 0.0f, envGround = 0.0f, tau = 1.0f, path = 0.0f;
     };
     std::vector<ThermalPixel> thermalPx;
     std::uint64_t thermalGeneration = 0;

@@ -124,8 +124,10 @@ struct ThermalFrame {
     int rangeCount = 0;
     const float* skyRadiance = nullptr;  // at view zenith i·90°/(skyCount − 1)
     int skyCount = 0;
-    double skyDiffuse = 0.0;   // the sky's radiance averaged for a diffuse reflector
-    double airRadiance = 0.0;  // B(T_air): the surroundings a surface sees besides the sky
+    double skyDiffuse = 0.0;  // the sky's radiance averaged for a diffuse reflector
+    // What a surface sees besides the sky: the ground around it (the composition root's
+    // area-weighted band radiance of the open ground's classes).
+    double groundRadiance = 0.0;
 };
 
 struct RenderStats {
@@ -174,9 +176,9 @@ class Renderer {
     double sunlitFraction(const ThermalSurface& surface, const Vec3& towardSun) const;
     // Per frame (after prepareThermal): the band radiance at the aperture,
     //   L = τ(r)·(ε(θ)·B(T) + (1 − ε(θ))·L_env) + L_path(r),
-    // L_env = s·L_mirror + (1 − s)·(F·L_sky,diffuse + (1 − F)·B(T_air)) (s the material's
+    // L_env = s·L_mirror + (1 − s)·(F·L_sky,diffuse + (1 − F)·L_ground) (s the material's
     // specularity, F the sky-view factor); rays that miss see the sky radiance at their zenith
-    // angle (B(T_air) below the horizon). Shares the G-buffer with render().
+    // angle (L_ground below the horizon). Shares the G-buffer with render().
     void renderThermal(const ThermalFrame& frame, ImageView<float> radiance,
                        RowExecutor& exec) noexcept;
     // The thermal class of a pixel's primary hit (−1: sky), after renderThermal.

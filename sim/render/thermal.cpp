@@ -118,7 +118,7 @@ struct ThermalCtx {
 };
 
 float skyAt(const ThermalFrame& f, double dirZ) noexcept {
-    if (dirZ <= 0.0) return static_cast<float>(f.airRadiance);
+    if (dirZ <= 0.0) return static_cast<float>(f.groundRadiance);
     const double zenith_deg = std::acos(std::min(dirZ, 1.0)) * (180.0 / kPi);
     return lerpTable(f.skyRadiance, f.skyCount, zenith_deg / 90.0 * (f.skyCount - 1));
 }
@@ -154,7 +154,7 @@ Renderer::Impl::ThermalPixel thermalPixel(const ThermalCtx& c, int x, int y) noe
     if (im.gMat[i] == kMiss) {  // the sky at its zenith angle; the surroundings below it
         const double dz = im.pixelDir(x + 0.5, y + 0.5, c.cfg->camera).z;
         p.envSky = dz > 0.0 ? skyAt(f, dz) : 0.0f;
-        p.envAir = dz > 0.0 ? 0.0f : 1.0f;
+        p.envGround = dz > 0.0 ? 0.0f : 1.0f;
         return p;
     }
     const Vec3 d = g3(im.gPos, i) - im.camPos;
@@ -166,7 +166,7 @@ Renderer::Impl::ThermalPixel thermalPixel(const ThermalCtx& c, int x, int y) noe
     const Vec3 n = g3(im.gNrm, i);
     p.cls0 = im.thermalOfKey[static_cast<std::size_t>(classKey(im.gMat[i], n, im.gSvf[i]))];
     if (p.cls0 < 0) {  // a material without a class: the air's temperature, black
-        p.envAir = 1.0f;
+        p.envGround = 1.0f;
         return p;
     }
     pixelClasses(im, i, p.cls0, &p.cls1, &p.w);
@@ -180,7 +180,7 @@ Renderer::Impl::ThermalPixel thermalPixel(const ThermalCtx& c, int x, int y) noe
     const bool mirrorUp = mirror.z > 0.0;
     p.envSky = static_cast<float>((mirrorUp ? s * static_cast<double>(skyAt(f, mirror.z)) : 0.0) +
                                   (1.0 - s) * svf * f.skyDiffuse);
-    p.envAir = static_cast<float>((mirrorUp ? 0.0 : s) + (1.0 - s) * (1.0 - svf));
+    p.envGround = static_cast<float>((mirrorUp ? 0.0 : s) + (1.0 - s) * (1.0 - svf));
     return p;
 }
 
@@ -197,7 +197,7 @@ void thermalRows(void* arg, int y0, int y1) noexcept {
     const ThermalCtx& c = *static_cast<const ThermalCtx*>(arg);
     const Renderer::Impl& im = *c.im;
     const ThermalFrame& f = *c.f;
-    const float air = static_cast<float>(f.airRadiance);
+    const float air = static_cast<float>(f.groundRadiance);
     const float t0 = static_cast<float>(f.blackbodyT0_K);
     const float perK = static_cast<float>(1.0 / f.blackbodyStep_K);
     for (int y = y0; y < y1; ++y) {
@@ -211,7 +211,7 @@ void thermalRows(void* arg, int y0, int y1) noexcept {
                 if (p.cls1 >= 0) t += p.w * (f.surfaceTemperature_K[p.cls1] - t);
                 b = lerpTable(f.blackbody, f.blackbodyCount, static_cast<double>((t - t0) * perK));
             }
-            const float env = p.envSky + p.envAir * air;
+            const float env = p.envSky + p.envGround * air;
             row[x] = p.tau * (p.eps * b + (1.0f - p.eps) * env) + p.path;
         }
     }

@@ -147,7 +147,7 @@ TEST(ThermalScene, GrassPixelsMatchADirectSpectralIntegration) {
             for (std::size_t i = 0; i < absorb.size(); ++i)
                 absorb[i] = 1.0 - tau[i];
             const double env = svf * n.thermal->lwirTable().skyDiffuseRadiance_W_m2_sr() +
-                               (1.0 - svf) * n.thermal->lwirTable().blackbody_W_m2_sr(w.air_K);
+                               (1.0 - svf) * n.thermal->frame(n.t_s).groundRadiance;
             const double direct =
                 eps * lwir::bandIntegral_W_m2_sr(band, tau, t_K) +
                 lwir::bandIntegral_W_m2_sr(band, absorb, w.air_K) +
