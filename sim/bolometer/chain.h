@@ -15,6 +15,7 @@
 //   5 Shutter FFC  6 ADC (14-bit raw)  7 AGC (linear or plateau equalisation, 8 bit).
 
 #include <cstdint>
+#include <memory>
 
 #include "sim/bolometer/camera.h"
 #include "sim/bolometer/stages/stage.h"
@@ -66,7 +67,7 @@ class BolometerChain {
     AdcStage adc_;
     AgcStage agc_;
     ImageF power_W_;
-    ImageF volts_;
+    std::unique_ptr<float[]> row_;  // one row of detector output [V]
     ImageU16 raw_;
     ImageU8 display_;
     double sumRaw_ = 0.0;  // sum of the raw counts of the output frame

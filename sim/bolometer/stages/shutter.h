@@ -48,6 +48,11 @@ class ShutterStage {
     void accumulate(ImageView<const float> volts) noexcept;
     // V_i − c_i, in place.
     void correct(ImageView<float> volts) const noexcept;
+    // accumulate() and correct() in rows: accumulateRow for every row, then endClosedFrame();
+    // correctRow for a row.
+    void accumulateRow(int y, const float* volts) noexcept;
+    void endClosedFrame() noexcept;
+    void correctRow(int y, float* volts) const noexcept;
     std::uint64_t ffcCount() const { return count_; }
     double lastFfc_s() const { return lastT_s_; }
     double lastFfcFpa_K() const { return lastFpa_K_; }
