@@ -10,6 +10,7 @@
 #include <cstring>
 #include <vector>
 
+#include "sim/core/planck.h"
 #include "tests/sim/bolometer/bolometer_test_util.h"
 
 namespace nvs::bolometer {
@@ -75,6 +76,31 @@ TEST(Ffc, ResidualBelowOneNetdAndGrowsWithDriftAtTheSetRate) {
         std::printf("  t %.1f s after FFC: drift part %.4f K\n", t[i], g[i]);
     EXPECT_NEAR(num / den, 0.3 * 0.02, 0.10 * 0.3 * 0.02);
     EXPECT_GT(g.back(), 5.0 * netd_K);  // by then the pattern is far above the noise
+}
+
+// The FFC removes offsets only: the residual gain pattern (σ_g = 0.2 %, preset) shows in
+// proportion to the scene's signal less the shutter's. In counts at 300 K's 50 counts/K, with
+// the scene through the lens (τ = 0.9) and the shutter before it (τ = 1, at T_fpa = 293.15 K):
+// Δ = 50·(0.9·L(350 K) − L(293.15 K))/(0.9·dL/dT(300 K)), σ = √((σ_g·Δ)² + σ_noise²), σ_noise
+// the noise of the two averages as above (NETD·√(1/20 + 1/60), in counts).
+TEST(Ffc, GainPatternShowsInProportionToTheScenesDifferenceFromTheShutter) {
+    const ThermalCameraParams cam =
+        test::thermalPreset("boson-640", {{"width", "128"},
+                                          {"height", "96"},
+                                          {"focal_plane.self_heating_K", "0"},
+                                          {"noise.flicker_rel", "0"}});
+    BolometerChain chain(cam, 6);
+    const ImageF scene = test::blackbody(cam, 350.0);
+    test::pastStartupFfc(chain, scene, 10);
+    const double delta = 50.0 *
+                         (0.9 * planckBandRadiance_W_m2_sr(7.5, 13.5, 350.0) -
+                          planckBandRadiance_W_m2_sr(7.5, 13.5, 293.15)) /
+                         (0.9 * planckBandRadianceDerivative_W_m2_sr_K(7.5, 13.5, 300.0));
+    const double noise = 0.040 / 0.9 * 50.0 * std::sqrt(1.0 / 20.0 + 1.0 / 60.0);
+    const double expected = std::sqrt(0.002 * delta * 0.002 * delta + noise * noise) / 50.0;
+    const double r = residualFpn_K(chain, scene, 60);
+    std::printf("350 K scene after FFC: pattern %.4f K, expected %.4f K\n", r, expected);
+    EXPECT_NEAR(r, expected, 0.10 * expected);
 }
 
 TEST(Ffc, TemperatureChangeStartsTheNextOneAndRestoresTheResidual) {
