@@ -103,6 +103,24 @@ TEST(Ffc, GainPatternShowsInProportionToTheScenesDifferenceFromTheShutter) {
     EXPECT_NEAR(r, expected, 0.10 * expected);
 }
 
+// Without a shutter (shutterless cores) nothing is frozen and nothing removes the offsets: the
+// pattern is the preset's offset σ, 2 K (with the 0.2 % gain pattern times the 300 K scene's
+// 0.9·L(300) against its calibration, and the noise of a 60-frame mean, both < 1 % of it).
+TEST(Ffc, WithoutAShutterTheOffsetPatternStays) {
+    const ThermalCameraParams cam =
+        test::thermalPreset("boson-640", {{"width", "128"},
+                                          {"height", "96"},
+                                          {"shutter.enabled", "false"},
+                                          {"focal_plane.self_heating_K", "0"},
+                                          {"noise.flicker_rel", "0"}});
+    BolometerChain chain(cam, 7);
+    const ImageF scene = test::blackbody(cam, 300.0);
+    EXPECT_FALSE(chain.process(scene.cview()).frozen);
+    const double r = residualFpn_K(chain, scene, 60);
+    EXPECT_NEAR(r, 2.0, 0.05 * 2.0);
+    EXPECT_EQ(chain.lastInfo().ffc_count, 0u);
+}
+
 TEST(Ffc, TemperatureChangeStartsTheNextOneAndRestoresTheResidual) {
     const ThermalCameraParams cam = driftingCamera();
     BolometerChain chain(cam, 4);
