@@ -36,6 +36,9 @@ ThermalCameraParams readCamera(const ConfigDocument& doc, const Overrides& ov, F
     c.ShutterParams::read(root);
     c.AdcParams::read(root);
     c.AgcParams::read(root);
+    // An FFC must end before the next is due, or the shutter would never open again.
+    if (c.shutter_enabled && c.ffc_interval_s <= c.ffc_closed_frames * c.framePeriod_s())
+        root.sub("shutter").fail("interval_s", "must exceed closed_frames / frame_rate_Hz");
     doc.finish();
     for (const auto& [key, value] : ov)
         if (used.count(key) == 0)

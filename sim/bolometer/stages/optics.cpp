@@ -119,7 +119,8 @@ void OpticsStage::buildTransfer(const ThermalCameraParams& cam) {
         diff[i] =
             bandDiffractionMtf(nuC * i / kTable, cam.f_number, cam.band_lo_um, cam.band_hi_um);
     // H at (kx, ky): Σ over the aliases; the pixel's sincs tabulated per alias and index.
-    constexpr int kAlias = 2, kTerms = 2 * kAlias + 1;
+    // Aliases up to the cut-off: |ν + m/p| < νc needs |m| ≤ νc·p + ½ (2 for f/1, 12 µm).
+    const int kAlias = static_cast<int>(std::ceil(nuC * p_m + 0.5)), kTerms = 2 * kAlias + 1;
     const auto diffAt = [&](double vx, double vy) {
         const double t = std::sqrt(vx * vx + vy * vy) / nuC * kTable;
         if (t >= kTable) return 0.0;
