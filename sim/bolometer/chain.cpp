@@ -28,16 +28,18 @@ const FrameInfo& BolometerChain::process(ImageView<const float> radiance) noexce
     // 3 (its temperature first: the shutter's decision and the offsets' drift need it).
     info.fpa_K = cam_.fpaTemperature_K(info.t_s);
     const bool closed = shutter_.closedFor(info.t_s, info.fpa_K);
-    info.ffc_started = closed && !info_.frozen;
+    const bool hold = !closed && shutter_.holdAfterOpen();
+    info.shutter_closed = closed;
+    info.ffc_started = closed && !info_.shutter_closed;
     // 1 Optics: the scene through the lens, or the shutter (a blackbody at T_fpa) before it.
     if (closed) {
         optics_.uniform(cam_.bandRadiance_W_m2_sr(info.fpa_K), power_W_.view());
     } else {
         info.bad_input_px = optics_.apply(radiance, power_W_.view());
     }
-    // 2 Detector, 3 focal plane, 4 noise, 5 shutter (a closed frame feeds the offset estimate
-    // and the output stays frozen), 6 ADC: row by row through one scratch row, the same
-    // arithmetic as the stages' whole-image apply().
+    // 2 Detector, 3 focal plane, 4 noise, 5 shutter (a closed frame feeds the offset estimate;
+    // the output stays frozen while closed and settle_frames after), 6 ADC: row by row through one
+    // scratch row, the same arithmetic as the stages' whole-image apply().
     const float keep = detector_.beginFrame();
     const float dT = static_cast<float>(info.fpa_K - cam_.ambient_K);
     noise_.beginFrame(frame_);
@@ -49,15 +51,15 @@ const FrameInfo& BolometerChain::process(ImageView<const float> radiance) noexce
         noise_.applyRow(y, v);
         if (closed) {
             shutter_.accumulateRow(y, v);
-        } else {
+        } else if (!hold) {
             shutter_.correctRow(y, v);
             std::uint32_t rowSum = 0;
             info.clipped_px += adc_.applyRow(v, raw_.row(y), cam_.width, rowSum);
             sum += rowSum;
         }
     }
-    if (closed) {
-        shutter_.endClosedFrame();
+    if (closed) shutter_.endClosedFrame();
+    if (closed || hold) {
         info.frozen = true;
     } else {
         sumRaw_ = static_cast<double>(sum);

@@ -28,7 +28,8 @@ struct FrameInfo {
     std::uint64_t frame = 0;
     double t_s = 0.0;               // time of this frame since the first [s]
     double fpa_K = 0.0;             // focal-plane temperature [K]
-    bool frozen = false;            // shutter closed: raw and display hold the last good frame
+    bool frozen = false;            // raw and display hold the last good frame (FFC under way)
+    bool shutter_closed = false;    // the shutter is in front of the array
     bool ffc_started = false;       // an FFC began with this frame
     std::uint64_t ffc_count = 0;    // FFCs completed so far
     double since_ffc_s = 0.0;       // time since the last completed FFC [s]

@@ -43,6 +43,12 @@ bool ShutterStage::closedFor(double t_s, double fpa_K) noexcept {
     return true;
 }
 
+bool ShutterStage::holdAfterOpen() noexcept {
+    if (holdLeft_ == 0) return false;
+    --holdLeft_;
+    return true;
+}
+
 void ShutterStage::accumulateRow(int y, const float* v) noexcept {
     if (closedSeen_ < settle_) return;
     float* s = sum_.row(y);
@@ -81,6 +87,7 @@ void ShutterStage::finish() noexcept {
             c[x] = s[x] * inv - mean;
     }
     ++count_;
+    holdLeft_ = settle_;
     lastT_s_ = pendingT_s_;
     lastFpa_K_ = pendingFpa_K_;
 }

@@ -148,11 +148,14 @@ TEST(Ffc, ClosedFramesAreFrozenAndFlagged) {
         for (int x = 10; x < 30; ++x)
             scene(x, y) = static_cast<float>(
                 planckBandRadiance_W_m2_sr(cam.band_lo_um, cam.band_hi_um, 310.0));
-    // Start-up: 12 closed frames (preset), nothing good to show yet.
-    int frozen = 0;
-    while (chain.process(scene.cview()).frozen)
+    // Start-up: 12 closed frames and 2 settling ones after (preset), nothing good to show yet.
+    int frozen = 0, closed = 0;
+    while (chain.process(scene.cview()).frozen) {
         ++frozen;
-    EXPECT_EQ(frozen, cam.ffc_closed_frames);
+        closed += chain.lastInfo().shutter_closed ? 1 : 0;
+    }
+    EXPECT_EQ(closed, cam.ffc_closed_frames);
+    EXPECT_EQ(frozen, cam.ffc_closed_frames + cam.ffc_settle_frames);
     // Run to the interval FFC; each closed frame repeats the last good frame's bits.
     ImageU16 lastRaw(cam.width, cam.height);
     ImageU8 lastDisplay(cam.width, cam.height);
@@ -168,15 +171,19 @@ TEST(Ffc, ClosedFramesAreFrozenAndFlagged) {
             }
         } else {
             if (closedRun > 0) {
-                EXPECT_EQ(closedRun, cam.ffc_closed_frames);
+                EXPECT_EQ(closedRun, cam.ffc_closed_frames + cam.ffc_settle_frames);
                 ++runs;
+                // No flash of the shutter's level: the lag has settled (e^(−3·33/10) of the
+                // shutter's 300 K − 293 K difference, ~350 counts, is 0.02 counts), so the first
+                // frame shown matches the last one before within noise (0.05 counts of a mean).
+                EXPECT_NEAR(test::meanRaw(chain.raw()), test::meanRaw(lastRaw), 0.5);
             }
             closedRun = 0;
             lastRaw.copyFrom(chain.raw().cview());
             lastDisplay.copyFrom(chain.display().cview());
         }
     }
-    // Started at t = 2 s (frame 60 of 30 Hz) and 4 s: two FFCs in frames 12 … 161.
+    // Started at t = 2 s (frame 60 of 30 Hz) and 4 s: two FFCs in frames 14 … 163.
     EXPECT_EQ(runs, 2);
 }
 
