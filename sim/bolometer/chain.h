@@ -5,7 +5,8 @@
 // 1/f noise, the shutter's offset map, the AGC's damped levels).
 //
 // Two phases, as the intensified chain (sim/sensor/chain.h): the constructor validates and
-// allocates everything; process() allocates nothing and throws nothing. Randomness comes only
+// allocates everything (FFTW plans too: like FFTW's planner, not thread-safe; chains are made on
+// one thread); process() allocates nothing and throws nothing. Randomness comes only
 // from PixelRng (sim/core/rng.h) keyed by (seed, stream, frame) and the pixel's place, so a
 // replay with the same seed gives the same bits.
 //

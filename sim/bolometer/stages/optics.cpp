@@ -104,9 +104,11 @@ void OpticsStage::buildTransfer(const ThermalCameraParams& cam) {
     fft_->spec = fftwf_alloc_complex(nc);
     fft_->transfer = fftwf_alloc_real(nc);
     if (!fft_->real || !fft_->spec || !fft_->transfer) throw SetupError("optics: out of memory");
-    // Estimated plans (no measuring at set-up): the same plan, and bits, on every run on one
-    // CPU; another CPU's SIMD codelets may round differently (docs/bolometer.md).
-    const unsigned flags = FFTW_ESTIMATE | FFTW_DESTROY_INPUT;
+    // FFTW_ESTIMATE among the scalar solvers, as the intensified chain's blur does for a size
+    // its shipped wisdom lacks (docs/portability.md): the same plan, and bits, on every x86-64
+    // CPU. (The SIMD solvers' estimate depends on the CPU; they took 3.5 ms against 8 ms of a
+    // loaded machine's frame.)
+    const unsigned flags = FFTW_ESTIMATE | FFTW_NO_SIMD | FFTW_DESTROY_INPUT;
     fft_->fwd = fftwf_plan_dft_r2c_2d(hp_, wp_, fft_->real, fft_->spec, flags);
     fft_->inv = fftwf_plan_dft_c2r_2d(hp_, wp_, fft_->spec, fft_->real, flags);
     if (!fft_->fwd || !fft_->inv) throw SetupError("optics: FFTW could not plan the MTF");
