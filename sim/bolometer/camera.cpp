@@ -61,7 +61,7 @@ double ThermalCameraParams::voltsPerSceneK(double T_K) const {
            bandRadianceDerivative_W_m2_sr_K(T_K);
 }
 double ThermalCameraParams::noiseVolts() const {
-    return netd_K * responsivity_V_W * wattsPerRadiance(netd_f_number, 1.0) *
+    return netd_K * responsivity_V_W * wattsPerRadiance(netd_f_number, optics_transmission) *
            bandRadianceDerivative_W_m2_sr_K(netd_reference_K);
 }
 

@@ -12,8 +12,9 @@
 //   flicker_rel       1     0.3      σ of the 1/f noise (stationary), over NETD's σ (assumed)
 //   flicker_octaves   1     8        generators of the 1/f noise: 1/f from f/2^(M+1) to f/2
 //
-// σ = NETD·R·π/(1 + 4N_ref²)·A·FF·dL/dT(T_ref) [V] (core alone, τ = 1); a pixel's white part
-// σ_px = σ·√(1 − row_rel² − column_rel²), so that the three together give NETD's σ (the
+// σ = NETD·R·τ·π/(1 + 4N_ref²)·A·FF·dL/dT(T_ref) [V] (the datasheet's NETD is the camera's,
+// lens included; through another f-number it scales by (1 + 4N²)/(1 + 4N_ref²)); a pixel's white
+// part σ_px = σ·√(1 − row_rel² − column_rel²), so that the three together give NETD's σ (the
 // decomposition of D'Agostino & Webb, "3-D analysis framework and measurement methodology for
 // imaging system noise", Proc. SPIE 1488, 1991: σ_tvh, σ_tv, σ_th).
 // 1/f noise: the Voss–McCartney algorithm (Gardner, "White and brown music, fractal curves

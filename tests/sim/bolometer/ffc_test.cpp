@@ -44,7 +44,7 @@ TEST(Ffc, ResidualBelowOneNetdAndGrowsWithDriftAtTheSetRate) {
     // Before any FFC the raw offsets (σ = 2 K) show: the first frame is frozen (start-up FFC).
     test::pastStartupFfc(chain, scene, 0);
     const double t0 = chain.lastInfo().t_s;
-    const double netd_K = 0.040 / 0.9;  // the camera's NETD (netd_test.cpp)
+    const double netd_K = 0.040;  // the camera's NETD (netd_test.cpp)
     const double r0 = residualFpn_K(chain, scene, 60);
     EXPECT_LT(r0, netd_K);
     // What remains is the temporal noise of the two averages: the shutter's 24 − 4 = 20 frames
@@ -96,7 +96,7 @@ TEST(Ffc, GainPatternShowsInProportionToTheScenesDifferenceFromTheShutter) {
                          (0.9 * planckBandRadiance_W_m2_sr(7.5, 13.5, 350.0) -
                           planckBandRadiance_W_m2_sr(7.5, 13.5, 293.15)) /
                          (0.9 * planckBandRadianceDerivative_W_m2_sr_K(7.5, 13.5, 300.0));
-    const double noise = 0.040 / 0.9 * 50.0 * std::sqrt(1.0 / 20.0 + 1.0 / 60.0);
+    const double noise = 0.040 * 50.0 * std::sqrt(1.0 / 20.0 + 1.0 / 60.0);
     const double expected = std::sqrt(0.002 * delta * 0.002 * delta + noise * noise) / 50.0;
     const double r = residualFpn_K(chain, scene, 60);
     std::printf("350 K scene after FFC: pattern %.4f K, expected %.4f K\n", r, expected);
@@ -136,7 +136,7 @@ TEST(Ffc, TemperatureChangeStartsTheNextOneAndRestoresTheResidual) {
     while (chain.process(scene.cview()).frozen) {
     }
     EXPECT_EQ(chain.lastInfo().ffc_count, 2u);
-    EXPECT_LT(residualFpn_K(chain, scene, 60), 0.040 / 0.9);
+    EXPECT_LT(residualFpn_K(chain, scene, 60), 0.040);
 }
 
 TEST(Ffc, ClosedFramesAreFrozenAndFlagged) {
