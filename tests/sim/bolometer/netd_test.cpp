@@ -9,6 +9,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <vector>
 
 #include "sim/core/planck.h"
 #include "tests/sim/bolometer/bolometer_test_util.h"
@@ -102,6 +103,56 @@ TEST(Netd, ScalesWithTheBandRadianceDerivativeOffTheReference) {
         // and it is not the reference's figure (the test can tell the two apart)
         EXPECT_GT(std::abs(m.netd_K - kDatasheetNetd_K * kLensFactor), 0.12 * expected) << T_K;
     }
+}
+
+// Row and column noise as the 3-D noise model measures them (D'Agostino & Webb 1991): the
+// temporal variance of a row's mean is σ_row² + (σ_px² + σ_col²)/W, of a column's mean
+// σ_col² + (σ_px² + σ_row²)/H, with σ_row = σ_col = 0.15·σ and σ_px² = (1 − 2·0.15²)·σ² (preset),
+// σ the NETD in counts (0.040 K × 50 counts/K at 300 K; + 1/12 count² of quantisation in σ_px²).
+TEST(Netd, RowAndColumnNoiseAsTheThreeDNoiseModelMeasuresThem) {
+    const ThermalCameraParams cam =
+        test::thermalPreset("boson-640", {{"width", "96"},
+                                          {"height", "80"},
+                                          {"noise.flicker_rel", "0"},
+                                          {"focal_plane.self_heating_K", "0"}});
+    BolometerChain chain(cam, 13);
+    const ImageF scene = test::blackbody(cam, 300.0);
+    test::pastStartupFfc(chain, scene, 5);
+    const int W = cam.width, H = cam.height, n = 400;
+    std::vector<double> rs(H, 0.0), rs2(H, 0.0), cs(W, 0.0), cs2(W, 0.0);
+    for (int k = 0; k < n; ++k) {
+        chain.process(scene.cview());
+        std::vector<double> col(W, 0.0);
+        for (int y = 0; y < H; ++y) {
+            double row = 0.0;
+            for (int x = 0; x < W; ++x) {
+                row += chain.raw()(x, y);
+                col[x] += chain.raw()(x, y);
+            }
+            rs[y] += row / W;
+            rs2[y] += (row / W) * (row / W);
+        }
+        for (int x = 0; x < W; ++x) {
+            cs[x] += col[x] / H;
+            cs2[x] += (col[x] / H) * (col[x] / H);
+        }
+    }
+    double vRow = 0.0, vCol = 0.0;
+    for (int y = 0; y < H; ++y)
+        vRow += (rs2[y] - rs[y] * rs[y] / n) / (n - 1) / H;
+    for (int x = 0; x < W; ++x)
+        vCol += (cs2[x] - cs[x] * cs[x] / n) / (n - 1) / W;
+    const double s2 = 0.040 * 50.0 * 0.040 * 50.0;
+    const double px2 = (1.0 - 2.0 * 0.15 * 0.15) * s2 + 1.0 / 12.0, rc2 = 0.15 * 0.15 * s2;
+    const double eRow = rc2 + (px2 + rc2) / W, eCol = rc2 + (px2 + rc2) / H;
+    std::printf(
+        "row-mean variance %.4f (expected %.4f), column-mean %.4f (expected %.4f) "
+        "counts²\n",
+        vRow, eRow, vCol, eCol);
+    EXPECT_NEAR(vRow, eRow, 0.10 * eRow);
+    EXPECT_NEAR(vCol, eCol, 0.10 * eCol);
+    // Without them the row means would vary by σ_px²/W only, a third of this.
+    EXPECT_GT(vRow, 2.0 * px2 / W);
 }
 
 }  // namespace
