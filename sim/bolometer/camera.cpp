@@ -36,6 +36,9 @@ ThermalCameraParams readCamera(const ConfigDocument& doc, const Overrides& ov, F
     c.ShutterParams::read(root);
     c.AdcParams::read(root);
     c.AgcParams::read(root);
+    // An FFC must end before the next is due, or the shutter would never open again.
+    if (c.shutter_enabled && c.ffc_interval_s <= c.ffc_closed_frames * c.framePeriod_s())
+        root.sub("shutter").fail("interval_s", "must exceed closed_frames / frame_rate_Hz");
     doc.finish();
     for (const auto& [key, value] : ov)
         if (used.count(key) == 0)
@@ -58,7 +61,7 @@ double ThermalCameraParams::voltsPerSceneK(double T_K) const {
            bandRadianceDerivative_W_m2_sr_K(T_K);
 }
 double ThermalCameraParams::noiseVolts() const {
-    return netd_K * responsivity_V_W * wattsPerRadiance(netd_f_number, 1.0) *
+    return netd_K * responsivity_V_W * wattsPerRadiance(netd_f_number, optics_transmission) *
            bandRadianceDerivative_W_m2_sr_K(netd_reference_K);
 }
 

@@ -50,8 +50,9 @@ struct ThermalCameraParams : OpticsParams,
     double wattsPerRadiance(double fNumber, double tau) const;
     // The detector's output per kelvin of scene at T [V/K] through this camera's lens.
     double voltsPerSceneK(double T_K) const;
-    // The temporal noise [V] that makes the core's NETD: the datasheet's NETD at its reference
-    // scene temperature and f-number (core alone, τ = 1) times the response per kelvin there.
+    // The temporal noise [V] that makes the datasheet's NETD: the NETD at its reference scene
+    // temperature and f-number, with the camera's lens (Boson cores ship with their lens; the
+    // datasheet's NETD is the camera's), times the response per kelvin there.
     double noiseVolts() const;
 };
 

@@ -12,7 +12,7 @@ BolometerChain::BolometerChain(const ThermalCameraParams& cam, std::uint64_t see
       adc_(cam),
       agc_(cam),
       power_W_(cam.width, cam.height),
-      volts_(cam.width, cam.height),
+      row_(std::make_unique<float[]>(static_cast<std::size_t>(cam.width))),
       raw_(cam.width, cam.height),
       display_(cam.width, cam.height) {}
 
@@ -28,26 +28,42 @@ const FrameInfo& BolometerChain::process(ImageView<const float> radiance) noexce
     // 3 (its temperature first: the shutter's decision and the offsets' drift need it).
     info.fpa_K = cam_.fpaTemperature_K(info.t_s);
     const bool closed = shutter_.closedFor(info.t_s, info.fpa_K);
-    info.ffc_started = closed && !info_.frozen;
+    const bool hold = !closed && shutter_.holdAfterOpen();
+    info.shutter_closed = closed;
+    info.ffc_started = closed && !info_.shutter_closed;
     // 1 Optics: the scene through the lens, or the shutter (a blackbody at T_fpa) before it.
     if (closed) {
         optics_.uniform(cam_.bandRadiance_W_m2_sr(info.fpa_K), power_W_.view());
     } else {
         info.bad_input_px = optics_.apply(radiance, power_W_.view());
     }
-    // 2 Detector, 3 focal plane, 4 noise.
-    detector_.apply(power_W_.cview(), volts_.view());
-    focal_.apply(volts_.view(), info.fpa_K);
-    noise_.apply(volts_.view(), frame_);
-    // 5 Shutter: a closed frame feeds the offset estimate and the output stays frozen.
-    if (closed) {
-        shutter_.accumulate(volts_.cview());
+    // 2 Detector, 3 focal plane, 4 noise, 5 shutter (a closed frame feeds the offset estimate;
+    // the output stays frozen while closed and settle_frames after), 6 ADC: row by row through one
+    // scratch row, the same arithmetic as the stages' whole-image apply().
+    const float keep = detector_.beginFrame();
+    const float dT = static_cast<float>(info.fpa_K - cam_.ambient_K);
+    noise_.beginFrame(frame_);
+    float* v = row_.get();
+    std::uint64_t sum = 0;
+    for (int y = 0; y < cam_.height; ++y) {
+        detector_.applyRow(y, power_W_.row(y), v, keep);
+        focal_.applyRow(y, v, dT);
+        noise_.applyRow(y, v);
+        if (closed) {
+            shutter_.accumulateRow(y, v);
+        } else if (!hold) {
+            shutter_.correctRow(y, v);
+            std::uint32_t rowSum = 0;
+            info.clipped_px += adc_.applyRow(v, raw_.row(y), cam_.width, rowSum);
+            sum += rowSum;
+        }
+    }
+    if (closed) shutter_.endClosedFrame();
+    if (closed || hold) {
         info.frozen = true;
     } else {
-        shutter_.correct(volts_.view());
-        // 6 ADC, 7 AGC.
-        info.clipped_px = adc_.apply(volts_.cview(), raw_.view(), sumRaw_);
-        agc_.apply(raw_.cview(), display_.view());
+        sumRaw_ = static_cast<double>(sum);
+        agc_.apply(raw_.cview(), display_.view());  // 7 AGC
     }
     info.ffc_count = shutter_.ffcCount();
     info.since_ffc_s = info.t_s - shutter_.lastFfc_s();

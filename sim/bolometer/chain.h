@@ -5,7 +5,8 @@
 // 1/f noise, the shutter's offset map, the AGC's damped levels).
 //
 // Two phases, as the intensified chain (sim/sensor/chain.h): the constructor validates and
-// allocates everything; process() allocates nothing and throws nothing. Randomness comes only
+// allocates everything (FFTW plans too: like FFTW's planner, not thread-safe; chains are made on
+// one thread); process() allocates nothing and throws nothing. Randomness comes only
 // from PixelRng (sim/core/rng.h) keyed by (seed, stream, frame) and the pixel's place, so a
 // replay with the same seed gives the same bits.
 //
@@ -15,6 +16,7 @@
 //   5 Shutter FFC  6 ADC (14-bit raw)  7 AGC (linear or plateau equalisation, 8 bit).
 
 #include <cstdint>
+#include <memory>
 
 #include "sim/bolometer/camera.h"
 #include "sim/bolometer/stages/stage.h"
@@ -27,7 +29,8 @@ struct FrameInfo {
     std::uint64_t frame = 0;
     double t_s = 0.0;               // time of this frame since the first [s]
     double fpa_K = 0.0;             // focal-plane temperature [K]
-    bool frozen = false;            // shutter closed: raw and display hold the last good frame
+    bool frozen = false;            // raw and display hold the last good frame (FFC under way)
+    bool shutter_closed = false;    // the shutter is in front of the array
     bool ffc_started = false;       // an FFC began with this frame
     std::uint64_t ffc_count = 0;    // FFCs completed so far
     double since_ffc_s = 0.0;       // time since the last completed FFC [s]
@@ -66,7 +69,7 @@ class BolometerChain {
     AdcStage adc_;
     AgcStage agc_;
     ImageF power_W_;
-    ImageF volts_;
+    std::unique_ptr<float[]> row_;  // one row of detector output [V]
     ImageU16 raw_;
     ImageU8 display_;
     double sumRaw_ = 0.0;  // sum of the raw counts of the output frame

@@ -26,27 +26,32 @@ AdcStage::AdcStage(const ThermalCameraParams& cam) : max_((1 << cam.adc_bits) - 
     offset_ = static_cast<float>(cam.level_counts - k * vRef);
 }
 
-std::int64_t AdcStage::apply(ImageView<const float> volts, ImageView<std::uint16_t> raw,
-                             double& sum_counts) const noexcept {
+int AdcStage::applyRow(const float* v, std::uint16_t* r, int n,
+                       std::uint32_t& sum_counts) const noexcept {
     // q = v·k + offset + ½, clamped to [0, top], then truncated: the nearest count (the clamp
     // first, so that truncation is floor; no libm floor in the loop, which then vectorises).
     const float top = static_cast<float>(max_);
+    int c = 0;
+    std::uint32_t sum = 0;
+    for (int x = 0; x < n; ++x) {
+        float q = v[x] * k_ + offset_ + 0.5f;
+        c += (q < 0.0f || q >= top + 1.0f) ? 1 : 0;
+        q = q < 0.0f ? 0.0f : (q > top ? top : q);
+        const std::uint16_t u = static_cast<std::uint16_t>(static_cast<int>(q));
+        r[x] = u;
+        sum += u;
+    }
+    sum_counts += sum;
+    return c;
+}
+
+std::int64_t AdcStage::apply(ImageView<const float> volts, ImageView<std::uint16_t> raw,
+                             double& sum_counts) const noexcept {
     std::int64_t clipped = 0;
     double sum = 0.0;
     for (int y = 0; y < volts.height(); ++y) {
-        const float* v = volts.row(y);
-        std::uint16_t* r = raw.row(y);
-        int c = 0;
         std::uint32_t rowSum = 0;
-        for (int x = 0; x < volts.width(); ++x) {
-            float q = v[x] * k_ + offset_ + 0.5f;
-            c += (q < 0.0f || q >= top + 1.0f) ? 1 : 0;
-            q = q < 0.0f ? 0.0f : (q > top ? top : q);
-            const std::uint16_t n = static_cast<std::uint16_t>(static_cast<int>(q));
-            r[x] = n;
-            rowSum += n;
-        }
-        clipped += c;
+        clipped += applyRow(volts.row(y), raw.row(y), volts.width(), rowSum);
         sum += rowSum;
     }
     sum_counts = sum;

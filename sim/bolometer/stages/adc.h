@@ -37,6 +37,9 @@ class AdcStage {
     // sum of the counts in sum_counts. Rows up to 2^16 pixels.
     std::int64_t apply(ImageView<const float> volts, ImageView<std::uint16_t> raw,
                        double& sum_counts) const noexcept;
+    // One row of n pixels: returns the pixels clipped, adds the counts to sum_counts.
+    int applyRow(const float* volts, std::uint16_t* raw, int n,
+                 std::uint32_t& sum_counts) const noexcept;
     int maxCount() const { return max_; }
     double countsPerVolt() const { return static_cast<double>(k_); }
 

@@ -17,19 +17,25 @@ DetectorStage::DetectorStage(const ThermalCameraParams& cam)
       responsivity_(static_cast<float>(cam.responsivity_V_W)),
       lag_W_(cam.width, cam.height) {}
 
-void DetectorStage::apply(ImageView<const float> power_W, ImageView<float> volts) noexcept {
-    // P̄_k = P_k + (P̄_{k−1} − P_k)·e^(−Δt/τ); V = R·P̄_k.
+float DetectorStage::beginFrame() noexcept {
     const float keep = primed_ ? keep_ : 0.0f;
     primed_ = true;
-    for (int y = 0; y < lag_W_.height(); ++y) {
-        const float* p = power_W.row(y);
-        float* s = lag_W_.row(y);
-        float* v = volts.row(y);
-        for (int x = 0; x < lag_W_.width(); ++x) {
-            s[x] = p[x] + (s[x] - p[x]) * keep;
-            v[x] = s[x] * responsivity_;
-        }
+    return keep;
+}
+
+void DetectorStage::applyRow(int y, const float* p, float* v, float keep) noexcept {
+    // P̄_k = P_k + (P̄_{k−1} − P_k)·e^(−Δt/τ); V = R·P̄_k.
+    float* s = lag_W_.row(y);
+    for (int x = 0; x < lag_W_.width(); ++x) {
+        s[x] = p[x] + (s[x] - p[x]) * keep;
+        v[x] = s[x] * responsivity_;
     }
+}
+
+void DetectorStage::apply(ImageView<const float> power_W, ImageView<float> volts) noexcept {
+    const float keep = beginFrame();
+    for (int y = 0; y < lag_W_.height(); ++y)
+        applyRow(y, power_W.row(y), volts.row(y), keep);
 }
 
 }  // namespace nvs::bolometer

@@ -31,6 +31,10 @@ class DetectorStage {
     explicit DetectorStage(const ThermalCameraParams& cam);
     // Advances the lag by one frame with this frame's power and writes the output [V].
     void apply(ImageView<const float> power_W, ImageView<float> volts) noexcept;
+    // apply() in rows: beginFrame() once (the retention for this frame: 0 for the first), then
+    // applyRow for every row, in any order.
+    float beginFrame() noexcept;
+    void applyRow(int y, const float* power_W, float* volts, float keep) noexcept;
     // e^(−Δt/τ): the fraction of the last frame's lag state kept.
     double retention() const { return static_cast<double>(keep_); }
 

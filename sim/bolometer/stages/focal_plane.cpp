@@ -64,16 +64,18 @@ FocalPlaneStage::FocalPlaneStage(const ThermalCameraParams& cam, std::uint64_t s
     }
 }
 
+void FocalPlaneStage::applyRow(int y, float* v, float dT) const noexcept {
+    const float* g = gain_.row(y);
+    const float* o = offset_V_.row(y);
+    const float* c = drift_V_K_.row(y);
+    for (int x = 0; x < gain_.width(); ++x)
+        v[x] = g[x] * v[x] + o[x] + c[x] * dT;
+}
+
 void FocalPlaneStage::apply(ImageView<float> volts, double fpa_K) const noexcept {
     const float dT = static_cast<float>(fpa_K - ambient_K_);
-    for (int y = 0; y < volts.height(); ++y) {
-        float* v = volts.row(y);
-        const float* g = gain_.row(y);
-        const float* o = offset_V_.row(y);
-        const float* c = drift_V_K_.row(y);
-        for (int x = 0; x < volts.width(); ++x)
-            v[x] = g[x] * v[x] + o[x] + c[x] * dT;
-    }
+    for (int y = 0; y < volts.height(); ++y)
+        applyRow(y, volts.row(y), dT);
 }
 
 }  // namespace nvs::bolometer

@@ -50,6 +50,8 @@ class FocalPlaneStage {
     FocalPlaneStage(const ThermalCameraParams& cam, std::uint64_t seed);
     // V ← g·V + o + c·(T_fpa − ambient), in place.
     void apply(ImageView<float> volts, double fpa_K) const noexcept;
+    // One row of it; dT = T_fpa − ambient.
+    void applyRow(int y, float* volts, float dT_K) const noexcept;
     // The per-pixel maps [1], [V], [V/K] (for tests).
     const ImageF& gain() const { return gain_; }
     const ImageF& offset_V() const { return offset_V_; }

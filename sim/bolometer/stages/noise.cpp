@@ -69,7 +69,8 @@ void NoiseStage::drawNormals(std::uint64_t frame, std::uint32_t y, std::uint32_t
     normalsFromWords(words_.data(), z_.data(), n);
 }
 
-void NoiseStage::apply(ImageView<float> volts, std::uint64_t frame) noexcept {
+void NoiseStage::beginFrame(std::uint64_t frame) noexcept {
+    frame_ = frame;
     drawNormals(frame, 0, kPlaneRow, h_);
     std::copy(z_.begin(), z_.begin() + h_, rowZ_.begin());
     drawNormals(frame, 0, kPlaneColumn, w_);
@@ -77,29 +78,43 @@ void NoiseStage::apply(ImageView<float> volts, std::uint64_t frame) noexcept {
         colZ_[x] = sCol_ * z_[x];
     // Voss–McCartney: frame k redraws generator ctz(k + 1) (none past the last).
     const int j = std::countr_zero(frame + 1);
-    const bool redraw = j < static_cast<int>(flicker_.size());
-    for (int y = 0; y < h_; ++y) {
-        float* v = volts.row(y);
-        if (redraw) {
-            drawNormals(frame, static_cast<std::uint32_t>(y), kPlaneFlicker, w_);
-            float* g = flicker_[j].row(y);
-            float* sum = flickerSum_.row(y);
-            for (int x = 0; x < w_; ++x) {
-                const float nv = sFlicker_ * z_[x];
-                sum[x] += nv - g[x];
-                g[x] = nv;
-            }
-        }
-        drawNormals(frame, static_cast<std::uint32_t>(y), kPlaneWhite, w_);
-        const float r = sRow_ * rowZ_[y];
-        for (int x = 0; x < w_; ++x)
-            v[x] += sPx_ * z_[x] + r + colZ_[x];
-        if (!flicker_.empty()) {
-            const float* sum = flickerSum_.row(y);
-            for (int x = 0; x < w_; ++x)
-                v[x] += sum[x];
+    redraw_ = j < static_cast<int>(flicker_.size()) ? j : -1;
+}
+
+void NoiseStage::applyRow(int y, float* v) noexcept {
+    const std::uint32_t row = static_cast<std::uint32_t>(y);
+    if (redraw_ >= 0) {
+        // Uniform values of σ_v (Voss's dice): √12·σ_v·(w − 2³¹)·2⁻³², w − 2³¹ being the word
+        // with its top bit flipped read as signed; one word, no normal transform (the sum of M
+        // is near-normal anyway).
+        const PixelRng rng(RngKey{seed_, kStreamTemporal}, frame_);
+        rng.rowWords(row, kPlaneFlicker, 0, (w_ + 3) / 4, words_.data());
+        const float scale = sFlicker_ * 3.4641016f * 0x1.0p-32f;  // √12·σ_v·2⁻³²
+        float* g = flicker_[redraw_].row(y);
+        float* sum = flickerSum_.row(y);
+        for (int x = 0; x < w_; ++x) {
+            const float nv =
+                scale * static_cast<float>(static_cast<std::int32_t>(words_[x] ^ 0x80000000u));
+            sum[x] += nv - g[x];
+            g[x] = nv;
         }
     }
+    drawNormals(frame_, row, kPlaneWhite, w_);
+    const float r = sRow_ * rowZ_[y];
+    if (flicker_.empty()) {
+        for (int x = 0; x < w_; ++x)
+            v[x] += sPx_ * z_[x] + r + colZ_[x];
+    } else {
+        const float* sum = flickerSum_.row(y);
+        for (int x = 0; x < w_; ++x)
+            v[x] += sPx_ * z_[x] + r + colZ_[x] + sum[x];
+    }
+}
+
+void NoiseStage::apply(ImageView<float> volts, std::uint64_t frame) noexcept {
+    beginFrame(frame);
+    for (int y = 0; y < h_; ++y)
+        applyRow(y, volts.row(y));
 }
 
 }  // namespace nvs::bolometer

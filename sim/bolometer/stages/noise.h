@@ -12,14 +12,16 @@
 //   flicker_rel       1     0.3      σ of the 1/f noise (stationary), over NETD's σ (assumed)
 //   flicker_octaves   1     8        generators of the 1/f noise: 1/f from f/2^(M+1) to f/2
 //
-// σ = NETD·R·π/(1 + 4N_ref²)·A·FF·dL/dT(T_ref) [V] (core alone, τ = 1); a pixel's white part
-// σ_px = σ·√(1 − row_rel² − column_rel²), so that the three together give NETD's σ (the
+// σ = NETD·R·τ·π/(1 + 4N_ref²)·A·FF·dL/dT(T_ref) [V] (the datasheet's NETD is the camera's,
+// lens included; through another f-number it scales by (1 + 4N²)/(1 + 4N_ref²)); a pixel's white
+// part σ_px = σ·√(1 − row_rel² − column_rel²), so that the three together give NETD's σ (the
 // decomposition of D'Agostino & Webb, "3-D analysis framework and measurement methodology for
 // imaging system noise", Proc. SPIE 1488, 1991: σ_tvh, σ_tv, σ_th).
 // 1/f noise: the Voss–McCartney algorithm (Gardner, "White and brown music, fractal curves
 // and one-over-f fluctuations", Scientific American 238(4), 1978, after R. F. Voss), a sum of M
-// held normal generators, generator j redrawn every 2^(j+1) frames (at frames k with
-// ctz(k + 1) = j), each of σ_v = flicker_rel·σ/√M: its spectrum falls as 1/f between
+// held generators, generator j redrawn every 2^(j+1) frames (at frames k with ctz(k + 1) = j)
+// with a uniform value (Voss's dice; the sum of M is near-normal) of σ_v = flicker_rel·σ/√M, so
+// that their sum has σ = flicker_rel·σ (its start: normals): its spectrum falls as 1/f between
 // f_frame/2^(M+1) and f_frame/2 (its Allan variance is flat there).
 
 #include <cstdint>
@@ -50,6 +52,10 @@ class NoiseStage {
     NoiseStage(const ThermalCameraParams& cam, std::uint64_t seed);
     // Adds frame k's noise to the volts, in place.
     void apply(ImageView<float> volts, std::uint64_t frame) noexcept;
+    // apply() in rows: beginFrame(k) once (the row and column noise, the 1/f generator to
+    // redraw), then applyRow for every row.
+    void beginFrame(std::uint64_t frame) noexcept;
+    void applyRow(int y, float* volts) noexcept;
     double sigmaPixel_V() const { return static_cast<double>(sPx_); }
 
   private:
@@ -61,6 +67,8 @@ class NoiseStage {
     std::vector<float> z_, rowZ_, colZ_;
     std::vector<ImageF> flicker_;  // the M generators
     ImageF flickerSum_;
+    std::uint64_t frame_ = 0;  // the frame beginFrame set up
+    int redraw_ = -1;          // its 1/f generator to redraw (−1: none)
 };
 
 }  // namespace nvs::bolometer

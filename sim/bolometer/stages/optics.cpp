@@ -104,9 +104,11 @@ void OpticsStage::buildTransfer(const ThermalCameraParams& cam) {
     fft_->spec = fftwf_alloc_complex(nc);
     fft_->transfer = fftwf_alloc_real(nc);
     if (!fft_->real || !fft_->spec || !fft_->transfer) throw SetupError("optics: out of memory");
-    // Estimated plans (no measuring at set-up): the same plan, and bits, on every run on one
-    // CPU; another CPU's SIMD codelets may round differently (docs/bolometer.md).
-    const unsigned flags = FFTW_ESTIMATE | FFTW_DESTROY_INPUT;
+    // FFTW_ESTIMATE among the scalar solvers, as the intensified chain's blur does for a size
+    // its shipped wisdom lacks (docs/portability.md): the same plan, and bits, on every x86-64
+    // CPU. (The SIMD solvers' estimate depends on the CPU; they took 3.5 ms against 8 ms of a
+    // loaded machine's frame.)
+    const unsigned flags = FFTW_ESTIMATE | FFTW_NO_SIMD | FFTW_DESTROY_INPUT;
     fft_->fwd = fftwf_plan_dft_r2c_2d(hp_, wp_, fft_->real, fft_->spec, flags);
     fft_->inv = fftwf_plan_dft_c2r_2d(hp_, wp_, fft_->spec, fft_->real, flags);
     if (!fft_->fwd || !fft_->inv) throw SetupError("optics: FFTW could not plan the MTF");
@@ -119,7 +121,8 @@ void OpticsStage::buildTransfer(const ThermalCameraParams& cam) {
         diff[i] =
             bandDiffractionMtf(nuC * i / kTable, cam.f_number, cam.band_lo_um, cam.band_hi_um);
     // H at (kx, ky): Σ over the aliases; the pixel's sincs tabulated per alias and index.
-    constexpr int kAlias = 2, kTerms = 2 * kAlias + 1;
+    // Aliases up to the cut-off: |ν + m/p| < νc needs |m| ≤ νc·p + ½ (2 for f/1, 12 µm).
+    const int kAlias = static_cast<int>(std::ceil(nuC * p_m + 0.5)), kTerms = 2 * kAlias + 1;
     const auto diffAt = [&](double vx, double vy) {
         const double t = std::sqrt(vx * vx + vy * vy) / nuC * kTable;
         if (t >= kTable) return 0.0;

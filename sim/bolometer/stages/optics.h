@@ -12,10 +12,10 @@
 // absorber; MTF_diff(ν) = (2/π)(acos s − s√(1 − s²)), s = ν λ N (incoherent circular pupil,
 // Goodman, "Introduction to Fourier Optics", 3rd ed., 2005, §6.3), averaged over the band with
 // the weight of a 300 K blackbody's spectral radiance. The image, sampled at the pixel pitch p,
-// is filtered by FFT (FFTW, single precision, estimated plans: the same bits on one CPU) with
-// the transfer function of the pixel-sampled PSF, by Poisson's summation
-//   H(ν) = Σ_{mx, my} MTF(νx + mx/p, νy + my/p) / Σ_{mx, my} MTF(mx/p, my/p),  |m| ≤ 2
-// (aliases from beyond Nyquist included; |m| ≤ 2 covers the cut-off 1/(λN) up to 2.5/p), after
+// is filtered by FFT (FFTW, single precision, scalar estimated plans: the same bits on every CPU)
+// with the transfer function of the pixel-sampled PSF, by Poisson's summation
+//   H(ν) = Σ_{mx, my} MTF(νx + mx/p, νy + my/p) / Σ_{mx, my} MTF(mx/p, my/p)
+// (aliases from beyond Nyquist included, up to the cut-off 1/(λN): |m| ≤ ⌈νc·p + ½⌉), after
 // mirroring at least 16 px of margin around the image. A compact kernel would not do: the Airy
 // pattern's tails hold ~2 % of the energy beyond 8 px at f/1, and cutting them raises the MTF
 // at 1/8 px⁻¹ by as much (measured, docs/bolometer.md).

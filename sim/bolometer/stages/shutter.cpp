@@ -43,17 +43,28 @@ bool ShutterStage::closedFor(double t_s, double fpa_K) noexcept {
     return true;
 }
 
-void ShutterStage::accumulate(ImageView<const float> volts) noexcept {
-    if (closedSeen_ >= settle_) {
-        for (int y = 0; y < sum_.height(); ++y) {
-            const float* v = volts.row(y);
-            float* s = sum_.row(y);
-            for (int x = 0; x < sum_.width(); ++x)
-                s[x] += v[x];
-        }
-    }
+bool ShutterStage::holdAfterOpen() noexcept {
+    if (holdLeft_ == 0) return false;
+    --holdLeft_;
+    return true;
+}
+
+void ShutterStage::accumulateRow(int y, const float* v) noexcept {
+    if (closedSeen_ < settle_) return;
+    float* s = sum_.row(y);
+    for (int x = 0; x < sum_.width(); ++x)
+        s[x] += v[x];
+}
+
+void ShutterStage::endClosedFrame() noexcept {
     ++closedSeen_;
     if (--closedLeft_ == 0) finish();
+}
+
+void ShutterStage::accumulate(ImageView<const float> volts) noexcept {
+    for (int y = 0; y < sum_.height(); ++y)
+        accumulateRow(y, volts.row(y));
+    endClosedFrame();
 }
 
 void ShutterStage::finish() noexcept {
@@ -76,17 +87,20 @@ void ShutterStage::finish() noexcept {
             c[x] = s[x] * inv - mean;
     }
     ++count_;
+    holdLeft_ = settle_;
     lastT_s_ = pendingT_s_;
     lastFpa_K_ = pendingFpa_K_;
 }
 
+void ShutterStage::correctRow(int y, float* v) const noexcept {
+    const float* c = correction_.row(y);
+    for (int x = 0; x < correction_.width(); ++x)
+        v[x] -= c[x];
+}
+
 void ShutterStage::correct(ImageView<float> volts) const noexcept {
-    for (int y = 0; y < volts.height(); ++y) {
-        float* v = volts.row(y);
-        const float* c = correction_.row(y);
-        for (int x = 0; x < volts.width(); ++x)
-            v[x] -= c[x];
-    }
+    for (int y = 0; y < volts.height(); ++y)
+        correctRow(y, volts.row(y));
 }
 
 }  // namespace nvs::bolometer

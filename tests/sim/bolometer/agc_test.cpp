@@ -8,6 +8,8 @@
 
 #include "sim/bolometer/camera.h"
 #include "sim/core/image.h"
+#include "sim/core/planck.h"
+#include "tests/sim/bolometer/bolometer_test_util.h"
 
 namespace nvs::bolometer {
 namespace {
@@ -84,6 +86,38 @@ TEST(Agc, LinearMapsTheClipLevelsAndDampsThem) {
     agc.apply(raw.cview(), out.view());
     EXPECT_NEAR(agc.low_counts(), 1064.493, 0.01);
     EXPECT_NEAR(agc.high_counts(), 2564.493, 0.01);
+}
+
+// In the chain, on a scene of a 280–320 K ramp with a small 400 K object (9 pixels, 0.05 %):
+// linear AGC with 0.5 % / 99.5 % clipping puts the ramp's ends near 0 and 255 and saturates the
+// object; plateau equalisation gives the object 255 too, and spreads the ramp over the grey
+// levels rather than compressing it below the object. (A 1000 K object would not do for the
+// linear case: its blur halo, the Airy tails of 20× the ramp's radiance, lifts ~2 % of the
+// pixels above 320 K and moves the 99.5 % percentile onto the halo; that is the optics' doing.)
+TEST(Agc, BothModesShowARampBesideAHotObject) {
+    for (const char* mode : {"linear", "plateau"}) {
+        const ThermalCameraParams cam = test::thermalPreset(
+            "boson-320", {{"width", "200"}, {"height", "100"}, {"agc.mode", mode}});
+        BolometerChain chain(cam, 2);
+        ImageF scene(cam.width, cam.height);
+        for (int y = 0; y < cam.height; ++y)
+            for (int x = 0; x < cam.width; ++x)
+                scene(x, y) = static_cast<float>(planckBandRadiance_W_m2_sr(
+                    7.5, 13.5,
+                    (x >= 102 && x < 105 && y >= 52 && y < 55) ? 400.0 : 280.0 + 0.2 * x));
+        test::pastStartupFfc(chain, scene, 30);
+        const ImageU8& d = chain.display();
+        double left = 0.0, right = 0.0, mid = 0.0;
+        for (int y = 0; y < 40; ++y) {
+            left += d(5, y) / 40.0;
+            right += d(194, y) / 40.0;
+            mid += d(100, y) / 40.0;
+        }
+        EXPECT_EQ(d(103, 53), 255) << mode;
+        EXPECT_LT(left, 12.0) << mode;
+        EXPECT_GT(right, 243.0) << mode;
+        EXPECT_NEAR(mid, 127.5, 20.0) << mode;  // the ramp's middle near mid-grey
+    }
 }
 
 }  // namespace

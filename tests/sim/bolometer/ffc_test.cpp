@@ -10,6 +10,7 @@
 #include <cstring>
 #include <vector>
 
+#include "sim/core/planck.h"
 #include "tests/sim/bolometer/bolometer_test_util.h"
 
 namespace nvs::bolometer {
@@ -43,7 +44,7 @@ TEST(Ffc, ResidualBelowOneNetdAndGrowsWithDriftAtTheSetRate) {
     // Before any FFC the raw offsets (σ = 2 K) show: the first frame is frozen (start-up FFC).
     test::pastStartupFfc(chain, scene, 0);
     const double t0 = chain.lastInfo().t_s;
-    const double netd_K = 0.040 / 0.9;  // the camera's NETD (netd_test.cpp)
+    const double netd_K = 0.040;  // the camera's NETD (netd_test.cpp)
     const double r0 = residualFpn_K(chain, scene, 60);
     EXPECT_LT(r0, netd_K);
     // What remains is the temporal noise of the two averages: the shutter's 24 − 4 = 20 frames
@@ -77,6 +78,49 @@ TEST(Ffc, ResidualBelowOneNetdAndGrowsWithDriftAtTheSetRate) {
     EXPECT_GT(g.back(), 5.0 * netd_K);  // by then the pattern is far above the noise
 }
 
+// The FFC removes offsets only: the residual gain pattern (σ_g = 0.2 %, preset) shows in
+// proportion to the scene's signal less the shutter's. In counts at 300 K's 50 counts/K, with
+// the scene through the lens (τ = 0.9) and the shutter before it (τ = 1, at T_fpa = 293.15 K):
+// Δ = 50·(0.9·L(350 K) − L(293.15 K))/(0.9·dL/dT(300 K)), σ = √((σ_g·Δ)² + σ_noise²), σ_noise
+// the noise of the two averages as above (NETD·√(1/20 + 1/60), in counts).
+TEST(Ffc, GainPatternShowsInProportionToTheScenesDifferenceFromTheShutter) {
+    const ThermalCameraParams cam =
+        test::thermalPreset("boson-640", {{"width", "128"},
+                                          {"height", "96"},
+                                          {"focal_plane.self_heating_K", "0"},
+                                          {"noise.flicker_rel", "0"}});
+    BolometerChain chain(cam, 6);
+    const ImageF scene = test::blackbody(cam, 350.0);
+    test::pastStartupFfc(chain, scene, 10);
+    const double delta = 50.0 *
+                         (0.9 * planckBandRadiance_W_m2_sr(7.5, 13.5, 350.0) -
+                          planckBandRadiance_W_m2_sr(7.5, 13.5, 293.15)) /
+                         (0.9 * planckBandRadianceDerivative_W_m2_sr_K(7.5, 13.5, 300.0));
+    const double noise = 0.040 * 50.0 * std::sqrt(1.0 / 20.0 + 1.0 / 60.0);
+    const double expected = std::sqrt(0.002 * delta * 0.002 * delta + noise * noise) / 50.0;
+    const double r = residualFpn_K(chain, scene, 60);
+    std::printf("350 K scene after FFC: pattern %.4f K, expected %.4f K\n", r, expected);
+    EXPECT_NEAR(r, expected, 0.10 * expected);
+}
+
+// Without a shutter (shutterless cores) nothing is frozen and nothing removes the offsets: the
+// pattern is the preset's offset σ, 2 K (with the 0.2 % gain pattern times the 300 K scene's
+// 0.9·L(300) against its calibration, and the noise of a 60-frame mean, both < 1 % of it).
+TEST(Ffc, WithoutAShutterTheOffsetPatternStays) {
+    const ThermalCameraParams cam =
+        test::thermalPreset("boson-640", {{"width", "128"},
+                                          {"height", "96"},
+                                          {"shutter.enabled", "false"},
+                                          {"focal_plane.self_heating_K", "0"},
+                                          {"noise.flicker_rel", "0"}});
+    BolometerChain chain(cam, 7);
+    const ImageF scene = test::blackbody(cam, 300.0);
+    EXPECT_FALSE(chain.process(scene.cview()).frozen);
+    const double r = residualFpn_K(chain, scene, 60);
+    EXPECT_NEAR(r, 2.0, 0.05 * 2.0);
+    EXPECT_EQ(chain.lastInfo().ffc_count, 0u);
+}
+
 TEST(Ffc, TemperatureChangeStartsTheNextOneAndRestoresTheResidual) {
     const ThermalCameraParams cam = driftingCamera();
     BolometerChain chain(cam, 4);
@@ -92,7 +136,7 @@ TEST(Ffc, TemperatureChangeStartsTheNextOneAndRestoresTheResidual) {
     while (chain.process(scene.cview()).frozen) {
     }
     EXPECT_EQ(chain.lastInfo().ffc_count, 2u);
-    EXPECT_LT(residualFpn_K(chain, scene, 60), 0.040 / 0.9);
+    EXPECT_LT(residualFpn_K(chain, scene, 60), 0.040);
 }
 
 TEST(Ffc, ClosedFramesAreFrozenAndFlagged) {
@@ -104,11 +148,14 @@ TEST(Ffc, ClosedFramesAreFrozenAndFlagged) {
         for (int x = 10; x < 30; ++x)
             scene(x, y) = static_cast<float>(
                 planckBandRadiance_W_m2_sr(cam.band_lo_um, cam.band_hi_um, 310.0));
-    // Start-up: 12 closed frames (preset), nothing good to show yet.
-    int frozen = 0;
-    while (chain.process(scene.cview()).frozen)
+    // Start-up: 12 closed frames and 2 settling ones after (preset), nothing good to show yet.
+    int frozen = 0, closed = 0;
+    while (chain.process(scene.cview()).frozen) {
         ++frozen;
-    EXPECT_EQ(frozen, cam.ffc_closed_frames);
+        closed += chain.lastInfo().shutter_closed ? 1 : 0;
+    }
+    EXPECT_EQ(closed, cam.ffc_closed_frames);
+    EXPECT_EQ(frozen, cam.ffc_closed_frames + cam.ffc_settle_frames);
     // Run to the interval FFC; each closed frame repeats the last good frame's bits.
     ImageU16 lastRaw(cam.width, cam.height);
     ImageU8 lastDisplay(cam.width, cam.height);
@@ -124,15 +171,19 @@ TEST(Ffc, ClosedFramesAreFrozenAndFlagged) {
             }
         } else {
             if (closedRun > 0) {
-                EXPECT_EQ(closedRun, cam.ffc_closed_frames);
+                EXPECT_EQ(closedRun, cam.ffc_closed_frames + cam.ffc_settle_frames);
                 ++runs;
+                // No flash of the shutter's level: the lag has settled (e^(−3·33/10) of the
+                // shutter's 300 K − 293 K difference, ~350 counts, is 0.02 counts), so the first
+                // frame shown matches the last one before within noise (0.05 counts of a mean).
+                EXPECT_NEAR(test::meanRaw(chain.raw()), test::meanRaw(lastRaw), 0.5);
             }
             closedRun = 0;
             lastRaw.copyFrom(chain.raw().cview());
             lastDisplay.copyFrom(chain.display().cview());
         }
     }
-    // Started at t = 2 s (frame 60 of 30 Hz) and 4 s: two FFCs in frames 12 … 161.
+    // Started at t = 2 s (frame 60 of 30 Hz) and 4 s: two FFCs in frames 14 … 163.
     EXPECT_EQ(runs, 2);
 }
 

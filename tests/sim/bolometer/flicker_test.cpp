@@ -37,9 +37,9 @@ TEST(Flicker, StationaryVarianceAndFlatAllanVariance) {
         for (int i = 0; i < kPx; ++i)
             series[static_cast<std::size_t>(i) * kFrames + k] = chain.raw()(i % 32, i / 32);
     }
-    // White σ in counts: NETD of the camera (0.040 K / 0.9, netd_test.cpp) × 50 counts/K at
+    // White σ in counts: NETD of the camera (0.040 K, netd_test.cpp) × 50 counts/K at
     // 300 K, plus the ADC's quantisation (1/12 count²).
-    const double sw = 0.040 / 0.9 * 50.0;
+    const double sw = 0.040 * 50.0;
     const double white2 = sw * sw + 1.0 / 12.0;
     double var = 0.0;
     for (int i = 0; i < kPx; ++i) {

@@ -36,6 +36,9 @@ TEST(ThermalPreset, OutOfRangeValuesNameFileAndLine) {
     EXPECT_NE(errorOf("[shutter]\nclosed_frames = 2\nsettle_frames = 2\n").find("bad.toml:3"),
               std::string::npos);
     EXPECT_NE(errorOf("[noise]\nnetd_mK = 40\n").find("bad.toml:2"), std::string::npos);
+    // 8 closed frames at 30 Hz take 0.27 s: an FFC every 0.2 s would never end.
+    EXPECT_NE(errorOf("frame_rate_Hz = 30.0\n[shutter]\ninterval_s = 0.2\n").find("bad.toml:3"),
+              std::string::npos);
 }
 
 TEST(ThermalPreset, BadOverridesNameTheKey) {
