@@ -225,6 +225,8 @@ const std::vector<ThermalSurface>& Renderer::prepareThermal(int maxSamples) {
     const std::map<int, Accumulator> acc = gatherFaces(im);
     for (const auto& [key, e] : acc)
         im.thermal.push_back(finishClass(key, e, std::max(maxSamples, 1)));
+    im.thermalPx.assign(static_cast<std::size_t>(im.W) * im.H, Impl::ThermalPixel{});
+    im.thermalGeneration = 0;
     const std::size_t keys = im.materials.size() * kKeysPerMaterial;
     im.thermalOfKey.assign(keys, -1);
     for (std::size_t k = 0; k < keys; ++k) {
@@ -256,9 +258,7 @@ void Renderer::renderThermal(const ThermalFrame& frame, ImageView<float> radianc
     Ctx c{&im, &config_, &kNoSky, radiance, radiance, 1, 0u, false, false, rowStep(im.H), 1};
     updateGeometryBuffer(c, -1, exec);
     ThermalCtx tc{&im, &config_, &frame, radiance};
-    if (im.thermalGeneration != im.gGeneration || im.thermalFrameTables != frame.pathTau ||
-        im.thermalPx.empty()) {
-        im.thermalPx.resize(static_cast<std::size_t>(im.W) * im.H);  // once: the image's size
+    if (im.thermalGeneration != im.gGeneration || im.thermalFrameTables != frame.pathTau) {
         exec.run(im.H, &thermalPixelRows, &tc);
         im.thermalGeneration = im.gGeneration;
         im.thermalFrameTables = frame.pathTau;

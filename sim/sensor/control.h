@@ -10,10 +10,14 @@
 #include "sim/msg/platform.h"
 #include "sim/sensor/stages/stage.h"
 
+namespace nvs {
+class PresetReader;
+}  // namespace nvs
+
 namespace nvs::sensor {
 
 struct CameraParams;
-class PresetReader;
+using nvs::PresetReader;
 class GateStage;
 
 enum class AgcMode { Off, Agc, Abc, Bsp, Autogate };

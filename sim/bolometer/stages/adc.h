@@ -16,10 +16,14 @@
 
 #include "sim/core/image.h"
 
+namespace nvs {
+class PresetReader;
+}  // namespace nvs
+
 namespace nvs::bolometer {
 
 struct ThermalCameraParams;
-class Reader;
+using Reader = nvs::PresetReader;
 
 struct AdcParams {
     int adc_bits = 14;

@@ -25,10 +25,14 @@
 
 #include "sim/core/image.h"
 
+namespace nvs {
+class PresetReader;
+}  // namespace nvs
+
 namespace nvs::bolometer {
 
 struct ThermalCameraParams;
-class Reader;
+using Reader = nvs::PresetReader;
 
 enum class AgcMode { Linear, Plateau };
 

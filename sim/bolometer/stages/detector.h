@@ -14,10 +14,14 @@
 
 #include "sim/core/image.h"
 
+namespace nvs {
+class PresetReader;
+}  // namespace nvs
+
 namespace nvs::bolometer {
 
 struct ThermalCameraParams;
-class Reader;
+using Reader = nvs::PresetReader;
 
 struct DetectorParams {
     double time_constant_s = 0.010;

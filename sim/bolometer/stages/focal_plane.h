@@ -27,10 +27,14 @@
 
 #include "sim/core/image.h"
 
+namespace nvs {
+class PresetReader;
+}  // namespace nvs
+
 namespace nvs::bolometer {
 
 struct ThermalCameraParams;
-class Reader;
+using Reader = nvs::PresetReader;
 
 struct FocalPlaneParams {
     double ambient_K = 293.15;

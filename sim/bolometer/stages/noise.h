@@ -30,10 +30,14 @@
 
 #include "sim/core/image.h"
 
+namespace nvs {
+class PresetReader;
+}  // namespace nvs
+
 namespace nvs::bolometer {
 
 struct ThermalCameraParams;
-class Reader;
+using Reader = nvs::PresetReader;
 
 struct NoiseParams {
     double netd_K = 0.050;

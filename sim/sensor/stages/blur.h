@@ -10,10 +10,14 @@
 #include "sim/core/row_executor.h"
 #include "sim/sensor/stages/stage.h"
 
+namespace nvs {
+class PresetReader;
+}  // namespace nvs
+
 namespace nvs::sensor {
 
 struct CameraParams;
-class PresetReader;
+using nvs::PresetReader;
 
 struct BlurParams {
     // --- 7. MTF (frequencies in the image plane = photocathode plane) ----------------------

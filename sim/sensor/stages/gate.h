@@ -5,10 +5,14 @@
 
 #include "sim/sensor/stages/stage.h"
 
+namespace nvs {
+class PresetReader;
+}  // namespace nvs
+
 namespace nvs::sensor {
 
 struct CameraParams;
-class PresetReader;
+using nvs::PresetReader;
 
 struct GateParams {
     // --- 2. Gate -------------------------------------------------------------------------

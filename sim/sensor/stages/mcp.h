@@ -13,10 +13,14 @@ namespace nvs {
 class PixelRng;
 }
 
+namespace nvs {
+class PresetReader;
+}  // namespace nvs
+
 namespace nvs::sensor {
 
 struct CameraParams;
-class PresetReader;
+using nvs::PresetReader;
 
 struct McpParams {
     // --- 4. Bright-source protection (agc = "bsp") -------------------------------------------

@@ -10,10 +10,14 @@
 #include "sim/core/image.h"
 #include "sim/sensor/stages/stage.h"
 
+namespace nvs {
+class PresetReader;
+}  // namespace nvs
+
 namespace nvs::sensor {
 
 struct CameraParams;
-class PresetReader;
+using nvs::PresetReader;
 
 struct PhosphorParams {
     // --- 6. Phosphor ----------------------------------------------------------------------
