@@ -28,9 +28,9 @@ import re
 STAMP_SLACK_NS = 1_000_000        # kernel stamp after the helper's reading after the write
 TRIGGER_LATENCY_NS = 200_000_000  # edge's kernel stamp → the frame's metadata read from a pipe:
 #                                   out before the next edge (one period at the nominal 5 Hz)
-GUARD_NS = 3_000_000              # gate: samples this close to a window's edge are not judged
+GUARD_NS = 5_000_000              # gate: samples this close to a window's edge are not judged
 EDGES = 40
-GATE_FRAMES = 60        # each gate run (6 s at 10 Hz)
+GATE_FRAMES = 80        # each gate run (8 s at 10 Hz)
 STEADY_MIN_FRAMES = 30  # of them at least 30 in a row in the steady state
 STALL_AFTER = 25
 PERIOD_NS = 200_000_000
