@@ -32,6 +32,7 @@ GUARD_NS = 5_000_000              # gate: samples this close to a window's edge 
 EDGES = 40
 GATE_FRAMES = 80        # each gate run (8 s at 10 Hz)
 STEADY_MIN_FRAMES = 30  # of them at least 30 in a row in the steady state
+SETTLE_FRAMES = 10      # the first second of a run of frames emitted in a row is start-up too
 STALL_AFTER = 25
 PERIOD_NS = 200_000_000
 
@@ -242,17 +243,20 @@ def check_trigger(d, check):
 
 
 def steady(metas):
-    """The longest run of frames emitted in a row (consecutive indices, none repeated): the
-    steady state. The VM's first frames on the wall clock miss their deadlines (each new thread
-    and page is slow under emulation, and slower on a loaded host); a frame rendered but not
-    emitted still has its gate pulse but no metadata, so its neighbourhood cannot be judged."""
+    """The steady state: the longest run of frames emitted in a row (consecutive indices, none
+    repeated) less its first SETTLE_FRAMES. The VM's first frames on the wall clock miss their
+    deadlines (each new thread and page is slow under emulation, and slower on a loaded host); a
+    frame rendered but not emitted still has its gate pulse but no metadata, so its
+    neighbourhood cannot be judged; and the first frames emitted after such misses can still
+    have been rendered after their exposure's start, so their pulses rise late (nvstim counts
+    them `late`)."""
     best, start = (0, 0), 0
     for k in range(1, len(metas) + 1):
         if k == len(metas) or metas[k]["frame"] != metas[k - 1]["frame"] + 1 or metas[k]["repeat"]:
             if k - start > best[1] - best[0]:
                 best = (start, k)
             start = k
-    return metas[best[0]:best[1]]
+    return metas[best[0] + SETTLE_FRAMES:best[1]]
 
 
 def check_gate(d, name, frames_n, check):
@@ -262,10 +266,10 @@ def check_gate(d, name, frames_n, check):
     metas = [json.loads(l) for l in open(os.path.join(d, "meta.jsonl"))]
     tail = steady(metas)
     check(len(tail) >= STEADY_MIN_FRAMES,
-          "gpio %s: frames %d..%d of %d emitted in a row (at least %d; before and after them %d "
-          "emitted, %d deadlines missed)" % (
+          "gpio %s: frames %d..%d of %d judged: emitted in a row, after %d more that settle (at "
+          "least %d; %d deadlines missed before)" % (
               name, tail[0]["frame"] if tail else -1, tail[-1]["frame"] if tail else -1,
-              frames_n, STEADY_MIN_FRAMES, len(metas) - len(tail), st["deadline_misses"]))
+              frames_n, SETTLE_FRAMES, STEADY_MIN_FRAMES, st["deadline_misses"]))
     wins = windows(tail, st["clock_origin_ns"])
     if not wins:
         return
