@@ -30,7 +30,7 @@ TRIGGER_LATENCY_NS = 200_000_000  # edge's kernel stamp → the frame's metadata
 #                                   out before the next edge (one period at the nominal 5 Hz)
 GUARD_NS = 5_000_000              # gate: samples this close to a window's edge are not judged
 EDGES = 40
-GATE_FRAMES = 80        # each gate run (8 s at 10 Hz)
+GATE_FRAMES = 120       # each gate run (12 s at 10 Hz)
 STEADY_MIN_FRAMES = 30  # of them at least 30 in a row in the steady state
 SETTLE_FRAMES = 10      # the first second of a run of frames emitted in a row is start-up too
 STALL_AFTER = 25

@@ -216,8 +216,8 @@ gpio_case() {
     sampler_stop "$d"
     say "gpio trigger: nvstim exited with $(cat "$d/nvstim.rc"), $(grep -c . "$d/meta.stamped") frames"
     # (3) The gate on the wall clock: frame scan and interlaced.
-    gate_case frame gate_frame.toml 80
-    gate_case interlaced gate_interlaced.toml 80
+    gate_case frame gate_frame.toml 120
+    gate_case interlaced gate_interlaced.toml 120
 }
 gpioinfo_used() { gpioinfo "$CHIP" | grep -q "line *$1:.*\"gpiomon\""; }
 
