@@ -13,7 +13,9 @@
 //   hil_gpio sample VALUE PERIOD_US STOPFILE [MAX_S]
 //       reads VALUE (a sysfs `value` attribute: "0" or "1") every PERIOD_US on an absolute
 //       schedule until STOPFILE exists (or MAX_S, default 60); one line per sample:
-//       "before_ns after_ns value", the line's level at an instant between the two.
+//       "before_ns after_ns value", the line's level at an instant between the two. Slots
+//       already past when the sampler gets the CPU back are skipped, not read in a burst (a
+//       burst at its real-time priority would hold up the threads whose pulse it samples).
 //   hil_gpio stamp
 //       copies stdin to stdout, each line prefixed with "arrival_ns " (CLOCK_MONOTONIC when
 //       it was read).
@@ -119,11 +121,17 @@ int sample(int argc, char** argv) {
     out.reserve(static_cast<std::size_t>(max_s * 1e9 / static_cast<double>(period_ns)) + 16);
     const std::int64_t t0 = now_ns();
     const std::int64_t end = t0 + static_cast<std::int64_t>(max_s * 1e9);
+    std::int64_t nextCheck = t0;
     for (std::int64_t j = 0;; ++j) {
+        const std::int64_t late_ns = now_ns() - (t0 + j * period_ns);
+        if (late_ns > period_ns) j += late_ns / period_ns;  // skip the slots already past
         const std::int64_t t = t0 + j * period_ns;
         if (t > end) break;
         // Every 50 ms: stop once asked to.
-        if (j % (50'000'000 / period_ns + 1) == 0 && access(stopFile.c_str(), F_OK) == 0) break;
+        if (t >= nextCheck) {
+            if (access(stopFile.c_str(), F_OK) == 0) break;
+            nextCheck = t + 50'000'000;
+        }
         sleepUntil(t);
         char buf[8] = {};
         Sample s{now_ns(), 0, '?'};

@@ -193,7 +193,8 @@ gpio_case() {
     say "gpio: gpiomon read $(wc -l < "$d/gpiomon.txt") edges"
     # (2) The trigger clock: 40 rising edges at 200 ms ± 40 ms (5 Hz nominal), silent for
     # 1.6 s more after the 25th (stalled past the 0.5-s timeout, then recovers). The metadata goes
-    # to a pipe whose reader stamps each line as it arrives (SCHED_FIFO 60, above the sampler).
+    # to a pipe whose reader stamps each line as it arrives (SCHED_FIFO 84: above nvstim's output
+    # thread, 80, which writes it, and the sampler; below the pulse thread, 85).
     d="$OUT/gpio/trigger"
     mkdir -p "$d"
     sed "s/@CHIP@/$CHIP/" /hil/trigger.toml > /tmp/trigger.toml
@@ -201,7 +202,7 @@ gpio_case() {
     sampler_start "$d"
     ( nvstim run /tmp/trigger.toml --clock wall --frames 40 --output "gpio:$CHIP:1" \
         --output meta:- --stats "$d/stats.json" 2> "$d/nvstim.log"; echo $? > "$d/nvstim.rc" ) |
-        chrt -f 60 nvs_hil_gpio stamp > "$d/meta.stamped" &
+        chrt -f 84 nvs_hil_gpio stamp > "$d/meta.stamped" &
     nvp=$!
     # Edges once the loop runs (its first status line) and both lines are nvstim's.
     wait_for 60 grep -q "nvstim run: frame" "$d/nvstim.log" || say "gpio trigger: no status line"
