@@ -17,8 +17,9 @@ origin is the --stats key clock_origin_ns (a frame's exposure window is origin +
   * gate (frame scan, interlaced): nvstim exits 0, every frame emitted; each exposure window
     (per field when interlaced) from the metadata; every sample of the gate line's `value`
     whose reading interval lies inside a window shrunk by GUARD_NS at each end reads 1, every
-    one that lies GUARD_NS or more away from every window reads 0; the rise and fall delays'
-    upper bounds are printed.
+    one that lies GUARD_NS or more away from every window reads 0 (a pulse that rose late, which
+    nvstim counts `late`, is allowed up to that count); the rise and fall delays' upper bounds
+    are printed.
 """
 import json
 import os
