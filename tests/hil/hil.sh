@@ -82,6 +82,7 @@ elif [ -z "$hil_gpio" ] || [ ! -x "$hil_gpio" ]; then
 fi
 case " $CASES " in
     *" gpio "*) if [ -n "$gpio_skip" ]; then echo "hil: gpio: SKIPPED: $gpio_skip"; else GPIO=1; fi ;;
+    *) echo "hil: gpio: left out (NVS_HIL_CASES=\"$CASES\")" ;;
 esac
 
 # ---- (2) telemetry and host reference ------------------------------------------------------------
