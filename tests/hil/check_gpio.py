@@ -79,9 +79,10 @@ def windows(metas, origin_ns):
         if m["repeat"]:
             continue
         e = m["exposure_s"]
-        width = m["gate_s"] if 0 < m["gate_s"] < e else e
-        for ts in ([f["t_sample_s"] for f in m["fields"]] if "fields" in m else [m["t_sample_s"]]):
-            start = origin_ns + round((ts - e / 2) * 1e9)
+        # Each exposure's own gate (the frame-level gate_s is the last field's).
+        for f in m["fields"] if "fields" in m else [m]:
+            width = f["gate_s"] if 0 < f["gate_s"] < e else e
+            start = origin_ns + round((f["t_sample_s"] - e / 2) * 1e9)
             out.append((start, start + round(width * 1e9)))
     return sorted(set(out))
 
