@@ -7,6 +7,7 @@ hil.check_gpio_selftest). Exit 0 when every case behaves, 1 otherwise."""
 import os
 import sys
 
+sys.dont_write_bytecode = True  # no __pycache__ in the source tree
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import check_gpio  # noqa: E402
 
