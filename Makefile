@@ -14,13 +14,15 @@ PACKAGES := build-essential cmake ninja-build pkg-config \
             librandom123-dev libgsl-dev liberfa-dev libembree-dev libopenexr-dev libfftw3-dev \
             libgpiod-dev libtinyobjloader-dev libssl-dev libpng-dev python3 python3-ephem python3-matplotlib clang-format ffmpeg \
             libegl-dev libgl-dev libegl-mesa0 libgl1-mesa-dri libosmesa6-dev \
-            qemu-system-x86 busybox-static can-utils v4l-utils kmod cpio \
+            qemu-system-x86 busybox-static can-utils v4l-utils kmod cpio gpiod \
             qemu-user valgrind
 # libegl-dev, libgl-dev: headers of the OpenGL primary-visibility pass (sim/render/gl_*); Mesa's
 # EGL (libegl-mesa0), its llvmpipe driver (libgl1-mesa-dri) and OSMesa (libosmesa6-dev) run it
 # without a GPU. They are loaded at run time, so nvstim builds and runs without them.
 # The line before last is the HIL test's (tests/hil): a QEMU virtual machine with Debian's
-# kernel, busybox, can-utils and v4l2-ctl; the kernel packages themselves are fetched by the test.
+# kernel, busybox, can-utils, v4l2-ctl and libgpiod's tools (gpiod: gpiodetect, gpioinfo,
+# gpiomon); the kernel packages themselves (and linux-source-6.1 for gpio-sim) are fetched by
+# the test.
 # The last: qemu-user runs the isa.* tests as CPUs without AVX-512 (tests/isa), valgrind the
 # memcheck.* tests (tests/memcheck).
 

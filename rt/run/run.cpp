@@ -177,6 +177,13 @@ std::string statsJson(const FrameLoop& loop, const PlatformSource& platform,
          ",\"sink_time\":" + st.sinkTime.json() + ",\"latency\":" + st.latency.json() +
          ",\"telemetry_latency\":" + st.latency.json() +
          ",\"render_latency\":" + st.renderLatency.json();
+    // The run clock's origin (t = 0 of t_sample_s) on CLOCK_MONOTONIC, the clock of GPIO line
+    // events: a frame's exposure window on that clock is origin + t_sample_s ± exposure/2
+    // (tests/hil checks the gate line and the trigger's edges with it). 0 under the sim clock.
+    std::snprintf(
+        buf, sizeof buf, ",\"clock_origin_ns\":%lld",
+        static_cast<long long>(cfg.clock == ClockKind::Sim ? 0 : loop.wallClock().start_ns()));
+    j += buf;
     j += std::string(",\"scan\":\"") +
          (cfg.scan == ScanKind::Interlaced ? "interlaced" : "progressive") + "\"";
     if (cfg.clock == ClockKind::Trigger && cfg.trigger != nullptr) {

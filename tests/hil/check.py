@@ -27,6 +27,7 @@ import os
 import re
 import sys
 
+sys.dont_write_bytecode = True  # no __pycache__ in the source tree
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import make_log  # noqa: E402
 
@@ -189,7 +190,10 @@ def main():
     ap.add_argument("--kill-after", type=int, required=True)
     ap.add_argument("--kill-tail", type=int, required=True)
     ap.add_argument("--nvstim", required=True)
+    ap.add_argument("--cases", default="grey y16 gpio full")
+    ap.add_argument("--gpio", type=int, default=0, help="1: the GPIO case ran (check_gpio.py)")
     a = ap.parse_args()
+    cases = a.cases.split()
     w, h, n = a.width, a.height, a.frames
 
     host = hashlib.sha256(open(a.nvstim, "rb").read()).hexdigest()
@@ -199,6 +203,8 @@ def main():
                                   " ".join(open(os.path.join(a.out, "v4l2-info.txt")).read().split()[:12])))
 
     for name, fourcc, bpp in (("grey", "GREY", 1), ("y16", "Y16 ", 2)):
+        if name not in cases:
+            continue
         d = os.path.join(a.out, name)
         ref = read_y4m(os.path.join(a.ref, name + ".y4m"))
         check(len(ref) == n, "%s: host reference has %d frames" % (name, len(ref)))
@@ -220,6 +226,10 @@ def main():
         else:
             compare(name + " client", frames, seqs, ref, expect_first=0, expect_count=n)
         check(not os.path.exists(os.path.join(d, "stuck")), "%s: no client left waiting" % name)
+
+    if a.gpio:
+        import check_gpio  # noqa: E402
+        check_gpio.check_all(os.path.join(a.out, "gpio"), check)
 
     if failures:
         print("hil: %d check(s) failed" % len(failures))

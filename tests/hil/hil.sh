@@ -1,15 +1,19 @@
 #!/bin/bash
-# Hardware-in-the-loop test against real kernel drivers (v4l2loopback, vcan) in a virtual
-# machine: Debian 12's kernel under qemu-system-x86_64 (TCG: no KVM needed) with a busybox
-# initramfs that holds this build's nvstim, can-utils and v4l2-ctl. What it checks: docs/hil.md.
+# Hardware-in-the-loop test against real kernel drivers (v4l2loopback, vcan, gpio-sim) in a
+# virtual machine: Debian 12's kernel under qemu-system-x86_64 (TCG: no KVM needed) with a
+# busybox initramfs that holds this build's nvstim, can-utils, v4l2-ctl and libgpiod's tools.
+# What it checks: docs/hil.md.
 #
-#   hil.sh NVSTIM SOURCE_DIR WORK_DIR [ISA_COMPARE]
+#   hil.sh NVSTIM SOURCE_DIR WORK_DIR [ISA_COMPARE [HIL_GPIO]]
 #
 # Exit 0 pass, 1 fail, 77 skipped (ctest SKIP_RETURN_CODE) with the reason on stdout: no QEMU
 # or a tool missing, or Debian's kernel packages cannot be fetched. Environment: NVS_HIL_CACHE
 # (kernel layer cache), NVS_HIL_QEMU (the emulator, default qemu-system-x86_64),
 # NVS_HIL_VM_TIMEOUT_S (default 540), NVS_HIL_FULL_FRAMES (frames of the full-size scenario,
-# default 2; 0 leaves it out).
+# default 2; 0 leaves it out), NVS_HIL_CASES (the cases run, default "grey y16 gpio full").
+# The GPIO case alone is skipped, with "hil: gpio: SKIPPED: reason" on stdout, where gpio-sim
+# could not be built (make_kernel.sh's gpio-sim.skip), libgpiod's tools (Debian package gpiod)
+# are missing or no HIL_GPIO helper (tests/hil/hil_gpio.cpp) was given.
 #
 # Steps: (1) the kernel layer (tests/hil/make_kernel.sh, cached under NVS_HIL_CACHE, default
 # ~/.cache/nvstim/hil); (2) the host reference: the same nvstim, scenarios and candump log
@@ -24,9 +28,12 @@ nvstim=$(realpath "${1:?usage: hil.sh NVSTIM SOURCE_DIR WORK_DIR}")
 src=$(realpath "${2:?}")
 work=${3:?}
 isa_compare=${4:-}
+hil_gpio=${5:-}
+CASES=${NVS_HIL_CASES:-grey y16 gpio full}
 here="$src/tests/hil"
 FULL_SCENARIO=thesis-stlamp
 FULL_FRAMES=${NVS_HIL_FULL_FRAMES:-2}  # 0: no full-size scenario (the debug-asan preset's)
+case " ${NVS_HIL_CASES:-full} " in *" full "*) ;; *) FULL_FRAMES=0 ;; esac
 FRAMES=90          # 3 s at 30 Hz
 KILL_AFTER=20      # frames the first client takes before it is killed
 KILL_TAIL=20       # frames the second client then takes
@@ -63,6 +70,20 @@ if ! kdir=$("$here/make_kernel.sh" "$cache" 2> "$work/kernel.log"); then
 fi
 grep -h "^hil:" "$work/kernel.log"
 echo "hil: kernel $(cat "$kdir/version") [$(elapsed) s]"
+# The GPIO case: gpio-sim in the kernel layer, libgpiod's tools here, the helper built.
+GPIO=0
+gpio_skip=""
+if [ -f "$kdir/gpio-sim.skip" ]; then
+    gpio_skip="gpio-sim could not be built: $(cat "$kdir/gpio-sim.skip")"
+elif ! command -v gpiomon > /dev/null || ! command -v gpioinfo > /dev/null; then
+    gpio_skip="gpiomon/gpioinfo not found (Debian package gpiod; 'make test' installs it)"
+elif [ -z "$hil_gpio" ] || [ ! -x "$hil_gpio" ]; then
+    gpio_skip="no nvs_hil_gpio helper given (tests/hil/CMakeLists.txt builds it)"
+fi
+case " $CASES " in
+    *" gpio "*) if [ -n "$gpio_skip" ]; then echo "hil: gpio: SKIPPED: $gpio_skip"; else GPIO=1; fi ;;
+    *) echo "hil: gpio: left out (NVS_HIL_CASES=\"$CASES\")" ;;
+esac
 
 # ---- (2) telemetry and host reference ------------------------------------------------------------
 ref="$work/ref"
@@ -101,6 +122,11 @@ copy_exe() { # copy_exe FILE [DEST]
 cp "$(command -v busybox)" "$stage/bin/busybox"
 copy_exe "$nvstim" /usr/local/bin/nvstim
 for t in v4l2-ctl canplayer cansend candump chrt; do copy_exe "$(command -v "$t")"; done
+if [ "$GPIO" = 1 ]; then
+    for t in gpiodetect gpioinfo gpiomon gpioset; do copy_exe "$(command -v "$t")"; done
+    copy_exe "$hil_gpio" /usr/local/bin/nvs_hil_gpio
+    cp "$here/trigger.toml" "$here/gate_frame.toml" "$here/gate_interlaced.toml" "$stage/hil/"
+fi
 cp "$kdir"/modules/*.ko "$stage/hil/modules/"
 cp "$kdir/modules.load" "$here/grey.toml" "$here/y16.toml" "$ref"/telemetry.log* "$stage/hil/"
 cp -r "$src/config" "$stage/hil/config"
@@ -118,6 +144,8 @@ FULL_SCENARIO=$FULL_SCENARIO
 FULL_FRAMES=$FULL_FRAMES
 KILL_AFTER=$KILL_AFTER
 KILL_TAIL=$KILL_TAIL
+CASES="$CASES"
+GPIO=$GPIO
 V4L_VER=$(sed -n 's/^v4l2loopback-dkms=//p' "$kdir/packages")
 EOF
 key=$( (cd "$stage" && find . -type f -print0 | LC_ALL=C sort -z | xargs -0 sha256sum;
@@ -158,12 +186,13 @@ tar -xf "$disk" -C "$work/out" 2> /dev/null || { tail -30 "$work/console.log"; f
 
 # ---- (5) checks -----------------------------------------------------------------------------------
 python3 "$here/check.py" --out "$work/out" --ref "$ref" --frames "$FRAMES" --width 160 --height 120 \
-    --kill-after "$KILL_AFTER" --kill-tail "$KILL_TAIL" --nvstim "$nvstim" ||
+    --kill-after "$KILL_AFTER" --kill-tail "$KILL_TAIL" --nvstim "$nvstim" --cases "$CASES" \
+    --gpio "$GPIO" ||
     fail "checks (above); VM output kept in $work/out"
 # The full-size scenario: it ran (the VM's log says so), and gave the host's frames within the
 # cross-ISA tolerance.
 if [ "$FULL_FRAMES" -eq 0 ]; then
-    echo "hil: the full-size scenario left out (NVS_HIL_FULL_FRAMES=0)"
+    echo "hil: the full-size scenario left out (NVS_HIL_FULL_FRAMES=0, or not in NVS_HIL_CASES)"
 elif [ "$(cat "$work/out/full/nvstim.rc" 2> /dev/null)" != 0 ]; then
     tail -5 "$work/out/full/nvstim.log"
     fail "$FULL_SCENARIO in the VM: exit $(cat "$work/out/full/nvstim.rc" 2> /dev/null)"

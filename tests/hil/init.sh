@@ -1,9 +1,10 @@
 #!/bin/busybox sh
 # /init of the HIL test's virtual machine (tests/hil/hil.sh builds the initramfs around it).
-# Debian's kernel with real drivers: v4l2loopback and vcan. For each case (GREY, Y16) it runs
-# nvstim under the sim clock with V4L2 output and CAN telemetry, replays the candump log onto
-# vcan0 with canplayer, captures with v4l2-ctl (a real V4L2 client), and writes everything
-# the host checks (tests/hil/check.py) as a tar archive onto the second disk, /dev/vda.
+# Debian's kernel with real drivers: v4l2loopback, vcan and gpio-sim. For each case (GREY, Y16)
+# it runs nvstim under the sim clock with V4L2 output and CAN telemetry, replays the candump log
+# onto vcan0 with canplayer, captures with v4l2-ctl (a real V4L2 client); the GPIO case runs
+# nvstim on the wall clock against a gpio-sim chip (gpio_case below). Everything the host checks
+# (tests/hil/check.py) goes as a tar archive onto the second disk, /dev/vda.
 # Progress goes to the serial console; the host reads it too.
 export PATH=/bin:/usr/bin:/usr/local/bin
 /bin/busybox --install -s /bin
@@ -13,9 +14,9 @@ mount -t devtmpfs devtmpfs /dev
 mount -t tmpfs tmpfs /tmp
 OUT=/tmp/out
 mkdir -p "$OUT"
-. /hil/env                     # FRAMES, FRAME_W, FRAME_H, KILL_AFTER, KILL_TAIL, V4L_VER
+. /hil/env                     # FRAMES, FRAME_W, FRAME_H, KILL_AFTER, KILL_TAIL, V4L_VER, CASES, GPIO
 
-say() { echo "hil-vm: $*"; echo "$*" >> "$OUT/steps.log"; }
+say() { echo "hil-vm: $* [$(cut -d" " -f1 /proc/uptime) s]"; echo "$*" >> "$OUT/steps.log"; }
 finish() {
     say "done: $1"
     echo "$1" > "$OUT/result"
@@ -126,13 +127,109 @@ run_case() {
     c1=""
 }
 
+# ---- GPIO: gpio-sim ------------------------------------------------------------------------------
+# A chip of four lines through configfs (kernel docs: admin-guide/gpio/gpio-sim): line 0
+# "trigger" (nvstim's trigger input; the test makes its edges by writing its sysfs `pull`),
+# line 1 "gate" (nvstim's gate output; the test reads it back through `value`). Every time is
+# CLOCK_MONOTONIC (nvs_hil_gpio), the clock of the kernel's line-event stamps and of nvstim's
+# run clock (its origin is the --stats key clock_origin_ns).
+GS=/sys/kernel/config/gpio-sim/nvs
+gpio_chip() {
+    mount -t configfs none /sys/kernel/config || return 1
+    mkdir "$GS" "$GS/bank0" "$GS/bank0/line0" "$GS/bank0/line1" || return 1
+    echo 4 > "$GS/bank0/num_lines"
+    echo nvs-sim > "$GS/bank0/label"
+    echo trigger > "$GS/bank0/line0/name"
+    echo gate > "$GS/bank0/line1/name"
+    echo 1 > "$GS/live" || return 1
+    CHIP=$(cat "$GS/bank0/chip_name")
+    SIM=/sys/devices/platform/$(cat "$GS/dev_name")/$CHIP
+    [ -e "$SIM/sim_gpio0/pull" ] && [ -e "$SIM/sim_gpio1/value" ]
+}
+# used_by_nvstim LINE: gpioinfo shows the line requested by nvstim.
+used_by_nvstim() { gpioinfo "$CHIP" | grep -q "line *$1:.*\"nvstim\""; }
+# sampler_start DIR / sampler_stop DIR: the gate line's value every 0.5 ms, SCHED_FIFO 82: below
+# nvstim's pulse thread (nvs-gpio, 85: the sampler never delays the pulse it samples), above its
+# render, camera and output threads (70-80), so that rendering does not leave gaps in the samples.
+sampler_start() {
+    rm -f "$1/sample.stop"
+    chrt -f 82 nvs_hil_gpio sample "$SIM/sim_gpio1/value" 500 "$1/sample.stop" 60 \
+        > "$1/samples.txt" 2> "$1/sampler.log" &
+    SAMPLER=$!
+    sleep 0.3
+}
+sampler_stop() { sleep 0.2; touch "$1/sample.stop"; wait "$SAMPLER"; }
+# gate_case NAME SCENARIO FRAMES: wall clock, the gate on line 1, the line sampled throughout.
+gate_case() {
+    d="$OUT/gpio/$1"
+    mkdir -p "$d"
+    say "gpio $1: nvstim run $2 --clock wall --output gpio:$CHIP:1, $3 frames, line sampled every 0.5 ms"
+    sampler_start "$d"
+    nvstim run "/hil/$2" --clock wall --frames "$3" --output "gpio:$CHIP:1" \
+        --output "meta:$d/meta.jsonl" --stats "$d/stats.json" > "$d/nvstim.out" 2> "$d/nvstim.log"
+    echo $? > "$d/nvstim.rc"
+    sampler_stop "$d"
+    say "gpio $1: nvstim exited with $(cat "$d/nvstim.rc"), $(wc -l < "$d/samples.txt") samples"
+}
+gpio_case() {
+    mkdir -p "$OUT/gpio"
+    gpio_chip || { echo "gpio-sim chip not made" > "$OUT/gpio/error"; say "gpio: no gpio-sim chip"; return; }
+    gpiodetect > "$OUT/gpio/gpiodetect.txt" 2>&1
+    gpioinfo "$CHIP" > "$OUT/gpio/gpioinfo.txt" 2>&1
+    say "gpio: $(cat "$OUT/gpio/gpiodetect.txt")"
+    # (1) The kernel's stamps against the helper's: gpiomon takes 20 rising edges made by
+    # writing `pull`; the host checks each stamp lies between the helper's clock readings
+    # around the write.
+    d="$OUT/gpio/gpiomon"
+    mkdir -p "$d"
+    gpiomon -r -n 20 -F "%s %n" "$CHIP" 0 > "$d/gpiomon.txt" 2> "$d/gpiomon.log" &
+    mon=$!
+    wait_for 30 gpioinfo_used 0 || sleep 1
+    chrt -f 60 nvs_hil_gpio edges "$SIM/sim_gpio0/pull" 20 50000 10000 1 > "$d/edges.txt"
+    n=50
+    while kill -0 "$mon" 2> /dev/null && [ $n -gt 0 ]; do sleep 0.1; n=$((n - 1)); done
+    kill "$mon" 2> /dev/null
+    wait "$mon"
+    say "gpio: gpiomon read $(wc -l < "$d/gpiomon.txt") edges"
+    # (2) The trigger clock: 40 rising edges at 200 ms ± 40 ms (5 Hz nominal), silent for
+    # 1.6 s more after the 25th (stalled past the 0.5-s timeout, then recovers). The metadata goes
+    # to a pipe whose reader stamps each line as it arrives (SCHED_FIFO 84: above nvstim's output
+    # thread, 80, which writes it, and the sampler; below the pulse thread, 85).
+    d="$OUT/gpio/trigger"
+    mkdir -p "$d"
+    sed "s/@CHIP@/$CHIP/" /hil/trigger.toml > /tmp/trigger.toml
+    say "gpio trigger: nvstim run trigger.toml --clock wall (trigger gpio:$CHIP:0, gate gpio:$CHIP:1)"
+    sampler_start "$d"
+    ( nvstim run /tmp/trigger.toml --clock wall --frames 40 --output "gpio:$CHIP:1" \
+        --output meta:- --stats "$d/stats.json" 2> "$d/nvstim.log"; echo $? > "$d/nvstim.rc" ) |
+        chrt -f 84 nvs_hil_gpio stamp > "$d/meta.stamped" &
+    nvp=$!
+    # Edges once the loop runs (its first status line) and both lines are nvstim's.
+    wait_for 60 grep -q "nvstim run: frame" "$d/nvstim.log" || say "gpio trigger: no status line"
+    used_by_nvstim 0 && used_by_nvstim 1 || say "gpio trigger: lines not requested: $(gpioinfo "$CHIP")"
+    gpioinfo "$CHIP" > "$d/gpioinfo.txt" 2>&1
+    chrt -f 70 nvs_hil_gpio edges "$SIM/sim_gpio0/pull" 40 200000 40000 2 25 1600000 > "$d/edges.txt"
+    n=150
+    while kill -0 "$nvp" 2> /dev/null && [ $n -gt 0 ]; do sleep 0.1; n=$((n - 1)); done
+    pkill_nvstim() { for p in $(pidof nvstim); do kill -INT "$p"; done; }
+    kill -0 "$nvp" 2> /dev/null && { say "gpio trigger: nvstim still running: stopped"; pkill_nvstim; }
+    wait "$nvp"
+    sampler_stop "$d"
+    say "gpio trigger: nvstim exited with $(cat "$d/nvstim.rc"), $(grep -c . "$d/meta.stamped") frames"
+    # (3) The gate on the wall clock: frame scan and interlaced.
+    gate_case frame gate_frame.toml 120
+    gate_case interlaced gate_interlaced.toml 120
+}
+gpioinfo_used() { gpioinfo "$CHIP" | grep -q "line *$1:.*\"gpiomon\""; }
+
 FRAME_BYTES_GREY=$((FRAME_W * FRAME_H))
 CLIENT="chrt -f 50 v4l2-ctl -d /dev/video10 --stream-mmap=8"
 # canplayer keeps the log's timing (a faster-than-real-time player, -t, overruns the socket's
 # receive queue while the loop waits: the kernel drops frames, counted as "dropped").
 # GREY: the client is killed mid-stream, a second one takes over.
-run_case grey grey.toml GREY 1
-run_case y16 y16.toml Y16 0
+case " $CASES " in *" grey "*) run_case grey grey.toml GREY 1 ;; esac
+case " $CASES " in *" y16 "*) run_case y16 y16.toml Y16 0 ;; esac
+case " $CASES " in *" gpio "*) [ "$GPIO" = 1 ] && gpio_case ;; esac
 
 # A full-size shipped scenario (the RIT roof at 768 x 494 with the street lamp, the Moon and
 # mirror rays). This CPU has no AVX-512: Embree traces the renderer's 16-ray packets with its

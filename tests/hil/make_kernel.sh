@@ -3,8 +3,18 @@
 #   Debian 12's kernel (linux-image-amd64, 6.1), v4l2loopback built for exactly that kernel
 #   (its source from v4l2loopback-dkms, compiled with make against the matching
 #   linux-headers / linux-kbuild packages: what DKMS would do, without installing a kernel on
-#   this machine), and the modules the test loads (vcan, can-raw, v4l2loopback, virtio-blk)
+#   this machine), gpio-sim built out of tree the same way from linux-source-6.1 (below), and
+#   the modules the test loads (vcan, can-raw, v4l2loopback, virtio-blk, configfs, gpio-sim)
 #   with their dependencies, in load order.
+#
+# gpio-sim: Debian's 6.1 kernel has CONFIG_GPIO_SIM and CONFIG_IRQ_SIM unset. Its source comes
+# from linux-source-6.1 of the kernel's own version: drivers/gpio/gpio-sim.c (with gpiolib.h,
+# internal to the kernel and absent from linux-headers) and kernel/irq/irq_sim.c, compiled as
+# one module. irq_sim.c calls handle_simple_irq(irq_to_desc(irq)), and 6.1 does not export
+# irq_to_desc to modules; generic_handle_irq(irq) runs the same handler (the one irq_sim
+# sets, handle_simple_irq) and is exported. Where linux-source cannot be fetched or the module
+# does not build, the layer is made without it and gpio-sim.skip says why (the HIL test then
+# skips its GPIO case and says so).
 #
 # Nothing is installed on the host: the packages are fetched with `apt-get download` and
 # unpacked with dpkg-deb into a scratch folder. The result goes to DEST/kernel-KEY/, KEY being
@@ -13,7 +23,8 @@
 #   make_kernel.sh DEST      prints the kernel folder on stdout (progress on stderr)
 #
 # The folder holds: vmlinuz, modules/ (the .ko files), modules.load (one "file [params]" a line,
-# in insmod order), version (the kernel release), packages (what it was built from).
+# in insmod order), version (the kernel release), packages (what it was built from), and either
+# gpio-sim (the module's name: it was built) or gpio-sim.skip (the reason it was not).
 set -euo pipefail
 
 dest=${1:?usage: make_kernel.sh DEST}
@@ -68,12 +79,47 @@ make -s -C "$hdr" M="$src" modules >&2 2> >(grep -v "Skipping BTF" >&2)
 mod="$root/lib/modules/$kver"
 mkdir -p "$mod/extra"
 cp "$src/v4l2loopback.ko" "$mod/extra/"
+
+# gpio-sim (see the top). The source tarball (≈ 140 MB) is unpacked for three files only.
+gpio_skip=""
+srcpkg="linux-source-$kseries=$pkgver"
+if ! apt-get download -q "$srcpkg" >&2 2> >(grep -v "unsandboxed" >&2); then
+    gpio_skip="$srcpkg cannot be fetched (apt-get download failed)"
+else
+    say "building gpio-sim from $srcpkg"
+    dpkg-deb -x ./linux-source-"$kseries"_*.deb "$work/lsrc"
+    gs="$work/gpio-sim"
+    mkdir -p "$gs"
+    tar -xJf "$work/lsrc/usr/src/linux-source-$kseries.tar.xz" -C "$gs" --strip-components=3 \
+        --wildcards "*/drivers/gpio/gpio-sim.c" "*/drivers/gpio/gpiolib.h" "*/kernel/irq/irq_sim.c" ||
+        gpio_skip="$srcpkg has no drivers/gpio/gpio-sim.c, gpiolib.h or kernel/irq/irq_sim.c"
+    rm -rf "$work/lsrc"
+    if [ -z "$gpio_skip" ]; then
+        # One module named gpio-sim from two objects (Documentation/kbuild/modules.rst §3.3).
+        mv "$gs/gpio-sim.c" "$gs/gpio-sim-main.c"
+        grep -q "handle_simple_irq(irq_to_desc(irqnum));" "$gs/irq_sim.c" &&
+            sed -i "s/handle_simple_irq(irq_to_desc(irqnum));/generic_handle_irq(irqnum);/" \
+                "$gs/irq_sim.c" ||
+            gpio_skip="irq_sim.c of $srcpkg has no handle_simple_irq(irq_to_desc(irqnum)) to replace"
+    fi
+    printf 'obj-m := gpio-sim.o\ngpio-sim-y := gpio-sim-main.o irq_sim.o\n' > "$gs/Kbuild"
+    if [ -z "$gpio_skip" ]; then
+        if make -s -C "$hdr" M="$gs" modules >&2 2> >(grep -v "Skipping BTF" >&2); then
+            strip --strip-debug "$gs/gpio-sim.ko"
+            cp "$gs/gpio-sim.ko" "$mod/extra/"
+        else
+            gpio_skip="gpio-sim from $srcpkg did not build against linux-headers-$kver (above)"
+        fi
+    fi
+fi
 depmod -b "$root" "$kver"
 
 # The modules and their dependencies in load order (kmod's modprobe resolves modules.dep).
 mkdir -p "$work/out/modules"
 : > "$work/out/modules.load"
-for m in virtio_pci virtio_blk can_raw vcan v4l2loopback; do
+mods="virtio_pci virtio_blk can_raw vcan v4l2loopback"
+[ -z "$gpio_skip" ] && mods="$mods gpio-sim"
+for m in $mods; do
     modprobe -d "$root" -S "$kver" --show-depends "$m" | awk '$1 == "insmod" {print $2}'
 done | awk '!seen[$0]++' | while read -r ko; do
     name=$(basename "$ko")
@@ -83,6 +129,13 @@ done
 cp "$root/boot/vmlinuz-$kver" "$work/out/vmlinuz"
 echo "$kver" > "$work/out/version"
 printf '%s\n' "${pkgs[@]}" > "$work/out/packages"
+if [ -z "$gpio_skip" ]; then
+    echo "$srcpkg" >> "$work/out/packages"
+    echo "gpio-sim.ko" > "$work/out/gpio-sim"
+else
+    say "gpio-sim not built: $gpio_skip"
+    echo "$gpio_skip" > "$work/out/gpio-sim.skip"
+fi
 rm -rf "$out"
 mv "$work/out" "$out"
 say "kernel layer ready: $out"

@@ -3,6 +3,7 @@
 // sink that runs out of space leaves nothing behind.
 #include <gtest/gtest.h>
 #include <sys/wait.h>
+#include <time.h>
 
 #include <array>
 #include <cmath>
@@ -178,6 +179,34 @@ TEST_F(RunTest, WallClockKeepsSixtyHertzForThreeSeconds) {
     EXPECT_NEAR(num("\"p50_s\":", period), 1.0 / 60.0, 2e-4) << s;
     EXPECT_GE(num("\"frames_emitted\":", 0), 171.0) << s;
     EXPECT_LE(num("\"deadline_misses\":", 0), 9.0) << s;
+}
+
+// --stats gives the run clock's origin on CLOCK_MONOTONIC (the clock of GPIO line events), from
+// which a frame's exposure window is placed (tests/hil): between this process's readings of the
+// clock before and after the run; 0 under the sim clock (no wall time).
+TEST_F(RunTest, StatsGiveTheRunClocksOriginOnClockMonotonic) {
+    const auto monotonic_ns = [] {
+        timespec ts{};
+        clock_gettime(CLOCK_MONOTONIC, &ts);
+        return static_cast<long long>(ts.tv_sec) * 1000000000LL + ts.tv_nsec;
+    };
+    const std::string key = "\"clock_origin_ns\":";
+    const long long before_ns = monotonic_ns();
+    Result r = sh(std::string(NVSTIM_EXE) + " run " + (dir_ / "scenario.toml").string() +
+                  " --clock wall --frames 6 --stats " + (dir_ / "w.json").string() + " 2>&1");
+    const long long after_ns = monotonic_ns();
+    ASSERT_EQ(r.status, 0) << r.out;
+    std::string s = slurp(dir_ / "w.json");
+    ASSERT_NE(s.find(key), std::string::npos) << s;
+    const long long origin_ns = std::stoll(s.substr(s.find(key) + key.size()));
+    EXPECT_GT(origin_ns, before_ns) << s;
+    // Six frames at 60 Hz after the origin: the run ends at least 5/60 s after it.
+    EXPECT_LT(origin_ns, after_ns - 5 * 1000000000LL / 60) << s;
+    r = sh(std::string(NVSTIM_EXE) + " run " + (dir_ / "scenario.toml").string() +
+           " --clock sim --frames 2 --stats " + (dir_ / "s.json").string() + " 2>&1");
+    ASSERT_EQ(r.status, 0) << r.out;
+    s = slurp(dir_ / "s.json");
+    EXPECT_NE(s.find(key + "0,"), std::string::npos) << s;
 }
 
 // A full disk keeps what was written: the y4m is cut back to its last whole frame and renamed
