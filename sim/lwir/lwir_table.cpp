@@ -11,6 +11,7 @@
 
 #include "sim/core/error.h"
 #include "sim/core/fnv.h"
+#include "sim/core/table_file.h"
 #include "sim/core/units.h"
 #include "sim/lwir/humidity.h"
 
@@ -18,6 +19,8 @@ namespace nvs::lwir {
 namespace {
 
 constexpr char kMagic[8] = {'N', 'V', 'S', 'L', 'W', 'I', 'R', 'T'};
+constexpr TableFileFormat kFileFormat{kMagic, LwirTable::kFormatVersion, 0xcbf29ce484222325ull,
+                                      "LWIR"};  // the cache file (sim/core/table_file.h)
 inline double logSpan() {
     return std::log(LwirTable::kMaxRange_m / LwirTable::kMinRange_m);
 }
@@ -284,53 +287,12 @@ void LwirTable::save(const std::filesystem::path& file, std::uint64_t key) const
     payload.append(reinterpret_cast<const char*>(&skyDiffuse_), sizeof skyDiffuse_);
     putVec(&payload, slantTau_);
     putVec(&payload, slantPath_);
-    Fnv1a sum;
-    sum.bytes(payload.data(), payload.size());
-    std::error_code ec;
-    std::filesystem::create_directories(file.parent_path(), ec);
-    const auto tmp = file.string() + ".tmp." + std::to_string(::getpid());
-    {
-        std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-        out.write(kMagic, sizeof kMagic);
-        const std::uint32_t version = kFormatVersion;
-        out.write(reinterpret_cast<const char*>(&version), sizeof version);
-        out.write(reinterpret_cast<const char*>(&key), sizeof key);
-        const std::uint64_t size = payload.size();
-        out.write(reinterpret_cast<const char*>(&size), sizeof size);
-        out.write(payload.data(), static_cast<std::streamsize>(payload.size()));
-        out.write(reinterpret_cast<const char*>(&sum.h), sizeof sum.h);
-        if (!out) {
-            std::filesystem::remove(tmp, ec);
-            std::fprintf(stderr, "nvstim: warning: could not write LWIR cache %s\n", file.c_str());
-            return;
-        }
-    }
-    std::filesystem::rename(tmp, file, ec);
-    if (ec) std::filesystem::remove(tmp, ec);
+    (void)writeTableFile(file, kFileFormat, key, payload);
 }
 
 bool LwirTable::load(const std::filesystem::path& file, std::uint64_t key, std::string* why) {
-    std::ifstream in(file, std::ios::binary);
-    if (!in) return (*why = "no cache file", false);
-    const std::string data((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-    const std::size_t head = sizeof kMagic + sizeof(std::uint32_t) + 2 * sizeof(std::uint64_t);
-    if (data.size() < head + sizeof(std::uint64_t) ||
-        std::memcmp(data.data(), kMagic, sizeof kMagic) != 0) {
-        return (*why = "not an nvstim LWIR table", false);
-    }
-    std::uint32_t version = 0;
-    std::uint64_t fileKey = 0, size = 0, stored = 0;
-    std::memcpy(&version, data.data() + 8, sizeof version);
-    std::memcpy(&fileKey, data.data() + 12, sizeof fileKey);
-    std::memcpy(&size, data.data() + 20, sizeof size);
-    if (version != kFormatVersion) return (*why = "format version mismatch", false);
-    if (fileKey != key) return (*why = "key mismatch (stale)", false);
-    if (data.size() != head + size + sizeof(std::uint64_t)) return (*why = "truncated", false);
-    const std::string payload = data.substr(head, size);
-    std::memcpy(&stored, data.data() + head + size, sizeof stored);
-    Fnv1a sum;
-    sum.bytes(payload.data(), payload.size());
-    if (sum.h != stored) return (*why = "checksum mismatch (corrupt)", false);
+    std::string payload;
+    if (!readTableFile(file, kFileFormat, key, &payload, why)) return false;
     LwirTable t;
     std::size_t pos = 0;
     if (!getVec(payload, &pos, &t.tau_, kRanges) || !getVec(payload, &pos, &t.path_, kRanges) ||

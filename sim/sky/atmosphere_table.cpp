@@ -10,6 +10,7 @@
 #include <fstream>
 
 #include "sim/core/fnv.h"
+#include "sim/core/table_file.h"
 #include "sim/core/units.h"
 
 namespace nvs::sky {
@@ -23,6 +24,9 @@ constexpr float kLogFloor = -80.0f;
 constexpr double kAirglowHeight_km = 97.0;  // OI 557.7 nm / OH layer, van Rhijn (1921)
 constexpr double kEarthRadius_km = 6371.0;
 constexpr char kMagic[8] = {'N', 'V', 'S', 'A', 'T', 'M', 'T', 'B'};
+// The cache file (sim/core/table_file.h); its checksum keeps this table's own FNV basis.
+constexpr TableFileFormat kFileFormat{kMagic, AtmosphereTable::kFormatVersion,
+                                      1469598103934665603ull, "atmosphere"};
 
 // The cache key and payload checksum hash (sim/core/fnv.h) with this table's offset basis.
 struct Fnv : Fnv1a {
@@ -355,75 +359,13 @@ void AtmosphereTable::save(const std::filesystem::path& file, std::uint64_t key)
     putVec(&payload, nightHorizontal_);
     putVec(&payload, bandTau_);
     putVec(&payload, scalars_);
-    Fnv sum;
-    sum.bytes(payload.data(), payload.size());
-
-    std::error_code ec;
-    std::filesystem::create_directories(file.parent_path(), ec);
-    // Write a temporary file and rename it, so a reader never sees half a table.
-    const auto tmp = file.string() + ".tmp." + std::to_string(::getpid());
-    {
-        std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-        out.write(kMagic, sizeof kMagic);
-        const std::uint32_t version = kFormatVersion;
-        out.write(reinterpret_cast<const char*>(&version), sizeof version);
-        out.write(reinterpret_cast<const char*>(&key), sizeof key);
-        const std::uint64_t size = payload.size();
-        out.write(reinterpret_cast<const char*>(&size), sizeof size);
-        out.write(payload.data(), static_cast<std::streamsize>(payload.size()));
-        out.write(reinterpret_cast<const char*>(&sum.h), sizeof sum.h);
-        if (!out) {
-            std::filesystem::remove(tmp, ec);
-            std::fprintf(stderr, "nvstim: warning: could not write atmosphere cache %s\n",
-                         file.c_str());
-            return;
-        }
-    }
-    std::filesystem::rename(tmp, file, ec);
-    if (ec) std::filesystem::remove(tmp, ec);
+    (void)writeTableFile(file, kFileFormat, key, payload);
 }
 
 bool AtmosphereTable::load(const std::filesystem::path& file, std::uint64_t key, int bandCount,
                            std::string* why) {
-    std::ifstream in(file, std::ios::binary);
-    if (!in) {
-        *why = "no cache file";
-        return false;
-    }
-    std::string data((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-    const std::size_t head = sizeof kMagic + sizeof(std::uint32_t) + 2 * sizeof(std::uint64_t);
-    if (data.size() < head + sizeof(std::uint64_t) ||
-        std::memcmp(data.data(), kMagic, sizeof kMagic) != 0) {
-        *why = "not an nvstim atmosphere table";
-        return false;
-    }
-    std::uint32_t version = 0;
-    std::uint64_t fileKey = 0, size = 0;
-    std::memcpy(&version, data.data() + 8, sizeof version);
-    std::memcpy(&fileKey, data.data() + 12, sizeof fileKey);
-    std::memcpy(&size, data.data() + 20, sizeof size);
-    if (version != kFormatVersion) {
-        *why = "format version " + std::to_string(version) + ", expected " +
-               std::to_string(kFormatVersion);
-        return false;
-    }
-    if (fileKey != key) {
-        *why = "key mismatch (stale)";
-        return false;
-    }
-    if (data.size() != head + size + sizeof(std::uint64_t)) {
-        *why = "truncated";
-        return false;
-    }
-    const std::string payload = data.substr(head, size);
-    std::uint64_t stored = 0;
-    std::memcpy(&stored, data.data() + head + size, sizeof stored);
-    Fnv sum;
-    sum.bytes(payload.data(), payload.size());
-    if (sum.h != stored) {
-        *why = "checksum mismatch (corrupt)";
-        return false;
-    }
+    std::string payload;
+    if (!readTableFile(file, kFileFormat, key, &payload, why)) return false;
     std::size_t pos = 0;
     std::uint32_t nb = 0;
     std::memcpy(&nb, payload.data(), sizeof nb);
