@@ -10,14 +10,9 @@
 #include "sim/msg/platform.h"
 #include "sim/sensor/stages/stage.h"
 
-namespace nvs {
-class PresetReader;
-}  // namespace nvs
-
 namespace nvs::sensor {
 
 struct CameraParams;
-using nvs::PresetReader;
 class GateStage;
 
 enum class AgcMode { Off, Agc, Abc, Bsp, Autogate };

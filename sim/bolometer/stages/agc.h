@@ -23,16 +23,10 @@
 #include <cstdint>
 #include <vector>
 
+#include "sim/bolometer/stages/stage.h"
 #include "sim/core/image.h"
 
-namespace nvs {
-class PresetReader;
-}  // namespace nvs
-
 namespace nvs::bolometer {
-
-struct ThermalCameraParams;
-using Reader = nvs::PresetReader;
 
 enum class AgcMode { Linear, Plateau };
 

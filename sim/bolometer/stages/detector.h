@@ -12,16 +12,10 @@
 // so a step reaches 1 − e^(−t/τ) of its height at t = kΔt (63 % at t = τ). The detector output
 // is V = R·P̄. The first frame starts settled (P̄_0 = P_0: the camera was looking at the scene).
 
+#include "sim/bolometer/stages/stage.h"
 #include "sim/core/image.h"
 
-namespace nvs {
-class PresetReader;
-}  // namespace nvs
-
 namespace nvs::bolometer {
-
-struct ThermalCameraParams;
-using Reader = nvs::PresetReader;
 
 struct DetectorParams {
     double time_constant_s = 0.010;

@@ -25,16 +25,10 @@
 
 #include <cstdint>
 
+#include "sim/bolometer/stages/stage.h"
 #include "sim/core/image.h"
 
-namespace nvs {
-class PresetReader;
-}  // namespace nvs
-
 namespace nvs::bolometer {
-
-struct ThermalCameraParams;
-using Reader = nvs::PresetReader;
 
 struct FocalPlaneParams {
     double ambient_K = 293.15;

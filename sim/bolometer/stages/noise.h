@@ -28,16 +28,10 @@
 #include <memory>
 #include <vector>
 
+#include "sim/bolometer/stages/stage.h"
 #include "sim/core/image.h"
 
-namespace nvs {
-class PresetReader;
-}  // namespace nvs
-
 namespace nvs::bolometer {
-
-struct ThermalCameraParams;
-using Reader = nvs::PresetReader;
 
 struct NoiseParams {
     double netd_K = 0.050;

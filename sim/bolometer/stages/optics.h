@@ -22,16 +22,10 @@
 
 #include <memory>
 
+#include "sim/bolometer/stages/stage.h"
 #include "sim/core/image.h"
 
-namespace nvs {
-class PresetReader;
-}  // namespace nvs
-
 namespace nvs::bolometer {
-
-struct ThermalCameraParams;
-using Reader = nvs::PresetReader;
 
 struct OpticsParams {
     double f_number = 1.0;

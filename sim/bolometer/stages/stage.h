@@ -8,7 +8,14 @@
 
 #include <cstdint>
 
+namespace nvs {
+class PresetReader;  // sim/core/preset_reader.h
+}  // namespace nvs
+
 namespace nvs::bolometer {
+
+struct ThermalCameraParams;
+using Reader = nvs::PresetReader;  // each stage's Params::read takes it
 
 // Philox streams (sim/core/rng.h, RngKey::stream) of this chain, far from RngStream's values so
 // that no stage of another chain ever draws the same words.

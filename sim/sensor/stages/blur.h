@@ -10,14 +10,9 @@
 #include "sim/core/row_executor.h"
 #include "sim/sensor/stages/stage.h"
 
-namespace nvs {
-class PresetReader;
-}  // namespace nvs
-
 namespace nvs::sensor {
 
 struct CameraParams;
-using nvs::PresetReader;
 
 struct BlurParams {
     // --- 7. MTF (frequencies in the image plane = photocathode plane) ----------------------

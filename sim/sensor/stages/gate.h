@@ -5,14 +5,9 @@
 
 #include "sim/sensor/stages/stage.h"
 
-namespace nvs {
-class PresetReader;
-}  // namespace nvs
-
 namespace nvs::sensor {
 
 struct CameraParams;
-using nvs::PresetReader;
 
 struct GateParams {
     // --- 2. Gate -------------------------------------------------------------------------

@@ -8,14 +8,9 @@
 #include "sim/core/row_executor.h"
 #include "sim/sensor/stages/stage.h"
 
-namespace nvs {
-class PresetReader;
-}  // namespace nvs
-
 namespace nvs::sensor {
 
 struct CameraParams;
-using nvs::PresetReader;
 
 struct HaloParams {
     // --- 3b. Halo: photoelectrons backscattered at the MCP input land on a disk ------------

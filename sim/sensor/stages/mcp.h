@@ -13,14 +13,9 @@ namespace nvs {
 class PixelRng;
 }
 
-namespace nvs {
-class PresetReader;
-}  // namespace nvs
-
 namespace nvs::sensor {
 
 struct CameraParams;
-using nvs::PresetReader;
 
 struct McpParams {
     // --- 4. Bright-source protection (agc = "bsp") -------------------------------------------

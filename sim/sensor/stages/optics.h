@@ -8,14 +8,9 @@
 #include "sim/core/image.h"
 #include "sim/sensor/stages/stage.h"
 
-namespace nvs {
-class PresetReader;
-}  // namespace nvs
-
 namespace nvs::sensor {
 
 struct CameraParams;
-using nvs::PresetReader;
 
 enum class SolidAngleModel { Lens, CcdArea };
 

@@ -10,14 +10,9 @@
 #include "sim/core/image.h"
 #include "sim/sensor/stages/stage.h"
 
-namespace nvs {
-class PresetReader;
-}  // namespace nvs
-
 namespace nvs::sensor {
 
 struct CameraParams;
-using nvs::PresetReader;
 
 struct PhosphorParams {
     // --- 6. Phosphor ----------------------------------------------------------------------

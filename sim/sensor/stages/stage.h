@@ -9,7 +9,13 @@
 #include <cstddef>
 #include <cstdint>
 
+namespace nvs {
+class PresetReader;  // sim/core/preset_reader.h: each stage's Params::read takes it
+}  // namespace nvs
+
 namespace nvs::sensor {
+
+using nvs::PresetReader;
 
 // Row scratch is rounded up to whole Philox blocks and vector chunks.
 inline constexpr int kRowPad_px = 32;

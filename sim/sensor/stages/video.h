@@ -7,14 +7,9 @@
 #include "sim/core/image.h"
 #include "sim/sensor/stages/stage.h"
 
-namespace nvs {
-class PresetReader;
-}  // namespace nvs
-
 namespace nvs::sensor {
 
 struct CameraParams;
-using nvs::PresetReader;
 
 enum class ScanMode { Frame, Field };
 
