@@ -460,15 +460,9 @@ void addThermalItems(Items& items, const DataDirs& dirs, const std::filesystem::
     it.setup = [f, th] {
         rt::ScenarioRenderer& sr = f->get();
         if (th->scene) return;
-        const rt::Scenario& sc = sr.scenario();
-        rt::ThermalSceneSpec spec;
-        spec.weatherFile = sc.scene.thermal->weatherFile;
-        spec.materialsFile = sc.scene.thermal->materialsFile;
-        sr.prepare(0.0);
-        th->scene = std::make_unique<rt::ThermalScene>(
-            sr.scene(), sr.renderer(), sc.scene.site, sr.epoch(), sc.utcStart_unix_s,
-            sc.utcStart_unix_s, sc.utcStart_unix_s + 60.0, spec, f->dirs);
-        th->chain = std::make_unique<bolometer::BolometerChain>(*sc.camera.thermalParams, 1);
+        th->scene = rt::ThermalScene::forScenario(sr, f->dirs);
+        th->chain =
+            std::make_unique<bolometer::BolometerChain>(*sr.scenario().camera.thermalParams, 1);
     };
     it.iteration = [f, th] {
         rt::ScenarioRenderer& sr = f->get();

@@ -147,4 +147,20 @@ double ThermalScene::groundRadianceAt(double t_s) const noexcept {
     return area > 0.0 ? sum / area : lwir_->blackbody_W_m2_sr(weather_.at(t_s).air_K);
 }
 
+std::unique_ptr<ThermalScene> ThermalScene::forScenario(ScenarioRenderer& sr,
+                                                        const DataDirs& dirs) {
+    const Scenario& sc = sr.scenario();
+    const ThermalSpec& ts = *sc.scene.thermal;
+    ThermalSceneSpec spec;
+    spec.weatherFile = ts.weatherFile;
+    spec.materialsFile = ts.materialsFile;
+    const bolometer::ThermalCameraParams& cam = *sc.camera.thermalParams;
+    spec.band = lwir::BandResponse::flat(cam.band_lo_um, cam.band_hi_um);
+    sr.prepare(0.0);
+    const double end_s = sc.utcStart_unix_s + std::max(sc.duration_s.value_or(60.0), 60.0);
+    return std::make_unique<ThermalScene>(sr.scene(), sr.renderer(), sc.scene.site, sr.epoch(),
+                                          sc.utcStart_unix_s, sc.utcStart_unix_s, end_s, spec,
+                                          dirs);
+}
+
 }  // namespace nvs::rt

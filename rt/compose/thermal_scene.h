@@ -11,6 +11,7 @@
 #include <memory>
 #include <vector>
 
+#include "rt/compose/scene_setup.h"
 #include "sim/astro/ephemeris.h"
 #include "sim/astro/time.h"
 #include "sim/core/paths.h"
@@ -54,6 +55,11 @@ class ThermalScene {
     const lwir::LwirTable& lwirTable() const { return *lwir_; }
     const thermal::WeatherSeries& weather() const { return weather_; }
     const thermal::HeatBalanceReport& report() const { return report_; }
+
+    // The thermal side of a scenario with a thermal camera preset: its [thermal] table, the
+    // preset's band, the scene as placed at the start, the heat balance over the run (at least
+    // a minute, the table's span). What the run and the bench both set up.
+    static std::unique_ptr<ThermalScene> forScenario(ScenarioRenderer& sr, const DataDirs& dirs);
 
   private:
     void buildClasses(const scene::Scene& scene, const render::Renderer& renderer,

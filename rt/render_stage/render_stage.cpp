@@ -22,19 +22,7 @@ std::unique_ptr<SceneRenderStage> SceneRenderStage::create(const Scenario& sc,
     }
     s->epochUnix_s_ = sc.utcStart_unix_s;
     if (sc.camera.thermal) {
-        // The classes from the scene at the start; the heat balance over the run (at least a
-        // minute: the table's span).
-        const ThermalSpec& ts = *rs.thermal;
-        ThermalSceneSpec spec;
-        spec.weatherFile = ts.weatherFile;
-        spec.materialsFile = ts.materialsFile;
-        const bolometer::ThermalCameraParams& cam = *sc.camera.thermalParams;
-        spec.band = lwir::BandResponse::flat(cam.band_lo_um, cam.band_hi_um);
-        s->sr_->prepare(0.0);
-        const double end_s = sc.utcStart_unix_s + std::max(sc.duration_s.value_or(60.0), 60.0);
-        s->thermal_ = std::make_unique<ThermalScene>(s->sr_->scene(), s->sr_->renderer(), rs.site,
-                                                     s->sr_->epoch(), sc.utcStart_unix_s,
-                                                     sc.utcStart_unix_s, end_s, spec, dirs);
+        s->thermal_ = ThermalScene::forScenario(*s->sr_, dirs);
     }
     s->pose_ = PlatformPose(rs.site);
     const auto& lamps = s->sr_->scene().lamps;
