@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <ctime>
 #include <map>
 
 namespace nvs::rt::bench {
@@ -31,6 +32,9 @@ void summarise(TimedItem& it) {
     it.p50_s = quantile(t, 0.5);
     it.p99_s = quantile(t, 0.99);
     it.mean_s = sum / static_cast<double>(t.size());
+    std::vector<double> c = it.cpuSamples_s;
+    std::sort(c.begin(), c.end());
+    if (!c.empty()) it.cpuP50_s = quantile(c, 0.5);
 }
 
 // Collects each item's last (reported) trial and prints one line per item on stderr.
@@ -130,11 +134,16 @@ MachineInfo runTimedItems(std::vector<std::unique_ptr<TimedItem>>& items,
             // last trial is the one reported, so each call starts the samples afresh.
             it->samples_s.clear();
             it->samples_s.reserve(static_cast<std::size_t>(st.max_iterations));
+            it->cpuSamples_s.clear();
+            it->cpuSamples_s.reserve(static_cast<std::size_t>(st.max_iterations));
             using Clock = std::chrono::steady_clock;
             for (auto _ : st) {
+                if (it->prepare) it->prepare();
+                const double c0 = threadCpu_s();
                 const auto t0 = Clock::now();
                 it->iteration();
                 const double dt = std::chrono::duration<double>(Clock::now() - t0).count();
+                it->cpuSamples_s.push_back(threadCpu_s() - c0);
                 st.SetIterationTime(dt);
                 it->samples_s.push_back(dt);
             }
@@ -156,13 +165,20 @@ MachineInfo runTimedItems(std::vector<std::unique_ptr<TimedItem>>& items,
     return collector.machine;
 }
 
+double threadCpu_s() noexcept {
+    timespec ts{};
+    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+    return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
+}
+
 std::string timedItemJson(const TimedItem& r) {
     char buf[512];
     std::snprintf(buf, sizeof buf,
                   "{\"name\":\"%s\",\"what\":\"%s\",\"iterations\":%lld,\"min_s\":%.4g,"
-                  "\"p50_s\":%.4g,\"p99_s\":%.4g,\"mean_s\":%.4g,",
+                  "\"p50_s\":%.4g,\"p99_s\":%.4g,\"mean_s\":%.4g,\"cpu_p50_s\":%.4g,",
                   jsonEscape(r.name).c_str(), jsonEscape(r.what).c_str(),
-                  static_cast<long long>(r.iterations), r.min_s, r.p50_s, r.p99_s, r.mean_s);
+                  static_cast<long long>(r.iterations), r.min_s, r.p50_s, r.p99_s, r.mean_s,
+                  r.cpuP50_s);
     std::string j = buf;
     if (r.target_s) {
         std::snprintf(buf, sizeof buf, "\"target_s\":%.4g,\"meets_target\":%s", *r.target_s,

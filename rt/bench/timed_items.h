@@ -25,6 +25,7 @@ struct TimedItem {
     // Called once before the first timed iteration (untimed): heavy setup, only for the items
     // the filter keeps.
     std::function<void()> setup;
+    std::function<void()> prepare;    // before each timed iteration, untimed (may be empty)
     std::function<void()> iteration;  // one timed iteration
     // Called once after timing: adds figures (rays/s, pe/px, ...) to `extra`.
     std::function<void(TimedItem&)> after;
@@ -37,12 +38,19 @@ struct TimedItem {
     std::string note;               // one line `after` may add (e.g. the OpenGL renderer used)
     std::string error;              // why setup failed (the item then did not run)
     std::vector<double> samples_s;  // the reported trial's per-iteration times
+    // The calling thread's CPU time per iteration (CLOCK_THREAD_CPUTIME_ID): for one-thread
+    // items the core's share, less disturbed by other load than the wall time.
+    std::vector<double> cpuSamples_s;
+    double cpuP50_s = 0.0;
 };
 
 // What Google Benchmark reports about the machine (0 when no item ran).
 struct MachineInfo {
     double mhz = 0.0;
 };
+
+// The calling thread's CPU time [s] (CLOCK_THREAD_CPUTIME_ID).
+double threadCpu_s() noexcept;
 
 // Whether `name` is kept by `filter`: comma-separated texts, kept if it contains any of them
 // (every name without a filter).

@@ -53,6 +53,7 @@
 namespace nvs::cli {
 namespace {
 
+using rt::bench::threadCpu_s;
 using rt::bench::TimedItem;
 using Items = std::vector<std::unique_ptr<TimedItem>>;
 
@@ -415,6 +416,81 @@ void addPrimary1080Items(Items& items, const DataDirs& dirs,
     }
 }
 
+// A thermal channel boresighted with the intensified camera (docs/thermal.md, "Shared primary
+// hits"): the airborne pass's 768 × 494 intensified frame is rendered first, untimed (the
+// intensified channel's own work); the timed part is what the thermal channel adds on one
+// thread: its 640 × 512 pixels take the primary hits of that frame's G-buffer (a 24 mm lens,
+// 18.3° × 14.7°, inside the intensified camera's 22.0° × 16.7°: no ray of its own), the thermal
+// shading and the bolometer chain. The budget: half of one core at 30 Hz, 16.7 ms a frame.
+void addBoresightItem(Items& items, const DataDirs& dirs, const std::filesystem::path& air,
+                      const std::filesystem::path& weather) {
+    struct Thermal {
+        std::unique_ptr<rt::ThermalScene> scene;
+        std::unique_ptr<bolometer::BolometerChain> chain;
+        ImageF radiance;
+        render::SerialExecutor one;
+    };
+    auto f = std::make_shared<Flight>();
+    auto th = std::make_shared<Thermal>();
+    f->file = air;
+    f->dirs = dirs;
+    f->threads = 2;
+    f->period_s = 1.0 / 30.0;
+    TimedItem& it = add(items, "thermal_air_640x512_boresight_1t",
+                        "airborne pass: a 640x512 microbolometer boresighted with the 768x494 "
+                        "intensified camera, one thread: thermal shading from the intensified "
+                        "frame's primary hits and the bolometer chain, camera moving",
+                        1.0 / 60.0, 1.5);
+    it.setup = [f, th, weather] {
+        rt::ScenarioRenderer& sr = f->get();
+        bolometer::ThermalCameraParams cam =
+            bolometer::loadThermalCamera(f->dirs.config, "boson-640");
+        cam.frame_rate_Hz = 30.0;
+        rt::ThermalSpec ts;
+        ts.weatherFile = weather;
+        ts.materialsFile = f->dirs.config / "thermal" / "materials.toml";
+        ts.focalLength_mm = 24.0;
+        th->scene = rt::ThermalScene::forChannel(sr, cam, ts, f->dirs);
+        sr.renderer().setThermalView(
+            rt::thermalRenderConfig(cam, ts.focalLength_mm, cam.width, cam.height).camera);
+        th->chain = std::make_unique<bolometer::BolometerChain>(cam, 1);
+        th->radiance = ImageF(cam.width, cam.height);
+    };
+    it.prepare = [f] { f->renderNext(-1); };
+    it.iteration = [f, th] {
+        rt::ScenarioRenderer& sr = *f->sr;
+        const double t_s = static_cast<double>((f->next - 1) % f->poses.size()) * f->period_s;
+        sr.renderer().renderThermal(th->scene->frame(sr.scenario().utcStart_unix_s + t_s),
+                                    th->radiance.view(), th->one);
+        (void)th->chain->process(th->radiance.cview());
+    };
+    // The timed part's shares in this thread's CPU time (less disturbed by other load than the
+    // wall clock): the shading after the camera moved (each pixel's hit, class, range and
+    // emissivity anew), the shading with them kept, the bolometer chain; the mean of 10 each.
+    it.after = [f, th](TimedItem& self) {
+        render::Renderer& r = f->sr->renderer();
+        const render::ThermalFrame& frame = th->scene->frame(f->sr->scenario().utcStart_unix_s);
+        double moved_s = 0.0, kept_s = 0.0, chain_s = 0.0;
+        for (int i = 0; i < 10; ++i) {
+            f->renderNext(-1);
+            const double t0 = threadCpu_s();
+            r.renderThermal(frame, th->radiance.view(), th->one);
+            const double t1 = threadCpu_s();
+            r.renderThermal(frame, th->radiance.view(), th->one);
+            const double t2 = threadCpu_s();
+            (void)th->chain->process(th->radiance.cview());
+            const double t3 = threadCpu_s();
+            moved_s += t1 - t0;
+            kept_s += t2 - t1;
+            chain_s += t3 - t2;
+        }
+        self.extra.emplace_back("shading_moved_ms", moved_s * 100.0);
+        self.extra.emplace_back("shading_kept_ms", kept_s * 100.0);
+        self.extra.emplace_back("bolometer_ms", chain_s * 100.0);
+        self.extra.emplace_back("own_ray_px", static_cast<double>(r.thermalOwnRays()));
+    };
+}
+
 // The thermal channel on the airborne pass (docs/performance.md, "Thermal channel"): the flight
 // seen by a 640 × 512 microbolometer (boson-640, 18 mm lens) with a pose of its own, the camera
 // moving a frame (1/30 s) apart, on one thread: each iteration casts the primary rays, shades
@@ -490,6 +566,7 @@ void addThermalItems(Items& items, const DataDirs& dirs, const std::filesystem::
         self.extra.emplace_back("surface_classes",
                                 static_cast<double>(th->scene->surfaces().size()));
     };
+    addBoresightItem(items, dirs, air, weather);
 }
 
 // The eq. 7.1 reference set up like the camera preset: the same mean photoelectrons per pixel

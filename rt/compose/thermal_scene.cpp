@@ -150,11 +150,17 @@ double ThermalScene::groundRadianceAt(double t_s) const noexcept {
 std::unique_ptr<ThermalScene> ThermalScene::forScenario(ScenarioRenderer& sr,
                                                         const DataDirs& dirs) {
     const Scenario& sc = sr.scenario();
-    const ThermalSpec& ts = *sc.scene.thermal;
+    return forChannel(sr, *sc.camera.thermalParams, *sc.scene.thermal, dirs);
+}
+
+std::unique_ptr<ThermalScene> ThermalScene::forChannel(ScenarioRenderer& sr,
+                                                       const bolometer::ThermalCameraParams& cam,
+                                                       const ThermalSpec& ts,
+                                                       const DataDirs& dirs) {
+    const Scenario& sc = sr.scenario();
     ThermalSceneSpec spec;
     spec.weatherFile = ts.weatherFile;
     spec.materialsFile = ts.materialsFile;
-    const bolometer::ThermalCameraParams& cam = *sc.camera.thermalParams;
     spec.band = lwir::BandResponse::flat(cam.band_lo_um, cam.band_hi_um);
     sr.prepare(0.0);
     const double end_s = sc.utcStart_unix_s + std::max(sc.duration_s.value_or(60.0), 60.0);

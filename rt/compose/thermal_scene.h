@@ -60,6 +60,11 @@ class ThermalScene {
     // preset's band, the scene as placed at the start, the heat balance over the run (at least
     // a minute, the table's span). What the run and the bench both set up.
     static std::unique_ptr<ThermalScene> forScenario(ScenarioRenderer& sr, const DataDirs& dirs);
+    // The same for a thermal camera `cam` beside the scenario's own camera (its renderer's
+    // classes; Renderer::setThermalView then draws the thermal camera from shared hits).
+    static std::unique_ptr<ThermalScene> forChannel(ScenarioRenderer& sr,
+                                                    const bolometer::ThermalCameraParams& cam,
+                                                    const ThermalSpec& ts, const DataDirs& dirs);
 
   private:
     void buildClasses(const scene::Scene& scene, const render::Renderer& renderer,

@@ -138,7 +138,14 @@ struct Renderer::Impl {
     // Thermal classes (thermal.cpp): the classes and, per class key, the class that stands
     // for it (the nearest present class where a key has no face of its own).
     std::vector<ThermalSurface> thermal;
-    std::vector<std::int32_t> thermalOfKey;
+    // Per class key: the class that stands for it, the classes of the sky-view bands below and
+    // above it (−1: none, or no sky-view difference) with 1/(their mean sky view − its own), its
+    // own mean sky view, and the material's specularity (what each pixel would otherwise look up).
+    struct ThermalKey {
+        std::int32_t cls = -1, below = -1, above = -1;
+        float skyView = 0.0f, invBelow = 0.0f, invAbove = 0.0f, specularity = 0.0f;
+    };
+    std::vector<ThermalKey> thermalKeys;
     // Per pixel, what the thermal band takes from the G-buffer alone (thermal.cpp), valid for
     // G-buffer generation thermalGeneration: the two classes and the weight between them, the
     // emissivity toward the camera, the environment's sky part and its air-radiance weight,
@@ -147,7 +154,12 @@ struct Renderer::Impl {
         std::int32_t cls0 = -1, cls1 = -1;
         float w = 0.0f, eps = 0.0f, envSky = 0.0f, envGround = 0.0f, tau = 1.0f, path = 0.0f;
     };
-    std::vector<ThermalPixel> thermalPx;
+    std::vector<ThermalPixel> thermalPx;  // per pixel of the thermal view
+    // The thermal view (Renderer::setThermalView): its pinhole, and per pixel the G-buffer
+    // pixel whose primary hit it takes (−1: outside this camera's image, a ray of its own).
+    PinholeCamera thermalView;
+    std::vector<std::int32_t> thermalSrc;
+    int thermalOwnRays = 0;  // pixels with a ray of their own
     std::uint64_t thermalGeneration = 0;
     const void* thermalFrameTables = nullptr;  // the ThermalFrame tables they came from
     // Static lighting data per pixel: everything about a pixel's light that depends only on the

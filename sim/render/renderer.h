@@ -174,14 +174,25 @@ class Renderer {
     // Setup: the share of a class's sample points that see the direction `towardSun` (unit,
     // world), by shadow rays through the scene as placed now.
     double sunlitFraction(const ThermalSurface& surface, const Vec3& towardSun) const;
-    // Per frame (after prepareThermal): the band radiance at the aperture,
+    // Setup (after prepareThermal, which sets the renderer's own camera): the camera the thermal
+    // band is drawn for. A thermal camera boresighted with this renderer's (the same centre of
+    // projection and axes, its own pinhole) shares the primary hits: each of its pixels takes
+    // the hit of the G-buffer pixel that holds its centre (nearest sample; docs/thermal.md,
+    // "Shared primary hits"), and casts a ray of its own where it lies outside this camera's
+    // image. Throws SetupError on a view without size, focal length or pitch.
+    void setThermalView(const PinholeCamera& view);
+    const PinholeCamera& thermalView() const noexcept;
+    int thermalOwnRays() const noexcept;  // view pixels outside this camera's image
+    // Per frame (after prepareThermal): the band radiance at the aperture of the thermal view
+    // (`radiance` its size),
     //   L = τ(r)·(ε(θ)·B(T) + (1 − ε(θ))·L_env) + L_path(r),
     // L_env = s·L_mirror + (1 − s)·(F·L_sky,diffuse + (1 − F)·L_ground) (s the material's
     // specularity, F the sky-view factor); rays that miss see the sky radiance at their zenith
-    // angle (L_ground below the horizon). Shares the G-buffer with render().
+    // angle (L_ground below the horizon). Shares the G-buffer with render(): a render() of the
+    // same pose before it leaves no primary ray to cast but the view's own.
     void renderThermal(const ThermalFrame& frame, ImageView<float> radiance,
                        RowExecutor& exec) noexcept;
-    // The thermal class of a pixel's primary hit (−1: sky), after renderThermal.
+    // The thermal class of a view pixel's primary hit (−1: sky), after renderThermal.
     int thermalClassOfPixel(int x, int y) const noexcept;
     // The surface temperature renderThermal gives a pixel's hit (its class's, interpolated in
     // sky view between neighbouring classes); 0 for the sky.
