@@ -140,6 +140,13 @@ t.box("face_molding", -0.93, 0.93, -2.3, 2.3, 0.4, 0.55)
 t.box("face_glass_trk", -0.85, 0.85, -1.6, 1.6, 1.1, 1.6)
 t.box("face_frame_blk", -0.85, 0.85, -1.6, 1.6, 1.6, 1.72)
 t.write("meshes/truck.obj", "sport-utility truck, object frame (placed by scene.toml)")
+# The driving truck of scene_drive.toml, its engine running: the same body with a hood panel over
+# the engine bay, 1 cm above the frame's top in front of the cab (thermal engine_hood), and a
+# tailpipe out of the rear below the bumper (thermal exhaust); sizes typical, not from the thesis.
+t.box("face_hood", -0.90, 0.90, 1.65, 2.38, 1.10, 1.11)
+t.box("face_exhaust", 0.45, 0.55, -2.46, -2.38, 0.28, 0.36)
+t.write("meshes/truck_running.obj", "sport-utility truck with its engine running, object frame "
+        "(placed by scene_drive.toml)")
 
 # The CIS building under the camera (roof 14 m; camera on a tripod above it).
 b = Obj()
@@ -205,10 +212,19 @@ def write_scene(path, drive=False, air=False):
         f.write("target_m = [0.0, 0.0, 0.0]\n\n")
         for name, sp in mats:
             f.write('[[material]]\nname = "%s"\nthermal = "%s"\nreflectance_file = "reflectance/%s.csv"\nspecularity = %.2f\n\n' % (name, THERMAL[name], name, sp))
+            if drive and name == "red_truck":
+                f.write("# The running engine's hood (the red paint over the engine bay) and the tailpipe (dark oxidised\n"
+                        "# steel, taken with the molding's reflectance): heat sources of the thermal channel.\n")
+                f.write('[[material]]\nname = "red_truck_hood"\nthermal = "engine_hood"\n'
+                        'reflectance_file = "reflectance/red_truck.csv"\nspecularity = %.2f\n\n' % sp)
+                f.write('[[material]]\nname = "tailpipe"\nthermal = "exhaust"\n'
+                        'reflectance_file = "reflectance/molding.csv"\nspecularity = 0.10\n\n')
         f.write("[layers]  # thesis Table 14-1\n")
         for l in layers:
             if l[0].startswith("face_"):
                 f.write('%s = "%s"\n' % (l[0], l[3]))
+            if drive and l[0] == "face_frame_blk":
+                f.write('face_hood = "red_truck_hood"\nface_exhaust = "tailpipe"\n')
         f.write("\n")
         objs = [("ground", "meshes/ground.obj", None, 0, -1), ("targets", "meshes/targets.obj", None, 0, -1),
                 ("street_lamp_pole", "meshes/street_lamp.obj", None, 0, -1),
@@ -218,15 +234,18 @@ def write_scene(path, drive=False, air=False):
         if air:
             objs.append(("terrain", "meshes/terrain.obj", None, 0, -1))
         for name, mesh, pos, yaw, track in objs:
+            if drive and name == "truck":
+                mesh = "meshes/truck_running.obj"
             f.write('[[object]]\nname = "%s"\nmesh = "%s"\n' % (name, mesh))
             if pos:
                 f.write("position_m = [%.4f, %.4f, 0.0]\nyaw_deg = %.1f\ntrack_id = %d\n" % (enu(pos[0], pos[1], 0)[:2] + (yaw % 360, track)))
                 if drive and name == "truck":
                     # Across the lot in front of the curb at 9 m/s (20 mph), along the lot's x
-                    # axis at 4.5 m beyond the panels' row, from x = -12 m to +6 m in 2 s
-                    # (keyframes t, x, y, z, yaw; yaw of the lot's +x axis).
-                    hx = math.degrees(math.atan2(EX[0], EX[1])) % 360
-                    a, b = enu(-12.0, 4.5, 0)[:2], enu(6.0, 4.5, 0)[:2]
+                    # axis at 4.5 m beyond the panels' row, from x = +6 m to -12 m in 2 s, its
+                    # front (the running engine's hood) toward the camera (keyframes t, x, y, z,
+                    # yaw; yaw of the lot's -x axis).
+                    hx = (math.degrees(math.atan2(EX[0], EX[1])) + 180.0) % 360
+                    a, b = enu(6.0, 4.5, 0)[:2], enu(-12.0, 4.5, 0)[:2]
                     f.write("trajectory = [0.0, %.4f, %.4f, 0.0, %.1f,\n              2.0, %.4f, %.4f, 0.0, %.1f]\n"
                             % (a[0], a[1], hx, b[0], b[1], hx))
             f.write("\n")

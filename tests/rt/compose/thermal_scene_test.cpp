@@ -235,5 +235,68 @@ TEST(ThermalScene, SharedPrimaryHitsMatchTheThermalCamerasOwnRays) {
     r.setThermalView(r.camera());
 }
 
+// Heat sources (docs/thermal.md, "Heat sources"): vehicle-drive-lwir's truck drives with its engine
+// running, its front toward the camera. Its hood (painted steel over a 343 K engine bay) is the
+// warmest of the truck in view, its black roof, open to the clear sky, the coldest; the person's
+// face warmer than the grass. Brightness temperatures of the rendered pixels by
+// material at t = 1/3 s (frame 10), where the whole front of the truck is in view.
+TEST(ThermalScene, RunningTruckHoodIsWarmAndItsRoofCold) {
+    SerialExecutor exec;
+    auto sr =
+        ScenarioRenderer::create(kSource / "scenarios/vehicle-drive-lwir/scenario.toml", kDirs);
+    const std::unique_ptr<ThermalScene> thermal = ThermalScene::forScenario(*sr, kDirs);
+    const double t_s = 10.0 / 30.0;
+    (void)sr->prepare(t_s);
+    Renderer& r = sr->renderer();
+    ImageF radiance(r.camera().width, r.camera().height);
+    r.renderThermal(thermal->frame(sr->scenario().utcStart_unix_s + t_s), radiance.view(), exec);
+    std::map<int, std::pair<double, int>> byMaterial;  // sum of brightness temperature, pixels
+    for (int y = 0; y < r.camera().height; ++y) {
+        for (int x = 0; x < r.camera().width; ++x) {
+            Vec3 p;
+            int mat = -1, obj = -1;
+            if (!r.pixelHit(x, y, &p, &mat, &obj)) continue;
+            auto& e = byMaterial[mat];
+            e.first +=
+                thermal->lwirTable().brightnessTemperature_K(static_cast<double>(radiance(x, y)));
+            ++e.second;
+        }
+    }
+    const auto mean = [&](const char* name, int* n) {
+        const auto& e = byMaterial[sr->scene().materialIndex(name)];
+        *n = e.second;
+        return e.second > 0 ? e.first / e.second : 0.0;
+    };
+    int nHood = 0, nPipe = 0, nRoof = 0, nBody = 0, nGrass = 0, nFace = 0;
+    const double hood = mean("red_truck_hood", &nHood), pipe = mean("tailpipe", &nPipe);
+    const double roof = mean("blk_truck", &nRoof), body = mean("red_truck", &nBody);
+    const double grass = mean("grass", &nGrass), face = mean("flesh", &nFace);
+    std::printf(
+        "vehicle-drive-lwir frame 10, brightness temperature: hood %.1f K (%d px), "
+        "tailpipe %.1f K (%d px), roof %.1f K (%d px), body %.1f K (%d px), face %.1f K "
+        "(%d px), grass %.1f K (%d px)\n",
+        hood, nHood, pipe, nPipe, roof, nRoof, body, nBody, face, nFace, grass, nGrass);
+    ASSERT_GT(nHood, 50);
+    ASSERT_GT(nRoof, 50);
+    ASSERT_GT(nBody, 50);
+    ASSERT_GT(nFace, 3);
+    EXPECT_GT(hood, body + 5.0);
+    EXPECT_GT(hood, roof + 10.0);
+    EXPECT_LT(roof, body);
+    EXPECT_GT(face, grass + 5.0);
+    // The tailpipe, at the rear, is out of sight from the front: its classes hold the material's
+    // fixed 393.15 K (config/thermal/materials.toml, [exhaust]).
+    EXPECT_EQ(nPipe, 0) << pipe;
+    const int tailpipe = sr->scene().materialIndex("tailpipe");
+    int pipeClasses = 0;
+    for (std::size_t i = 0; i < thermal->surfaces().size(); ++i) {
+        if (thermal->surfaces()[i].material != tailpipe) continue;
+        EXPECT_NEAR(thermal->temperatures().at(i, sr->scenario().utcStart_unix_s + t_s), 393.15,
+                    0.01);
+        ++pipeClasses;
+    }
+    EXPECT_GT(pipeClasses, 0);
+}
+
 }  // namespace
 }  // namespace nvs::rt
