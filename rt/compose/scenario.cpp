@@ -8,6 +8,7 @@
 #include "sim/core/config.h"
 #include "sim/core/input_file.h"
 #include "sim/core/units.h"
+#include "sim/thermal/thermal_config.h"
 
 namespace nvs::rt {
 
@@ -208,6 +209,7 @@ void readSceneTables(const ConfigTable& root, const std::filesystem::path& file,
             th->fail("materials", "file not found: " + ts.materialsFile.string());
         }
         ts.focalLength_mm = finiteIn(*th, "focal_length_mm", ts.focalLength_mm, 1.0, 1000.0);
+        ts.heat = thermal::readHeatBalanceParams(*th);
         out.thermal = ts;
     }
     try {

@@ -84,6 +84,7 @@
 #include "sim/render/renderer.h"
 #include "sim/sensor/camera.h"
 #include "sim/sky/atmosphere.h"
+#include "sim/thermal/heat_balance.h"
 
 namespace nvs::rt {
 
@@ -134,6 +135,7 @@ struct ThermalSpec {
     std::filesystem::path weatherFile;    // absolute
     std::filesystem::path materialsFile;  // absolute; default config/thermal/materials.toml
     double focalLength_mm = 18.0;         // the lens
+    thermal::HeatBalanceParams heat;      // linke_turbidity, dt_s (thermal::readHeatBalanceParams)
     FileLoc loc;                          // the [thermal] table
 };
 

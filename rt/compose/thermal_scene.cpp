@@ -161,6 +161,7 @@ std::unique_ptr<ThermalScene> ThermalScene::forChannel(ScenarioRenderer& sr,
     ThermalSceneSpec spec;
     spec.weatherFile = ts.weatherFile;
     spec.materialsFile = ts.materialsFile;
+    spec.heat = ts.heat;
     spec.band = lwir::BandResponse::flat(cam.band_lo_um, cam.band_hi_um);
     sr.prepare(0.0);
     const double end_s = sc.utcStart_unix_s + std::max(sc.duration_s.value_or(60.0), 60.0);

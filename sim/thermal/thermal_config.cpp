@@ -44,13 +44,21 @@ SurfaceClass readSurface(const ConfigTable& s, const MaterialLibrary& lib) {
 
 }  // namespace
 
-ThermalSetup readThermalSetup(const ConfigTable& thermal, const std::filesystem::path& dataDir) {
+HeatBalanceParams readHeatBalanceParams(const ConfigTable& thermal) {
+    HeatBalanceParams p;
+    p.forcing.linkeTurbidity = inRange(thermal, "linke_turbidity", 3.0, 1.0, 10.0);
+    p.dt_s = inRange(thermal, "dt_s", 60.0, 1.0, 3600.0);
+    return p;
+}
+
+ThermalSetup readThermalSetup(const ConfigTable& thermal, const std::filesystem::path& dataDir,
+                              const std::filesystem::path& configThermalDir) {
     ThermalSetup setup;
-    setup.materials =
-        MaterialLibrary::load(dataDir / thermal.get<std::string>("materials", "materials.toml"));
+    setup.materials = MaterialLibrary::load(
+        thermal.contains("materials") ? dataDir / thermal.require<std::string>("materials")
+                                      : configThermalDir / "materials.toml");
     setup.weather = WeatherSeries::load(dataDir / thermal.require<std::string>("weather"));
-    setup.params.forcing.linkeTurbidity = inRange(thermal, "linke_turbidity", 3.0, 1.0, 10.0);
-    setup.params.dt_s = inRange(thermal, "dt_s", 60.0, 1.0, 3600.0);
+    setup.params = readHeatBalanceParams(thermal);
     for (const ConfigTable& s : thermal.tableArray("surface"))
         setup.classes.push_back(readSurface(s, setup.materials));
     if (setup.classes.empty()) thermal.fail("surface", "a thermal scene needs one surface or more");

@@ -1,11 +1,17 @@
 #pragma once
-// A scenario's thermal set-up, read from its [thermal] table (docs/thermal.md §8):
+// The [thermal] table (docs/thermal.md §8). A scenario's and a class-set file's share its keys:
 //
 //   [thermal]
-//   weather = "weather/rochester-1998-09-02.csv"   # relative to dataDir (config/thermal)
-//   materials = "materials.toml"                   # relative to dataDir (this default)
-//   linke_turbidity = 3.0
+//   weather = "weather/rochester-1998-09-02.csv"   # relative to the file's folder
+//   materials = "materials.toml"                   # relative to the file's folder; default
+//                                                  # config/thermal/materials.toml
+//   linke_turbidity = 3.0                          # readHeatBalanceParams
 //   dt_s = 60.0
+//
+// A scenario adds its camera's lens (focal_length_mm; rt/compose/scenario.cpp) and takes its
+// surface classes from its scene; a class-set file (config/thermal/rit-nolight.toml, read by
+// readThermalSetup for the heat balance alone) lists them:
+//
 //   [[thermal.surface]]
 //   name = "truck roof"
 //   material = "painted_metal"
@@ -37,6 +43,13 @@ struct ThermalSetup {
     HeatBalanceParams params;
 };
 
-ThermalSetup readThermalSetup(const ConfigTable& thermal, const std::filesystem::path& dataDir);
+// The heat balance's keys of a [thermal] table: linke_turbidity (1–10, default 3) and dt_s
+// (1–3600 s, default 60). Errors name the file:line.
+HeatBalanceParams readHeatBalanceParams(const ConfigTable& thermal);
+
+// A class-set file's [thermal] table; dataDir: the file's folder, configThermalDir: config/thermal
+// (the default materials file's folder).
+ThermalSetup readThermalSetup(const ConfigTable& thermal, const std::filesystem::path& dataDir,
+                              const std::filesystem::path& configThermalDir);
 
 }  // namespace nvs::thermal

@@ -3,7 +3,8 @@
 //   - a scene material without a thermal material, or one whose thermal material has no layers;
 //   - a gap in the weather series;
 //   - an emissivity outside 0–1 in the materials file;
-//   - a thermal preset without [thermal], and [thermal] beside an intensified preset.
+//   - a thermal preset without [thermal], and [thermal] beside an intensified preset;
+//   - a heat-balance key of [thermal] out of range.
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -129,6 +130,19 @@ TEST(ThermalInput, ThermalTableAndPresetBelongTogether) {
     r = nvstim("run " + night.string() +
                " --clock sim --frames 1 --output pgm:" + (w.path / "out").string());
     expectOneLine(r, "scenario.toml:", "needs a [thermal] table");
+}
+
+// The heat balance's keys of [thermal] (thermal::readHeatBalanceParams, shared with class-set
+// files): a Linke turbidity outside 1–10 names its line.
+TEST(ThermalInput, HeatBalanceKeyOutOfRangeNamesItsLine) {
+    WorkDir w;
+    const fs::path night = copyNight(w.path);
+    std::string sc = readAll(night / "scenario.toml");
+    write(night / "scenario.toml", std::regex_replace(sc, std::regex("\\[thermal\\]\n"),
+                                                      "[thermal]\nlinke_turbidity = 20.0\n"));
+    const auto r = nvstim("run " + night.string() +
+                          " --clock sim --frames 1 --output pgm:" + (w.path / "out").string());
+    expectOneLine(r, "scenario.toml:", "linke_turbidity");
 }
 
 }  // namespace

@@ -31,7 +31,7 @@ sunlit_fraction = [1.0, 0.0]
 
 ThermalSetup read(const std::string& text) {
     const ConfigDocument doc = ConfigDocument::parseString(text, "scn.toml");
-    ThermalSetup s = readThermalSetup(doc.root().table("thermal"), kData);
+    ThermalSetup s = readThermalSetup(doc.root().table("thermal"), kData, kData);
     doc.finish();
     return s;
 }
@@ -106,7 +106,7 @@ TEST(ThermalConfig, BadValuesNameTheirLine) {
 // every surface within the night's physical bounds (sky-cooled below the air, the body's core).
 TEST(ThermalConfig, RitNolightExampleOrdersAsPhysicsSays) {
     const ConfigDocument doc = ConfigDocument::parseFile(kData / "rit-nolight.toml");
-    const ThermalSetup s = readThermalSetup(doc.root().table("thermal"), kData);
+    const ThermalSetup s = readThermalSetup(doc.root().table("thermal"), kData, kData);
     doc.finish();
     astro::Site site;
     site.lat_deg = 43.16856;
