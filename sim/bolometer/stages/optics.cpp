@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "sim/bolometer/camera.h"
+#include "sim/core/fft_plans.h"
 #include "sim/core/planck.h"
 
 namespace nvs::bolometer {
@@ -82,18 +83,20 @@ int mirror(int i, int n, int np) {
 }
 }  // namespace
 
-OpticsStage::OpticsStage(const ThermalCameraParams& cam)
+OpticsStage::OpticsStage(const ThermalCameraParams& cam, const std::filesystem::path& configDir,
+                         FftPlanning planning)
     : w_(cam.width),
       h_(cam.height),
       wattsPerRadiance_(
           static_cast<float>(cam.wattsPerRadiance(cam.f_number, cam.optics_transmission))),
       wattsPerRadianceOpen_(static_cast<float>(cam.wattsPerRadiance(cam.f_number, 1.0))) {
-    if (cam.mtf_enabled) buildTransfer(cam);
+    if (cam.mtf_enabled) buildTransfer(cam, configDir, planning);
 }
 
 OpticsStage::~OpticsStage() = default;
 
-void OpticsStage::buildTransfer(const ThermalCameraParams& cam) {
+void OpticsStage::buildTransfer(const ThermalCameraParams& cam,
+                                const std::filesystem::path& configDir, FftPlanning planning) {
     wp_ = fastSize(w_);
     hp_ = fastSize(h_);
     const int wc = wp_ / 2 + 1;
@@ -104,14 +107,27 @@ void OpticsStage::buildTransfer(const ThermalCameraParams& cam) {
     fft_->spec = fftwf_alloc_complex(nc);
     fft_->transfer = fftwf_alloc_real(nc);
     if (!fft_->real || !fft_->spec || !fft_->transfer) throw SetupError("optics: out of memory");
-    // FFTW_ESTIMATE among the scalar solvers, as the intensified chain's blur does for a size
-    // its shipped wisdom lacks (docs/portability.md): the same plan, and bits, on every x86-64
-    // CPU. (The SIMD solvers' estimate depends on the CPU; they took 3.5 ms against 8 ms of a
-    // loaded machine's frame.)
-    const unsigned flags = FFTW_ESTIMATE | FFTW_NO_SIMD | FFTW_DESTROY_INPUT;
-    fft_->fwd = fftwf_plan_dft_r2c_2d(hp_, wp_, fft_->real, fft_->spec, flags);
-    fft_->inv = fftwf_plan_dft_c2r_2d(hp_, wp_, fft_->spec, fft_->real, flags);
-    if (!fft_->fwd || !fft_->inv) throw SetupError("optics: FFTW could not plan the MTF");
+    // Plans from the shipped wisdom (SSE2 codelets, made for the shipped presets' sizes), else
+    // FFTW_ESTIMATE among the scalar solvers: either way the same plan, and bits, on every x86-64
+    // CPU (sim/core/fft_plans.h, docs/portability.md). For boson-640 the wisdom's round trip
+    // took 2.6 ms against the scalar estimate's 5.4 ms (docs/portability.md).
+    // Without a config folder the scalar estimate directly: wisdom another chain imported into
+    // this process is not used either, so the plan does not depend on what ran before.
+    importShippedFftWisdom(configDir);
+    const unsigned flags = configDir.empty() && planning == FftPlanning::Shipped
+                               ? FFTW_ESTIMATE | FFTW_NO_SIMD | FFTW_DESTROY_INPUT
+                               : fftPlannerFlags(planning, FFTW_DESTROY_INPUT);
+    float* re = fft_->real;
+    fftwf_complex* sp = fft_->spec;
+    bool fwdShipped = false, invShipped = false;
+    fft_->fwd = planFromWisdomOrEstimate(
+        [&](unsigned f) { return fftwf_plan_dft_r2c_2d(hp_, wp_, re, sp, f); }, flags, "optics",
+        &fwdShipped);
+    fft_->inv = planFromWisdomOrEstimate(
+        [&](unsigned f) { return fftwf_plan_dft_c2r_2d(hp_, wp_, sp, re, f); }, flags, "optics",
+        &invShipped);
+    plannedFromWisdom_ =
+        !configDir.empty() && planning == FftPlanning::Shipped && fwdShipped && invShipped;
     // The band-averaged diffraction MTF tabulated over [0, νc] (linear interpolation).
     const double p_m = cam.pitch_um * 1e-6, a_m = p_m * std::sqrt(cam.fill_factor);
     const double nuC = 1.0 / (cam.band_lo_um * 1e-6 * cam.f_number);
