@@ -171,11 +171,13 @@ void OpticsStage::buildTransfer(const ThermalCameraParams& cam,
 }
 
 int OpticsStage::apply(ImageView<const float> radiance, ImageView<float> power_W) noexcept {
-    // Scale to power; NaN, ±inf and negative pixels count as 0.
+    // Scale to power; NaN, ±inf and negative pixels count as 0. With the MTF on, straight into
+    // the FFT's padded buffer: one pass over the image fewer than scaling into power_W and
+    // copying it there (the same products, so the same bits).
     int bad = 0;
     for (int y = 0; y < h_; ++y) {
         const float* s = radiance.row(y);
-        float* d = power_W.row(y);
+        float* d = fft_ ? fft_->real + static_cast<std::size_t>(y) * wp_ : power_W.row(y);
         for (int x = 0; x < w_; ++x) {
             const float v = s[x];
             const bool ok = v >= 0.0f && v <= 3.4e38f;  // false for NaN
@@ -188,14 +190,18 @@ int OpticsStage::apply(ImageView<const float> radiance, ImageView<float> power_W
 }
 
 void OpticsStage::filter(ImageView<float> img) noexcept {
-    // Mirror-pad, transform, multiply by H, transform back, keep the image's pixels.
+    // The image's rows are in the padded buffer (apply): mirror-pad each row's margin, then the
+    // rows below the image as mirrored copies of padded rows; transform, multiply by H,
+    // transform back, keep the image's pixels.
     float* re = fft_->real;
-    for (int y = 0; y < hp_; ++y) {
-        const float* s = img.row(mirror(y, h_, hp_));
+    for (int y = 0; y < h_; ++y) {
         float* d = re + static_cast<std::size_t>(y) * wp_;
-        std::copy(s, s + w_, d);
         for (int x = w_; x < wp_; ++x)
-            d[x] = s[mirror(x, w_, wp_)];
+            d[x] = d[mirror(x, w_, wp_)];
+    }
+    for (int y = h_; y < hp_; ++y) {
+        const float* s = re + static_cast<std::size_t>(mirror(y, h_, hp_)) * wp_;
+        std::copy(s, s + wp_, re + static_cast<std::size_t>(y) * wp_);
     }
     fftwf_execute(fft_->fwd);
     const std::size_t nc = static_cast<std::size_t>(wp_ / 2 + 1) * hp_;
