@@ -209,6 +209,36 @@ TEST(ThermalCli, AnotherSizeOrBandIsRefused) {
                   "--unit pe/s/m2/sr: a thermal camera takes W/m2/sr", out);
 }
 
+TEST(ThermalCli, BadPixelOrStartupRadianceIsRefused) {
+    WorkDir w;
+    const fs::path out = w.path / "o.pgm";
+    ImageF img(320, 256);
+    img.fill(50.0f);
+    img(7, 3) = -1.0f;
+    io::writeExr(w.path / "neg.exr", img.cview(), {{{"nvstim.unit", "W/m2/sr"}}, {}, {}});
+    expectRefused(nvstim("sensor --in " + (w.path / "neg.exr").string() +
+                         " --camera boson-320 --out " + out.string()),
+                  "pixel (7, 3) is -1.000000; radiance must be finite and >= 0", out);
+    const fs::path bad =
+        writeRadiance(w.path / "bad.exr", 320, 256, 50.0f,
+                      {{"nvstim.unit", "W/m2/sr"}, {"nvstim.startup_W_m2_sr", "warm"}});
+    expectRefused(
+        nvstim("sensor --in " + bad.string() + " --camera boson-320 --out " + out.string()),
+        "nvstim.startup_W_m2_sr 'warm' is not a radiance", out);
+}
+
+// A pattern's frames are all read and checked before anything is written: frame 1 of another
+// camera stops the run with nothing written for frame 0 either.
+TEST(ThermalCli, PatternWithAForeignFrameWritesNothing) {
+    WorkDir w;
+    writeRadiance(w.path / "000000.exr", 320, 256, 50.0f, {{"nvstim.unit", "W/m2/sr"}});
+    writeRadiance(w.path / "000001.exr", 320, 256, 1e9f, {{"nvstim.unit", "pe/s/m2/sr"}});
+    const auto r = nvstim("sensor --in " + (w.path / "{frame:06d}.exr").string() +
+                          " --camera boson-320 --out " + (w.path / "o{frame:06d}.pgm").string());
+    expectRefused(r, "000001.exr: radiance in pe/s/m2/sr", w.path / "o000001.pgm");
+    EXPECT_FALSE(fs::exists(w.path / "o000000.pgm"));
+}
+
 TEST(ThermalCli, ImageWithoutHeaderIsTakenAsBandRadiance) {
     WorkDir w;
     // A uniform 300 K blackbody in the band (Planck: 55.5 W m⁻² sr⁻¹ over 7.5-13.5 µm) written
