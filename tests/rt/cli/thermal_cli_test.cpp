@@ -239,6 +239,26 @@ TEST(ThermalCli, PatternWithAForeignFrameWritesNothing) {
     EXPECT_FALSE(fs::exists(w.path / "o000000.pgm"));
 }
 
+// A preset given as a path is thermal when its folder is named thermal_cameras (as a scenario's
+// [camera] preset): the same file elsewhere is read as an intensified preset and fails there.
+TEST(ThermalCli, PresetPathInAThermalCamerasFolder) {
+    WorkDir w;
+    fs::create_directories(w.path / "thermal_cameras");
+    fs::copy(kSource / "config/thermal_cameras/boson-320.toml", w.path / "thermal_cameras/my.toml");
+    fs::copy(kSource / "config/thermal_cameras/boson-320.toml", w.path / "my.toml");
+    const fs::path in = writeRadiance(w.path / "bb.exr", 320, 256, 55.5f, {});
+    const auto ok = nvstim("sensor --in " + in.string() + " --camera " +
+                           (w.path / "thermal_cameras/my.toml").string() + " --out " +
+                           (w.path / "o.pgm").string());
+    EXPECT_EQ(ok.status, 0) << ok.err;
+    EXPECT_NE(ok.out.find("\"band\":\"LWIR 7.5-13.5 um\""), std::string::npos) << ok.out;
+    const auto other =
+        nvstim("sensor --in " + in.string() + " --camera " + (w.path / "my.toml").string() +
+               " --out " + (w.path / "p.pgm").string());
+    EXPECT_EQ(other.status, 2) << other.err;
+    EXPECT_FALSE(fs::exists(w.path / "p.pgm"));
+}
+
 TEST(ThermalCli, ImageWithoutHeaderIsTakenAsBandRadiance) {
     WorkDir w;
     // A uniform 300 K blackbody in the band (Planck: 55.5 W m⁻² sr⁻¹ over 7.5-13.5 µm) written
