@@ -5,8 +5,9 @@
 namespace nvs::rt {
 
 BolometerCameraStage::BolometerCameraStage(const bolometer::ThermalCameraParams& cam, int bits,
-                                           std::uint64_t seed, double startRadiance_W_m2_sr)
-    : bits_(bits), chain_(cam, seed) {
+                                           std::uint64_t seed, double startRadiance_W_m2_sr,
+                                           const std::filesystem::path& configDir)
+    : bits_(bits), chain_(cam, seed, configDir) {
     ImageF uniform(cam.width, cam.height);
     uniform.fill(static_cast<float>(startRadiance_W_m2_sr));
     for (int k = 0; k < 10000 && chain_.process(uniform.cview()).frozen; ++k) {

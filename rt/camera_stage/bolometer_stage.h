@@ -8,6 +8,7 @@
 // per frame in order. Setup allocates everything; expose() allocates nothing and throws nothing.
 
 #include <cstdint>
+#include <filesystem>
 
 #include "rt/loop/stages.h"
 #include "sim/bolometer/chain.h"
@@ -19,9 +20,10 @@ class BolometerCameraStage final : public CameraStage {
     // `cam` must have the loop's width and height; `bits` is 8 (display) or the ADC's depth.
     // The core's start-up shutter correction runs here, before the first frame, looking at a
     // uniform scene of `startRadiance_W_m2_sr` once the shutter opens (a camera powered up
-    // before the run: its first frames are pictures, not frozen ones).
+    // before the run: its first frames are pictures, not frozen ones). configDir: the shipped
+    // data (the optics' FFTW wisdom), as the intensified camera's.
     BolometerCameraStage(const bolometer::ThermalCameraParams& cam, int bits, std::uint64_t seed,
-                         double startRadiance_W_m2_sr);
+                         double startRadiance_W_m2_sr, const std::filesystem::path& configDir);
 
     int bits() const noexcept override { return bits_; }
     void expose(const FrameRequest& req, RadianceFrame in, ImageView<std::uint16_t> counts,

@@ -152,7 +152,9 @@ int runCli(int argc, const char* const* argv) {
     // sensor ---------------------------------------------------------------------------------
     SensorOptions sensor;
     auto* sensorCmd = app.add_subcommand(
-        "sensor", "Push radiance images through the IICCD camera model to digital counts.");
+        "sensor",
+        "Push radiance images through a camera model (IICCD, or a thermal preset's "
+        "microbolometer) to digital counts.");
     sensorCmd
         ->add_option("--in", sensor.in,
                      "Input file, or a pattern such as radiance/{frame:06d}.exr (EXR or PFM)")

@@ -1,4 +1,6 @@
-// nvstim sensor: push radiance images through the IICCD camera model (docs/design.md §4.5, §7).
+// nvstim sensor: push radiance images through a camera model: the IICCD chain (docs/design.md
+// §4.5, §7), or, for a thermal preset (config/thermal_cameras), the uncooled microbolometer
+// (docs/bolometer.md, "The command line").
 //
 //   nvstim sensor --in IN --camera PRESET [--set KEY=VALUE]... [--frames N] [--seed S]
 //                 [--unit W/m2/sr|pe/s/m2/sr] [--spectrum flat|blackbody:T|moon|night_sky]
@@ -10,14 +12,25 @@
 // before anything is written; the outputs are written to temporaries and renamed into place
 // together at the end, so an error or a signal never leaves a half-written file. Prints one JSON
 // object with the per-field controls (gain_V, gate_s, level) on stdout.
+//
+// A thermal preset takes band radiance at the aperture in its band [W m⁻² sr⁻¹] (what `nvstim
+// render` writes for a thermal scenario); .pgm/.png outputs are the 8-bit display (the preset's
+// gain control), .exr the raw ADC counts. Before the first frame the core runs its start-up
+// shutter correction facing a uniform scene: the radiance the render's header names
+// (nvstim.startup_W_m2_sr, what `nvstim run` uses), else the first input's mean. A render made
+// for another camera (a visible render, another band, another size) is refused.
 
+#include <algorithm>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "rt/cli/commands.h"
 #include "rt/cli/data_dirs.h"
+#include "sim/bolometer/chain.h"
 #include "sim/core/error.h"
 #include "sim/core/input_file.h"
 #include "sim/core/output_file.h"
@@ -40,32 +53,69 @@ std::string lowerExt(const std::string& path) {
     return e;
 }
 
+// The attributes of nvstim's own renders that say which camera an image was made for.
+struct RenderHeader {
+    std::string camera, band;               // nvstim.camera, nvstim.band
+    std::optional<double> startup_W_m2_sr;  // nvstim.startup_W_m2_sr (thermal renders)
+};
+
+// Reads a radiance image (.exr with its header, or .pfm); a thermal render (nvstim.band
+// "LWIR ...") is refused unless `header` is given (the thermal camera's reader).
+io::RadianceFile readWithHeader(const std::string& file, const io::ImageLimits& limits,
+                                RenderHeader* header) {
+    if (lowerExt(file) != ".exr") return io::readRadiance(file, limits);
+    io::ExrImage exr = io::readExr(file, limits);
+    RenderHeader h{exr.attribute("nvstim.camera"), exr.attribute("nvstim.band"), std::nullopt};
+    if (!header && h.band.rfind("LWIR", 0) == 0) {
+        throw SetupError(file + ": a thermal render (camera '" + h.camera + "', band '" + h.band +
+                         "'); an intensified camera takes visible radiance (give a thermal "
+                         "preset as --camera)");
+    }
+    const std::string start = exr.attribute("nvstim.startup_W_m2_sr");
+    if (!start.empty()) {
+        char* end = nullptr;
+        const double v = std::strtod(start.c_str(), &end);
+        if (end == start.c_str() || *end != '\0' || !(v >= 0.0 && v < 1e30))
+            throw SetupError(file + ": nvstim.startup_W_m2_sr '" + start + "' is not a radiance");
+        h.startup_W_m2_sr = v;
+    }
+    if (header) *header = h;
+    return io::RadianceFile{std::move(exr.image), exr.attribute(io::kExrUnit),
+                            exr.attribute(io::kExrSpectrum)};
+}
+
+// The first pixel that is not finite and ≥ 0 is an error naming it.
+void requireValidRadiance(const std::string& file, const ImageF& img) {
+    for (int y = 0; y < img.height(); ++y) {
+        for (int x = 0; x < img.width(); ++x) {
+            const float v = img(x, y);
+            if (!(v >= 0.0f && v < 3.0e38f)) {
+                throw SetupError(file + ": pixel (" + std::to_string(x) + ", " + std::to_string(y) +
+                                 ") is " + std::to_string(v) +
+                                 "; radiance must be finite and >= 0 (" +
+                                 std::to_string(sensor::IiccdChain::countBadPixels(img.cview())) +
+                                 " bad pixels)");
+            }
+        }
+    }
+}
+
 // Reads one input and turns it into Lpe [pe s⁻¹ m⁻² sr⁻¹], validating size and values.
 ImageF loadInput(const std::string& file, const sensor::CameraParams& cam,
                  const SensorOptions& opts, const DataDirs& dirs) {
-    // The header's size is checked against the camera's before any pixel is allocated.
+    // The header's size is checked before any pixel is allocated: up to a few thousand pixels a
+    // side, so that a thermal render is named as such (its header) rather than by its size.
     io::ImageLimits limits;
-    limits.maxWidth = cam.width;
-    limits.maxHeight = cam.height;
-    io::RadianceFile r = io::readRadiance(file, limits);
+    limits.maxWidth = std::max(cam.width, 4096);
+    limits.maxHeight = std::max(cam.height, 4096);
+    io::RadianceFile r = readWithHeader(file, limits, nullptr);
     if (r.image.width() != cam.width || r.image.height() != cam.height) {
         throw SetupError(file + ": image is " + std::to_string(r.image.width()) + "x" +
                          std::to_string(r.image.height()) + ", camera '" + cam.name + "' expects " +
                          std::to_string(cam.width) + "x" + std::to_string(cam.height) +
                          " (--set width=.. height=.. to change it)");
     }
-    for (int y = 0; y < r.image.height(); ++y) {
-        for (int x = 0; x < r.image.width(); ++x) {
-            const float v = r.image(x, y);
-            if (!(v >= 0.0f && v < 3.0e38f)) {
-                throw SetupError(
-                    file + ": pixel (" + std::to_string(x) + ", " + std::to_string(y) + ") is " +
-                    std::to_string(v) + "; radiance must be finite and >= 0 (" +
-                    std::to_string(sensor::IiccdChain::countBadPixels(r.image.cview())) +
-                    " bad pixels)");
-            }
-        }
-    }
+    requireValidRadiance(file, r.image);
     const std::string unit = opts.unit ? *opts.unit : (r.unit.empty() ? "pe/s/m2/sr" : r.unit);
     if (unit == "W/m2/sr") {
         const std::string spectrum =
@@ -100,27 +150,184 @@ void writeOutput(const std::string& file, const sensor::IiccdChain& chain, Outpu
     });
 }
 
-}  // namespace
+// ---- Shared by both cameras.
 
-int runSensor(const SensorOptions& opts) {
-    // ---- Setup: camera, inputs, outputs; every check before anything is written.
-    const DataDirs dirs = resolveDataDirs();
-    const sensor::Overrides ov = sensor::parseOverrides(opts.sets);
-    const sensor::CameraParams cam = sensor::loadCamera(dirs.config, opts.camera, ov);
-    const std::string outExt = lowerExt(opts.out);
-    if (outExt != ".pgm" && outExt != ".png" && outExt != ".exr") {
-        throw SetupError("--out " + opts.out + ": output must be .pgm, .png or .exr");
-    }
-    const bool inPattern = io::hasFramePattern(opts.in);
+// Inputs: a pattern's run of existing files from 0, or --frames of one held input.
+long long inputFrames(const SensorOptions& opts) {
     long long frames = opts.frames ? *opts.frames : 0;
     if (!opts.frames) {
-        if (!inPattern)
+        if (!io::hasFramePattern(opts.in))
             frames = 1;
         else
             while (nvs::pathExists(io::expandFramePattern(opts.in, frames)))
                 ++frames;
     }
     if (frames <= 0) throw SetupError("--in " + opts.in + ": no input files (frame 0 missing)");
+    return frames;
+}
+
+// Every output path checked against the inputs and each other; written at the end.
+void addPaths(OutputFiles& outputs, const SensorOptions& opts, long long frames,
+              const std::filesystem::path& preset) {
+    outputs.addInput(preset);
+    const bool inPattern = io::hasFramePattern(opts.in);
+    const bool outPattern = io::hasFramePattern(opts.out);
+    for (long long k = 0; k < (inPattern ? frames : 1); ++k)
+        outputs.addInput(inPattern ? io::expandFramePattern(opts.in, k) : opts.in);
+    for (long long k = 0; k < (outPattern ? frames : 1); ++k)
+        outputs.addFile("--out", outPattern ? io::expandFramePattern(opts.out, k) : opts.out);
+}
+
+// ---- The thermal camera.
+
+// One input of the thermal camera: band radiance at the aperture [W m⁻² sr⁻¹] in its band.
+ImageF loadThermalInput(const std::string& file, const bolometer::ThermalCameraParams& cam,
+                        RenderHeader& header) {
+    // Read up to a few thousand pixels a side, so that a render for another camera is named as
+    // such (its header) rather than by its size alone.
+    io::ImageLimits limits;
+    limits.maxWidth = std::max(cam.width, 4096);
+    limits.maxHeight = std::max(cam.height, 4096);
+    io::RadianceFile r = readWithHeader(file, limits, &header);
+    const std::string made =
+        header.camera.empty() ? "" : " (rendered for camera '" + header.camera + "')";
+    if (!r.unit.empty() && r.unit != "W/m2/sr") {
+        throw SetupError(file + ": radiance in " + r.unit + made + "; thermal camera '" + cam.name +
+                         "' takes band radiance in W/m2/sr (a thermal render)");
+    }
+    if (!header.band.empty() && header.band != bolometer::bandName(cam)) {
+        throw SetupError(file + ": band '" + header.band + "'" + made + "; thermal camera '" +
+                         cam.name + "' takes band '" + bolometer::bandName(cam) + "'");
+    }
+    if (r.image.width() != cam.width || r.image.height() != cam.height) {
+        throw SetupError(file + ": image is " + std::to_string(r.image.width()) + "x" +
+                         std::to_string(r.image.height()) + made + ", thermal camera '" + cam.name +
+                         "' expects " + std::to_string(cam.width) + "x" +
+                         std::to_string(cam.height));
+    }
+    requireValidRadiance(file, r.image);
+    return std::move(r.image);
+}
+
+void writeThermalOutput(const std::string& file, const bolometer::BolometerChain& chain,
+                        OutputFiles& outputs) {
+    const std::string ext = lowerExt(file);
+    outputs.writeWith(file, [&](const std::filesystem::path& tmp) {
+        if (ext == ".exr") {
+            ImageF raw(chain.raw().width(), chain.raw().height());
+            for (int y = 0; y < raw.height(); ++y)
+                for (int x = 0; x < raw.width(); ++x)
+                    raw(x, y) = chain.raw()(x, y);
+            io::writeExr(tmp, raw.cview(), {{{io::kExrUnit, "DC"}}, {}, {}});
+            return;
+        }
+        ImageU16 display(chain.display().width(), chain.display().height());
+        for (int y = 0; y < display.height(); ++y)
+            for (int x = 0; x < display.width(); ++x)
+                display(x, y) = chain.display()(x, y);
+        if (ext == ".pgm")
+            io::writePgm(tmp, display.cview(), 255);
+        else
+            io::writePng(tmp, display.cview(), 255);
+    });
+}
+
+std::string thermalJson(const bolometer::FrameInfo& f, bool first) {
+    char buf[320];
+    std::snprintf(buf, sizeof buf,
+                  "%s{\"frame\":%llu,\"t_s\":%.6f,\"fpa_K\":%.4f,\"frozen\":%s,"
+                  "\"shutter_closed\":%s,\"ffc_count\":%llu,\"mean_raw\":%.3f,"
+                  "\"clipped_px\":%lld}",
+                  first ? "" : ",", static_cast<unsigned long long>(f.frame), f.t_s, f.fpa_K,
+                  f.frozen ? "true" : "false", f.shutter_closed ? "true" : "false",
+                  static_cast<unsigned long long>(f.ffc_count), f.mean_raw,
+                  static_cast<long long>(f.clipped_px));
+    return buf;
+}
+
+int runThermalSensor(const SensorOptions& opts, const DataDirs& dirs,
+                     const bolometer::Overrides& ov) {
+    const bolometer::ThermalCameraParams cam =
+        bolometer::loadThermalCamera(dirs.config, opts.camera, ov);
+    if (opts.unit && *opts.unit != "W/m2/sr")
+        throw SetupError("--unit " + *opts.unit + ": a thermal camera takes W/m2/sr");
+    if (opts.spectrum) throw SetupError("--spectrum: not for a thermal camera");
+    const long long frames = inputFrames(opts);
+    const bool inPattern = io::hasFramePattern(opts.in);
+    RenderHeader header;
+    ImageF held;
+    if (inPattern) {
+        for (long long k = 0; k < frames; ++k) {
+            RenderHeader h;
+            (void)loadThermalInput(io::expandFramePattern(opts.in, k), cam, h);
+            if (k == 0) header = h;
+        }
+    } else {
+        held = loadThermalInput(opts.in, cam, header);
+    }
+    OutputFiles outputs;
+    const std::filesystem::path preset =
+        std::filesystem::path(opts.camera).extension() == ".toml"
+            ? std::filesystem::path(opts.camera)
+            : dirs.config / "thermal_cameras" / (opts.camera + ".toml");
+    addPaths(outputs, opts, frames, preset);
+    bolometer::BolometerChain chain(cam, opts.seed ? *opts.seed : 0, dirs.config);
+    // The start-up shutter correction, as `nvstim run`'s camera (rt/camera_stage): the camera
+    // powered up facing the scene, its first frames pictures, not frozen ones.
+    double start = 0.0;
+    if (header.startup_W_m2_sr) {
+        start = *header.startup_W_m2_sr;
+    } else {
+        const ImageF first =
+            inPattern ? loadThermalInput(io::expandFramePattern(opts.in, 0), cam, header) : held;
+        for (int y = 0; y < first.height(); ++y)
+            for (int x = 0; x < first.width(); ++x)
+                start += static_cast<double>(first(x, y));
+        start /= static_cast<double>(first.width()) * first.height();
+    }
+    {
+        ImageF uniform(cam.width, cam.height);
+        uniform.fill(static_cast<float>(start));
+        for (int k = 0; k < 10000 && chain.process(uniform.cview()).frozen; ++k) {
+        }
+    }
+    outputs.holdSignals();
+    const bool outPattern = io::hasFramePattern(opts.out);
+    std::string json = "{\"camera\":\"" + cam.name + "\",\"band\":\"" + bolometer::bandName(cam) +
+                       "\",\"frames\":" + std::to_string(frames) + ",\"frame_info\":[";
+    for (long long k = 0; k < frames; ++k) {
+        RenderHeader h;
+        const ImageF in =
+            inPattern ? loadThermalInput(io::expandFramePattern(opts.in, k), cam, h) : ImageF();
+        const bolometer::FrameInfo& info = chain.process(inPattern ? in.cview() : held.cview());
+        if (SignalHold::pending()) break;
+        if (outPattern)
+            writeThermalOutput(io::expandFramePattern(opts.out, k), chain, outputs);
+        else if (k == frames - 1)
+            writeThermalOutput(opts.out, chain, outputs);
+        json += thermalJson(info, k == 0);
+    }
+    json += "]}";
+    outputs.commit();
+    std::printf("%s\n", json.c_str());
+    return kExitOk;
+}
+
+}  // namespace
+
+int runSensor(const SensorOptions& opts) {
+    // ---- Setup: camera, inputs, outputs; every check before anything is written.
+    const DataDirs dirs = resolveDataDirs();
+    const sensor::Overrides ov = sensor::parseOverrides(opts.sets);
+    const std::string outExt = lowerExt(opts.out);
+    if (outExt != ".pgm" && outExt != ".png" && outExt != ".exr") {
+        throw SetupError("--out " + opts.out + ": output must be .pgm, .png or .exr");
+    }
+    if (bolometer::isThermalPreset(dirs.config, opts.camera))
+        return runThermalSensor(opts, dirs, ov);
+    const sensor::CameraParams cam = sensor::loadCamera(dirs.config, opts.camera, ov);
+    const bool inPattern = io::hasFramePattern(opts.in);
+    const long long frames = inputFrames(opts);
     if (opts.unit && *opts.unit != "W/m2/sr" && *opts.unit != "pe/s/m2/sr") {
         throw SetupError("--unit " + *opts.unit + ": expected W/m2/sr or pe/s/m2/sr");
     }
@@ -135,12 +342,8 @@ int runSensor(const SensorOptions& opts) {
     }
     // Every output path checked now, against the inputs and each other; written at the end.
     OutputFiles outputs;
-    outputs.addInput(sensor::resolveCameraPath(dirs.config, opts.camera));
+    addPaths(outputs, opts, frames, sensor::resolveCameraPath(dirs.config, opts.camera));
     const bool outPattern = io::hasFramePattern(opts.out);
-    for (long long k = 0; k < (inPattern ? frames : 1); ++k)
-        outputs.addInput(inPattern ? io::expandFramePattern(opts.in, k) : opts.in);
-    for (long long k = 0; k < (outPattern ? frames : 1); ++k)
-        outputs.addFile("--out", outPattern ? io::expandFramePattern(opts.out, k) : opts.out);
     GammaTableCache gammaTables;
     sensor::IiccdChain chain(cam, opts.seed ? *opts.seed : 0, dirs.config, gammaTables);
 

@@ -386,7 +386,7 @@ int runScenario(const RunRequest& req, std::FILE* status) {
         // The camera powered up before the run, its start-up shutter done facing the night.
         const double start = sceneStage->thermal()->groundRadianceAt(sc.utcStart_unix_s);
         camera = std::make_unique<BolometerCameraStage>(*sc.camera.thermalParams, sc.bits,
-                                                        sc.camera.seed, start);
+                                                        sc.camera.seed, start, req.dirs.config);
     } else if (sc.camera.enabled) {
         auto iiccd = std::make_unique<IiccdCameraStage>(
             sc.camera.params, sc.camera.spectrum, sc.camera.seed,

@@ -1,5 +1,6 @@
 #include "sim/bolometer/camera.h"
 
+#include <cstdio>
 #include <set>
 
 #include "sim/core/input_file.h"
@@ -73,6 +74,18 @@ ThermalCameraParams loadThermalCamera(const std::filesystem::path& configDir,
     if (!pathExists(p)) throw SetupError("--thermal-camera: no preset " + p.string());
     const ConfigDocument doc = ConfigDocument::parseFile(p);
     return readCamera(doc, overrides, FileLoc{p.string(), 0, 0});
+}
+
+bool isThermalPreset(const std::filesystem::path& configDir, const std::string& nameOrPath) {
+    const std::filesystem::path p = nameOrPath;
+    if (p.extension() == ".toml") return p.parent_path().filename() == "thermal_cameras";
+    return pathExists(configDir / "thermal_cameras" / (nameOrPath + ".toml"));
+}
+
+std::string bandName(const ThermalCameraParams& cam) {
+    char b[96];
+    std::snprintf(b, sizeof b, "LWIR %.6g-%.6g um", cam.band_lo_um, cam.band_hi_um);
+    return b;
 }
 
 ThermalCameraParams parseThermalCamera(const std::string& text, const std::string& name,

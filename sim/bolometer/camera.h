@@ -62,6 +62,14 @@ struct ThermalCameraParams : OpticsParams,
 ThermalCameraParams loadThermalCamera(const std::filesystem::path& configDir,
                                       const std::string& nameOrPath,
                                       const Overrides& overrides = {});
+// True for a thermal preset: NAME with a <configDir>/thermal_cameras/NAME.toml, or a .toml file
+// in a folder named thermal_cameras (how a scenario's [camera] preset and `nvstim sensor
+// --camera` tell the thermal camera from the intensified one).
+bool isThermalPreset(const std::filesystem::path& configDir, const std::string& nameOrPath);
+// The name of the preset's band in the files nvstim writes (the EXR header's nvstim.band of
+// `nvstim render`), e.g. "LWIR 7.5-13.5 um": `nvstim sensor` takes a thermal render only into a
+// camera of the same band.
+std::string bandName(const ThermalCameraParams& cam);
 // Parses preset text (for tests).
 ThermalCameraParams parseThermalCamera(const std::string& text, const std::string& name,
                                        const Overrides& overrides = {});

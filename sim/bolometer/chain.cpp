@@ -2,9 +2,10 @@
 
 namespace nvs::bolometer {
 
-BolometerChain::BolometerChain(const ThermalCameraParams& cam, std::uint64_t seed)
+BolometerChain::BolometerChain(const ThermalCameraParams& cam, std::uint64_t seed,
+                               const std::filesystem::path& configDir, FftPlanning planning)
     : cam_(cam),
-      optics_(cam),
+      optics_(cam, configDir, planning),
       detector_(cam),
       focal_(cam, seed),
       noise_(cam, seed),

@@ -16,6 +16,7 @@
 //   5 Shutter FFC  6 ADC (14-bit raw)  7 AGC (linear or plateau equalisation, 8 bit).
 
 #include <cstdint>
+#include <filesystem>
 #include <memory>
 
 #include "sim/bolometer/camera.h"
@@ -42,7 +43,12 @@ struct FrameInfo {
 
 class BolometerChain {
   public:
-    BolometerChain(const ThermalCameraParams& cam, std::uint64_t seed);
+    // configDir: the shipped data, for the optics' FFTW wisdom (<configDir>/fftw/), as the
+    // intensified chain's; empty: no wisdom, the scalar estimated plans (the same bits, slower).
+    // planning: FftPlanning::Measure / Patient plan anew (the wisdom tool; not bit-stable).
+    BolometerChain(const ThermalCameraParams& cam, std::uint64_t seed,
+                   const std::filesystem::path& configDir = {},
+                   FftPlanning planning = FftPlanning::Shipped);
     BolometerChain(const BolometerChain&) = delete;
     BolometerChain& operator=(const BolometerChain&) = delete;
 

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "sim/bolometer/camera.h"
+#include "sim/core/fft_plans.h"
 #include "sim/core/planck.h"
 
 namespace nvs::bolometer {
@@ -82,18 +83,20 @@ int mirror(int i, int n, int np) {
 }
 }  // namespace
 
-OpticsStage::OpticsStage(const ThermalCameraParams& cam)
+OpticsStage::OpticsStage(const ThermalCameraParams& cam, const std::filesystem::path& configDir,
+                         FftPlanning planning)
     : w_(cam.width),
       h_(cam.height),
       wattsPerRadiance_(
           static_cast<float>(cam.wattsPerRadiance(cam.f_number, cam.optics_transmission))),
       wattsPerRadianceOpen_(static_cast<float>(cam.wattsPerRadiance(cam.f_number, 1.0))) {
-    if (cam.mtf_enabled) buildTransfer(cam);
+    if (cam.mtf_enabled) buildTransfer(cam, configDir, planning);
 }
 
 OpticsStage::~OpticsStage() = default;
 
-void OpticsStage::buildTransfer(const ThermalCameraParams& cam) {
+void OpticsStage::buildTransfer(const ThermalCameraParams& cam,
+                                const std::filesystem::path& configDir, FftPlanning planning) {
     wp_ = fastSize(w_);
     hp_ = fastSize(h_);
     const int wc = wp_ / 2 + 1;
@@ -104,14 +107,27 @@ void OpticsStage::buildTransfer(const ThermalCameraParams& cam) {
     fft_->spec = fftwf_alloc_complex(nc);
     fft_->transfer = fftwf_alloc_real(nc);
     if (!fft_->real || !fft_->spec || !fft_->transfer) throw SetupError("optics: out of memory");
-    // FFTW_ESTIMATE among the scalar solvers, as the intensified chain's blur does for a size
-    // its shipped wisdom lacks (docs/portability.md): the same plan, and bits, on every x86-64
-    // CPU. (The SIMD solvers' estimate depends on the CPU; they took 3.5 ms against 8 ms of a
-    // loaded machine's frame.)
-    const unsigned flags = FFTW_ESTIMATE | FFTW_NO_SIMD | FFTW_DESTROY_INPUT;
-    fft_->fwd = fftwf_plan_dft_r2c_2d(hp_, wp_, fft_->real, fft_->spec, flags);
-    fft_->inv = fftwf_plan_dft_c2r_2d(hp_, wp_, fft_->spec, fft_->real, flags);
-    if (!fft_->fwd || !fft_->inv) throw SetupError("optics: FFTW could not plan the MTF");
+    // Plans from the shipped wisdom (SSE2 codelets, made for the shipped presets' sizes), else
+    // FFTW_ESTIMATE among the scalar solvers: either way the same plan, and bits, on every x86-64
+    // CPU (sim/core/fft_plans.h, docs/portability.md). For boson-640 the wisdom's round trip
+    // took 2.6 ms against the scalar estimate's 5.4 ms (docs/portability.md).
+    // Without a config folder the scalar estimate directly: wisdom another chain imported into
+    // this process is not used either, so the plan does not depend on what ran before.
+    importShippedFftWisdom(configDir);
+    const unsigned flags = configDir.empty() && planning == FftPlanning::Shipped
+                               ? FFTW_ESTIMATE | FFTW_NO_SIMD | FFTW_DESTROY_INPUT
+                               : fftPlannerFlags(planning, FFTW_DESTROY_INPUT);
+    float* re = fft_->real;
+    fftwf_complex* sp = fft_->spec;
+    bool fwdShipped = false, invShipped = false;
+    fft_->fwd = planFromWisdomOrEstimate(
+        [&](unsigned f) { return fftwf_plan_dft_r2c_2d(hp_, wp_, re, sp, f); }, flags, "optics",
+        &fwdShipped);
+    fft_->inv = planFromWisdomOrEstimate(
+        [&](unsigned f) { return fftwf_plan_dft_c2r_2d(hp_, wp_, sp, re, f); }, flags, "optics",
+        &invShipped);
+    plannedFromWisdom_ =
+        !configDir.empty() && planning == FftPlanning::Shipped && fwdShipped && invShipped;
     // The band-averaged diffraction MTF tabulated over [0, νc] (linear interpolation).
     const double p_m = cam.pitch_um * 1e-6, a_m = p_m * std::sqrt(cam.fill_factor);
     const double nuC = 1.0 / (cam.band_lo_um * 1e-6 * cam.f_number);
@@ -155,11 +171,13 @@ void OpticsStage::buildTransfer(const ThermalCameraParams& cam) {
 }
 
 int OpticsStage::apply(ImageView<const float> radiance, ImageView<float> power_W) noexcept {
-    // Scale to power; NaN, ±inf and negative pixels count as 0.
+    // Scale to power; NaN, ±inf and negative pixels count as 0. With the MTF on, straight into
+    // the FFT's padded buffer: one pass over the image fewer than scaling into power_W and
+    // copying it there (the same products, so the same bits).
     int bad = 0;
     for (int y = 0; y < h_; ++y) {
         const float* s = radiance.row(y);
-        float* d = power_W.row(y);
+        float* d = fft_ ? fft_->real + static_cast<std::size_t>(y) * wp_ : power_W.row(y);
         for (int x = 0; x < w_; ++x) {
             const float v = s[x];
             const bool ok = v >= 0.0f && v <= 3.4e38f;  // false for NaN
@@ -172,14 +190,18 @@ int OpticsStage::apply(ImageView<const float> radiance, ImageView<float> power_W
 }
 
 void OpticsStage::filter(ImageView<float> img) noexcept {
-    // Mirror-pad, transform, multiply by H, transform back, keep the image's pixels.
+    // The image's rows are in the padded buffer (apply): mirror-pad each row's margin, then the
+    // rows below the image as mirrored copies of padded rows; transform, multiply by H,
+    // transform back, keep the image's pixels.
     float* re = fft_->real;
-    for (int y = 0; y < hp_; ++y) {
-        const float* s = img.row(mirror(y, h_, hp_));
+    for (int y = 0; y < h_; ++y) {
         float* d = re + static_cast<std::size_t>(y) * wp_;
-        std::copy(s, s + w_, d);
         for (int x = w_; x < wp_; ++x)
-            d[x] = s[mirror(x, w_, wp_)];
+            d[x] = d[mirror(x, w_, wp_)];
+    }
+    for (int y = h_; y < hp_; ++y) {
+        const float* s = re + static_cast<std::size_t>(mirror(y, h_, hp_)) * wp_;
+        std::copy(s, s + wp_, re + static_cast<std::size_t>(y) * wp_);
     }
     fftwf_execute(fft_->fwd);
     const std::size_t nc = static_cast<std::size_t>(wp_ / 2 + 1) * hp_;

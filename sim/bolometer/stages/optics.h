@@ -12,7 +12,8 @@
 // absorber; MTF_diff(ν) = (2/π)(acos s − s√(1 − s²)), s = ν λ N (incoherent circular pupil,
 // Goodman, "Introduction to Fourier Optics", 3rd ed., 2005, §6.3), averaged over the band with
 // the weight of a 300 K blackbody's spectral radiance. The image, sampled at the pixel pitch p,
-// is filtered by FFT (FFTW, single precision, scalar estimated plans: the same bits on every CPU)
+// is filtered by FFT (FFTW, single precision, plans from the shipped wisdom, else scalar estimated
+// ones: the same bits on every CPU, sim/core/fft_plans.h)
 // with the transfer function of the pixel-sampled PSF, by Poisson's summation
 //   H(ν) = Σ_{mx, my} MTF(νx + mx/p, νy + my/p) / Σ_{mx, my} MTF(mx/p, my/p)
 // (aliases from beyond Nyquist included, up to the cut-off 1/(λN): |m| ≤ ⌈νc·p + ½⌉), after
@@ -20,9 +21,11 @@
 // pattern's tails hold ~2 % of the energy beyond 8 px at f/1, and cutting them raises the MTF
 // at 1/8 px⁻¹ by as much (measured, docs/bolometer.md).
 
+#include <filesystem>
 #include <memory>
 
 #include "sim/bolometer/stages/stage.h"
+#include "sim/core/fft_plans.h"
 #include "sim/core/image.h"
 
 namespace nvs::bolometer {
@@ -42,7 +45,10 @@ double bandDiffractionMtf(double nu_cyc_m, double fNumber, double lo_um, double 
 
 class OpticsStage {
   public:
-    explicit OpticsStage(const ThermalCameraParams& cam);
+    // configDir: the shipped data (<configDir>/fftw/ wisdom); empty: the scalar estimated plans,
+    // whatever wisdom the process holds.
+    OpticsStage(const ThermalCameraParams& cam, const std::filesystem::path& configDir,
+                FftPlanning planning = FftPlanning::Shipped);
     ~OpticsStage();
     OpticsStage(const OpticsStage&) = delete;
     OpticsStage& operator=(const OpticsStage&) = delete;
@@ -55,15 +61,20 @@ class OpticsStage {
     // The padded transform's size [px].
     int paddedWidth() const { return wp_; }
     int paddedHeight() const { return hp_; }
+    // Whether both transforms were planned from the shipped wisdom (false: the scalar estimate,
+    // or the MTF off, or measured plans).
+    bool plannedFromWisdom() const { return plannedFromWisdom_; }
 
   private:
     struct Fft;
-    void buildTransfer(const ThermalCameraParams& cam);
+    void buildTransfer(const ThermalCameraParams& cam, const std::filesystem::path& configDir,
+                       FftPlanning planning);
     void filter(ImageView<float> power_W) noexcept;
     int w_, h_, wp_ = 0, hp_ = 0;
     float wattsPerRadiance_;
     float wattsPerRadianceOpen_;  // without the lens's transmission (shutter)
     std::unique_ptr<Fft> fft_;    // null with the MTF off
+    bool plannedFromWisdom_ = false;
 };
 
 }  // namespace nvs::bolometer

@@ -6,7 +6,7 @@
 #include <cmath>
 #include <cstring>
 
-#include "sim/core/input_file.h"
+#include "sim/core/fft_plans.h"
 #include "sim/core/simd.h"
 #include "sim/sensor/camera.h"
 #include "sim/sensor/mtf.h"
@@ -77,45 +77,6 @@ inline int padIndex(int i, int n, int np) {
 }  // namespace
 
 namespace {
-// The shipped wisdom (config/fftw/, made by tests/sim/sensor/make_wisdom.sh): the blur's plans
-// for the shipped presets' sizes and 1280 x 1024, the same plans on every x86-64 CPU, so that
-// the blur gives the same bits everywhere (docs/portability.md). Two facts of FFTW shape it:
-// - a plan names codelets, and wisdom that names AVX codelets gives no plan on a CPU without
-//   AVX: the plans are made as a CPU with SSE4.2 only (qemu-user, -cpu Nehalem-v2), so they use
-//   SSE2 codelets, which every x86-64 CPU has;
-// - FFTW takes a wisdom file only when its header's hash of the solvers registered matches the
-//   running CPU's, and CPUs with AVX register other solvers than CPUs without: the same plans
-//   ship twice, under each header (wisdom-single.txt for CPUs with AVX, wisdom-single-sse.txt
-//   for those without); FFTW rejects the other file whole.
-// Where no wisdom holds the problem (another size), FFTW_ESTIMATE among the scalar solvers
-// (FFTW_NO_SIMD, one of fftw3.h's planner flags): the estimate among SIMD solvers depends on
-// the CPU. Measured on this machine's AVX2 CPU against qemu-user as Nehalem-v2: plans from AVX
-// wisdom, or SSE2 wisdom under one header only, gave frames a few pixels apart by one count;
-// these gave identical frames (tests/isa).
-// Imported by every BlurStage before it plans, from the config folder it was given: the wisdom
-// lives in FFTW's own planner, and importing the same file again replaces each entry with
-// itself (FFTW's hash table overwrites an entry of the same problem and flags), so repeating it
-// changes no plan; it also puts back the shipped entries should an FFTW_MEASURE plan have
-// replaced one. Not thread-safe, like FFTW's planner itself: chains are made on one thread.
-void importShippedWisdom(const std::filesystem::path& configDir) {
-    for (const char* name : {"wisdom-single.txt", "wisdom-single-sse.txt"}) {
-        const std::filesystem::path file = configDir / "fftw" / name;
-        if (pathExists(file)) fftwf_import_wisdom_from_filename(file.c_str());
-    }
-}
-}  // namespace
-
-namespace {
-// A plan from the flags asked for; with FFTW_WISDOM_ONLY and no wisdom for the problem,
-// FFTW_ESTIMATE's among the scalar solvers (above): the same plan, and so the same bits, on
-// every CPU.
-template <class MakePlan>
-fftwf_plan planOrEstimate(MakePlan&& make, unsigned flags) {
-    fftwf_plan p = make(flags);
-    if (!p && (flags & FFTW_WISDOM_ONLY)) p = make(FFTW_ESTIMATE | FFTW_NO_SIMD);
-    if (!p) throw SetupError("blur: FFTW could not plan");
-    return p;
-}
 // Columns of the spectrum per band: kBlurColumnBands bands, on whole 64-byte lines.
 int columnBandWidth(int wc) {
     const int perBand = (wc + kBlurColumnBands - 1) / kBlurColumnBands;
@@ -154,12 +115,13 @@ BlurStage::BlurStage(const CameraParams& c, const ChainOptions& opt,
     std::fill(fft_->slotRows, fft_->slotRows + ns, 0.0f);
     std::fill(fft_->filter, fft_->filter + nc, 0.0f);
     // Plans: from the shipped wisdom where it holds the problem (SSE2 codelets, the same on
-    // every CPU), else FFTW_ESTIMATE's among scalar solvers; FFTW_MEASURE / FFTW_PATIENT on request
-    // only (a measured plan can differ from run to run and so break bit-exact replay).
-    importShippedWisdom(configDir);
-    const unsigned flags = opt.patientFft   ? FFTW_PATIENT
-                           : opt.measureFft ? FFTW_MEASURE
-                                            : FFTW_MEASURE | FFTW_WISDOM_ONLY;
+    // every CPU), else FFTW_ESTIMATE's among scalar solvers (sim/core/fft_plans.h);
+    // FFTW_MEASURE / FFTW_PATIENT on request only (a measured plan can differ from run to run and
+    // so break bit-exact replay).
+    importShippedFftWisdom(configDir);
+    const unsigned flags = fftPlannerFlags(opt.patientFft   ? FftPlanning::Patient
+                                           : opt.measureFft ? FftPlanning::Measure
+                                                            : FftPlanning::Shipped);
     planTransforms(flags);
     // The filter: the product of the stage MTFs at each DFT frequency, converted from cycles
     // per pixel to cycles per mm at the cathode; 1/(wp·hp) normalises FFTW's round trip.
@@ -179,22 +141,22 @@ BlurStage::BlurStage(const CameraParams& c, const ChainOptions& opt,
 void BlurStage::planTransforms(unsigned flags) {
     float* r = fft_->real;
     fftwf_complex* sp = fft_->spec;
-    fft_->rowFwd =
-        planOrEstimate([&](unsigned f) { return fftwf_plan_dft_r2c_1d(wp_, r, sp, f); }, flags);
-    fft_->rowInv =
-        planOrEstimate([&](unsigned f) { return fftwf_plan_dft_c2r_1d(wp_, sp, r, f); }, flags);
+    fft_->rowFwd = planFromWisdomOrEstimate(
+        [&](unsigned f) { return fftwf_plan_dft_r2c_1d(wp_, r, sp, f); }, flags, "blur");
+    fft_->rowInv = planFromWisdomOrEstimate(
+        [&](unsigned f) { return fftwf_plan_dft_c2r_1d(wp_, sp, r, f); }, flags, "blur");
     // Column bands: cb_ columns each, the last one what is left.
     const int last = wc_ - (wc_ - 1) / cb_ * cb_;
     for (int i = 0; i < 2; ++i) {
         int n[1] = {hp_};
         const int howmany = i == 0 ? cb_ : last;
         for (int sign : {FFTW_FORWARD, FFTW_BACKWARD}) {
-            fftwf_plan p = planOrEstimate(
+            fftwf_plan p = planFromWisdomOrEstimate(
                 [&](unsigned f) {
                     return fftwf_plan_many_dft(1, n, howmany, sp, nullptr, wcs_, 1, sp, nullptr,
                                                wcs_, 1, sign, f);
                 },
-                flags);
+                flags, "blur");
             (sign == FFTW_FORWARD ? fft_->colFwd : fft_->colInv)[i] = p;
         }
     }
@@ -203,7 +165,7 @@ void BlurStage::planTransforms(unsigned flags) {
 BlurStage::~BlurStage() = default;
 
 bool BlurStage::exportWisdom(const std::filesystem::path& file) {
-    return fftwf_export_wisdom_to_filename(file.c_str()) != 0;
+    return exportFftWisdom(file);
 }
 
 void BlurStage::apply(ImageView<float> img) noexcept {

@@ -30,5 +30,22 @@ TEST(BolometerAllocation, NoneWhileProcessingFrames) {
     }
 }
 
+// The full-size shipped preset with the optics planned from the shipped wisdom (its SSE2 plans,
+// not the small frame's scalar estimate).
+TEST(BolometerAllocation, NoneWithTheShippedWisdomPlans) {
+    if (!rt::bench::allocationCounting())
+        GTEST_SKIP() << "operator new is not replaced in this build (AddressSanitizer)";
+    const ThermalCameraParams cam = test::thermalPreset("boson-320");
+    BolometerChain chain(cam, 9, test::configDir());
+    ASSERT_TRUE(chain.optics().plannedFromWisdom());
+    const ImageF in = test::blackbody(cam, 300.0);
+    chain.process(in.cview());  // warm-up
+    const std::uint64_t before = rt::bench::allocationCount();
+    for (int k = 0; k < 40; ++k)  // past the start-up FFC
+        chain.process(in.cview());
+    EXPECT_EQ(rt::bench::allocationCount() - before, 0u);
+    EXPECT_FALSE(chain.lastInfo().frozen);
+}
+
 }  // namespace
 }  // namespace nvs::bolometer

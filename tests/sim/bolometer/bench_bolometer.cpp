@@ -1,7 +1,8 @@
 // Speed of the whole microbolometer chain, 640 × 512 (boson-640), one core, every stage on:
 // a 300 K background with a 310 K block and a horizontal 280–320 K ramp, plateau and linear AGC.
 // The budget: the thermal channel, rendering included, ≤ half a core at 30 Hz
-// (≤ 16 ms per frame); docs/bolometer.md gives this chain's share.
+// (≤ 16.7 ms per frame); docs/bolometer.md gives this chain's share. The chain plans its FFTs from
+// the shipped wisdom (config/fftw/), as nvstim does.
 
 #include <benchmark/benchmark.h>
 
@@ -17,7 +18,7 @@ void BM_BolometerFrame(benchmark::State& state) {
     if (state.range(0) == 2) ov.emplace("optics.mtf", "false");
     if (state.range(0) == 3) ov.emplace("noise.flicker_rel", "0");
     const nvs::bolometer::ThermalCameraParams cam = nvs::test::thermalPreset("boson-640", ov);
-    nvs::bolometer::BolometerChain chain(cam, 1);
+    nvs::bolometer::BolometerChain chain(cam, 1, nvs::test::configDir());
     nvs::ImageF in(cam.width, cam.height);
     for (int y = 0; y < cam.height; ++y)
         for (int x = 0; x < cam.width; ++x) {

@@ -125,7 +125,7 @@ double sampledTransfer(double nu, double p, double a) {
 
 double modulationAt(int period) {
     const ThermalCameraParams cam = small("boson-640");
-    OpticsStage optics(cam);
+    OpticsStage optics(cam, {});
     ImageF in(cam.width, cam.height), out(cam.width, cam.height);
     for (int y = 0; y < cam.height; ++y)
         for (int x = 0; x < cam.width; ++x)
