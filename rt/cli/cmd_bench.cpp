@@ -453,7 +453,7 @@ void addBoresightItem(Items& items, const DataDirs& dirs, const std::filesystem:
         th->scene = rt::ThermalScene::forChannel(sr, cam, ts, f->dirs);
         sr.renderer().setThermalView(
             rt::thermalRenderConfig(cam, ts.focalLength_mm, cam.width, cam.height).camera);
-        th->chain = std::make_unique<bolometer::BolometerChain>(cam, 1);
+        th->chain = std::make_unique<bolometer::BolometerChain>(cam, 1, f->dirs.config);
         th->radiance = ImageF(cam.width, cam.height);
     };
     it.prepare = [f] { f->renderNext(-1); };
@@ -537,8 +537,8 @@ void addThermalItems(Items& items, const DataDirs& dirs, const std::filesystem::
         rt::ScenarioRenderer& sr = f->get();
         if (th->scene) return;
         th->scene = rt::ThermalScene::forScenario(sr, f->dirs);
-        th->chain =
-            std::make_unique<bolometer::BolometerChain>(*sr.scenario().camera.thermalParams, 1);
+        th->chain = std::make_unique<bolometer::BolometerChain>(*sr.scenario().camera.thermalParams,
+                                                                1, f->dirs.config);
     };
     it.iteration = [f, th] {
         rt::ScenarioRenderer& sr = f->get();
