@@ -1,6 +1,7 @@
 #include "rt/loop/frame_loop.h"
 
 #include <algorithm>
+#include <cmath>
 #include <cstring>
 
 #include "rt/clock/threads.h"
@@ -88,9 +89,9 @@ void FrameLoop::start(std::vector<std::string>& messages) {
         if (lockMemory(msg) != 0) messages.push_back(msg);
     }
     // The loop's threads are made before the run clock's origin is taken, and wait for it
-    // (awaitGo): making a thread is slow once memory is locked (mlockall's MCL_FUTURE faults
-    // in and locks its whole stack, 8 MiB by default: 7 ms here, about 0.6 s in the HIL test's
-    // emulated VM), and made after the origin it ate frame 0's period and the next ones'.
+    // (awaitGo): making a thread is slow once memory is locked (MCL_FUTURE faults in and locks
+    // its whole stack, 8 MiB by default: 7 ms on the host, about 0.5 s in the HIL test's
+    // emulated VM); made after the origin, they ate frame 0's period and the next ones'.
     const bool rt = config_.realtime;
     renderThread_ = std::thread([this, rt] { renderThread(rt); });
     cameraThread_ = std::thread([this, rt] { cameraThread(rt); });
@@ -107,11 +108,14 @@ void FrameLoop::start(std::vector<std::string>& messages) {
             messages.push_back(*m);
         }
     }
-    // Every thread runs and waits: tick 0 is one period away, so frame 0 has a whole period
-    // to render. The origin is published to the threads by go_ (release; they acquire it).
+    // Every thread runs and waits. Frame 0's first exposure (t_0 − exposure/2, and a field
+    // earlier when interlaced: the gate pulse rises there) is one period away, so frame 0 has
+    // a whole period to be made before it. The origin is published to the threads by go_
+    // (release; they acquire it).
     const std::int64_t now_ns = monotonicNow_ns();
     stats_.loopStart_s = static_cast<double>(now_ns - called_ns) * 1e-9;
-    wall_.start(now_ns + wall_.deadline_ns(1));
+    const double firstExposure_s = static_cast<double>(fields_ - 1) * field_s_ + 0.5 * exposure_s_;
+    wall_.start(now_ns + wall_.deadline_ns(1) + std::llround(firstExposure_s * 1e9));
     pacing_->started(now_ns);
     go_.store(true, std::memory_order_release);
     go_.notify_all();

@@ -68,7 +68,8 @@ class Pacing {
     virtual ~Pacing() = default;
     // Run-clock time of tick k [s].
     virtual double tickTime_s(std::int64_t k) const noexcept = 0;
-    // FrameLoop::start, once the run clock is started at `now_ns` (tick 0 one period later).
+    // FrameLoop::start, once the run clock is started at `now_ns` (frame 0's first exposure
+    // one period later).
     virtual void started(std::int64_t /*now_ns*/) noexcept {}
 
     // Render thread: the frame to render next, r or a later one (frames skipped are counted).

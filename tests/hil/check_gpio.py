@@ -304,15 +304,16 @@ def check_gate(d, name, frames_n, check):
     fresh, missed, wrong = ticks_accounted(metas, frames_n, st)
     origin = st["clock_origin_ns"]
     gate = [o for o in st["outputs"] if o.startswith("gpio:")]
+    wins = windows(fresh, origin)
+    first = (wins[0][0] - origin) / 1e6 if wins else 0.0
+    made = st.get("first_frame_made_s", 0) * 1e3
     check(not wrong and fresh,
           "gpio %s: every tick accounted for: %d frames emitted, %d missed and reported (ticks "
-          "%s)%s; start-up: loop threads made in %.1f ms before the origin, frame %s made %.1f ms "
-          "after tick 0 (its exposure starts at %.1f ms)" % (
+          "%s)%s; start-up: loop threads made in %.1f ms before the origin; frame %s made at "
+          "%.1f ms on the run clock, %.1f ms before its first exposure starts (%.1f ms)" % (
               name, len(fresh), len(missed), missed[:12] if missed else "-",
               "; wrong: " + wrong if wrong else "", st.get("loop_start_s", 0) * 1e3,
-              st.get("first_frame"), st.get("first_frame_made_s", 0) * 1e3,
-              -fresh[0]["exposure_s"] / 2 * 1e3 if fresh else 0))
-    wins = windows(fresh, origin)
+              st.get("first_frame"), made, first - made, first))
     if not wins:
         return
     fields = 2 if "fields" in fresh[0] else 1
