@@ -21,7 +21,9 @@ origin is the --stats key clock_origin_ns (a frame's exposure window is origin +
     line's `value` whose reading interval lies inside a window shrunk by GUARD_NS at each end
     reads 1, every one that lies GUARD_NS or more away from every window reads 0 — from before
     nvstim started to after it ended, so a missed frame, and the start-up, must leave the line
-    low. No pulse may rise late. The rise and fall delays' bounds are printed.
+    low. No pulse may rise late. Not judged, and counted: the first reading after the sampler
+    was held up longer than GUARD_NS (the VM stopped by the host), and windows with no reading
+    inside (at most UNSAMPLED_MAX of them). The rise and fall delays' bounds are printed.
 """
 import json
 import os

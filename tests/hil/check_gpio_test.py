@@ -101,12 +101,15 @@ def main():
     st = {"frames_emitted": 58, "deadline_misses": 2}
     metas = [{"frame": k, "tick": k, "repeat": False} for k in range(60) if k not in (0, 31)]
     _, missed, wrong = check_gpio.ticks_accounted(metas, 60, st)
-    expect(not wrong and missed == [0, 31], "ticks 0, 31 missed and reported: %s %s" % (missed, wrong))
-    _, _, wrong = check_gpio.ticks_accounted(metas, 60, {"frames_emitted": 58, "deadline_misses": 1})
+    expect(not wrong and missed == [0, 31],
+           "ticks 0, 31 missed and reported: %s %s" % (missed, wrong))
+    _, _, wrong = check_gpio.ticks_accounted(metas, 60,
+                                             {"frames_emitted": 58, "deadline_misses": 1})
     expect(wrong != "", "two ticks without a frame, one miss reported, fails: %s" % wrong)
     rep = metas[:30] + [{"frame": 30, "tick": 31, "repeat": True}] + metas[30:]
     _, missed, wrong = check_gpio.ticks_accounted(rep, 60, st)
-    expect(not wrong and missed == [0, 31], "a repeat on a missed tick is no fresh frame: %s" % wrong)
+    expect(not wrong and missed == [0, 31],
+           "a repeat on a missed tick is no fresh frame: %s" % wrong)
     bad = [dict(m) for m in metas]
     bad[5]["tick"] = bad[5]["frame"] + 1
     _, _, wrong = check_gpio.ticks_accounted(bad, 60, st)
