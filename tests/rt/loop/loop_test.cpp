@@ -659,5 +659,35 @@ TEST(FrameLoop, AFrameMadeAfterItsTickMarksNoExposure) {
     EXPECT_EQ(std::count(sched.begin(), sched.end(), 3), 0);
 }
 
+// Start-up: the origin is taken once the loop's threads are made, and placed so that frame 0's
+// first exposure (t_0 − exposure/2, a field earlier when interlaced) starts a whole period after
+// start() returns: frame 0 has its period to be made before its gate pulse rises (docs/hil.md).
+TEST(FrameLoop, FrameZerosFirstExposureIsAPeriodAfterTheStart) {
+    for (const ScanKind scan : {ScanKind::Progressive, ScanKind::Interlaced}) {
+        LoopConfig cfg = smallLoop(FrameRate{10, 1}, ClockKind::Wall, 3);
+        cfg.scan = scan;
+        cfg.exposure_s = 0.025;
+        SlowRender render(-1, 0.0);
+        LinearCamera camera(1000.0, 16);
+        HeldPlatform platform(PlatformState{});
+        RecordingSink sink;
+        FrameLoop loop(cfg, platform, render, camera, {&sink});
+        std::vector<std::string> msgs;
+        loop.start(msgs);
+        const std::int64_t started_ns = monotonicNow_ns();
+        loop.join();
+        // Frame 0's first exposure: t_0 = 0 on the run clock, less a field (50 ms) when
+        // interlaced, less half the exposure.
+        const double first_s = (scan == ScanKind::Interlaced ? -0.050 : 0.0) - 0.0125;
+        const std::int64_t firstExposure_ns =
+            loop.wallClock().start_ns() + std::llround(first_s * 1e9);
+        EXPECT_GE(firstExposure_ns - started_ns, 100'000'000 - 5'000'000)
+            << "scan " << static_cast<int>(scan);
+        EXPECT_LE(firstExposure_ns - started_ns, 100'000'000 + 1'000'000);
+        EXPECT_EQ(loop.stats().firstFrame, 0);
+        EXPECT_GE(loop.stats().loopStart_s, 0.0);
+    }
+}
+
 }  // namespace
 }  // namespace nvs::rt
