@@ -220,6 +220,8 @@ void GpioGateSink::runWorker() noexcept {
         // still gives a pulse, as short as the line allows, so that pulses can be counted.
         const std::int64_t fall_ns = std::max(start_ns + p.width_ns, rise_ns);
         if (rise_ns - start_ns > kGateLate_ns) late_.fetch_add(1, std::memory_order_relaxed);
+        if (rise_ns - start_ns > riseDelayMax_ns_.load(std::memory_order_relaxed))
+            riseDelayMax_ns_.store(rise_ns - start_ns, std::memory_order_relaxed);
         while (sleepUntilMonotonic(fall_ns) == -EINTR) {
         }
         if (const int rc = line_->setValue(0); rc != 0) noteError(rc);
@@ -267,8 +269,11 @@ std::string GpioGateSink::status() const {
     const std::int64_t errors = errors_.load(std::memory_order_acquire);
     const int lastErrno = lastErrno_.load(std::memory_order_relaxed);
     std::snprintf(
-        buf, sizeof buf, "%s: pulses %lld, late %lld, overlapped %lld, lost %lld, errors %lld%s%s",
+        buf, sizeof buf,
+        "%s: pulses %lld, late %lld (rise after the exposure start: max %.3f ms), overlapped "
+        "%lld, lost %lld, errors %lld%s%s",
         name_.c_str(), static_cast<long long>(pulses_.load()), static_cast<long long>(late_.load()),
+        static_cast<double>(riseDelayMax_ns_.load()) * 1e-6,
         static_cast<long long>(overlapped_.load()), static_cast<long long>(lost_.load()),
         static_cast<long long>(errors), lastErrno != 0 ? ", last error: " : "",
         lastErrno != 0 ? std::strerror(lastErrno) : "");

@@ -144,6 +144,9 @@ class GpioGateSink final : public msg::FrameSink,
     std::atomic<std::int64_t> pulses_{0};
     std::atomic<std::int64_t> overlapped_{0};
     std::atomic<std::int64_t> late_{0};  // rose more than kLate_ns after the exposure start
+    // The latest a pulse rose after its exposure's start (the clock read just before the line
+    // is set): the pulse thread's wake-up delay, in the status line.
+    std::atomic<std::int64_t> riseDelayMax_ns_{0};
     std::atomic<std::int64_t> lost_{0};  // queue full: the render ran far ahead
     std::atomic<std::int64_t> errors_{0};
     // errno of the last failed set, for write() and status() on other threads: the line's own

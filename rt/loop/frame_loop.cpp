@@ -1,6 +1,7 @@
 #include "rt/loop/frame_loop.h"
 
 #include <algorithm>
+#include <cmath>
 #include <cstring>
 
 #include "rt/clock/threads.h"
@@ -79,6 +80,7 @@ void FrameLoop::joinWorkers() {
 }
 
 void FrameLoop::start(std::vector<std::string>& messages) {
+    const std::int64_t called_ns = monotonicNow_ns();
     startWorkers();
     for (auto& ch : channels_)
         ch->start(config_.realtime);
@@ -86,18 +88,17 @@ void FrameLoop::start(std::vector<std::string>& messages) {
         std::string msg;
         if (lockMemory(msg) != 0) messages.push_back(msg);
     }
-    // Tick 0 is one period away, so frame 0 has a whole period to render.
-    const std::int64_t now_ns = monotonicNow_ns();
-    wall_.start(now_ns + wall_.deadline_ns(1));
-    pacing_->started(now_ns);
+    // The loop's threads are made before the run clock's origin is taken, and wait for it
+    // (awaitGo): making a thread is slow once memory is locked (MCL_FUTURE faults in and locks
+    // its whole stack, 8 MiB by default: 7 ms on the host, about 0.5 s in the HIL test's
+    // emulated VM); made after the origin, they ate frame 0's period and the next ones'.
     const bool rt = config_.realtime;
     renderThread_ = std::thread([this, rt] { renderThread(rt); });
     cameraThread_ = std::thread([this, rt] { cameraThread(rt); });
     outputThread_ = std::thread([this, rt] { outputThread(rt); });
     // Collect what each thread said about its real-time settings. Each thread writes its
     // message first thing and never again, then posts it (release); waiting here for all
-    // three posts (acquire) makes the strings safe to read. The wait is a few microseconds:
-    // the threads post before their first frame.
+    // three posts (acquire) makes the strings safe to read.
     for (int n = messagesPosted_.load(std::memory_order_acquire); n < kLoopThreads;
          n = messagesPosted_.load(std::memory_order_acquire))
         messagesPosted_.wait(n, std::memory_order_acquire);
@@ -107,6 +108,21 @@ void FrameLoop::start(std::vector<std::string>& messages) {
             messages.push_back(*m);
         }
     }
+    // Every thread runs and waits. Frame 0's first exposure (t_0 − exposure/2, and a field
+    // earlier when interlaced: the gate pulse rises there) is one period away, so frame 0 has
+    // a whole period to be made before it. The origin is published to the threads by go_
+    // (release; they acquire it).
+    const std::int64_t now_ns = monotonicNow_ns();
+    stats_.loopStart_s = static_cast<double>(now_ns - called_ns) * 1e-9;
+    const double firstExposure_s = static_cast<double>(fields_ - 1) * field_s_ + 0.5 * exposure_s_;
+    wall_.start(now_ns + wall_.deadline_ns(1) + std::llround(firstExposure_s * 1e9));
+    pacing_->started(now_ns);
+    go_.store(true, std::memory_order_release);
+    go_.notify_all();
+}
+
+void FrameLoop::awaitGo() noexcept {
+    go_.wait(false, std::memory_order_acquire);
 }
 
 void FrameLoop::postMessage() noexcept {
@@ -117,6 +133,8 @@ void FrameLoop::postMessage() noexcept {
 void FrameLoop::requestStop() noexcept {
     interrupted_.store(true, std::memory_order_release);
     stop_.store(true, std::memory_order_release);
+    go_.store(true, std::memory_order_release);  // threads still waiting for the origin
+    go_.notify_all();
     for (auto& ch : channels_)
         ch->wake();  // an output thread waiting for room (sim clock) sees the stop
     notify(readySeq_);
@@ -247,6 +265,7 @@ void FrameLoop::renderThread(bool realtime) {
     applyThreadSpec(kThreadRender, realtime, msg);
     renderMessage_ = msg.empty() ? "ok" : msg;
     postMessage();
+    awaitGo();
     const auto pastEnd = [this](std::int64_t r) {
         return config_.frames >= 0 && r >= config_.frames;
     };
@@ -322,9 +341,16 @@ void FrameLoop::exposeFrame(Slot& s) noexcept {
         m.exposure_s = exposure_s_;
         m.platform = req.platform;  // as commanded
         stale = stale || req.platform.stale;
-        if (!observers_.empty()) scheduleExposure(s, f, applied.gate_s);
     }
     if (fields_ == 2) weaveFields(s);
+    // A frame made after its tick (wall clock) is late: the output thread drops it, and its
+    // exposures get no gate pulse, so that every pulse on the line is an emitted frame's. The
+    // exposures are scheduled here, once the frame is made (its fields' windows lie ahead).
+    s.late = pacing_->pastTick(s.frame, monotonicNow_ns());
+    if (!s.late) {
+        for (int f = 0; f < fields_ && !observers_.empty(); ++f)
+            scheduleExposure(s, f, s.meta.field[f].gate_s);
+    }
     s.meta.fieldCount = fields_;
     s.meta.triggerEdge_ns = s.edge_ns;
     if (stale) events_.count(LoopEvent::StaleFrame);
@@ -347,10 +373,16 @@ void FrameLoop::cameraThread(bool realtime) {
     applyThreadSpec(kThreadCamera, realtime, msg);
     cameraMessage_ = msg.empty() ? "ok" : msg;
     postMessage();
+    awaitGo();
     for (int slot = -1; takeRendered(slot);) {
         Slot& sl = slots_[slot];
         exposeFrame(sl);
-        const std::int64_t took_ns = monotonicNow_ns() - sl.start_ns;
+        const std::int64_t made_ns = monotonicNow_ns();
+        const std::int64_t took_ns = made_ns - sl.start_ns;
+        if (stats_.firstFrame < 0) {
+            stats_.firstFrame = sl.frame;
+            stats_.firstFrameMade_s = wall_.runTime_s(made_ns);
+        }
         stats_.frameTime.add(static_cast<double>(took_ns) * 1e-9);
         pacing_->frameMade(took_ns);  // wall clock: what the render thread aims at
         events_.count(LoopEvent::FrameRendered);
@@ -419,8 +451,9 @@ int FrameLoop::takeReady(std::int64_t k) noexcept {
     // Take frame k from the ready ring; frames older than k missed their tick.
     int slot = -1;
     while (ready_.peek(slot)) {
-        if (slots_[slot].frame < k) {
-            // Rendered, but after its tick: never shown (its tick was a miss).
+        if (slots_[slot].frame < k || slots_[slot].late) {
+            // Rendered, but after its tick: never shown (its tick was a miss), nor marked on
+            // the gate line (exposeFrame).
             ready_.pop(slot);
             free_.push(slot);
             events_.count(LoopEvent::LateFrame);
@@ -471,6 +504,7 @@ void FrameLoop::outputThread(bool realtime) {
     applyThreadSpec(kThreadOutput, realtime, msg);
     outputMessage_ = msg.empty() ? "ok" : msg;
     postMessage();
+    awaitGo();
     int held = -1;  // the slot emitted last, kept to repeat
     const std::int64_t t_start = monotonicNow_ns();
     for (std::int64_t k = 0; config_.frames < 0 || k < config_.frames; ++k) {

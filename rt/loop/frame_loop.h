@@ -198,6 +198,7 @@ class FrameLoop final : private ReadyFrames {
         FrameMeta fieldMeta;
         std::int64_t start_ns = 0;  // when the render of this frame began (CLOCK_MONOTONIC)
         std::int64_t edge_ns = 0;   // trigger clock: the edge that started it
+        bool late = false;          // made after its tick (wall clock): dropped, no gate pulse
     };
     void renderThread(bool realtime);
     void cameraThread(bool realtime);
@@ -272,6 +273,10 @@ class FrameLoop final : private ReadyFrames {
     std::string outputMessage_;
     std::atomic<int> messagesPosted_{0};
     void postMessage() noexcept;
+    // Set once the run clock's origin is taken (start), or by requestStop: until then the
+    // loop's threads, already made, wait in awaitGo().
+    std::atomic<bool> go_{false};
+    void awaitGo() noexcept;
     std::string failure_;
 
     RunStats stats_;

@@ -68,7 +68,8 @@ class Pacing {
     virtual ~Pacing() = default;
     // Run-clock time of tick k [s].
     virtual double tickTime_s(std::int64_t k) const noexcept = 0;
-    // FrameLoop::start, once the run clock is started at `now_ns` (tick 0 one period later).
+    // FrameLoop::start, once the run clock is started at `now_ns` (frame 0's first exposure
+    // one period later).
     virtual void started(std::int64_t /*now_ns*/) noexcept {}
 
     // Render thread: the frame to render next, r or a later one (frames skipped are counted).
@@ -76,6 +77,12 @@ class Pacing {
     // Render thread, with a free slot in hand: waits until frame r should start and says when
     // it samples the world; false when the loop is stopping.
     virtual bool startFrame(std::int64_t r, FrameStart& at) noexcept = 0;
+    // Camera thread, frame r made at `now_ns`: true when its tick has already passed on a
+    // deadline clock, so that the output thread will drop it (never emitted) and its exposures
+    // are not marked on the gate line.
+    virtual bool pastTick(std::int64_t /*r*/, std::int64_t /*now_ns*/) const noexcept {
+        return false;
+    }
     // Camera thread: a frame was done `took_ns` after its render began.
     virtual void frameMade(std::int64_t /*took_ns*/) noexcept {}
     // Camera thread: an exposure start (run clock) on CLOCK_MONOTONIC, for the exposure

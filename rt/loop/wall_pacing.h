@@ -21,6 +21,9 @@ class WallPacing final : public RealTimePacing {
     double tickTime_s(std::int64_t k) const noexcept override { return ctx_.wall.tickTime_s(k); }
     std::int64_t frameDue(std::int64_t r) noexcept override;
     bool startFrame(std::int64_t r, FrameStart& at) noexcept override;
+    bool pastTick(std::int64_t r, std::int64_t now_ns) const noexcept override {
+        return now_ns > ctx_.wall.deadline_ns(r);
+    }
     void frameMade(std::int64_t took_ns) noexcept override;
     bool awaitTick(std::int64_t& k, std::int64_t& now_ns) noexcept override;
     bool onDeadlines() const noexcept override { return true; }

@@ -180,9 +180,15 @@ std::string statsJson(const FrameLoop& loop, const PlatformSource& platform,
     // The run clock's origin (t = 0 of t_sample_s) on CLOCK_MONOTONIC, the clock of GPIO line
     // events: a frame's exposure window on that clock is origin + t_sample_s ± exposure/2
     // (tests/hil checks the gate line and the trigger's edges with it). 0 under the sim clock.
+    // Start-up: the loop's threads made before the origin (loop_start_s), and the first frame
+    // finished, when (run clock; negative: before tick 0; 0 under the sim clock).
     std::snprintf(
-        buf, sizeof buf, ",\"clock_origin_ns\":%lld",
-        static_cast<long long>(cfg.clock == ClockKind::Sim ? 0 : loop.wallClock().start_ns()));
+        buf, sizeof buf,
+        ",\"clock_origin_ns\":%lld,\"loop_start_s\":%.6f,\"first_frame\":%lld,"
+        "\"first_frame_made_s\":%.6f",
+        static_cast<long long>(cfg.clock == ClockKind::Sim ? 0 : loop.wallClock().start_ns()),
+        st.loopStart_s, static_cast<long long>(st.firstFrame),
+        cfg.clock == ClockKind::Sim ? 0.0 : st.firstFrameMade_s);
     j += buf;
     j += std::string(",\"scan\":\"") +
          (cfg.scan == ScanKind::Interlaced ? "interlaced" : "progressive") + "\"";

@@ -68,6 +68,12 @@ struct RunStats {
     DurationHistogram latency;        // telemetry receive → frame emitted (handed to the sinks)
     DurationHistogram renderLatency;  // render start → frame emitted (fresh frames)
     double elapsed_s = 0.0;
+    // Start-up (wall and trigger clocks): how long FrameLoop::start took to make the loop's
+    // threads before it took the run clock's origin, and the first frame the camera thread
+    // finished (−1: none) with when it did, on the run clock (negative: before tick 0).
+    double loopStart_s = 0.0;
+    std::int64_t firstFrame = -1;
+    double firstFrameMade_s = 0.0;
 };
 
 }  // namespace nvs::rt

@@ -3,11 +3,13 @@
 // frames.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cerrno>
 #include <chrono>
 #include <cmath>
 #include <thread>
+#include <vector>
 
 #include "rt/clock/clock.h"
 #include "rt/loop/frame_loop.h"
@@ -616,6 +618,75 @@ TEST(FrameLoop, SimClockWaitsForASlowOutput) {
     // Render start → emission is measured for every fresh frame, telemetry or not.
     EXPECT_EQ(loop.stats().renderLatency.count(), 40);
     EXPECT_EQ(loop.stats().latency.count(), 0);  // no telemetry: nothing to measure
+}
+
+// Records the exposures scheduled (frame of each) and the fresh frames emitted.
+class GateRecorder final : public FrameSink, public ExposureObserver {
+  public:
+    const char* name() const noexcept override { return "gate"; }
+    int write(const OutputFrame& f) noexcept override {
+        if (!f.repeat && emitted < kMax) emittedFrame[emitted++] = f.meta->frame;
+        return 0;
+    }
+    int close() noexcept override { return 0; }
+    std::string status() const override { return "gate"; }
+    void exposureScheduled(const ExposureWindow& w) noexcept override {
+        if (scheduled < kMax) scheduledFrame[scheduled++] = w.frame;
+    }
+    static constexpr int kMax = 256;
+    std::int64_t emittedFrame[kMax] = {}, scheduledFrame[kMax] = {};
+    int emitted = 0, scheduled = 0;
+};
+
+// A frame made after its tick is dropped (late) and its exposure is not marked for the gate
+// pulse: the exposures scheduled are exactly those of the frames emitted (docs/hil.md).
+TEST(FrameLoop, AFrameMadeAfterItsTickMarksNoExposure) {
+    const LoopConfig cfg = smallLoop(FrameRate{20, 1}, ClockKind::Wall, 30);
+    SlowRender render(3, 0.3);  // frame 3 takes six periods
+    LinearCamera camera(1000.0, 16);
+    HeldPlatform platform(PlatformState{});
+    GateRecorder gate;
+    FrameLoop loop(cfg, platform, render, camera, {&gate});
+    std::vector<std::string> msgs;
+    loop.start(msgs);
+    loop.join();
+    const RunCounters& c = loop.stats().counters;
+    EXPECT_GE(c.lateFrames, 1);
+    EXPECT_EQ(c.framesEmitted, gate.emitted);
+    std::vector<std::int64_t> sched(gate.scheduledFrame, gate.scheduledFrame + gate.scheduled);
+    std::vector<std::int64_t> emit(gate.emittedFrame, gate.emittedFrame + gate.emitted);
+    EXPECT_EQ(sched, emit);
+    EXPECT_EQ(std::count(sched.begin(), sched.end(), 3), 0);
+}
+
+// Start-up: the origin is taken once the loop's threads are made, and placed so that frame 0's
+// first exposure (t_0 − exposure/2, a field earlier when interlaced) starts a whole period after
+// start() returns: frame 0 has its period to be made before its gate pulse rises (docs/hil.md).
+TEST(FrameLoop, FrameZerosFirstExposureIsAPeriodAfterTheStart) {
+    for (const ScanKind scan : {ScanKind::Progressive, ScanKind::Interlaced}) {
+        LoopConfig cfg = smallLoop(FrameRate{10, 1}, ClockKind::Wall, 3);
+        cfg.scan = scan;
+        cfg.exposure_s = 0.025;
+        SlowRender render(-1, 0.0);
+        LinearCamera camera(1000.0, 16);
+        HeldPlatform platform(PlatformState{});
+        RecordingSink sink;
+        FrameLoop loop(cfg, platform, render, camera, {&sink});
+        std::vector<std::string> msgs;
+        loop.start(msgs);
+        const std::int64_t started_ns = monotonicNow_ns();
+        loop.join();
+        // Frame 0's first exposure: t_0 = 0 on the run clock, less a field (50 ms) when
+        // interlaced, less half the exposure.
+        const double first_s = (scan == ScanKind::Interlaced ? -0.050 : 0.0) - 0.0125;
+        const std::int64_t firstExposure_ns =
+            loop.wallClock().start_ns() + std::llround(first_s * 1e9);
+        EXPECT_GE(firstExposure_ns - started_ns, 100'000'000 - 5'000'000)
+            << "scan " << static_cast<int>(scan);
+        EXPECT_LE(firstExposure_ns - started_ns, 100'000'000 + 1'000'000);
+        EXPECT_EQ(loop.stats().firstFrame, 0);
+        EXPECT_GE(loop.stats().loopStart_s, 0.0);
+    }
 }
 
 }  // namespace
