@@ -162,6 +162,14 @@ struct Renderer::Impl {
     int thermalOwnRays = 0;  // pixels with a ray of their own
     std::uint64_t thermalGeneration = 0;
     const void* thermalFrameTables = nullptr;  // the ThermalFrame tables they came from
+    // The generation and tables of the last thermal frame (kept or not): a second frame on the
+    // same hits keeps the pixels' data.
+    // The frame's sky radiance resampled uniform in the zenith cosine (thermal.cpp, skyAt), and
+    // the table it came from.
+    std::vector<float> thermalSkyCos;
+    const void* thermalSkyTables = nullptr;
+    std::uint64_t thermalSeenGeneration = 0;
+    const void* thermalSeenTables = nullptr;
     // Static lighting data per pixel: everything about a pixel's light that depends only on the
     // geometry, the camera and the lamps' placement, kept as long as the G-buffer is (a fixed
     // camera over a static scene computes it once). Built lazily for the pixels that are shaded

@@ -131,12 +131,26 @@ struct ThermalCtx {
     const RenderConfig* cfg;
     const ThermalFrame* f;
     ImageView<float> out;
+    bool keep = false;  // thermalChunk keeps each pixel's data (Impl::thermalPx)
 };
 
-float skyAt(const ThermalFrame& f, double dirZ) noexcept {
-    if (dirZ <= 0.0) return static_cast<float>(f.groundRadiance);
-    const double zenith_deg = std::acos(std::min(dirZ, 1.0)) * (180.0 / kPi);
-    return lerpTable(f.skyRadiance, f.skyCount, zenith_deg / 90.0 * (f.skyCount - 1));
+// The sky radiance toward a direction of zenith cosine dirZ > 0, from Impl::thermalSkyCos: the
+// frame's table (uniform in zenith angle) resampled uniform in the cosine once per table
+// (updateSkyCos), so that no pixel takes an acos.
+constexpr int kSkyCosBins = 1024;
+inline float skyAt(const Renderer::Impl& im, double dirZ) noexcept {
+    return lerpTableF(im.thermalSkyCos.data(), kSkyCosBins + 1,
+                      static_cast<float>(std::min(dirZ, 1.0) * kSkyCosBins));
+}
+
+void updateSkyCos(Renderer::Impl& im, const ThermalFrame& f) noexcept {
+    if (im.thermalSkyTables == f.skyRadiance) return;
+    for (int i = 0; i <= kSkyCosBins; ++i) {
+        const double zenith_deg = std::acos(static_cast<double>(i) / kSkyCosBins) * (180.0 / kPi);
+        im.thermalSkyCos[static_cast<std::size_t>(i)] =
+            lerpTable(f.skyRadiance, f.skyCount, zenith_deg / 90.0 * (f.skyCount - 1));
+    }
+    im.thermalSkyTables = f.skyRadiance;
 }
 
 // A thermal-view pixel's primary hit: from the G-buffer pixel it shares, or its own ray.
@@ -173,8 +187,8 @@ ViewHit viewHit(const ThermalCtx& c, const Vec3& dir, std::int32_t src) noexcept
 // neighbouring sky-view band toward its own sky-view factor with the weight between them, linear
 // in the classes' mean sky-view factors (a surface whose sky view changes across it has no steps
 // at the bands' edges).
-void pixelClasses(const Renderer::Impl::ThermalKey& k, float svf, int band, std::int32_t* cls1,
-                  float* w) noexcept {
+inline void pixelClasses(const Renderer::Impl::ThermalKey& k, float svf, int band,
+                         std::int32_t* cls1, float* w) noexcept {
     const bool below = svf * static_cast<float>(kSkyViews) - static_cast<float>(band) < 0.5f;
     const std::int32_t c1 = below ? k.below : k.above;
     const float inv = below ? k.invBelow : k.invAbove;
@@ -192,7 +206,7 @@ Renderer::Impl::ThermalPixel thermalPixel(const ThermalCtx& c, int x, int y) noe
     const ViewHit h = viewHit(c, dir, src);
     Renderer::Impl::ThermalPixel p;
     if (!h.hit) {  // the sky at its zenith angle; the surroundings below it
-        p.envSky = dir.z > 0.0 ? skyAt(f, dir.z) : 0.0f;
+        p.envSky = dir.z > 0.0 ? skyAt(im, dir.z) : 0.0f;
         p.envGround = dir.z > 0.0 ? 0.0f : 1.0f;
         return p;
     }
@@ -218,7 +232,7 @@ Renderer::Impl::ThermalPixel thermalPixel(const ThermalCtx& c, int x, int y) noe
     const float s = key.specularity;
     const double mirrorZ = h.n.z * (2.0 * cosT) - view.z;
     const bool mirrorUp = mirrorZ > 0.0;
-    const float mirrorSky = mirrorUp && s > 0.0f ? s * skyAt(f, mirrorZ) : 0.0f;
+    const float mirrorSky = mirrorUp && s > 0.0f ? s * skyAt(im, mirrorZ) : 0.0f;
     p.envSky = mirrorSky + (1.0f - s) * svf * static_cast<float>(f.skyDiffuse);
     p.envGround = (mirrorUp ? 0.0f : s) + (1.0f - s) * (1.0f - svf);
     return p;
@@ -239,6 +253,7 @@ struct SharedChunk {
     std::int32_t material[kN];
     float r[kN], cosT[kN], mirrorZ[kN], k[kN];
     std::int32_t key[kN];
+    bool own[kN];  // the sky or a ray of its own: thermalPixel
 };
 
 NVS_SIMD_CLONES void sharedChunkKernel(SharedChunk& c, int n, float lnRange0,
@@ -288,8 +303,25 @@ NVS_SIMD_CLONES void sharedChunkKernel(SharedChunk& c, int n, float lnRange0,
     }
 }
 
+// The band radiance at the aperture of a pixel: L = τ·(ε·B(T) + (1 − ε)·(L_sky + a·L_ground))
+// + L_path, T between the pixel's classes (the cached and the fused path both end here).
+inline float pixelRadiance(const Renderer::Impl::ThermalPixel& p, const ThermalFrame& f, float air,
+                           float t0, float perK) noexcept {
+    float b = 0.0f;
+    if (p.cls0 >= 0) {
+        // Without a second class the weight is 0 and the class itself stands in (no branch).
+        const float ta = f.surfaceTemperature_K[p.cls0];
+        const float tb = f.surfaceTemperature_K[p.cls1 >= 0 ? p.cls1 : p.cls0];
+        const float t = ta + p.w * (tb - ta);
+        b = lerpTableF(f.blackbody, f.blackbodyCount, (t - t0) * perK);
+    }
+    const float env = p.envSky + p.envGround * air;
+    return p.tau * (p.eps * b + (1.0f - p.eps) * env) + p.path;
+}
+
 // Pixels x0 … x0+n−1 of view row y whose hits are shared: the G-buffer's, through the kernel,
 // then the tables. Others (the sky, own rays) through thermalPixel.
+// Writes each pixel's radiance to the output and, with c.keep, what it took to Impl::thermalPx.
 void thermalChunk(const ThermalCtx& c, int y, int x0, int n, SharedChunk& ch) noexcept {
     const Renderer::Impl& im = *c.im;
     const ThermalFrame& f = *c.f;
@@ -300,6 +332,7 @@ void thermalChunk(const ThermalCtx& c, int y, int x0, int n, SharedChunk& ch) no
     for (int j = 0; j < n; ++j) {
         const std::size_t i = static_cast<std::size_t>(src[j] < 0 ? 0 : src[j]);
         const bool shared = src[j] >= 0 && im.gMat[i] != kMiss;
+        ch.own[j] = !shared;
         ch.px[j] = shared ? im.gPos[3 * i] - cx : 0.0f;
         ch.py[j] = shared ? im.gPos[3 * i + 1] - cy : 0.0f;
         ch.pz[j] = shared ? im.gPos[3 * i + 2] - cz : -1.0f;
@@ -311,11 +344,18 @@ void thermalChunk(const ThermalCtx& c, int y, int x0, int n, SharedChunk& ch) no
     }
     sharedChunkKernel(ch, n, static_cast<float>(f.lnRange0),
                       static_cast<float>(1.0 / f.lnRangeStep));
-    Renderer::Impl::ThermalPixel* out = &c.im->thermalPx[static_cast<std::size_t>(y) * w + x0];
+    Renderer::Impl::ThermalPixel* kept = &c.im->thermalPx[static_cast<std::size_t>(y) * w + x0];
+    float* row = c.out.row(y) + x0;
+    const float air = static_cast<float>(f.groundRadiance);
+    const float t0 = static_cast<float>(f.blackbodyT0_K);
+    const float perK = static_cast<float>(1.0 / f.blackbodyStep_K);
+    const auto put = [&](int j, const Renderer::Impl::ThermalPixel& p) {
+        row[j] = pixelRadiance(p, f, air, t0, perK);
+        if (c.keep) kept[j] = p;
+    };
     for (int j = 0; j < n; ++j) {
-        const std::size_t i = static_cast<std::size_t>(src[j] < 0 ? 0 : src[j]);
-        if (src[j] < 0 || im.gMat[i] == kMiss) {
-            out[j] = thermalPixel(c, x0 + j, y);
+        if (ch.own[j]) {
+            put(j, thermalPixel(c, x0 + j, y));
             continue;
         }
         Renderer::Impl::ThermalPixel p;
@@ -325,7 +365,7 @@ void thermalChunk(const ThermalCtx& c, int y, int x0, int n, SharedChunk& ch) no
         p.cls0 = key.cls;
         if (p.cls0 < 0) {  // a material without a class: the air's temperature, black
             p.envGround = 1.0f;
-            out[j] = p;
+            put(j, p);
             continue;
         }
         const float svf = ch.svf[j];
@@ -336,10 +376,10 @@ void thermalChunk(const ThermalCtx& c, int y, int x0, int n, SharedChunk& ch) no
         const float s = key.specularity;
         const bool mirrorUp = ch.mirrorZ[j] > 0.0f;
         const float mirrorSky =
-            mirrorUp && s > 0.0f ? s * skyAt(f, static_cast<double>(ch.mirrorZ[j])) : 0.0f;
+            mirrorUp && s > 0.0f ? s * skyAt(im, static_cast<double>(ch.mirrorZ[j])) : 0.0f;
         p.envSky = mirrorSky + (1.0f - s) * svf * static_cast<float>(f.skyDiffuse);
         p.envGround = (mirrorUp ? 0.0f : s) + (1.0f - s) * (1.0f - svf);
-        out[j] = p;
+        put(j, p);
     }
 }
 
@@ -353,7 +393,7 @@ void thermalPixelRows(void* arg, int y0, int y1) noexcept {
     }
 }
 
-// Per frame: L = τ·(ε·B(T) + (1 − ε)·(L_sky + a·B(T_air))) + L_path, T between the classes.
+// Per frame with the pixels' data kept (the same hits as the frame before): the radiance alone.
 void thermalRows(void* arg, int y0, int y1) noexcept {
     const ThermalCtx& c = *static_cast<const ThermalCtx*>(arg);
     const Renderer::Impl& im = *c.im;
@@ -365,17 +405,8 @@ void thermalRows(void* arg, int y0, int y1) noexcept {
         float* row = c.out.row(y);
         const int w = im.thermalView.width;
         const Renderer::Impl::ThermalPixel* px = &im.thermalPx[static_cast<std::size_t>(y) * w];
-        for (int x = 0; x < w; ++x) {
-            const Renderer::Impl::ThermalPixel& p = px[x];
-            float b = 0.0f;
-            if (p.cls0 >= 0) {
-                float t = f.surfaceTemperature_K[p.cls0];
-                if (p.cls1 >= 0) t += p.w * (f.surfaceTemperature_K[p.cls1] - t);
-                b = lerpTable(f.blackbody, f.blackbodyCount, static_cast<double>((t - t0) * perK));
-            }
-            const float env = p.envSky + p.envGround * air;
-            row[x] = p.tau * (p.eps * b + (1.0f - p.eps) * env) + p.path;
-        }
+        for (int x = 0; x < w; ++x)
+            row[x] = pixelRadiance(px[x], f, air, t0, perK);
     }
 }
 
@@ -388,6 +419,8 @@ const std::vector<ThermalSurface>& Renderer::prepareThermal(int maxSamples) {
     for (const auto& [key, e] : acc)
         im.thermal.push_back(finishClass(key, e, std::max(maxSamples, 1)));
     setThermalView(config_.camera);
+    im.thermalSkyCos.assign(kSkyCosBins + 1, 0.0f);
+    im.thermalSkyTables = nullptr;
     const std::size_t keys = im.materials.size() * kKeysPerMaterial;
     std::vector<std::int32_t> classOfKey(keys, -1);
     for (std::size_t k = 0; k < keys; ++k) {
@@ -460,6 +493,7 @@ void Renderer::setThermalView(const PinholeCamera& view) {
     }
     im.thermalPx.assign(n, Impl::ThermalPixel{});
     im.thermalGeneration = 0;
+    im.thermalSeenGeneration = 0;
 }
 
 const PinholeCamera& Renderer::thermalView() const noexcept {
@@ -479,21 +513,34 @@ void Renderer::renderThermal(const ThermalFrame& frame, ImageView<float> radianc
     static const FrameSky kNoSky{};
     Ctx c{&im, &config_, &kNoSky, radiance, radiance, 1, 0u, false, false, rowStep(im.H), 1};
     updateGeometryBuffer(c, -1, exec);
+    updateSkyCos(im, frame);
     ThermalCtx tc{&im, &config_, &frame, radiance};
-    if (im.thermalGeneration != im.gGeneration || im.thermalFrameTables != frame.pathTau) {
-        exec.run(h, &thermalPixelRows, &tc);
+    if (im.thermalGeneration == im.gGeneration && im.thermalFrameTables == frame.pathTau) {
+        exec.run(h, &thermalRows, &tc);  // the hits as before: each pixel's data kept
+        return;
+    }
+    // New hits: each pixel from its hit, straight to the radiance. The pixels' data are kept
+    // only when the hits stood since the frame before (a held camera), not for a moving one,
+    // whose kept data no frame would use (writing them cost a moving frame a third of its time).
+    tc.keep = im.thermalSeenGeneration == im.gGeneration && im.thermalSeenTables == frame.pathTau;
+    exec.run(h, &thermalPixelRows, &tc);
+    im.primary += static_cast<std::uint64_t>(im.thermalOwnRays);
+    im.thermalSeenGeneration = im.gGeneration;
+    im.thermalSeenTables = frame.pathTau;
+    if (tc.keep) {
         im.thermalGeneration = im.gGeneration;
         im.thermalFrameTables = frame.pathTau;
-        im.primary += static_cast<std::uint64_t>(im.thermalOwnRays);
     }
-    exec.run(h, &thermalRows, &tc);
 }
 
 double Renderer::thermalPixelTemperature_K(const ThermalFrame& frame, int x, int y) const noexcept {
     const Impl& im = *impl_;
-    if (x < 0 || y < 0 || x >= im.thermalView.width || y >= im.thermalView.height) return 0.0;
-    const Impl::ThermalPixel& p =
-        im.thermalPx[static_cast<std::size_t>(y) * im.thermalView.width + x];
+    if (x < 0 || y < 0 || x >= im.thermalView.width || y >= im.thermalView.height ||
+        im.thermalKeys.empty()) {
+        return 0.0;
+    }
+    const ThermalCtx tc{impl_.get(), &config_, &frame, ImageView<float>{}};
+    const Impl::ThermalPixel p = thermalPixel(tc, x, y);
     if (p.cls0 < 0) return 0.0;
     const double t0 = frame.surfaceTemperature_K[p.cls0];
     if (p.cls1 < 0) return t0;
@@ -503,8 +550,16 @@ double Renderer::thermalPixelTemperature_K(const ThermalFrame& frame, int x, int
 
 int Renderer::thermalClassOfPixel(int x, int y) const noexcept {
     const Impl& im = *impl_;
-    if (x < 0 || y < 0 || x >= im.thermalView.width || y >= im.thermalView.height) return -1;
-    return im.thermalPx[static_cast<std::size_t>(y) * im.thermalView.width + x].cls0;
+    if (x < 0 || y < 0 || x >= im.thermalView.width || y >= im.thermalView.height ||
+        im.thermalKeys.empty()) {
+        return -1;
+    }
+    const ThermalCtx tc{impl_.get(), &config_, nullptr, ImageView<float>{}};
+    const Vec3 dir = im.pixelDir(x + 0.5, y + 0.5, im.thermalView);
+    const ViewHit h =
+        viewHit(tc, dir, im.thermalSrc[static_cast<std::size_t>(y) * im.thermalView.width + x]);
+    if (!h.hit) return -1;
+    return im.thermalKeys[static_cast<std::size_t>(classKey(h.material, h.n, h.svf))].cls;
 }
 
 }  // namespace nvs::render
