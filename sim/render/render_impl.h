@@ -167,6 +167,7 @@ struct Renderer::Impl {
     // The frame's sky radiance resampled uniform in the zenith cosine (thermal.cpp, skyAt), and
     // the table it came from.
     std::vector<float> thermalSkyCos;
+    std::vector<float> thermalClassB;  // per class, this frame's B(T) (renderThermal)
     const void* thermalSkyTables = nullptr;
     std::uint64_t thermalSeenGeneration = 0;
     const void* thermalSeenTables = nullptr;

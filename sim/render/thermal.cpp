@@ -110,6 +110,11 @@ ThermalSurface finishClass(int key, const Accumulator& e, int maxSamples) {
     return s;
 }
 
+// t[i] + f·(t[i + 1] − t[i]), the index and fraction made beforehand (no branch).
+inline float lerpAt(const float* t, std::int32_t i, float f) noexcept {
+    return t[i] + f * (t[i + 1] - t[i]);
+}
+
 inline float lerpTableF(const float* t, int n, float x) noexcept {
     if (x <= 0.0f) return t[0];
     if (x >= static_cast<float>(n - 1)) return t[n - 1];
@@ -251,13 +256,19 @@ struct SharedChunk {
     static constexpr int kN = 256;
     float px[kN], py[kN], pz[kN], nx[kN], ny[kN], nz[kN], svf[kN];
     std::int32_t material[kN];
-    float r[kN], cosT[kN], mirrorZ[kN], k[kN];
+    float r[kN], cosT[kN], mirrorZ[kN];
+    // Table positions as index and fraction (lerpAt): ln r in τ and L_path, cos θ in ε(θ).
+    std::int32_t kIdx[kN], eIdx[kN], sIdx[kN];
+    float kFrac[kN], eFrac[kN], sFrac[kN];  // s: the mirror's zenith cosine in thermalSkyCos
     std::int32_t key[kN];
     bool own[kN];  // the sky or a ray of its own: thermalPixel
 };
 
-NVS_SIMD_CLONES void sharedChunkKernel(SharedChunk& c, int n, float lnRange0,
-                                       float perLnStep) noexcept {
+NVS_SIMD_CLONES void sharedChunkKernel(SharedChunk& c, int n, float lnRange0, float perLnStep,
+                                       int rangeCount) noexcept {
+    // The last index whose next entry exists: positions at or past the table's end read its
+    // last interval at fraction 1.
+    const float kMax = static_cast<float>(rangeCount - 1) * 0.99999988f;
     constexpr float kCos22 = 0.923879533f, kCos67 = 0.382683432f, kLn2 = 0.693147181f;
     for (int j = 0; j < n; ++j) {
         const float r0 = std::sqrt(c.px[j] * c.px[j] + c.py[j] * c.py[j] + c.pz[j] * c.pz[j]);
@@ -282,7 +293,17 @@ NVS_SIMD_CLONES void sharedChunkKernel(SharedChunk& c, int n, float lnRange0,
             2.0f * sm *
             (1.0f +
              s2 * (1.0f / 3.0f + s2 * (1.0f / 5.0f + s2 * (1.0f / 7.0f + s2 * (1.0f / 9.0f)))));
-        c.k[j] = (static_cast<float>(e) * kLn2 + lnM - lnRange0) * perLnStep;
+        const float k = (static_cast<float>(e) * kLn2 + lnM - lnRange0) * perLnStep;
+        const float kc = k > 0.0f ? (k < kMax ? k : kMax) : 0.0f;
+        c.kIdx[j] = static_cast<std::int32_t>(kc);
+        c.kFrac[j] = kc - static_cast<float>(c.kIdx[j]);
+        const float ec = cosT * static_cast<float>(kThermalCosBins - 1) * 0.99999988f;
+        c.eIdx[j] = static_cast<std::int32_t>(ec);
+        c.eFrac[j] = ec - static_cast<float>(c.eIdx[j]);
+        const float mz = c.mirrorZ[j] > 0.0f ? (c.mirrorZ[j] < 1.0f ? c.mirrorZ[j] : 1.0f) : 0.0f;
+        const float sc = mz * static_cast<float>(kSkyCosBins) * 0.99999988f;
+        c.sIdx[j] = static_cast<std::int32_t>(sc);
+        c.sFrac[j] = sc - static_cast<float>(c.sIdx[j]);
         // The class key (classKey's bands, as comparisons).
         const float nzj = c.nz[j], e_ = c.nx[j], no = c.ny[j];
         const int tilt = static_cast<int>(nzj <= kCos22) + static_cast<int>(nzj <= kCos67) +
@@ -303,17 +324,19 @@ NVS_SIMD_CLONES void sharedChunkKernel(SharedChunk& c, int n, float lnRange0,
     }
 }
 
-// The band radiance at the aperture of a pixel: L = τ·(ε·B(T) + (1 − ε)·(L_sky + a·L_ground))
-// + L_path, T between the pixel's classes (the cached and the fused path both end here).
-inline float pixelRadiance(const Renderer::Impl::ThermalPixel& p, const ThermalFrame& f, float air,
-                           float t0, float perK) noexcept {
+// The band radiance at the aperture of a pixel: L = τ·(ε·B + (1 − ε)·(L_sky + a·L_ground)) + L_path
+// (the cached and the fused path both end here). B is blended between the pixel's two classes'
+// B(T) (classB, this frame's, per class) by the same weight as their temperatures would be: the
+// classes of neighbouring sky-view bands differ by a kelvin or less, over which B(T) is straight
+// to 1e-4 of the difference (B'' ΔT²/8).
+inline float pixelRadiance(const Renderer::Impl::ThermalPixel& p, const float* classB,
+                           float air) noexcept {
     float b = 0.0f;
     if (p.cls0 >= 0) {
         // Without a second class the weight is 0 and the class itself stands in (no branch).
-        const float ta = f.surfaceTemperature_K[p.cls0];
-        const float tb = f.surfaceTemperature_K[p.cls1 >= 0 ? p.cls1 : p.cls0];
-        const float t = ta + p.w * (tb - ta);
-        b = lerpTableF(f.blackbody, f.blackbodyCount, (t - t0) * perK);
+        const float ba = classB[p.cls0];
+        const float bb = classB[p.cls1 >= 0 ? p.cls1 : p.cls0];
+        b = ba + p.w * (bb - ba);
     }
     const float env = p.envSky + p.envGround * air;
     return p.tau * (p.eps * b + (1.0f - p.eps) * env) + p.path;
@@ -343,14 +366,13 @@ void thermalChunk(const ThermalCtx& c, int y, int x0, int n, SharedChunk& ch) no
         ch.material[j] = shared ? im.gMat[i] : 0;
     }
     sharedChunkKernel(ch, n, static_cast<float>(f.lnRange0),
-                      static_cast<float>(1.0 / f.lnRangeStep));
+                      static_cast<float>(1.0 / f.lnRangeStep), f.rangeCount);
     Renderer::Impl::ThermalPixel* kept = &c.im->thermalPx[static_cast<std::size_t>(y) * w + x0];
     float* row = c.out.row(y) + x0;
     const float air = static_cast<float>(f.groundRadiance);
-    const float t0 = static_cast<float>(f.blackbodyT0_K);
-    const float perK = static_cast<float>(1.0 / f.blackbodyStep_K);
+    const float* classB = im.thermalClassB.data();
     const auto put = [&](int j, const Renderer::Impl::ThermalPixel& p) {
-        row[j] = pixelRadiance(p, f, air, t0, perK);
+        row[j] = pixelRadiance(p, classB, air);
         if (c.keep) kept[j] = p;
     };
     for (int j = 0; j < n; ++j) {
@@ -359,8 +381,8 @@ void thermalChunk(const ThermalCtx& c, int y, int x0, int n, SharedChunk& ch) no
             continue;
         }
         Renderer::Impl::ThermalPixel p;
-        p.tau = lerpTableF(f.pathTau, f.rangeCount, ch.k[j]);
-        p.path = lerpTableF(f.pathRadiance, f.rangeCount, ch.k[j]);
+        p.tau = lerpAt(f.pathTau, ch.kIdx[j], ch.kFrac[j]);
+        p.path = lerpAt(f.pathRadiance, ch.kIdx[j], ch.kFrac[j]);
         const Renderer::Impl::ThermalKey& key = im.thermalKeys[static_cast<std::size_t>(ch.key[j])];
         p.cls0 = key.cls;
         if (p.cls0 < 0) {  // a material without a class: the air's temperature, black
@@ -371,12 +393,13 @@ void thermalChunk(const ThermalCtx& c, int y, int x0, int n, SharedChunk& ch) no
         const float svf = ch.svf[j];
         pixelClasses(key, svf, ch.key[j] % kSkyViews, &p.cls1, &p.w);
         const float* eps = f.emissivity + static_cast<std::size_t>(p.cls0) * kThermalCosBins;
-        p.eps = lerpTableF(eps, kThermalCosBins, ch.cosT[j] * (kThermalCosBins - 1));
+        p.eps = lerpAt(eps, ch.eIdx[j], ch.eFrac[j]);
         // L_env = s·L_mirror + (1 − s)·(F·L_sky,diffuse + (1 − F)·B(T_air)).
         const float s = key.specularity;
         const bool mirrorUp = ch.mirrorZ[j] > 0.0f;
-        const float mirrorSky =
-            mirrorUp && s > 0.0f ? s * skyAt(im, static_cast<double>(ch.mirrorZ[j])) : 0.0f;
+        const float mirrorSky = mirrorUp && s > 0.0f
+                                    ? s * lerpAt(im.thermalSkyCos.data(), ch.sIdx[j], ch.sFrac[j])
+                                    : 0.0f;
         p.envSky = mirrorSky + (1.0f - s) * svf * static_cast<float>(f.skyDiffuse);
         p.envGround = (mirrorUp ? 0.0f : s) + (1.0f - s) * (1.0f - svf);
         put(j, p);
@@ -399,14 +422,13 @@ void thermalRows(void* arg, int y0, int y1) noexcept {
     const Renderer::Impl& im = *c.im;
     const ThermalFrame& f = *c.f;
     const float air = static_cast<float>(f.groundRadiance);
-    const float t0 = static_cast<float>(f.blackbodyT0_K);
-    const float perK = static_cast<float>(1.0 / f.blackbodyStep_K);
+    const float* classB = im.thermalClassB.data();
     for (int y = y0; y < y1; ++y) {
         float* row = c.out.row(y);
         const int w = im.thermalView.width;
         const Renderer::Impl::ThermalPixel* px = &im.thermalPx[static_cast<std::size_t>(y) * w];
         for (int x = 0; x < w; ++x)
-            row[x] = pixelRadiance(px[x], f, air, t0, perK);
+            row[x] = pixelRadiance(px[x], classB, air);
     }
 }
 
@@ -420,6 +442,7 @@ const std::vector<ThermalSurface>& Renderer::prepareThermal(int maxSamples) {
         im.thermal.push_back(finishClass(key, e, std::max(maxSamples, 1)));
     setThermalView(config_.camera);
     im.thermalSkyCos.assign(kSkyCosBins + 1, 0.0f);
+    im.thermalClassB.assign(im.thermal.size(), 0.0f);
     im.thermalSkyTables = nullptr;
     const std::size_t keys = im.materials.size() * kKeysPerMaterial;
     std::vector<std::int32_t> classOfKey(keys, -1);
@@ -514,6 +537,12 @@ void Renderer::renderThermal(const ThermalFrame& frame, ImageView<float> radianc
     Ctx c{&im, &config_, &kNoSky, radiance, radiance, 1, 0u, false, false, rowStep(im.H), 1};
     updateGeometryBuffer(c, -1, exec);
     updateSkyCos(im, frame);
+    // Each class's B(T) at this frame's temperatures.
+    const float t0 = static_cast<float>(frame.blackbodyT0_K);
+    const float perK = static_cast<float>(1.0 / frame.blackbodyStep_K);
+    for (std::size_t k = 0; k < im.thermalClassB.size(); ++k)
+        im.thermalClassB[k] = lerpTableF(frame.blackbody, frame.blackbodyCount,
+                                         (frame.surfaceTemperature_K[k] - t0) * perK);
     ThermalCtx tc{&im, &config_, &frame, radiance};
     if (im.thermalGeneration == im.gGeneration && im.thermalFrameTables == frame.pathTau) {
         exec.run(h, &thermalRows, &tc);  // the hits as before: each pixel's data kept
