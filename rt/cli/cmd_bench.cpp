@@ -416,6 +416,16 @@ void addPrimary1080Items(Items& items, const DataDirs& dirs,
     }
 }
 
+// A thermal channel of the bench items: its scene's heat balance and LWIR table, its camera chain,
+// its radiance image (the boresighted item's; the others draw into the flight's band image) and
+// the one-thread executor it is timed on.
+struct ThermalChannel {
+    std::unique_ptr<rt::ThermalScene> scene;
+    std::unique_ptr<bolometer::BolometerChain> chain;
+    ImageF radiance;
+    render::SerialExecutor one;
+};
+
 // A thermal channel boresighted with the intensified camera (docs/thermal.md, "Shared primary
 // hits"): the airborne pass's 768 × 494 intensified frame is rendered first, untimed (the
 // intensified channel's own work); the timed part is what the thermal channel adds on one
@@ -424,14 +434,8 @@ void addPrimary1080Items(Items& items, const DataDirs& dirs,
 // shading and the bolometer chain. The budget: half of one core at 30 Hz, 16.7 ms a frame.
 void addBoresightItem(Items& items, const DataDirs& dirs, const std::filesystem::path& air,
                       const std::filesystem::path& weather) {
-    struct Thermal {
-        std::unique_ptr<rt::ThermalScene> scene;
-        std::unique_ptr<bolometer::BolometerChain> chain;
-        ImageF radiance;
-        render::SerialExecutor one;
-    };
     auto f = std::make_shared<Flight>();
-    auto th = std::make_shared<Thermal>();
+    auto th = std::make_shared<ThermalChannel>();
     f->file = air;
     f->dirs = dirs;
     f->threads = 2;
@@ -501,13 +505,8 @@ void addThermalItems(Items& items, const DataDirs& dirs, const std::filesystem::
     const std::filesystem::path weather =
         dirs.config / "thermal" / "weather" / "rochester-1998-09-02.csv";
     if (!std::filesystem::exists(air) || !std::filesystem::exists(weather)) return;
-    struct Thermal {
-        std::unique_ptr<rt::ThermalScene> scene;
-        std::unique_ptr<bolometer::BolometerChain> chain;
-        render::SerialExecutor one;
-    };
     auto f = std::make_shared<Flight>();
-    auto th = std::make_shared<Thermal>();
+    auto th = std::make_shared<ThermalChannel>();
     f->file = air;
     f->dirs = dirs;
     f->threads = 1;
