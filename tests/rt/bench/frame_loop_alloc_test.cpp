@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "rt/bench/alloc_count.h"
+#include "rt/camera_stage/bolometer_stage.h"
 #include "rt/camera_stage/camera_stage.h"
 #include "rt/compose/scenario.h"
 #include "rt/loop/frame_loop.h"
@@ -105,6 +106,67 @@ TEST(FrameLoopAllocations, NonePerFieldInSteadyStateOnTheAirbornePass) {
     EXPECT_GT(counting.atFrom, 1000u);
     EXPECT_EQ(counting.atTo - counting.atFrom, 0u)
         << "operator new calls in " << (toField - fromField) << " fields of steady state";
+}
+
+// The thermal channel too (issue 30: no allocation per frame): the airborne pass seen by the
+// 640 × 512 microbolometer at 30 Hz under the sim clock, the camera moving along its CAN log (the
+// G-buffer changes every frame, so every pixel goes from its hit to the radiance), the bolometer
+// camera stage with its shutter, 8-bit y4m and metadata outputs; 30 frames of steady state after
+// frame 10. (A scene whose objects move is another matter: Embree's rebuild of their BVH calls
+// operator new, 3 times a frame on vehicle-drive-lwir's truck; docs/performance.md.)
+TEST(FrameLoopAllocations, NonePerFrameInSteadyStateOnTheThermalAirbornePass) {
+    if (!bench::allocationCounting()) {
+        GTEST_SKIP() << "operator new is not replaced in this build (AddressSanitizer)";
+    }
+    const std::filesystem::path source = NVS_SOURCE_DIR;
+    const DataDirs dirs{source / "config", std::filesystem::path(NVS_BINARY_DIR) / "cache"};
+    Scenario sc =
+        loadScenario(source / "scenarios" / "airborne-pass" / "scenario.toml", dirs.config);
+    sc.camera.thermal = true;
+    sc.camera.thermalParams = bolometer::loadThermalCamera(dirs.config, "boson-640");
+    sc.camera.thermalParams->frame_rate_Hz = 30.0;
+    sc.width = 640;
+    sc.height = 512;
+    sc.bits = 8;
+    sc.scan = ScanKind::Progressive;
+    sc.rate = FrameRate::fromHz(30.0);
+    ThermalSpec ts;
+    ts.weatherFile = dirs.config / "thermal" / "weather" / "rochester-1998-09-02.csv";
+    ts.materialsFile = dirs.config / "thermal" / "materials.toml";
+    sc.scene.thermal = ts;
+    auto render = SceneRenderStage::create(sc, dirs);
+    std::unique_ptr<PlatformSource> platform =
+        makePlatformSource(sc.telemetry, sc, ClockKind::Sim, dirs);
+    BolometerCameraStage camera(*sc.camera.thermalParams, sc.bits, sc.camera.seed,
+                                render->thermal()->groundRadianceAt(sc.utcStart_unix_s),
+                                dirs.config);
+    const int fromFrame = 10, toFrame = 40;
+    CountingPlatform counting(*platform, fromFrame, toFrame);
+    auto y4m = makeSink("y4m:/dev/null", sc, 50);
+    const std::string metaPath = ::testing::TempDir() + "frame_loop_alloc_thermal_meta.jsonl";
+    auto meta = makeSink("meta:" + metaPath, sc, 50);
+
+    LoopConfig cfg;
+    cfg.rate = sc.rate;
+    cfg.clock = ClockKind::Sim;
+    cfg.frames = 50;
+    cfg.exposure_s = sc.exposure_s;
+    cfg.width = sc.width;
+    cfg.height = sc.height;
+    cfg.scan = sc.scan;
+    FrameLoop loop(cfg, counting, *render, camera, {y4m.get(), meta.get()});
+    std::vector<std::string> messages;
+    loop.start(messages);
+    loop.join();
+    ASSERT_EQ(loop.failure(), "");
+    ASSERT_EQ(loop.stats().counters.framesEmitted, 50);
+    ASSERT_GT(counting.atTo, 0u);
+    EXPECT_EQ(y4m->close(), 0);
+    EXPECT_EQ(meta->close(), 0);
+    std::filesystem::remove(metaPath);
+    EXPECT_GT(counting.atFrom, 1000u);
+    EXPECT_EQ(counting.atTo - counting.atFrom, 0u)
+        << "operator new calls in " << (toFrame - fromFrame) << " frames of steady state";
 }
 
 }  // namespace
