@@ -59,6 +59,41 @@ TEST(FrameLoopAllocations, TheCounterSeesEveryFormOfNewOnAnyThread) {
     EXPECT_LE(bench::allocationCount() - a0, 6u);
 }
 
+// Runs `frames` frames of `sc` under the sim clock through `render` and `camera` to y4m and
+// metadata sinks, and checks that the samples fromSample … toSample of the platform (fields of
+// an interlaced scan, frames of a progressive one) saw no operator new; setup did allocate.
+void expectNoneInSteadyState(const Scenario& sc, PlatformSource& platform, RenderStage& render,
+                             CameraStage& camera, int frames, int fromSample, int toSample,
+                             const char* unit) {
+    CountingPlatform counting(platform, fromSample, toSample);
+    auto y4m = makeSink("y4m:/dev/null", sc, frames);
+    const std::string metaPath = ::testing::TempDir() + "frame_loop_alloc_meta.jsonl";
+    auto meta = makeSink("meta:" + metaPath, sc, frames);
+    LoopConfig cfg;
+    cfg.rate = sc.rate;
+    cfg.clock = ClockKind::Sim;
+    cfg.frames = frames;
+    cfg.exposure_s = sc.exposure_s;
+    cfg.width = sc.width;
+    cfg.height = sc.height;
+    cfg.scan = sc.scan;
+    cfg.topFieldFirst = sc.fieldOrder() != msg::FieldOrder::BottomFirst;
+    FrameLoop loop(cfg, counting, render, camera, {y4m.get(), meta.get()});
+    std::vector<std::string> messages;
+    loop.start(messages);
+    loop.join();
+    ASSERT_EQ(loop.failure(), "");
+    ASSERT_EQ(loop.stats().counters.framesEmitted, frames);
+    ASSERT_GT(counting.atTo, 0u);
+    EXPECT_EQ(y4m->close(), 0);
+    EXPECT_EQ(meta->close(), 0);
+    std::filesystem::remove(metaPath);
+    // The counter itself counts: setup allocated (the scene, the images, the tables).
+    EXPECT_GT(counting.atFrom, 1000u);
+    EXPECT_EQ(counting.atTo - counting.atFrom, 0u)
+        << "operator new calls in " << (toSample - fromSample) << " " << unit << " of steady state";
+}
+
 TEST(FrameLoopAllocations, NonePerFieldInSteadyStateOnTheAirbornePass) {
     if (!bench::allocationCounting()) {
         GTEST_SKIP() << "operator new is not replaced in this build (AddressSanitizer)";
@@ -77,35 +112,8 @@ TEST(FrameLoopAllocations, NonePerFieldInSteadyStateOnTheAirbornePass) {
     GammaTableCache gammaTables;
     IiccdCameraStage camera(sc.camera.params, "pe", sc.camera.seed,
                             IiccdCameraStage::Controls::Platform, dirs.config, gammaTables);
-    const int fromField = 20, toField = 60;  // 40 fields
-    CountingPlatform counting(*platform, fromField, toField);
-    auto y4m = makeSink("y4m:/dev/null", sc, 34);
-    const std::string metaPath = ::testing::TempDir() + "frame_loop_alloc_meta.jsonl";
-    auto meta = makeSink("meta:" + metaPath, sc, 34);
-
-    LoopConfig cfg;
-    cfg.rate = sc.rate;
-    cfg.clock = ClockKind::Sim;
-    cfg.frames = 34;  // 68 fields: the window closes before the last frames drain
-    cfg.exposure_s = sc.exposure_s;
-    cfg.width = sc.width;
-    cfg.height = sc.height;
-    cfg.scan = sc.scan;
-    cfg.topFieldFirst = sc.fieldOrder() != msg::FieldOrder::BottomFirst;
-    FrameLoop loop(cfg, counting, *render, camera, {y4m.get(), meta.get()});
-    std::vector<std::string> messages;
-    loop.start(messages);
-    loop.join();
-    ASSERT_EQ(loop.failure(), "");
-    ASSERT_EQ(loop.stats().counters.framesEmitted, 34);
-    ASSERT_GT(counting.atTo, 0u);
-    EXPECT_EQ(y4m->close(), 0);
-    EXPECT_EQ(meta->close(), 0);
-    std::filesystem::remove(metaPath);
-    // The counter itself counts: setup allocated (the scene, the images, the tables).
-    EXPECT_GT(counting.atFrom, 1000u);
-    EXPECT_EQ(counting.atTo - counting.atFrom, 0u)
-        << "operator new calls in " << (toField - fromField) << " fields of steady state";
+    // 40 fields from field 20; 34 frames (68 fields): the window closes before the last drain.
+    expectNoneInSteadyState(sc, *platform, *render, camera, 34, 20, 60, "fields");
 }
 
 // The thermal channel too (issue 30: no allocation per frame): the airborne pass seen by the
@@ -140,33 +148,7 @@ TEST(FrameLoopAllocations, NonePerFrameInSteadyStateOnTheThermalAirbornePass) {
     BolometerCameraStage camera(*sc.camera.thermalParams, sc.bits, sc.camera.seed,
                                 render->thermal()->groundRadianceAt(sc.utcStart_unix_s),
                                 dirs.config);
-    const int fromFrame = 10, toFrame = 40;
-    CountingPlatform counting(*platform, fromFrame, toFrame);
-    auto y4m = makeSink("y4m:/dev/null", sc, 50);
-    const std::string metaPath = ::testing::TempDir() + "frame_loop_alloc_thermal_meta.jsonl";
-    auto meta = makeSink("meta:" + metaPath, sc, 50);
-
-    LoopConfig cfg;
-    cfg.rate = sc.rate;
-    cfg.clock = ClockKind::Sim;
-    cfg.frames = 50;
-    cfg.exposure_s = sc.exposure_s;
-    cfg.width = sc.width;
-    cfg.height = sc.height;
-    cfg.scan = sc.scan;
-    FrameLoop loop(cfg, counting, *render, camera, {y4m.get(), meta.get()});
-    std::vector<std::string> messages;
-    loop.start(messages);
-    loop.join();
-    ASSERT_EQ(loop.failure(), "");
-    ASSERT_EQ(loop.stats().counters.framesEmitted, 50);
-    ASSERT_GT(counting.atTo, 0u);
-    EXPECT_EQ(y4m->close(), 0);
-    EXPECT_EQ(meta->close(), 0);
-    std::filesystem::remove(metaPath);
-    EXPECT_GT(counting.atFrom, 1000u);
-    EXPECT_EQ(counting.atTo - counting.atFrom, 0u)
-        << "operator new calls in " << (toFrame - fromFrame) << " frames of steady state";
+    expectNoneInSteadyState(sc, *platform, *render, camera, 50, 10, 40, "frames");
 }
 
 }  // namespace
