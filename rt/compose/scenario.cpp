@@ -69,13 +69,6 @@ void readThermalCamera(const ConfigTable& t, std::optional<int> width, std::opti
                        std::optional<int> bits, const std::filesystem::path& configDir,
                        sensor::Overrides ov, CameraSpec& out);
 
-// A preset name found under config/thermal_cameras, or a file in a thermal_cameras folder.
-bool isThermalPreset(const std::filesystem::path& configDir, const std::string& preset) {
-    const std::filesystem::path p = preset;
-    if (p.extension() == ".toml") return p.parent_path().filename() == "thermal_cameras";
-    return pathExists(configDir / "thermal_cameras" / (preset + ".toml"));
-}
-
 // [camera]: the preset with its overrides; the scenario's explicit size and ADC depth are
 // applied as overrides so that the preset's own validation sees them.
 void readCamera(const ConfigTable& t, std::optional<int> width, std::optional<int> height,
@@ -89,7 +82,7 @@ void readCamera(const ConfigTable& t, std::optional<int> width, std::optional<in
         t.fail("set", e.what());
     }
     out.presetOverrides = ov;
-    if (isThermalPreset(configDir, out.preset)) {
+    if (bolometer::isThermalPreset(configDir, out.preset)) {
         readThermalCamera(t, width, height, bits, configDir, ov, out);
     } else {
         readIiccdCamera(t, width, height, bits, configDir, ov, out);

@@ -15,34 +15,49 @@ namespace {
 constexpr int kTilts = 5, kAzimuths = 4, kSkyViews = 4;
 constexpr int kKeysPerMaterial = kTilts * kAzimuths * kSkyViews;
 
+// The class key's bands, written once for the set-up's double normals and the per-frame
+// kernel's float ones (sharedChunkKernel vectorises them: comparisons and integer arithmetic, no
+// branch, no acos or atan2).
 // Tilt band of a unit normal: 0 facing up (< 22.5° from the zenith) … 2 vertical … 4 down; the
-// bands' edges at 22.5°, 67.5°, 112.5° and 157.5° as cosines (no acos per pixel).
-int tiltBand(double nz) noexcept {
-    constexpr double kCos22 = 0.92387953251128674, kCos67 = 0.38268343236508978;
-    return static_cast<int>(nz <= kCos22) + static_cast<int>(nz <= kCos67) +
-           static_cast<int>(nz <= -kCos67) + static_cast<int>(nz <= -kCos22);
+// bands' edges at 22.5°, 67.5°, 112.5° and 157.5° as cosines.
+template <class T>
+inline int tiltBand(T nz) noexcept {
+    const T cos22 = static_cast<T>(0.92387953251128674),
+            cos67 = static_cast<T>(0.38268343236508978);
+    return static_cast<int>(nz <= cos22) + static_cast<int>(nz <= cos67) +
+           static_cast<int>(nz <= -cos67) + static_cast<int>(nz <= -cos22);
 }
 
-// Azimuth quadrant of an inclined normal, from north through east (x east, y north): 0 N for
-// azimuths in [−45°, 45°), 1 E in [45°, 135°), 2 S in [135°, 225°), 3 W in [225°, 315°); 0 for the
-// up and down bands. By comparisons of the components, without branches (no atan2 per pixel).
-int azimuthQuadrant(const Vec3& n, int tilt) noexcept {
-    const double e = n.x, no = n.y;
-    const bool north = (no > 0.0) & (-no <= e) & (e < no);
-    const bool east = (e > 0.0) & (-e < no) & (no <= e);
-    const bool south = (no < 0.0) & (no < e) & (e <= -no);
-    const int q = north ? 0 : east ? 1 : south ? 2 : 3;
-    return (tilt == 0) | (tilt == kTilts - 1) ? 0 : q;
+// Azimuth quadrant of an inclined normal (east, north components), from north through east:
+// 0 N for azimuths in [−45°, 45°), 1 E in [45°, 135°), 2 S in [135°, 225°), 3 W in [225°, 315°);
+// 0 for the up and down bands. The quadrants' conditions are exclusive: q = 1·E + 2·S + 3·W.
+template <class T>
+inline int azimuthQuadrant(T e, T no, int tilt) noexcept {
+    const T zero = 0;
+    const int north =
+        static_cast<int>(no > zero) & static_cast<int>(-no <= e) & static_cast<int>(e < no);
+    const int east =
+        static_cast<int>(e > zero) & static_cast<int>(-e < no) & static_cast<int>(no <= e);
+    const int south =
+        static_cast<int>(no < zero) & static_cast<int>(no < e) & static_cast<int>(e <= -no);
+    const int q = east + 2 * south + 3 * (1 - (north | east | south));
+    return q * (static_cast<int>(tilt != 0) & static_cast<int>(tilt != kTilts - 1));
 }
 
-int skyViewBand(double svf) noexcept {
-    return std::clamp(static_cast<int>(svf * kSkyViews), 0, kSkyViews - 1);
+template <class T>
+inline int skyViewBand(T svf) noexcept {
+    return std::min(std::max(static_cast<int>(svf * static_cast<T>(kSkyViews)), 0), kSkyViews - 1);
+}
+
+template <class T>
+inline int classKeyOf(int material, T nx, T ny, T nz, T svf) noexcept {
+    const int tilt = tiltBand(nz);
+    return ((material * kTilts + tilt) * kAzimuths + azimuthQuadrant(nx, ny, tilt)) * kSkyViews +
+           skyViewBand(svf);
 }
 
 int classKey(int material, const Vec3& n, double svf) noexcept {
-    const int tilt = tiltBand(n.z);
-    return ((material * kTilts + tilt) * kAzimuths + azimuthQuadrant(n, tilt)) * kSkyViews +
-           skyViewBand(svf);
+    return classKeyOf(material, n.x, n.y, n.z, svf);
 }
 
 // How far apart two keys of one material are (tilt bands weigh most), for keys no face has.
@@ -201,6 +216,15 @@ inline void pixelClasses(const Renderer::Impl::ThermalKey& k, float svf, int ban
     *w = c1 < 0 ? 0.0f : std::clamp((svf - k.skyView) * inv, 0.0f, 1.0f);
 }
 
+// L_env = s·L_mirror + (1 − s)·(F·L_sky,diffuse + (1 − F)·L_ground): its sky part and the weight
+// of L_ground (added per frame), s the specularity, F the sky-view factor; mirrorSky the sky's
+// radiance toward the mirror direction when that points up (else the ground stands in).
+inline void setEnvironment(Renderer::Impl::ThermalPixel& p, float s, float svf, bool mirrorUp,
+                           float mirrorSky, float skyDiffuse) noexcept {
+    p.envSky = (mirrorUp ? s * mirrorSky : 0.0f) + (1.0f - s) * svf * skyDiffuse;
+    p.envGround = (mirrorUp ? 0.0f : s) + (1.0f - s) * (1.0f - svf);
+}
+
 // What view pixel (x, y) takes from its hit and the frame's fixed tables (Impl::ThermalPixel):
 // the sky, and pixels with rays of their own (thermalChunk does the shared hits).
 Renderer::Impl::ThermalPixel thermalPixel(const ThermalCtx& c, int x, int y) noexcept {
@@ -233,19 +257,18 @@ Renderer::Impl::ThermalPixel thermalPixel(const ThermalCtx& c, int x, int y) noe
     const double cosT = std::clamp(dot(h.n, view), 0.0, 1.0);
     const float* eps = f.emissivity + static_cast<std::size_t>(p.cls0) * kThermalCosBins;
     p.eps = lerpTable(eps, kThermalCosBins, cosT * (kThermalCosBins - 1));
-    // L_env = s·L_mirror + (1 − s)·(F·L_sky,diffuse + (1 − F)·B(T_air)), its sky and air parts.
     const float s = key.specularity;
     const double mirrorZ = h.n.z * (2.0 * cosT) - view.z;
     const bool mirrorUp = mirrorZ > 0.0;
-    const float mirrorSky = mirrorUp && s > 0.0f ? s * skyAt(im, mirrorZ) : 0.0f;
-    p.envSky = mirrorSky + (1.0f - s) * svf * static_cast<float>(f.skyDiffuse);
-    p.envGround = (mirrorUp ? 0.0f : s) + (1.0f - s) * (1.0f - svf);
+    setEnvironment(p, s, svf, mirrorUp, mirrorUp && s > 0.0f ? skyAt(im, mirrorZ) : 0.0f,
+                   static_cast<float>(f.skyDiffuse));
     return p;
 }
 
 // The per-pixel part of a shared hit that needs no table, for a chunk of pixels: positions
-// relative to the camera p, normals n, sky-view factors and materials in; range r, cos θ toward
-// the camera, the mirror direction's z, the table index k of ln r and the class key out. Plain
+// relative to the camera p, normals n, sky-view factors and materials in; cos θ toward the
+// camera, the mirror direction's z, the table positions of ln r, cos θ and the mirror's zenith
+// cosine, and the class key out. Plain
 // loops over arrays, which each version of NVS_SIMD_CLONES vectorises (thermal.cpp is built with
 // -ffp-contract=off: every version does the same IEEE operations, so the same bits).
 //
@@ -256,7 +279,7 @@ struct SharedChunk {
     static constexpr int kN = 256;
     float px[kN], py[kN], pz[kN], nx[kN], ny[kN], nz[kN], svf[kN];
     std::int32_t material[kN];
-    float r[kN], cosT[kN], mirrorZ[kN];
+    float cosT[kN], mirrorZ[kN];
     // Table positions as index and fraction (lerpAt): ln r in τ and L_path, cos θ in ε(θ).
     std::int32_t kIdx[kN], eIdx[kN], sIdx[kN];
     float kFrac[kN], eFrac[kN], sFrac[kN];  // s: the mirror's zenith cosine in thermalSkyCos
@@ -269,7 +292,7 @@ NVS_SIMD_CLONES void sharedChunkKernel(SharedChunk& c, int n, float lnRange0, fl
     // The last index whose next entry exists: positions at or past the table's end read its
     // last interval at fraction 1.
     const float kMax = static_cast<float>(rangeCount - 1) * 0.99999988f;
-    constexpr float kCos22 = 0.923879533f, kCos67 = 0.382683432f, kLn2 = 0.693147181f;
+    constexpr float kLn2 = 0.693147181f;
     for (int j = 0; j < n; ++j) {
         const float r0 = std::sqrt(c.px[j] * c.px[j] + c.py[j] * c.py[j] + c.pz[j] * c.pz[j]);
         const float r = r0 > 1e-3f ? r0 : 1e-3f;
@@ -278,7 +301,6 @@ NVS_SIMD_CLONES void sharedChunkKernel(SharedChunk& c, int n, float lnRange0, fl
         const float d0 = c.nx[j] * vx + c.ny[j] * vy + c.nz[j] * vz;
         const float d1 = d0 > 0.0f ? d0 : 0.0f;
         const float cosT = d1 < 1.0f ? d1 : 1.0f;
-        c.r[j] = r;
         c.cosT[j] = cosT;
         c.mirrorZ[j] = c.nz[j] * (2.0f * cosT) - vz;
         // ln r
@@ -304,23 +326,7 @@ NVS_SIMD_CLONES void sharedChunkKernel(SharedChunk& c, int n, float lnRange0, fl
         const float sc = mz * static_cast<float>(kSkyCosBins) * 0.99999988f;
         c.sIdx[j] = static_cast<std::int32_t>(sc);
         c.sFrac[j] = sc - static_cast<float>(c.sIdx[j]);
-        // The class key (classKey's bands, as comparisons).
-        const float nzj = c.nz[j], e_ = c.nx[j], no = c.ny[j];
-        const int tilt = static_cast<int>(nzj <= kCos22) + static_cast<int>(nzj <= kCos67) +
-                         static_cast<int>(nzj <= -kCos67) + static_cast<int>(nzj <= -kCos22);
-        // The four quadrants' conditions are exclusive: q = 1·east + 2·south + 3·west.
-        const int north =
-            static_cast<int>(no > 0.0f) & static_cast<int>(-no <= e_) & static_cast<int>(e_ < no);
-        const int east =
-            static_cast<int>(e_ > 0.0f) & static_cast<int>(-e_ < no) & static_cast<int>(no <= e_);
-        const int south =
-            static_cast<int>(no < 0.0f) & static_cast<int>(no < e_) & static_cast<int>(e_ <= -no);
-        const int q = east + 2 * south + 3 * (1 - (north | east | south));
-        const int inclined = static_cast<int>(tilt != 0) & static_cast<int>(tilt != kTilts - 1);
-        const int quad = q * inclined;
-        const int band =
-            std::min(std::max(static_cast<int>(c.svf[j] * kSkyViews), 0), kSkyViews - 1);
-        c.key[j] = ((c.material[j] * kTilts + tilt) * kAzimuths + quad) * kSkyViews + band;
+        c.key[j] = classKeyOf(c.material[j], c.nx[j], c.ny[j], c.nz[j], c.svf[j]);
     }
 }
 
@@ -394,14 +400,12 @@ void thermalChunk(const ThermalCtx& c, int y, int x0, int n, SharedChunk& ch) no
         pixelClasses(key, svf, ch.key[j] % kSkyViews, &p.cls1, &p.w);
         const float* eps = f.emissivity + static_cast<std::size_t>(p.cls0) * kThermalCosBins;
         p.eps = lerpAt(eps, ch.eIdx[j], ch.eFrac[j]);
-        // L_env = s·L_mirror + (1 − s)·(F·L_sky,diffuse + (1 − F)·B(T_air)).
         const float s = key.specularity;
         const bool mirrorUp = ch.mirrorZ[j] > 0.0f;
-        const float mirrorSky = mirrorUp && s > 0.0f
-                                    ? s * lerpAt(im.thermalSkyCos.data(), ch.sIdx[j], ch.sFrac[j])
-                                    : 0.0f;
-        p.envSky = mirrorSky + (1.0f - s) * svf * static_cast<float>(f.skyDiffuse);
-        p.envGround = (mirrorUp ? 0.0f : s) + (1.0f - s) * (1.0f - svf);
+        setEnvironment(
+            p, s, svf, mirrorUp,
+            mirrorUp && s > 0.0f ? lerpAt(im.thermalSkyCos.data(), ch.sIdx[j], ch.sFrac[j]) : 0.0f,
+            static_cast<float>(f.skyDiffuse));
         put(j, p);
     }
 }

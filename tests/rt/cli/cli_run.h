@@ -5,6 +5,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <array>
 #include <cstdio>
 #include <filesystem>
@@ -47,6 +48,13 @@ inline CliRun nvstim(const std::string& args, const std::filesystem::path& cwd =
     }
     std::filesystem::remove(errFile);
     return r;
+}
+
+// A refused command line: exit status 2 and one line on stderr that names `what`.
+inline void expectOneLineRefusal(const CliRun& r, const std::string& what) {
+    EXPECT_EQ(r.status, 2) << r.err;
+    EXPECT_NE(r.err.find(what), std::string::npos) << r.err;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
 }
 
 // The test's folder, empty at the start and removed at the end.

@@ -25,12 +25,7 @@ const fs::path kNight = kSource / "scenarios/thesis-nolight-lwir";
 
 // Exit 2, one line on stderr naming `what`, and `out` not written.
 void expectRefused(const test::CliRun& r, const std::string& what, const fs::path& out) {
-    EXPECT_EQ(r.status, 2) << r.err;
-    EXPECT_NE(r.err.find(what), std::string::npos) << r.err;
-    std::size_t lines = 0;
-    for (char c : r.err)
-        lines += c == '\n';
-    EXPECT_EQ(lines, 1u) << r.err;
+    test::expectOneLineRefusal(r, what);
     EXPECT_FALSE(fs::exists(out));
 }
 

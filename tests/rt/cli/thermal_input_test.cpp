@@ -49,13 +49,14 @@ fs::path copyNight(const fs::path& dir) {
 
 // Exit 2, one line on stderr, and it names `where` (file:line).
 void expectOneLine(const test::CliRun& r, const std::string& where, const std::string& what) {
-    EXPECT_EQ(r.status, 2) << r.err;
-    EXPECT_NE(r.err.find(where), std::string::npos) << r.err;
+    test::expectOneLineRefusal(r, where);
     EXPECT_NE(r.err.find(what), std::string::npos) << r.err;
-    std::size_t lines = 0;
-    for (char c : r.err)
-        lines += c == '\n';
-    EXPECT_EQ(lines, 1u) << r.err;
+}
+
+// One frame of the night in `night` under the sim clock, to PGM files in w/out.
+test::CliRun runNight(const fs::path& night, const WorkDir& w) {
+    return nvstim("run " + night.string() +
+                  " --clock sim --frames 1 --output pgm:" + (w.path / "out").string());
 }
 
 TEST(ThermalInput, SceneMaterialWithoutThermalMaterialNamesItsLine) {
@@ -64,8 +65,7 @@ TEST(ThermalInput, SceneMaterialWithoutThermalMaterialNamesItsLine) {
     std::string scene = readAll(w.path / "rit/scene.toml");
     scene = std::regex_replace(scene, std::regex("thermal = \"grass\"\n"), "");
     write(w.path / "rit/scene.toml", scene);
-    const auto r = nvstim("run " + night.string() +
-                          " --clock sim --frames 1 --output pgm:" + (w.path / "out").string());
+    const auto r = runNight(night, w);
     expectOneLine(r, "scene.toml:", "'grass' has no `thermal` material");
     EXPECT_FALSE(fs::exists(w.path / "out/000000.pgm"));
 }
@@ -77,8 +77,7 @@ TEST(ThermalInput, ThermalMaterialWithoutLayersNamesBothPlaces) {
     scene =
         std::regex_replace(scene, std::regex("thermal = \"grass\""), "thermal = \"sky_backdrop\"");
     write(w.path / "rit/scene.toml", scene);
-    const auto r = nvstim("run " + night.string() +
-                          " --clock sim --frames 1 --output pgm:" + (w.path / "out").string());
+    const auto r = runNight(night, w);
     expectOneLine(r, "scene.toml:", "sky_backdrop");
 }
 
@@ -96,8 +95,7 @@ TEST(ThermalInput, GapInTheWeatherNamesItsLine) {
         out += line + "\n";
     }
     write(night / "weather.csv", out);
-    const auto r = nvstim("run " + night.string() +
-                          " --clock sim --frames 1 --output pgm:" + (w.path / "out").string());
+    const auto r = runNight(night, w);
     expectOneLine(r, "weather.csv:", "gap");
 }
 
@@ -110,8 +108,7 @@ TEST(ThermalInput, EmissivityOutsideZeroToOneNamesItsLine) {
     const auto e = m.find("emissivity = ", at);
     m.replace(e, m.find('\n', e) - e, "emissivity = 1.3");
     write(night / "materials.toml", m);
-    const auto r = nvstim("run " + night.string() +
-                          " --clock sim --frames 1 --output pgm:" + (w.path / "out").string());
+    const auto r = runNight(night, w);
     expectOneLine(r, "materials.toml:", "emissivity");
 }
 
@@ -121,14 +118,12 @@ TEST(ThermalInput, ThermalTableAndPresetBelongTogether) {
     std::string sc = readAll(night / "scenario.toml");
     write(night / "scenario.toml", std::regex_replace(sc, std::regex("preset = \"boson-640\""),
                                                       "preset = \"pulnix-ag5745ef3\""));
-    auto r = nvstim("run " + night.string() +
-                    " --clock sim --frames 1 --output pgm:" + (w.path / "out").string());
+    auto r = runNight(night, w);
     expectOneLine(r, "scenario.toml:", "[thermal] needs a thermal camera preset");
     const auto cut = sc.find("[thermal]");
     const auto end = sc.find("[scene]");
     write(night / "scenario.toml", sc.substr(0, cut) + sc.substr(end));
-    r = nvstim("run " + night.string() +
-               " --clock sim --frames 1 --output pgm:" + (w.path / "out").string());
+    r = runNight(night, w);
     expectOneLine(r, "scenario.toml:", "needs a [thermal] table");
 }
 
@@ -140,8 +135,7 @@ TEST(ThermalInput, HeatBalanceKeyOutOfRangeNamesItsLine) {
     std::string sc = readAll(night / "scenario.toml");
     write(night / "scenario.toml", std::regex_replace(sc, std::regex("\\[thermal\\]\n"),
                                                       "[thermal]\nlinke_turbidity = 20.0\n"));
-    const auto r = nvstim("run " + night.string() +
-                          " --clock sim --frames 1 --output pgm:" + (w.path / "out").string());
+    const auto r = runNight(night, w);
     expectOneLine(r, "scenario.toml:", "linke_turbidity");
 }
 
