@@ -160,6 +160,10 @@ void GpioGateSink::exposureScheduled(const msg::ExposureWindow& w) noexcept {
     if (closed_.load(std::memory_order_relaxed)) return;
     // Width: the gate when the photocathode is gated within the exposure, else the exposure.
     const double width_s = w.gate_s > 0.0 && w.gate_s < w.exposure_s ? w.gate_s : w.exposure_s;
+    // Handed over after its start (a frame made too late for its exposure; the trigger clock,
+    // whose exposures start at the edge): this pulse rises late whatever the pulse thread does.
+    if (w.startMonotonic_ns != 0 && w.startMonotonic_ns < gpioMonotonicNow_ns())
+        queuedLate_.fetch_add(1, std::memory_order_relaxed);
     const std::uint32_t t = tail_.load(std::memory_order_relaxed);
     if (t - head_.load(std::memory_order_acquire) >= kQueue) {
         lost_.fetch_add(1, std::memory_order_relaxed);
@@ -270,10 +274,11 @@ std::string GpioGateSink::status() const {
     const int lastErrno = lastErrno_.load(std::memory_order_relaxed);
     std::snprintf(
         buf, sizeof buf,
-        "%s: pulses %lld, late %lld (rise after the exposure start: max %.3f ms), overlapped "
-        "%lld, lost %lld, errors %lld%s%s",
+        "%s: pulses %lld, late %lld (rise after the exposure start: max %.3f ms; handed over "
+        "after it %lld), overlapped %lld, lost %lld, errors %lld%s%s",
         name_.c_str(), static_cast<long long>(pulses_.load()), static_cast<long long>(late_.load()),
         static_cast<double>(riseDelayMax_ns_.load()) * 1e-6,
+        static_cast<long long>(queuedLate_.load()),
         static_cast<long long>(overlapped_.load()), static_cast<long long>(lost_.load()),
         static_cast<long long>(errors), lastErrno != 0 ? ", last error: " : "",
         lastErrno != 0 ? std::strerror(lastErrno) : "");

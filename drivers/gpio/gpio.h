@@ -124,6 +124,7 @@ class GpioGateSink final : public msg::FrameSink,
     std::int64_t pulses() const { return pulses_.load(); }
     std::int64_t overlapped() const { return overlapped_.load(); }
     std::int64_t late() const { return late_.load(); }
+    std::int64_t queuedLate() const { return queuedLate_.load(); }
     std::int64_t lost() const { return lost_.load(); }
 
   private:
@@ -144,6 +145,9 @@ class GpioGateSink final : public msg::FrameSink,
     std::atomic<std::int64_t> pulses_{0};
     std::atomic<std::int64_t> overlapped_{0};
     std::atomic<std::int64_t> late_{0};  // rose more than kLate_ns after the exposure start
+    // Handed over (exposureScheduled) after the exposure's start: late before the pulse thread
+    // saw it, which tells a late frame from a late wake-up.
+    std::atomic<std::int64_t> queuedLate_{0};
     // The latest a pulse rose after its exposure's start (the clock read just before the line
     // is set): the pulse thread's wake-up delay, in the status line.
     std::atomic<std::int64_t> riseDelayMax_ns_{0};

@@ -22,10 +22,6 @@ FrameLoop::FrameLoop(const LoopConfig& config, PlatformSource& platform, RenderS
       period_ns_(WallClock(config.rate).deadline_ns(1)) {
     // Default exposure: one frame (progressive) or one field (interlaced).
     exposure_s_ = config.exposure_s > 0.0 ? config.exposure_s : field_s_;
-    const PacingContext ctx{wall_,       sim_,     stop_,   *this,         events_,
-                            stats_,      trigger_, live_,   config.frames, period_ns_,
-                            exposure_s_, fields_,  field_s_};
-    pacing_ = makePacing(config.clock, ctx, config.trigger, config.triggerTimeout_s);
     // Each slot holds the images the render stage fills, each in its own unit.
     const RenderStage::Outputs out = render.outputs();
     const auto image = [&](bool wanted) {
@@ -48,6 +44,16 @@ FrameLoop::FrameLoop(const LoopConfig& config, PlatformSource& platform, RenderS
         channels_.push_back(std::make_unique<SinkChannel>(*sink, config.sinkQueueFrames,
                                                           config.width, config.height, out));
     }
+    PacingContext ctx{wall_,       sim_,     stop_,   *this,         events_,
+                      stats_,      trigger_, live_,   config.frames, period_ns_,
+                      exposure_s_, fields_,  field_s_};
+    // With a gate line, frame k's first exposure (a field earlier when interlaced, less half
+    // the exposure) is its deadline: its pulse rises there, so the frame must be made before.
+    if (!observers_.empty()) {
+        ctx.markLead_ns = std::llround(
+            (static_cast<double>(fields_ - 1) * field_s_ + 0.5 * exposure_s_) * 1e9);
+    }
+    pacing_ = makePacing(config.clock, ctx, config.trigger, config.triggerTimeout_s);
 }
 
 FrameLoop::~FrameLoop() {
@@ -343,9 +349,10 @@ void FrameLoop::exposeFrame(Slot& s) noexcept {
         stale = stale || req.platform.stale;
     }
     if (fields_ == 2) weaveFields(s);
-    // A frame made after its tick (wall clock) is late: the output thread drops it, and its
-    // exposures get no gate pulse, so that every pulse on the line is an emitted frame's. The
-    // exposures are scheduled here, once the frame is made (its fields' windows lie ahead).
+    // A frame made after its deadline (wall clock: its tick, or with a gate line its first
+    // exposure's start) is late: the output thread drops it, and its exposures get no gate
+    // pulse, so that every pulse on the line is an emitted frame's and rises at its window's
+    // start. The exposures are scheduled here, once the frame is made (their windows lie ahead).
     s.late = pacing_->pastTick(s.frame, monotonicNow_ns());
     if (!s.late) {
         for (int f = 0; f < fields_ && !observers_.empty(); ++f)

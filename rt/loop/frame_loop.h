@@ -198,7 +198,7 @@ class FrameLoop final : private ReadyFrames {
         FrameMeta fieldMeta;
         std::int64_t start_ns = 0;  // when the render of this frame began (CLOCK_MONOTONIC)
         std::int64_t edge_ns = 0;   // trigger clock: the edge that started it
-        bool late = false;          // made after its tick (wall clock): dropped, no gate pulse
+        bool late = false;          // made after its deadline (wall clock): dropped, no gate pulse
     };
     void renderThread(bool realtime);
     void cameraThread(bool realtime);

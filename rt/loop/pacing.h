@@ -61,6 +61,10 @@ struct PacingContext {
     double exposure_s = 0.0;  // one frame's or field's
     int fields = 1;           // exposures per frame
     double field_s = 0.0;     // field period [s]
+    // Exposures marked on a gate line (an exposure observer): frame r's first exposure starts
+    // this long before its tick, and the frame must be made by then, since its pulse rises
+    // there (0: no observer, the tick is the frame's deadline).
+    std::int64_t markLead_ns = 0;
 };
 
 class Pacing {
@@ -77,9 +81,10 @@ class Pacing {
     // Render thread, with a free slot in hand: waits until frame r should start and says when
     // it samples the world; false when the loop is stopping.
     virtual bool startFrame(std::int64_t r, FrameStart& at) noexcept = 0;
-    // Camera thread, frame r made at `now_ns`: true when its tick has already passed on a
-    // deadline clock, so that the output thread will drop it (never emitted) and its exposures
-    // are not marked on the gate line.
+    // Camera thread, frame r made at `now_ns`: true when its deadline has passed on a deadline
+    // clock (its tick, or its first exposure's start when exposures are marked: markLead_ns),
+    // so that the output thread will drop it (never emitted) and its exposures are not marked
+    // on the gate line.
     virtual bool pastTick(std::int64_t /*r*/, std::int64_t /*now_ns*/) const noexcept {
         return false;
     }

@@ -13,7 +13,8 @@ std::int64_t WallPacing::frameDue(std::int64_t r) noexcept {
     std::int64_t due = outputTick_.load(std::memory_order_acquire);
     const std::int64_t expected_ns = expectedFrame_ns_.load(std::memory_order_relaxed);
     if (expected_ns > 0) {
-        due = std::max(due, ctx_.wall.tickAt(monotonicNow_ns() + expected_ns) + 1);
+        due = std::max(due,
+                       ctx_.wall.tickAt(monotonicNow_ns() + expected_ns + ctx_.markLead_ns) + 1);
     }
     if (r >= due) return r;
     ctx_.events.count(LoopEvent::RenderSkipped, due - r);
@@ -27,7 +28,7 @@ bool WallPacing::startFrame(std::int64_t r, FrameStart& at) noexcept {
     // anyway), in slices so that a stop is seen.
     const std::int64_t lead_ns = leadFrame_ns_.load(std::memory_order_relaxed);
     if (lead_ns > 0) {
-        const std::int64_t startAt = ctx_.wall.deadline_ns(r) - lead_ns;
+        const std::int64_t startAt = madeBy_ns(r) - lead_ns;
         for (std::int64_t now = monotonicNow_ns(); now < startAt; now = monotonicNow_ns()) {
             if (ctx_.stop.load(std::memory_order_acquire)) return false;
             WallClock::sleepUntil(std::min(startAt, now + 20'000'000));

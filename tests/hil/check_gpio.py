@@ -94,7 +94,7 @@ def windows(metas, origin_ns):
     return sorted(set(out))
 
 
-def judge_samples(name, samples, wins, check, guard_ns=GUARD_NS, late_counted=0):
+def judge_samples(name, samples, wins, check, guard_ns=GUARD_NS):
     """Samples (before, after, value) against the windows: inside (shrunk by the guard) must
     read 1, outside (by the guard) must read 0; samples within the guard of a window's edge are
     not judged. No exception: a pulse that rose late (low readings inside its window) fails, as
@@ -141,20 +141,7 @@ def judge_samples(name, samples, wins, check, guard_ns=GUARD_NS, late_counted=0)
         before = max((ta for tb, ta, _ in used if ta <= b), default=None)
         after = min((tb for tb, ta, _ in used if tb >= a), default=None)
         gaps.append((after - before) / 1e6 if before is not None and after is not None else -1)
-    # Pulses nvstim itself counted late (its gpio status: `late N`): a late rise leaves readings
-    # low at the start of its window. Up to N such windows pass, reported; nothing else does (a
-    # pulse outside every window, or more late windows than nvstim counted). docs/hil.md says
-    # why this allowance stays: in 1 of 6 runs in the 1-vCPU TCG VM a field's pulse rose 21.7 ms
-    # late while the sampler ran on, cause not yet known.
-    late_windows = sorted({int(x[3].rsplit(" ", 1)[1]) for x in bad
-                           if x[3].startswith("low inside window")})
-    excused = (late_windows and len(late_windows) <= late_counted and
-               all(x[3].startswith("low inside window") for x in bad))
-    if excused:
-        print("hil: gpio %s: %d readings low at the start of %d windows (%s) whose pulses nvstim "
-              "counted late (late %d): allowed, not a pass of the strict check" % (
-                  name, len(bad), len(late_windows), late_windows[:8], late_counted))
-    check((not bad or excused) and len(gaps) <= UNSAMPLED_MAX * len(wins) and high_ok > 0 and
+    check(not bad and len(gaps) <= UNSAMPLED_MAX * len(wins) and high_ok > 0 and
           low_ok > 0,
           "gpio %s: gate line high at %d sampled instants inside the %d exposure windows (%d "
           "windows judged, %d in the sampler's gaps%s), low at %d outside; guard %.1f ms at each "
@@ -336,8 +323,13 @@ def check_gate(d, name, frames_n, check):
     # Judged: every sample, from before nvstim started to after it ended (no pulse before the
     # first frame, none for a missed one, none after the last).
     samples = read_samples(d)
-    m = re.search(r"\blate (\d+)", gate[0]) if gate else None
-    judge_samples(name, samples, wins, check, late_counted=int(m.group(1)) if m else 0)
+    judge_samples(name, samples, wins, check)
+    # On the wall clock a frame is due at its first exposure's start: none is handed to the
+    # pulse thread after it (a frame made later is dropped, with no pulse).
+    m = re.search(r"handed over after it (\d+)", gate[0]) if gate else None
+    check(m is not None and m.group(1) == "0",
+          "gpio %s: pulses handed to the pulse thread after their exposure's start: %s" % (
+              name, m.group(1) if m else "not in the status line"))
     # The missed ticks' nominal windows (each exposure at origin + t ± exposure/2, t = k·T, and
     # k·T − T/2 for an interlaced frame's first field): the line stayed low there (judged above
     # as outside every window; counted here).

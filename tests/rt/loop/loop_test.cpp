@@ -631,10 +631,15 @@ class GateRecorder final : public FrameSink, public ExposureObserver {
     int close() noexcept override { return 0; }
     std::string status() const override { return "gate"; }
     void exposureScheduled(const ExposureWindow& w) noexcept override {
-        if (scheduled < kMax) scheduledFrame[scheduled++] = w.frame;
+        if (scheduled >= kMax) return;
+        // How long before its start the window was scheduled (the pulse thread can raise the
+        // line on time only when this is positive).
+        scheduledAhead_ns[scheduled] = w.startMonotonic_ns - monotonicNow_ns();
+        scheduledFrame[scheduled++] = w.frame;
     }
     static constexpr int kMax = 256;
     std::int64_t emittedFrame[kMax] = {}, scheduledFrame[kMax] = {};
+    std::int64_t scheduledAhead_ns[kMax] = {};
     int emitted = 0, scheduled = 0;
 };
 
@@ -657,6 +662,47 @@ TEST(FrameLoop, AFrameMadeAfterItsTickMarksNoExposure) {
     std::vector<std::int64_t> emit(gate.emittedFrame, gate.emittedFrame + gate.emitted);
     EXPECT_EQ(sched, emit);
     EXPECT_EQ(std::count(sched.begin(), sched.end(), 3), 0);
+}
+
+// With a gate line, a frame's deadline is its first exposure's start, a field and half an
+// exposure before its tick when interlaced (62.5 ms here): the frame is started early enough to
+// be made by then, and one made later is dropped with no pulse, even though its tick has not
+// come. Frame 5 renders 70 ms late (35 ms in each field's render): made in time for its first
+// field. Then 150 ms late: past its first exposure's start, before its tick. Either way every pulse is scheduled before its window
+// starts, and the pulses are exactly the emitted frames' (docs/hil.md, "Gate").
+TEST(FrameLoop, WithAGateAFrameIsDueAtItsFirstExposure) {
+    for (const double delay_s : {0.035, 0.075}) {  // per field
+        LoopConfig cfg = smallLoop(FrameRate{10, 1}, ClockKind::Wall, 12);
+        cfg.scan = ScanKind::Interlaced;
+        cfg.exposure_s = 0.025;
+        SlowRender render(5, delay_s);
+        LinearCamera camera(1000.0, 16);
+        HeldPlatform platform(PlatformState{});
+        GateRecorder gate;
+        FrameLoop loop(cfg, platform, render, camera, {&gate});
+        std::vector<std::string> msgs;
+        loop.start(msgs);
+        loop.join();
+        ASSERT_GT(gate.scheduled, 0);
+        for (int i = 0; i < gate.scheduled; ++i) {
+            EXPECT_GT(gate.scheduledAhead_ns[i], 0)
+                << "delay " << delay_s << " s: frame " << gate.scheduledFrame[i]
+                << " scheduled " << static_cast<double>(-gate.scheduledAhead_ns[i]) * 1e-6
+                << " ms after its start";
+        }
+        std::vector<std::int64_t> sched;
+        for (int i = 0; i < gate.scheduled; i += 2) {  // two fields a frame
+            EXPECT_EQ(gate.scheduledFrame[i], gate.scheduledFrame[i + 1]);
+            sched.push_back(gate.scheduledFrame[i]);
+        }
+        std::vector<std::int64_t> emit(gate.emittedFrame, gate.emittedFrame + gate.emitted);
+        EXPECT_EQ(sched, emit) << "delay " << delay_s;
+        const bool emitted5 = std::count(emit.begin(), emit.end(), 5) == 1;
+        EXPECT_EQ(emitted5, delay_s < 0.05) << "delay " << delay_s;
+        if (delay_s > 0.05) {
+            EXPECT_GE(loop.stats().counters.lateFrames, 1);
+        }
+    }
 }
 
 // Start-up: the origin is taken once the loop's threads are made, and placed so that frame 0's
