@@ -63,8 +63,28 @@ trap 'rm -rf "$work"' EXIT
 cd "$work"
 # apt-get download writes into the current folder; _apt must be able to write it.
 chmod 0777 "$work"
-pkgs=("$kpkg=$pkgver" "linux-headers-$kver=$pkgver" "linux-headers-$kabi-common=$pkgver"
-      "linux-kbuild-$kseries=$pkgver" "v4l2loopback-dkms=$v4lver")
+# The version of package $1 to fetch for the kernel's $pkgver: that one where the archive still
+# has it, else the newest with the same upstream version (Debian's security archive moves a
+# package built from the kernel's source to a new upload, e.g. linux-kbuild-6.1 6.1.192-3 beside
+# linux-image-6.1.0-56-amd64 6.1.192-2: the same kernel source, so the same host tools and
+# headers), else the archive's candidate, with a note.
+pick() {
+    local all want=${pkgver%-*}
+    all=$(apt-cache madison "$1" | awk '{print $3}')
+    if echo "$all" | grep -qxF "$pkgver"; then echo "$pkgver"; return; fi
+    local same
+    same=$(echo "$all" | awk -v u="$want" '{v = $0; sub(/-[^-]*$/, "", v); if (v == u) {print; exit}}')
+    if [ -n "$same" ]; then
+        say "$1: $pkgver is gone from the archive; $same (the same upstream $want)"
+        echo "$same"
+        return
+    fi
+    say "$1: no $want in the archive; its candidate $(echo "$all" | head -n1)"
+    echo "$all" | head -n1
+}
+pkgs=("$kpkg=$pkgver" "linux-headers-$kver=$(pick "linux-headers-$kver")"
+      "linux-headers-$kabi-common=$(pick "linux-headers-$kabi-common")"
+      "linux-kbuild-$kseries=$(pick "linux-kbuild-$kseries")" "v4l2loopback-dkms=$v4lver")
 apt-get download -q "${pkgs[@]}" >&2 2> >(grep -v "unsandboxed" >&2)
 root="$work/root"
 for d in ./*.deb; do dpkg-deb -x "$d" "$root"; done
@@ -82,7 +102,7 @@ cp "$src/v4l2loopback.ko" "$mod/extra/"
 
 # gpio-sim (see the top). The source tarball (≈ 140 MB) is unpacked for three files only.
 gpio_skip=""
-srcpkg="linux-source-$kseries=$pkgver"
+srcpkg="linux-source-$kseries=$(pick "linux-source-$kseries")"
 if ! apt-get download -q "$srcpkg" >&2 2> >(grep -v "unsandboxed" >&2); then
     gpio_skip="$srcpkg cannot be fetched (apt-get download failed)"
 else

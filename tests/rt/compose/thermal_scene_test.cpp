@@ -235,6 +235,72 @@ TEST(ThermalScene, SharedPrimaryHitsMatchTheThermalCamerasOwnRays) {
     r.setThermalView(r.camera());
 }
 
+// A lamp housing (docs/thermal.md, "Heat sources"): thesis-stlamp-lwir, the street lamp in view lit
+// for hours. Its steel box, heated by the 40 W bulb (config/thermal/materials.toml, lamp_box_40w),
+// reads warmer than the air and than its own unheated pole and arm (the same paint, "sign"), which
+// the clear sky cools below the air; in thesis-nolight-lwir, unlit, the same box is no warmer than
+// its pole. Brightness temperatures of the rendered pixels by material, frame 0.
+TEST(ThermalScene, LitLampHousingIsWarmerThanItsPole) {
+    SerialExecutor exec;
+    const auto meanBrightness = [&](const char* scenario, const char* housing, int* nHousing,
+                                    double* pole, int* nPole, double* air_K) {
+        auto sr = ScenarioRenderer::create(kSource / "scenarios" / scenario / "scenario.toml", kDirs);
+        const std::unique_ptr<ThermalScene> thermal = ThermalScene::forScenario(*sr, kDirs);
+        (void)sr->prepare(0.0);
+        Renderer& r = sr->renderer();
+        ImageF radiance(r.camera().width, r.camera().height);
+        const double t = sr->scenario().utcStart_unix_s;
+        r.renderThermal(thermal->frame(t), radiance.view(), exec);
+        const int hMat = sr->scene().materialIndex(housing);
+        const int pMat = sr->scene().materialIndex("sign");
+        const Vec3 lamp =
+            sr->scene().lamps[static_cast<std::size_t>(sr->scene().lampIndex("street_lamp"))]
+                .position_m;
+        int lampObj = -1;
+        for (std::size_t i = 0; i < sr->scene().objects.size(); ++i)
+            if (sr->scene().objects[i].name == "street_lamp_pole") lampObj = static_cast<int>(i);
+        double sumH = 0.0, sumP = 0.0;
+        *nHousing = *nPole = 0;
+        for (int y = 0; y < r.camera().height; ++y) {
+            for (int x = 0; x < r.camera().width; ++x) {
+                Vec3 p;
+                int mat = -1, obj = -1;
+                if (!r.pixelHit(x, y, &p, &mat, &obj) || obj != lampObj) continue;
+                const double tb = thermal->lwirTable().brightnessTemperature_K(
+                    static_cast<double>(radiance(x, y)));
+                // The housing: the 25-cm box whose bottom holds the lamp (scenarios/rit/make_scene.py).
+                const Vec3 d = p - lamp;
+                const bool box = d.z > -0.01 && d.z < 0.26 && std::hypot(d.x, d.y) < 0.18;
+                if (box && mat == hMat) {
+                    sumH += tb;
+                    ++*nHousing;
+                } else if (!box && mat == pMat) {
+                    sumP += tb;
+                    ++*nPole;
+                }
+            }
+        }
+        *pole = *nPole > 0 ? sumP / *nPole : 0.0;
+        *air_K = thermal->weather().at(t).air_K;
+        return *nHousing > 0 ? sumH / *nHousing : 0.0;
+    };
+    int nLit = 0, nLitPole = 0, nOff = 0, nOffPole = 0;
+    double litPole = 0.0, offPole = 0.0, litAir = 0.0, offAir = 0.0;
+    const double lit =
+        meanBrightness("thesis-stlamp-lwir", "lamp_box", &nLit, &litPole, &nLitPole, &litAir);
+    const double off =
+        meanBrightness("thesis-nolight-lwir", "sign", &nOff, &offPole, &nOffPole, &offAir);
+    std::printf("lamp housing, brightness temperature: lit %.1f K (%d px; pole %.1f K, %d px; air "
+                "%.1f K), unlit %.1f K (%d px; pole %.1f K, %d px; air %.1f K)\n",
+                lit, nLit, litPole, nLitPole, litAir, off, nOff, offPole, nOffPole, offAir);
+    ASSERT_GT(nLit, 20);
+    ASSERT_GT(nLitPole, 20);
+    ASSERT_GT(nOff, 20);
+    EXPECT_GT(lit, litAir + 3.0);
+    EXPECT_GT(lit, litPole + 5.0);
+    EXPECT_LT(off, offPole + 2.0);
+}
+
 // Heat sources (docs/thermal.md, "Heat sources"): vehicle-drive-lwir's truck drives with its engine
 // running, its front toward the camera. Its hood (painted steel over a 343 K engine bay) is the
 // warmest of the truck in view, its black roof, open to the clear sky, the coldest; the person's

@@ -79,6 +79,19 @@ TEST(HeatBalanceSources, LampHousingMatchesItsSteadyBalance) {
                 hand, f.w.at(f.t).air_K);
 }
 
+// The thesis's street lamp lit (scenarios/thesis-stlamp-lwir): its 40 W through the steel box's
+// walls, 107 W/m².
+TEST(HeatBalanceSources, LitLampBoxMatchesItsSteadyBalance) {
+    const Fixture f;
+    const SurfaceClass c = f.horizontal("lamp_box_40w");
+    const double solved = surfaceTemperature_K(c, f.w, rochester(), HeatBalanceParams{}, f.t);
+    const double hand = steadyNight(c.material, f.w.at(f.t), 0.0, 0.0, 107.0);
+    EXPECT_NEAR(solved, hand, 0.5);
+    EXPECT_GT(solved, f.w.at(f.t).air_K + 3.0);
+    std::printf("lit lamp box: solved %.2f K, steady hand balance %.2f K, air %.2f K\n", solved,
+                hand, f.w.at(f.t).air_K);
+}
+
 TEST(HeatBalanceSources, EngineHoodMatchesItsSteadyBalance) {
     const Fixture f;
     const SurfaceClass c = f.horizontal("engine_hood");
