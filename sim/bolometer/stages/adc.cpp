@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include "sim/bolometer/camera.h"
+#include "sim/core/simd.h"
 
 namespace nvs::bolometer {
 
@@ -26,17 +27,20 @@ AdcStage::AdcStage(const ThermalCameraParams& cam) : max_((1 << cam.adc_bits) - 
     offset_ = static_cast<float>(cam.level_counts - k * vRef);
 }
 
-int AdcStage::applyRow(const float* v, std::uint16_t* r, int n,
+NVS_SIMD_CLONES int AdcStage::applyRow(const float* v, std::uint16_t* r, int n,
                        std::uint32_t& sum_counts) const noexcept {
     // q = v·k + offset + ½, clamped to [0, top], then truncated: the nearest count (the clamp
     // first, so that truncation is floor; no libm floor in the loop, which then vectorises).
-    const float top = static_cast<float>(max_);
+    // Branch-free (bitwise | of the comparisons, selects), so that the loop vectorises.
+    const float top = static_cast<float>(max_), beyond = top + 1.0f;
+    const float k = k_, offset = offset_;
     int c = 0;
     std::uint32_t sum = 0;
     for (int x = 0; x < n; ++x) {
-        float q = v[x] * k_ + offset_ + 0.5f;
-        c += (q < 0.0f || q >= top + 1.0f) ? 1 : 0;
-        q = q < 0.0f ? 0.0f : (q > top ? top : q);
+        float q = v[x] * k + offset + 0.5f;
+        c += static_cast<int>((q < 0.0f) | (q >= beyond));
+        q = q < 0.0f ? 0.0f : q;
+        q = q > top ? top : q;
         const std::uint16_t u = static_cast<std::uint16_t>(static_cast<int>(q));
         r[x] = u;
         sum += u;

@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include "sim/bolometer/camera.h"
+#include "sim/core/simd.h"
 
 namespace nvs::bolometer {
 
@@ -23,7 +24,7 @@ float DetectorStage::beginFrame() noexcept {
     return keep;
 }
 
-void DetectorStage::applyRow(int y, const float* p, float* v, float keep) noexcept {
+NVS_SIMD_CLONES void DetectorStage::applyRow(int y, const float* p, float* v, float keep) noexcept {
     // P̄_k = P_k + (P̄_{k−1} − P_k)·e^(−Δt/τ); V = R·P̄_k.
     float* s = lag_W_.row(y);
     for (int x = 0; x < lag_W_.width(); ++x) {

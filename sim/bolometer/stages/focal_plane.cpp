@@ -6,6 +6,7 @@
 #include "sim/bolometer/camera.h"
 #include "sim/bolometer/stages/stage.h"
 #include "sim/core/rng.h"
+#include "sim/core/simd.h"
 
 namespace nvs::bolometer {
 
@@ -64,7 +65,7 @@ FocalPlaneStage::FocalPlaneStage(const ThermalCameraParams& cam, std::uint64_t s
     }
 }
 
-void FocalPlaneStage::applyRow(int y, float* v, float dT) const noexcept {
+NVS_SIMD_CLONES void FocalPlaneStage::applyRow(int y, float* v, float dT) const noexcept {
     const float* g = gain_.row(y);
     const float* o = offset_V_.row(y);
     const float* c = drift_V_K_.row(y);

@@ -7,6 +7,7 @@
 #include "sim/bolometer/camera.h"
 #include "sim/bolometer/stages/stage.h"
 #include "sim/core/rng.h"
+#include "sim/core/simd.h"
 
 namespace nvs::bolometer {
 
@@ -81,7 +82,7 @@ void NoiseStage::beginFrame(std::uint64_t frame) noexcept {
     redraw_ = j < static_cast<int>(flicker_.size()) ? j : -1;
 }
 
-void NoiseStage::applyRow(int y, float* v) noexcept {
+NVS_SIMD_CLONES void NoiseStage::applyRow(int y, float* v) noexcept {
     const std::uint32_t row = static_cast<std::uint32_t>(y);
     if (redraw_ >= 0) {
         // Uniform values of σ_v (Voss's dice): √12·σ_v·(w − 2³¹)·2⁻³², w − 2³¹ being the word

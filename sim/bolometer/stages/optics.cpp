@@ -9,6 +9,7 @@
 #include "sim/bolometer/camera.h"
 #include "sim/core/fft_plans.h"
 #include "sim/core/planck.h"
+#include "sim/core/simd.h"
 
 namespace nvs::bolometer {
 
@@ -170,7 +171,7 @@ void OpticsStage::buildTransfer(const ThermalCameraParams& cam,
     }
 }
 
-int OpticsStage::apply(ImageView<const float> radiance, ImageView<float> power_W) noexcept {
+NVS_SIMD_CLONES int OpticsStage::apply(ImageView<const float> radiance, ImageView<float> power_W) noexcept {
     // Scale to power; NaN, ±inf and negative pixels count as 0. With the MTF on, straight into
     // the FFT's padded buffer: one pass over the image fewer than scaling into power_W and
     // copying it there (the same products, so the same bits).
@@ -178,18 +179,19 @@ int OpticsStage::apply(ImageView<const float> radiance, ImageView<float> power_W
     for (int y = 0; y < h_; ++y) {
         const float* s = radiance.row(y);
         float* d = fft_ ? fft_->real + static_cast<std::size_t>(y) * wp_ : power_W.row(y);
-        for (int x = 0; x < w_; ++x) {
+        const float k = wattsPerRadiance_;
+        for (int x = 0; x < w_; ++x) {  // branch-free (bitwise &), so that it vectorises
             const float v = s[x];
-            const bool ok = v >= 0.0f && v <= 3.4e38f;  // false for NaN
-            bad += ok ? 0 : 1;
-            d[x] = ok ? v * wattsPerRadiance_ : 0.0f;
+            const bool ok = (v >= 0.0f) & (v <= 3.4e38f);  // false for NaN
+            bad += static_cast<int>(!ok);
+            d[x] = ok ? v * k : 0.0f;
         }
     }
     if (fft_) filter(power_W);
     return bad;
 }
 
-void OpticsStage::filter(ImageView<float> img) noexcept {
+NVS_SIMD_CLONES void OpticsStage::filter(ImageView<float> img) noexcept {
     // The image's rows are in the padded buffer (apply): mirror-pad each row's margin, then the
     // rows below the image as mirrored copies of padded rows; transform, multiply by H,
     // transform back, keep the image's pixels.

@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include "sim/bolometer/camera.h"
+#include "sim/core/simd.h"
 
 namespace nvs::bolometer {
 
@@ -92,7 +93,7 @@ void ShutterStage::finish() noexcept {
     lastFpa_K_ = pendingFpa_K_;
 }
 
-void ShutterStage::correctRow(int y, float* v) const noexcept {
+NVS_SIMD_CLONES void ShutterStage::correctRow(int y, float* v) const noexcept {
     const float* c = correction_.row(y);
     for (int x = 0; x < correction_.width(); ++x)
         v[x] -= c[x];
