@@ -261,7 +261,7 @@ int PngSequenceSink::close() noexcept {
 // ---- metadata ---------------------------------------------------------------------------------
 
 MetaJsonlSink::MetaJsonlSink(const std::string& path)
-    : name_("meta:" + path), toStdout_(path == "-"), line_(4096 + msg::kMaxTruthBoxes * 128) {
+    : name_("meta:" + path), toStdout_(path == "-"), line_(4096 + 3 * msg::kMaxTruthBoxes * 256) {
     const int rc = toStdout_ ? 0 : file_.open(path.c_str());
     if (rc != 0) throw SetupError(name_ + ": cannot open: " + std::strerror(-rc));
     out_.attach(toStdout_ ? STDOUT_FILENO : file_.fd());
@@ -270,6 +270,30 @@ MetaJsonlSink::MetaJsonlSink(const std::string& path)
 MetaJsonlSink::~MetaJsonlSink() {
     close();
 }
+
+namespace {
+// `{…},{…}]` of the boxes at buf + len (the opening bracket already written); false when it does
+// not fit. The class is [A-Za-z0-9_-] (the scene's rule), so it needs no escaping.
+bool formatTruth(const msg::TruthBox* boxes, int count, char* buf, std::size_t size,
+                 std::size_t& len) noexcept {
+    for (int i = 0; i < count && i < msg::kMaxTruthBoxes; ++i) {
+        const msg::TruthBox& b = boxes[i];
+        const int n = std::snprintf(
+            buf + len, size - len,
+            "%s{\"id\":%d,\"class\":\"%.15s\",\"x_px\":%.3f,\"y_px\":%.3f,\"w_px\":%.3f,"
+            "\"h_px\":%.3f,\"visible\":%.4f,\"truncated\":%s,\"range_m\":%.3f}",
+            i > 0 ? "," : "", b.id, b.cls, static_cast<double>(b.x_px),
+            static_cast<double>(b.y_px), static_cast<double>(b.w_px), static_cast<double>(b.h_px),
+            static_cast<double>(b.visible), b.truncated ? "true" : "false",
+            static_cast<double>(b.range_m));
+        if (n < 0 || len + static_cast<std::size_t>(n) >= size) return false;
+        len += static_cast<std::size_t>(n);
+    }
+    if (len + 1 >= size) return false;
+    buf[len++] = ']';
+    return true;
+}
+}  // namespace
 
 std::size_t MetaJsonlSink::format(const msg::OutputFrame& frame, char* buf,
                                   std::size_t size) noexcept {
@@ -291,18 +315,7 @@ std::size_t MetaJsonlSink::format(const msg::OutputFrame& frame, char* buf,
         p.stale ? "true" : "false");
     if (n < 0 || static_cast<std::size_t>(n) >= size) return 0;
     std::size_t len = static_cast<std::size_t>(n);
-    for (int i = 0; i < m.truthCount && i < msg::kMaxTruthBoxes; ++i) {
-        const msg::TruthBox& b = m.truth[i];
-        n = std::snprintf(buf + len, size - len,
-                          "%s{\"id\":%d,\"x_px\":%.3f,\"y_px\":%.3f,\"w_px\":%.3f,\"h_px\":%.3f}",
-                          i > 0 ? "," : "", b.id, static_cast<double>(b.x_px),
-                          static_cast<double>(b.y_px), static_cast<double>(b.w_px),
-                          static_cast<double>(b.h_px));
-        if (n < 0 || len + static_cast<std::size_t>(n) >= size) return 0;
-        len += static_cast<std::size_t>(n);
-    }
-    if (len + 1 >= size) return 0;
-    buf[len++] = ']';
+    if (!formatTruth(m.truth, m.truthCount, buf, size, len)) return 0;
     // Interlaced: each field's own exposure (the frame-level keys describe field 1).
     if (m.fieldCount == msg::kMaxFields) {
         n = std::snprintf(buf + len, size - len, ",\"fields\":[");
@@ -311,10 +324,13 @@ std::size_t MetaJsonlSink::format(const msg::OutputFrame& frame, char* buf,
         for (int f = 0; f < msg::kMaxFields; ++f) {
             const msg::FieldMeta& fm = m.field[f];
             n = std::snprintf(buf + len, size - len,
-                              "%s{\"t_sample_s\":%.9f,\"gain_V\":%.6g,\"gate_s\":%.9g}",
+                              "%s{\"t_sample_s\":%.9f,\"gain_V\":%.6g,\"gate_s\":%.9g,\"truth\":[",
                               f > 0 ? "," : "", fm.t_sample_s, fm.gain_V, fm.gate_s);
             if (n < 0 || len + static_cast<std::size_t>(n) >= size) return 0;
             len += static_cast<std::size_t>(n);
+            if (!formatTruth(fm.truth, fm.truthCount, buf, size, len)) return 0;
+            if (len + 1 >= size) return 0;
+            buf[len++] = '}';
         }
         if (len + 1 >= size) return 0;
         buf[len++] = ']';

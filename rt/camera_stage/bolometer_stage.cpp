@@ -34,7 +34,9 @@ void BolometerCameraStage::expose(const FrameRequest& req, RadianceFrame in,
         counts.copyFrom(chain_.raw().cview());
     }
     // No tube gain or gate: the metadata carries the exposure time only.
-    applied = FieldMeta{req.t_sample_s, 0.0, 0.0};
+    applied.t_sample_s = req.t_sample_s;
+    applied.gain_V = 0.0;
+    applied.gate_s = 0.0;
 }
 
 }  // namespace nvs::rt

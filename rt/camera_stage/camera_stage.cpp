@@ -42,7 +42,9 @@ void IiccdCameraStage::expose(const FrameRequest& req, RadianceFrame in,
 
     counts.copyFrom(chain_.video().cview());
     // What the camera applied: the field's metadata.
-    applied = FieldMeta{req.t_sample_s, info.gain_V, info.gate_s};
+    applied.t_sample_s = req.t_sample_s;
+    applied.gain_V = info.gain_V;
+    applied.gate_s = info.gate_s;
 }
 
 }  // namespace nvs::rt

@@ -339,9 +339,14 @@ void FrameLoop::exposeFrame(Slot& s) noexcept {
         // What the camera applies starts as what was commanded; a camera with its own gain
         // or gate control (AGC, autogate) overwrites it.
         FieldMeta& applied = s.meta.field[f];
-        applied = FieldMeta{t_f, req.platform.gain_V, req.platform.gate_s};
+        applied.t_sample_s = t_f;
+        applied.gain_V = req.platform.gain_V;
+        applied.gate_s = req.platform.gate_s;
         camera_.expose(req, in, counts, applied);
         applied.t_sample_s = t_f;
+        applied.truthCount = m.truthCount;  // this field's own truth (the render's, at t_f)
+        for (int i = 0; i < m.truthCount && i < kMaxTruthBoxes; ++i)
+            applied.truth[i] = m.truth[i];
         m.frame = s.frame;
         m.t_sample_s = t_f;
         m.exposure_s = exposure_s_;

@@ -79,11 +79,16 @@ void SceneRenderStage::render(const FrameRequest& req, RadianceTarget out,
         const ImageView<float> band = out.band_W_m2_sr.empty() ? band_.view() : out.band_W_m2_sr;
         sr_->renderFrame(t_s, out.lpe_pe_s_m2_sr, band, *pool_);
     }
-    const int n = r.truthBoxes(ids_, boxes_, kMaxTruthBoxes);
+    const int n = r.truthBoxes(truth_, kMaxTruthBoxes);
     meta.truthCount = n;
     for (int i = 0; i < n; ++i) {
-        meta.truth[i] = TruthBox{ids_[i], boxes_[4 * i], boxes_[4 * i + 1], boxes_[4 * i + 2],
-                                 boxes_[4 * i + 3]};
+        const render::Renderer::ObjectTruth& t = truth_[i];
+        TruthBox& b = meta.truth[i];
+        b = TruthBox{t.id, t.x_px, t.y_px, t.w_px, t.h_px, t.visible, t.range_m, t.truncated};
+        std::size_t k = 0;  // the class, cut to the field (the scene allows 15 characters)
+        for (; k + 1 < sizeof b.cls && t.cls[k] != '\0'; ++k)
+            b.cls[k] = t.cls[k];
+        b.cls[k] = '\0';
     }
 }
 

@@ -77,8 +77,7 @@ class SceneRenderStage final : public RenderStage {
     PlatformPose pose_;
     std::uint32_t initialLamps_ = 0;
     int lampCount_ = 0;
-    int ids_[kMaxTruthBoxes] = {};
-    float boxes_[4 * kMaxTruthBoxes] = {};
+    render::Renderer::ObjectTruth truth_[kMaxTruthBoxes] = {};
 };
 
 }  // namespace nvs::rt

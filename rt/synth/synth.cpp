@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 
 #include "sim/core/units.h"
 
@@ -47,6 +48,8 @@ void TestPatternRender::render(const FrameRequest& req, RadianceTarget out,
     meta.truth[0] =
         TruthBox{1, static_cast<float>(x0), static_cast<float>(y0),
                  static_cast<float>(std::min(side, w - x0)), static_cast<float>(h - y0)};
+    meta.truth[0].truncated = x0 + side > w;
+    std::memcpy(meta.truth[0].cls, "block", sizeof "block");
 }
 
 void LinearCamera::expose(const FrameRequest& /*req*/, RadianceFrame in,

@@ -252,6 +252,7 @@ def write_scene(path, drive=False, air=False, engine=False, lamp_lit=False):
             f.write('[[object]]\nname = "%s"\nmesh = "%s"\n' % (name, mesh))
             if pos:
                 f.write("position_m = [%.4f, %.4f, 0.0]\nyaw_deg = %.1f\ntrack_id = %d\n" % (enu(pos[0], pos[1], 0)[:2] + (yaw % 360, track)))
+                f.write('class = "%s"\n' % {"person": "person", "truck": "vehicle"}[name])
                 if drive and name == "truck":
                     # Across the lot in front of the curb at 9 m/s (20 mph), along the lot's x
                     # axis at 4.5 m beyond the panels' row, from x = -12 m to +6 m in 2 s

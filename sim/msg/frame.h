@@ -11,10 +11,14 @@
 namespace nvs::msg {
 
 // A tagged object's bounding box in output pixel coordinates (ground truth for the equipment
-// under test's detector).
+// under test's detector), with what a tracker's scoring needs beside it.
 struct TruthBox {
     std::int32_t id = 0;
-    float x_px = 0.0f, y_px = 0.0f, w_px = 0.0f, h_px = 0.0f;
+    float x_px = 0.0f, y_px = 0.0f, w_px = 0.0f, h_px = 0.0f;  // clipped to the image
+    float visible = 1.0f;    // fraction of its projected area seen, not hidden by other objects
+    float range_m = 0.0f;    // camera to the object (its centroid); 0: not known
+    bool truncated = false;  // the image's edge (or the camera plane) cuts its projection
+    char cls[16] = {};       // its class, NUL-terminated (empty: none)
 };
 inline constexpr int kMaxTruthBoxes = 16;
 
@@ -50,6 +54,9 @@ struct FieldMeta {
     double t_sample_s = 0.0;  // exposure mid-time [s]
     double gain_V = 0.0;      // MCP control voltage applied (a linear camera: as commanded) [V]
     double gate_s = 0.0;      // photocathode gate applied [s] (0: continuous)
+    // The truth of this exposure's instant (an interlaced frame's fields are a field apart).
+    std::int32_t truthCount = 0;
+    TruthBox truth[kMaxTruthBoxes];
 };
 inline constexpr int kMaxFields = 2;
 
@@ -57,7 +64,7 @@ inline constexpr int kMaxFields = 2;
 // Interlaced scan (rt/loop/frame_loop.h): a frame is woven from two fields, field 0 on the even
 // rows, exposed one field period before field 1 on the odd rows. The frame-level fields
 // (t_sample_s, platform, truth) are those of field 1, the field that completes the frame;
-// `field[f]` holds what the camera applied to each field. Progressive scan: fieldCount = 1 and
+// `field[f]` holds what the camera applied to each field, and each field's own truth. Progressive scan: fieldCount = 1 and
 // field[0] is the frame's.
 struct FrameMeta {
     std::int64_t frame = 0;

@@ -164,9 +164,24 @@ class Renderer {
 
     const RenderStats& lastStats() const { return stats_; }
     const PinholeCamera& camera() const { return config_.camera; }
-    // Truth boxes of tracked objects in the current pose [px]: id, x, y, w, h (boxes entirely
-    // behind the camera are left out). Returns the count written (≤ maxBoxes).
-    int truthBoxes(int* ids, float* xywh, int maxBoxes) const noexcept;
+    // A tracked object's ground truth in the current pose (truthBoxes).
+    struct ObjectTruth {
+        int id = 0;
+        const char* cls = "";  // the scene object's class (scene key `class`; default its name)
+        float x_px = 0.0f, y_px = 0.0f, w_px = 0.0f, h_px = 0.0f;  // its box, clipped to the image
+        // The fraction of its projected area in the image that the camera sees, not hidden by
+        // other objects: each triangle sampled at the centroids of an n × n subdivision
+        // (n from its size in the image, 1 … 6), a ray from the camera to each sample, which is
+        // seen when the ray's first hit is this object; weighted by the sample's projected
+        // solid angle (area·|cos|/d²). 0 when no sample lies in the image.
+        float visible = 0.0f;
+        float range_m = 0.0f;    // camera to the centroid of its vertices
+        bool truncated = false;  // its projection crosses the image's edge or the camera plane
+    };
+    // Truth of the tracked objects in the current pose (objects wholly outside the image or
+    // behind the camera are left out). Returns the count written (≤ maxBoxes). Ray casts, no
+    // allocation.
+    int truthBoxes(ObjectTruth* out, int maxBoxes) const noexcept;
 
     // Thermal band. Setup: groups the scene's faces into classes (at most `maxSamples` sample
     // points each) and keeps the pixel → class map; returns the classes.

@@ -371,6 +371,19 @@ Scene loadScene(const std::filesystem::path& path) {
         o.position_m = vec3At(t, "position_m", {}, false);
         o.yaw_rad = t.get<double>("yaw_deg", 0.0) * kDeg;
         o.trackId = t.get<int>("track_id", -1);
+        // The class reported with its truth box: 1 … 15 characters of [A-Za-z0-9_-], so that
+        // the metadata's JSON holds it as it is and a frame's record keeps a fixed size.
+        o.truthClass = t.get<std::string>("class", o.name);
+        const bool classOk =
+            !o.truthClass.empty() && o.truthClass.size() <= 15 &&
+            o.truthClass.find_first_not_of(
+                "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789_-") ==
+                std::string::npos;
+        if (o.trackId >= 0 && !classOk) {
+            t.fail(t.contains("class") ? "class" : "name",
+                   "a truth class is 1 to 15 letters, digits, '_' or '-': '" + o.truthClass +
+                       "'" + (t.contains("class") ? "" : " (the object's name; set `class`)"));
+        }
         if (t.contains("trajectory")) {
             // trajectory = [t_s, x, y, z, yaw_deg, t_s, x, ...] flattened keyframes.
             const auto k = t.require<std::vector<double>>("trajectory");

@@ -55,6 +55,7 @@ struct Object {
     double yaw_rad = 0.0;
     std::vector<Keyframe> trajectory;  // empty: static
     int trackId = -1;                  // ≥ 0: reported as a truth box
+    std::string truthClass;            // its truth box's class (key `class`; default: name)
     FileLoc loc;
 
     bool moving() const { return !trajectory.empty(); }

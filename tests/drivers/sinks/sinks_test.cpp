@@ -12,6 +12,7 @@
 #include <chrono>
 #include <csignal>
 #include <filesystem>
+#include <cstring>
 #include <fstream>
 #include <sstream>
 #include <thread>
@@ -37,16 +38,42 @@ TEST(Sinks, MetaLineListsTheFieldsOfAnInterlacedFrame) {
     meta.frame = 3;
     meta.t_sample_s = 0.1;
     meta.fieldCount = 2;
-    meta.field[0] = msg::FieldMeta{0.0833333333, 5.5, 0.0};
-    meta.field[1] = msg::FieldMeta{0.1, 5.75, 1e-4};
+    meta.field[0].t_sample_s = 0.0833333333;
+    meta.field[0].gain_V = 5.5;
+    meta.field[0].gate_s = 0.0;
+    meta.field[1].t_sample_s = 0.1;
+    meta.field[1].gain_V = 5.75;
+    meta.field[1].gate_s = 1e-4;
+    // Each field's own truth: a person half hidden and cut by the image's edge in field 0, a
+    // little further on and whole in field 1 (the frame-level truth is field 1's).
+    msg::TruthBox b0{7, 0.0f, 10.0f, 5.5f, 20.0f, 0.5f, 31.25f, true};
+    std::memcpy(b0.cls, "person", sizeof "person");
+    msg::TruthBox b1 = b0;
+    b1.x_px = 1.5f;
+    b1.visible = 1.0f;
+    b1.truncated = false;
+    meta.field[0].truthCount = 1;
+    meta.field[0].truth[0] = b0;
+    meta.field[1].truthCount = 1;
+    meta.field[1].truth[0] = b1;
+    meta.truthCount = 1;
+    meta.truth[0] = b1;
     msg::OutputFrame f;
     f.meta = &meta;
     char buf[4096];
     const std::size_t n = MetaJsonlSink::format(f, buf, sizeof buf);
     ASSERT_GT(n, 0u);
     const std::string line(buf, n);
-    EXPECT_NE(line.find(",\"fields\":[{\"t_sample_s\":0.083333333,\"gain_V\":5.5,\"gate_s\":0},"
-                        "{\"t_sample_s\":0.100000000,\"gain_V\":5.75,\"gate_s\":0.0001}]}\n"),
+    const std::string box0 =
+        "{\"id\":7,\"class\":\"person\",\"x_px\":0.000,\"y_px\":10.000,\"w_px\":5.500,"
+        "\"h_px\":20.000,\"visible\":0.5000,\"truncated\":true,\"range_m\":31.250}";
+    const std::string box1 =
+        "{\"id\":7,\"class\":\"person\",\"x_px\":1.500,\"y_px\":10.000,\"w_px\":5.500,"
+        "\"h_px\":20.000,\"visible\":1.0000,\"truncated\":false,\"range_m\":31.250}";
+    EXPECT_NE(line.find("\"truth\":[" + box1 + "],\"fields\":[{\"t_sample_s\":0.083333333,"
+                        "\"gain_V\":5.5,\"gate_s\":0,\"truth\":[" + box0 +
+                        "]},{\"t_sample_s\":0.100000000,\"gain_V\":5.75,\"gate_s\":0.0001,"
+                        "\"truth\":[" + box1 + "]}]}\n"),
               std::string::npos)
         << line;
     meta.fieldCount = 1;
@@ -67,8 +94,12 @@ TEST(Sinks, MetaLineGivesTheAppliedGainAndGate) {
     meta.platform.gate_s = 2e-3;
     meta.platform.gateMode = msg::GateMode::Gated;
     meta.fieldCount = 2;
-    meta.field[0] = msg::FieldMeta{0.0, 5.5, 1e-3};
-    meta.field[1] = msg::FieldMeta{0.02, 5.75, 1e-4};
+    meta.field[0].t_sample_s = 0.0;
+    meta.field[0].gain_V = 5.5;
+    meta.field[0].gate_s = 1e-3;
+    meta.field[1].t_sample_s = 0.02;
+    meta.field[1].gain_V = 5.75;
+    meta.field[1].gate_s = 1e-4;
     msg::OutputFrame f;
     f.meta = &meta;
     char buf[4096];

@@ -6,6 +6,7 @@
 // are over) and of field 60; in between every thread of the loop — render, camera, output and
 // the sinks' — ran 40 fields.
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <filesystem>
 #include <memory>
@@ -67,7 +68,9 @@ void expectNoneInSteadyState(const Scenario& sc, PlatformSource& platform, Rende
                              const char* unit) {
     CountingPlatform counting(platform, fromSample, toSample);
     auto y4m = makeSink("y4m:/dev/null", sc, frames);
-    const std::string metaPath = ::testing::TempDir() + "frame_loop_alloc_meta.jsonl";
+    // Each test its own file: ctest runs the tests of this binary as processes side by side.
+    const std::string metaPath = ::testing::TempDir() + "frame_loop_alloc_meta_" +
+                                 std::to_string(::getpid()) + ".jsonl";
     auto meta = makeSink("meta:" + metaPath, sc, frames);
     LoopConfig cfg;
     cfg.rate = sc.rate;

@@ -95,6 +95,27 @@ TEST(Scene, UnmappedLayerNamesTheObjLine) {
     EXPECT_NE(e.find("quad.obj:6"), std::string::npos) << e;
 }
 
+// A tracked object's truth class (docs/scene.md): given, or the object's name; one that the
+// metadata's JSON could not hold as it is, or that does not fit its record, names its line.
+TEST(Scene, TruthClassDefaultsToTheNameAndABadOneNamesItsLine) {
+    TempDir t;
+    t.write("quad.obj", kQuadObj);
+    const std::string tracked = std::string(kScene) + "track_id = 3\n";
+    const Scene named = loadScene(t.write("named.toml", tracked));
+    EXPECT_EQ(named.objects[0].truthClass, "ground");
+    const Scene given = loadScene(t.write("given.toml", tracked + "class = \"vehicle\"\n"));
+    EXPECT_EQ(given.objects[0].truthClass, "vehicle");
+    for (const char* bad : {"\"a \\\"quoted\\\" class\"", "\"sixteen-letters_\"", "\"\""}) {
+        const std::string e = errorOf(t.write("bad.toml", tracked + "class = " + bad + "\n"));
+        EXPECT_NE(e.find("bad.toml:10"), std::string::npos) << bad << ": " << e;
+        EXPECT_NE(e.find("truth class"), std::string::npos) << e;
+    }
+    // An untracked object's name is not a class: any name goes.
+    std::string untracked = kScene;
+    untracked.replace(untracked.find("name = \"ground\""), 15, "name = \"a long object name\"");
+    EXPECT_NO_THROW((void)loadScene(t.write("untracked.toml", untracked)));
+}
+
 TEST(Scene, NanVertexNamesTheObjLine) {
     TempDir t;
     std::string obj = kQuadObj;
