@@ -278,10 +278,9 @@ std::string GpioGateSink::status() const {
         "after it %lld), overlapped %lld, lost %lld, errors %lld%s%s",
         name_.c_str(), static_cast<long long>(pulses_.load()), static_cast<long long>(late_.load()),
         static_cast<double>(riseDelayMax_ns_.load()) * 1e-6,
-        static_cast<long long>(queuedLate_.load()),
-        static_cast<long long>(overlapped_.load()), static_cast<long long>(lost_.load()),
-        static_cast<long long>(errors), lastErrno != 0 ? ", last error: " : "",
-        lastErrno != 0 ? std::strerror(lastErrno) : "");
+        static_cast<long long>(queuedLate_.load()), static_cast<long long>(overlapped_.load()),
+        static_cast<long long>(lost_.load()), static_cast<long long>(errors),
+        lastErrno != 0 ? ", last error: " : "", lastErrno != 0 ? std::strerror(lastErrno) : "");
     return buf;
 }
 

@@ -282,8 +282,8 @@ bool formatTruth(const msg::TruthBox* boxes, int count, char* buf, std::size_t s
             buf + len, size - len,
             "%s{\"id\":%d,\"class\":\"%.15s\",\"x_px\":%.3f,\"y_px\":%.3f,\"w_px\":%.3f,"
             "\"h_px\":%.3f,\"visible\":%.4f,\"truncated\":%s,\"range_m\":%.3f}",
-            i > 0 ? "," : "", b.id, b.cls, static_cast<double>(b.x_px),
-            static_cast<double>(b.y_px), static_cast<double>(b.w_px), static_cast<double>(b.h_px),
+            i > 0 ? "," : "", b.id, b.cls, static_cast<double>(b.x_px), static_cast<double>(b.y_px),
+            static_cast<double>(b.w_px), static_cast<double>(b.h_px),
             static_cast<double>(b.visible), b.truncated ? "true" : "false",
             static_cast<double>(b.range_m));
         if (n < 0 || len + static_cast<std::size_t>(n) >= size) return false;

@@ -44,14 +44,13 @@ FrameLoop::FrameLoop(const LoopConfig& config, PlatformSource& platform, RenderS
         channels_.push_back(std::make_unique<SinkChannel>(*sink, config.sinkQueueFrames,
                                                           config.width, config.height, out));
     }
-    PacingContext ctx{wall_,       sim_,     stop_,   *this,         events_,
-                      stats_,      trigger_, live_,   config.frames, period_ns_,
-                      exposure_s_, fields_,  field_s_};
+    PacingContext ctx{wall_, sim_,          stop_,      *this,       events_, stats_,  trigger_,
+                      live_, config.frames, period_ns_, exposure_s_, fields_, field_s_};
     // With a gate line, frame k's first exposure (a field earlier when interlaced, less half
     // the exposure) is its deadline: its pulse rises there, so the frame must be made before.
     if (!observers_.empty()) {
-        ctx.markLead_ns = std::llround(
-            (static_cast<double>(fields_ - 1) * field_s_ + 0.5 * exposure_s_) * 1e9);
+        ctx.markLead_ns =
+            std::llround((static_cast<double>(fields_ - 1) * field_s_ + 0.5 * exposure_s_) * 1e9);
     }
     pacing_ = makePacing(config.clock, ctx, config.trigger, config.triggerTimeout_s);
 }

@@ -13,8 +13,8 @@ std::int64_t WallPacing::frameDue(std::int64_t r) noexcept {
     std::int64_t due = outputTick_.load(std::memory_order_acquire);
     const std::int64_t expected_ns = expectedFrame_ns_.load(std::memory_order_relaxed);
     if (expected_ns > 0) {
-        due = std::max(due,
-                       ctx_.wall.tickAt(monotonicNow_ns() + expected_ns + ctx_.markLead_ns) + 1);
+        due =
+            std::max(due, ctx_.wall.tickAt(monotonicNow_ns() + expected_ns + ctx_.markLead_ns) + 1);
     }
     if (r >= due) return r;
     ctx_.events.count(LoopEvent::RenderSkipped, due - r);

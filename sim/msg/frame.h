@@ -64,8 +64,8 @@ inline constexpr int kMaxFields = 2;
 // Interlaced scan (rt/loop/frame_loop.h): a frame is woven from two fields, field 0 on the even
 // rows, exposed one field period before field 1 on the odd rows. The frame-level fields
 // (t_sample_s, platform, truth) are those of field 1, the field that completes the frame;
-// `field[f]` holds what the camera applied to each field, and each field's own truth. Progressive scan: fieldCount = 1 and
-// field[0] is the frame's.
+// `field[f]` holds what the camera applied to each field, and each field's own truth. Progressive
+// scan: fieldCount = 1 and field[0] is the frame's.
 struct FrameMeta {
     std::int64_t frame = 0;
     double t_sample_s = 0.0;  // exposure mid-time [s]

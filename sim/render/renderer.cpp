@@ -205,7 +205,8 @@ int Renderer::truthBoxes(ObjectTruth* out, int maxBoxes) const noexcept {
         t.y_px = static_cast<float>(y0);
         t.w_px = static_cast<float>(x1 - x0);
         t.h_px = static_cast<float>(y1 - y0);
-        t.range_m = static_cast<float>(norm(centroid * (1.0 / static_cast<double>(nv)) - im.camPos));
+        t.range_m =
+            static_cast<float>(norm(centroid * (1.0 / static_cast<double>(nv)) - im.camPos));
         // Visible fraction: samples on every triangle (both sides: a back face's ray meets the
         // object's front first, which counts as seen, so the fraction does not depend on the
         // mesh's winding), each seen when the first hit along the camera's ray is this object.
@@ -237,8 +238,7 @@ int Renderer::truthBoxes(ObjectTruth* out, int maxBoxes) const noexcept {
                         const double s1 = (i + o) / m, s2 = (j + o) / m;
                         const Vec3 q = a + (b - a) * s1 + (c - a) * s2;
                         double u = 0.0, v = 0.0;
-                        if (!toPixel(q, &u, &v) || u < 0.0 || v < 0.0 || u >= W || v >= H)
-                            continue;
+                        if (!toPixel(q, &u, &v) || u < 0.0 || v < 0.0 || u >= W || v >= H) continue;
                         const Vec3 d = q - im.camPos;
                         const double r = norm(d);
                         const Vec3 dir = d * (1.0 / r);

@@ -381,8 +381,8 @@ Scene loadScene(const std::filesystem::path& path) {
                 std::string::npos;
         if (o.trackId >= 0 && !classOk) {
             t.fail(t.contains("class") ? "class" : "name",
-                   "a truth class is 1 to 15 letters, digits, '_' or '-': '" + o.truthClass +
-                       "'" + (t.contains("class") ? "" : " (the object's name; set `class`)"));
+                   "a truth class is 1 to 15 letters, digits, '_' or '-': '" + o.truthClass + "'" +
+                       (t.contains("class") ? "" : " (the object's name; set `class`)"));
         }
         if (t.contains("trajectory")) {
             // trajectory = [t_s, x, y, z, yaw_deg, t_s, x, ...] flattened keyframes.

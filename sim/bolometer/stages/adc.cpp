@@ -28,7 +28,7 @@ AdcStage::AdcStage(const ThermalCameraParams& cam) : max_((1 << cam.adc_bits) - 
 }
 
 NVS_SIMD_CLONES int AdcStage::applyRow(const float* v, std::uint16_t* r, int n,
-                       std::uint32_t& sum_counts) const noexcept {
+                                       std::uint32_t& sum_counts) const noexcept {
     // q = v·k + offset + ½, clamped to [0, top], then truncated: the nearest count (the clamp
     // first, so that truncation is floor; no libm floor in the loop, which then vectorises).
     // Branch-free (bitwise | of the comparisons, selects), so that the loop vectorises.

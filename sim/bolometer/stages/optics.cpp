@@ -171,7 +171,8 @@ void OpticsStage::buildTransfer(const ThermalCameraParams& cam,
     }
 }
 
-NVS_SIMD_CLONES int OpticsStage::apply(ImageView<const float> radiance, ImageView<float> power_W) noexcept {
+NVS_SIMD_CLONES int OpticsStage::apply(ImageView<const float> radiance,
+                                       ImageView<float> power_W) noexcept {
     // Scale to power; NaN, ±inf and negative pixels count as 0. With the MTF on, straight into
     // the FFT's padded buffer: one pass over the image fewer than scaling into power_W and
     // copying it there (the same products, so the same bits).

@@ -11,8 +11,8 @@
 #include <cerrno>
 #include <chrono>
 #include <csignal>
-#include <filesystem>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <thread>
@@ -70,10 +70,13 @@ TEST(Sinks, MetaLineListsTheFieldsOfAnInterlacedFrame) {
     const std::string box1 =
         "{\"id\":7,\"class\":\"person\",\"x_px\":1.500,\"y_px\":10.000,\"w_px\":5.500,"
         "\"h_px\":20.000,\"visible\":1.0000,\"truncated\":false,\"range_m\":31.250}";
-    EXPECT_NE(line.find("\"truth\":[" + box1 + "],\"fields\":[{\"t_sample_s\":0.083333333,"
-                        "\"gain_V\":5.5,\"gate_s\":0,\"truth\":[" + box0 +
+    EXPECT_NE(line.find("\"truth\":[" + box1 +
+                        "],\"fields\":[{\"t_sample_s\":0.083333333,"
+                        "\"gain_V\":5.5,\"gate_s\":0,\"truth\":[" +
+                        box0 +
                         "]},{\"t_sample_s\":0.100000000,\"gain_V\":5.75,\"gate_s\":0.0001,"
-                        "\"truth\":[" + box1 + "]}]}\n"),
+                        "\"truth\":[" +
+                        box1 + "]}]}\n"),
               std::string::npos)
         << line;
     meta.fieldCount = 1;

@@ -69,8 +69,8 @@ void expectNoneInSteadyState(const Scenario& sc, PlatformSource& platform, Rende
     CountingPlatform counting(platform, fromSample, toSample);
     auto y4m = makeSink("y4m:/dev/null", sc, frames);
     // Each test its own file: ctest runs the tests of this binary as processes side by side.
-    const std::string metaPath = ::testing::TempDir() + "frame_loop_alloc_meta_" +
-                                 std::to_string(::getpid()) + ".jsonl";
+    const std::string metaPath =
+        ::testing::TempDir() + "frame_loop_alloc_meta_" + std::to_string(::getpid()) + ".jsonl";
     auto meta = makeSink("meta:" + metaPath, sc, frames);
     LoopConfig cfg;
     cfg.rate = sc.rate;

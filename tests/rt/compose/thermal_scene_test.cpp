@@ -244,7 +244,8 @@ TEST(ThermalScene, LitLampHousingIsWarmerThanItsPole) {
     SerialExecutor exec;
     const auto meanBrightness = [&](const char* scenario, const char* housing, int* nHousing,
                                     double* pole, int* nPole, double* air_K) {
-        auto sr = ScenarioRenderer::create(kSource / "scenarios" / scenario / "scenario.toml", kDirs);
+        auto sr =
+            ScenarioRenderer::create(kSource / "scenarios" / scenario / "scenario.toml", kDirs);
         const std::unique_ptr<ThermalScene> thermal = ThermalScene::forScenario(*sr, kDirs);
         (void)sr->prepare(0.0);
         Renderer& r = sr->renderer();
@@ -253,9 +254,9 @@ TEST(ThermalScene, LitLampHousingIsWarmerThanItsPole) {
         r.renderThermal(thermal->frame(t), radiance.view(), exec);
         const int hMat = sr->scene().materialIndex(housing);
         const int pMat = sr->scene().materialIndex("sign");
-        const Vec3 lamp =
-            sr->scene().lamps[static_cast<std::size_t>(sr->scene().lampIndex("street_lamp"))]
-                .position_m;
+        const Vec3 lamp = sr->scene()
+                              .lamps[static_cast<std::size_t>(sr->scene().lampIndex("street_lamp"))]
+                              .position_m;
         int lampObj = -1;
         for (std::size_t i = 0; i < sr->scene().objects.size(); ++i)
             if (sr->scene().objects[i].name == "street_lamp_pole") lampObj = static_cast<int>(i);
@@ -268,7 +269,8 @@ TEST(ThermalScene, LitLampHousingIsWarmerThanItsPole) {
                 if (!r.pixelHit(x, y, &p, &mat, &obj) || obj != lampObj) continue;
                 const double tb = thermal->lwirTable().brightnessTemperature_K(
                     static_cast<double>(radiance(x, y)));
-                // The housing: the 25-cm box whose bottom holds the lamp (scenarios/rit/make_scene.py).
+                // The housing: the 25-cm box whose bottom holds the lamp
+                // (scenarios/rit/make_scene.py).
                 const Vec3 d = p - lamp;
                 const bool box = d.z > -0.01 && d.z < 0.26 && std::hypot(d.x, d.y) < 0.18;
                 if (box && mat == hMat) {
@@ -290,9 +292,10 @@ TEST(ThermalScene, LitLampHousingIsWarmerThanItsPole) {
         meanBrightness("thesis-stlamp-lwir", "lamp_box", &nLit, &litPole, &nLitPole, &litAir);
     const double off =
         meanBrightness("thesis-nolight-lwir", "sign", &nOff, &offPole, &nOffPole, &offAir);
-    std::printf("lamp housing, brightness temperature: lit %.1f K (%d px; pole %.1f K, %d px; air "
-                "%.1f K), unlit %.1f K (%d px; pole %.1f K, %d px; air %.1f K)\n",
-                lit, nLit, litPole, nLitPole, litAir, off, nOff, offPole, nOffPole, offAir);
+    std::printf(
+        "lamp housing, brightness temperature: lit %.1f K (%d px; pole %.1f K, %d px; air "
+        "%.1f K), unlit %.1f K (%d px; pole %.1f K, %d px; air %.1f K)\n",
+        lit, nLit, litPole, nLitPole, litAir, off, nOff, offPole, nOffPole, offAir);
     ASSERT_GT(nLit, 20);
     ASSERT_GT(nLitPole, 20);
     ASSERT_GT(nOff, 20);

@@ -668,8 +668,9 @@ TEST(FrameLoop, AFrameMadeAfterItsTickMarksNoExposure) {
 // exposure before its tick when interlaced (62.5 ms here): the frame is started early enough to
 // be made by then, and one made later is dropped with no pulse, even though its tick has not
 // come. Frame 5 renders 70 ms late (35 ms in each field's render): made in time for its first
-// field. Then 150 ms late: past its first exposure's start, before its tick. Either way every pulse is scheduled before its window
-// starts, and the pulses are exactly the emitted frames' (docs/hil.md, "Gate").
+// field. Then 150 ms late: past its first exposure's start, before its tick. Either way every pulse
+// is scheduled before its window starts, and the pulses are exactly the emitted frames'
+// (docs/hil.md, "Gate").
 TEST(FrameLoop, WithAGateAFrameIsDueAtItsFirstExposure) {
     for (const double delay_s : {0.035, 0.075}) {  // per field
         LoopConfig cfg = smallLoop(FrameRate{10, 1}, ClockKind::Wall, 12);
@@ -686,9 +687,8 @@ TEST(FrameLoop, WithAGateAFrameIsDueAtItsFirstExposure) {
         ASSERT_GT(gate.scheduled, 0);
         for (int i = 0; i < gate.scheduled; ++i) {
             EXPECT_GT(gate.scheduledAhead_ns[i], 0)
-                << "delay " << delay_s << " s: frame " << gate.scheduledFrame[i]
-                << " scheduled " << static_cast<double>(-gate.scheduledAhead_ns[i]) * 1e-6
-                << " ms after its start";
+                << "delay " << delay_s << " s: frame " << gate.scheduledFrame[i] << " scheduled "
+                << static_cast<double>(-gate.scheduledAhead_ns[i]) * 1e-6 << " ms after its start";
         }
         std::vector<std::int64_t> sched;
         for (int i = 0; i < gate.scheduled; i += 2) {  // two fields a frame

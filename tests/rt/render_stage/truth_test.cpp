@@ -48,46 +48,58 @@ const render::Renderer::ObjectTruth* find(const render::Renderer::ObjectTruth* t
     return nullptr;
 }
 
+// vehicle-drive's renderer, and one measurement: the truth of the frame at `sky` as it is, and the
+// person's pixels in the G-buffer with every object and with the person alone.
+struct Drive {
+    std::unique_ptr<ScenarioRenderer> sr = ScenarioRenderer::create(kDrive, test::dataDirs(), 1);
+    render::Renderer& r = sr->renderer();
+    render::SerialExecutor exec;
+    ImageF pe{r.camera().width, r.camera().height}, band{r.camera().width, r.camera().height};
+    int person = objectIndex(sr->scene(), "person");
+    render::Renderer::ObjectTruth truth[kMaxTruthBoxes];
+    int truthCount = 0, seen = 0, own = 0;
+
+    const render::Renderer::ObjectTruth* measure(const FrameSky& sky) {
+        const auto enable = [&](bool others) {
+            for (std::size_t o = 0; o < sr->scene().objects.size(); ++o)
+                r.setObjectEnabled(static_cast<int>(o), others || static_cast<int>(o) == person);
+        };
+        enable(true);
+        r.render(sky, pe.view(), band.view(), exec);
+        truthCount = r.truthBoxes(truth, kMaxTruthBoxes);
+        seen = pixelsOf(r, person);
+        enable(false);
+        r.render(sky, pe.view(), band.view(), exec);
+        own = pixelsOf(r, person);
+        enable(true);
+        return find(truth, truthCount, 2);
+    }
+};
+
 // vehicle-drive: the truck (track 1) drives across the lot between the roof camera and the
 // person (track 2). Frames 30 … 59 (t = k/29.97 s): the person's visible fraction from the truth
 // against seen pixels / own pixels of the G-buffer. The truck hides all of the person but the top
 // of the head (1.72–1.75 m up, over the truck's 1.72-m roof, seen from the 15-m-high roof: 126 of
 // the person's 1934 pixels at frames 45–46), then the person emerges, never receding on the way.
 TEST(Truth, PersonBehindThePassingTruckIsHiddenAndEmerges) {
-    auto sr = ScenarioRenderer::create(kDrive, test::dataDirs(), 1);
-    render::Renderer& r = sr->renderer();
-    render::SerialExecutor exec;
-    const int W = r.camera().width, H = r.camera().height;
-    ImageF pe(W, H), band(W, H);
-    const int person = objectIndex(sr->scene(), "person");
-    ASSERT_GE(person, 0);
+    Drive d;
+    ASSERT_GE(d.person, 0);
     std::vector<double> vis, pix;
-    render::Renderer::ObjectTruth truth[kMaxTruthBoxes];
     for (int k = 30; k < 60; ++k) {
-        const double t = k / 29.97;
-        for (std::size_t o = 0; o < sr->scene().objects.size(); ++o)
-            r.setObjectEnabled(static_cast<int>(o), true);
-        r.render(sr->prepare(t), pe.view(), band.view(), exec);
-        const int n = r.truthBoxes(truth, kMaxTruthBoxes);
-        const int seen = pixelsOf(r, person);
-        for (std::size_t o = 0; o < sr->scene().objects.size(); ++o)
-            r.setObjectEnabled(static_cast<int>(o), static_cast<int>(o) == person);
-        r.render(sr->prepare(t), pe.view(), band.view(), exec);
-        const int own = pixelsOf(r, person);
-        const render::Renderer::ObjectTruth* p = find(truth, n, 2);
+        const render::Renderer::ObjectTruth* p = d.measure(d.sr->prepare(k / 29.97));
+        const int seen = d.seen, own = d.own;
         ASSERT_NE(p, nullptr) << "frame " << k;
         EXPECT_STREQ(p->cls, "person");
         ASSERT_GT(own, 100) << "frame " << k;
         vis.push_back(p->visible);
         pix.push_back(static_cast<double>(seen) / own);
-        std::printf("frame %d: person visible %.3f (truth), %.3f (G-buffer: %d of %d px), range "
-                    "%.2f m%s\n",
-                    k, static_cast<double>(p->visible), pix.back(), seen, own,
-                    static_cast<double>(p->range_m), p->truncated ? ", truncated" : "");
+        std::printf(
+            "frame %d: person visible %.3f (truth), %.3f (G-buffer: %d of %d px), range "
+            "%.2f m%s\n",
+            k, static_cast<double>(p->visible), pix.back(), seen, own,
+            static_cast<double>(p->range_m), p->truncated ? ", truncated" : "");
         EXPECT_NEAR(vis.back(), pix.back(), 0.08) << "frame " << k;
     }
-    for (std::size_t o = 0; o < sr->scene().objects.size(); ++o)
-        r.setObjectEnabled(static_cast<int>(o), true);
     // Whole at first, nearly hidden, then out again, never receding on the way out.
     EXPECT_EQ(vis.front(), 1.0);
     const auto least = std::min_element(vis.begin(), vis.end());
@@ -95,7 +107,8 @@ TEST(Truth, PersonBehindThePassingTruckIsHiddenAndEmerges) {
     EXPECT_GT(vis.back(), 0.95);
     for (auto it = least; it + 1 != vis.end(); ++it)
         EXPECT_GE(*(it + 1), *it - 0.02) << "frame " << 30 + (it - vis.begin());
-    const bool partly = std::any_of(vis.begin(), vis.end(), [](double v) { return v > 0.1 && v < 0.9; });
+    const bool partly =
+        std::any_of(vis.begin(), vis.end(), [](double v) { return v > 0.1 && v < 0.9; });
     EXPECT_TRUE(partly) << "no frame with the person partly hidden";
 }
 
@@ -103,18 +116,14 @@ TEST(Truth, PersonBehindThePassingTruckIsHiddenAndEmerges) {
 // the person through the truck, looking at the person. The truck's body (0.4–1.1 m) and cabin
 // (to 1.72 m) cover all of the person: the truth says 0 and so does the G-buffer.
 TEST(Truth, APersonWhollyBehindTheTruckIsZeroVisible) {
-    auto sr = ScenarioRenderer::create(kDrive, test::dataDirs(), 1);
-    render::Renderer& r = sr->renderer();
-    render::SerialExecutor exec;
-    const int W = r.camera().width, H = r.camera().height;
-    ImageF pe(W, H), band(W, H);
+    Drive d;
     const double t = 45 / 29.97;
-    const FrameSky sky = sr->prepare(t);
-    const int person = objectIndex(sr->scene(), "person"), truck = objectIndex(sr->scene(), "truck");
+    const FrameSky sky = d.sr->prepare(t);
+    const int truck = objectIndex(d.sr->scene(), "truck");
     Vec3 pp, tp;
     double yaw = 0.0;
-    sr->scene().objects[static_cast<std::size_t>(person)].poseAt(t, &pp, &yaw);
-    sr->scene().objects[static_cast<std::size_t>(truck)].poseAt(t, &tp, &yaw);
+    d.sr->scene().objects[static_cast<std::size_t>(d.person)].poseAt(t, &pp, &yaw);
+    d.sr->scene().objects[static_cast<std::size_t>(truck)].poseAt(t, &tp, &yaw);
     Vec3 away = tp - pp;
     away.z = 0.0;
     away = normalized(away);
@@ -122,16 +131,9 @@ TEST(Truth, APersonWhollyBehindTheTruckIsZeroVisible) {
     pose.position_m = tp + away * 5.0;
     pose.position_m.z = 1.2;
     pose.target_m = Vec3{pp.x, pp.y, 0.9};
-    r.setCamera(pose);
-    r.render(sky, pe.view(), band.view(), exec);
-    render::Renderer::ObjectTruth truth[kMaxTruthBoxes];
-    const int n = r.truthBoxes(truth, kMaxTruthBoxes);
-    const int seen = pixelsOf(r, person);
-    for (std::size_t o = 0; o < sr->scene().objects.size(); ++o)
-        r.setObjectEnabled(static_cast<int>(o), static_cast<int>(o) == person);
-    r.render(sky, pe.view(), band.view(), exec);
-    const int own = pixelsOf(r, person);
-    const render::Renderer::ObjectTruth* p = find(truth, n, 2);
+    d.r.setCamera(pose);
+    const render::Renderer::ObjectTruth* p = d.measure(sky);
+    const int seen = d.seen, own = d.own;
     ASSERT_NE(p, nullptr);
     std::printf("behind the truck: person visible %.3f (truth), %d of %d px in the G-buffer\n",
                 static_cast<double>(p->visible), seen, own);
@@ -231,8 +233,9 @@ TEST(Truth, FieldsOfAnInterlacedFrameCarryTheirOwnBoxes) {
         const float cx0 = a->x_px + 0.5f * a->w_px, cx1 = b->x_px + 0.5f * b->w_px;
         const float cxNext = next->x_px + 0.5f * next->w_px;
         const double field = cx1 - cx0, frame = cxNext - cx1;
-        std::printf("frame %d: truck box centre %.2f → %.2f px over a field, %.2f px over a frame\n",
-                    k, static_cast<double>(cx0), static_cast<double>(cx1), frame);
+        std::printf(
+            "frame %d: truck box centre %.2f → %.2f px over a field, %.2f px over a frame\n", k,
+            static_cast<double>(cx0), static_cast<double>(cx1), frame);
         EXPECT_GT(std::fabs(field), 1.0) << "frame " << k;
         EXPECT_NEAR(field, 0.5 * frame, 0.1 * std::fabs(frame) + 0.05) << "frame " << k;
         ++checked;
