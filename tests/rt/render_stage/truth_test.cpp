@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstring>
 #include <memory>
@@ -58,6 +59,7 @@ struct Drive {
     int person = objectIndex(sr->scene(), "person");
     render::Renderer::ObjectTruth truth[kMaxTruthBoxes];
     int truthCount = 0, seen = 0, own = 0;
+    double truth_s = 0.0;  // the truthBoxes call's wall time
 
     const render::Renderer::ObjectTruth* measure(const FrameSky& sky) {
         const auto enable = [&](bool others) {
@@ -66,7 +68,9 @@ struct Drive {
         };
         enable(true);
         r.render(sky, pe.view(), band.view(), exec);
+        const auto t0 = std::chrono::steady_clock::now();
         truthCount = r.truthBoxes(truth, kMaxTruthBoxes);
+        truth_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
         seen = pixelsOf(r, person);
         enable(false);
         r.render(sky, pe.view(), band.view(), exec);
@@ -95,9 +99,10 @@ TEST(Truth, PersonBehindThePassingTruckIsHiddenAndEmerges) {
         pix.push_back(static_cast<double>(seen) / own);
         std::printf(
             "frame %d: person visible %.3f (truth), %.3f (G-buffer: %d of %d px), range "
-            "%.2f m%s\n",
+            "%.2f m%s; the truth of %d objects took %.2f ms\n",
             k, static_cast<double>(p->visible), pix.back(), seen, own,
-            static_cast<double>(p->range_m), p->truncated ? ", truncated" : "");
+            static_cast<double>(p->range_m), p->truncated ? ", truncated" : "", d.truthCount,
+            d.truth_s * 1e3);
         EXPECT_NEAR(vis.back(), pix.back(), 0.08) << "frame " << k;
     }
     // Whole at first, nearly hidden, then out again, never receding on the way out.
