@@ -261,7 +261,7 @@ int PngSequenceSink::close() noexcept {
 // ---- metadata ---------------------------------------------------------------------------------
 
 MetaJsonlSink::MetaJsonlSink(const std::string& path)
-    : name_("meta:" + path), toStdout_(path == "-"), line_(4096 + 3 * msg::kMaxTruthBoxes * 256) {
+    : name_("meta:" + path), toStdout_(path == "-"), line_(8192 + 3 * msg::kMaxTruthBoxes * 256) {
     const int rc = toStdout_ ? 0 : file_.open(path.c_str());
     if (rc != 0) throw SetupError(name_ + ": cannot open: " + std::strerror(-rc));
     out_.attach(toStdout_ ? STDOUT_FILENO : file_.fd());
@@ -293,6 +293,26 @@ bool formatTruth(const msg::TruthBox* boxes, int count, char* buf, std::size_t s
     buf[len++] = ']';
     return true;
 }
+// `,"exposure_start_s":…,"exposure_end_s":…` and, for a rendered scene, `,"camera":{…}` (the
+// pinhole and the scene-to-camera transform, msg::CameraGeometry) at buf + len.
+bool formatExposure(double t_sample_s, double exposure_s, const msg::CameraGeometry& g, char* buf,
+                    std::size_t size, std::size_t& len) noexcept {
+    int n =
+        std::snprintf(buf + len, size - len, ",\"exposure_start_s\":%.9f,\"exposure_end_s\":%.9f",
+                      t_sample_s - 0.5 * exposure_s, t_sample_s + 0.5 * exposure_s);
+    if (n < 0 || len + static_cast<std::size_t>(n) >= size) return false;
+    len += static_cast<std::size_t>(n);
+    if (!g.valid) return true;
+    n = std::snprintf(buf + len, size - len,
+                      ",\"camera\":{\"width\":%d,\"height\":%d,\"fx_px\":%.6f,\"fy_px\":%.6f,"
+                      "\"cx_px\":%.3f,\"cy_px\":%.3f,\"R\":[%.12f,%.12f,%.12f,%.12f,%.12f,%.12f,"
+                      "%.12f,%.12f,%.12f],\"t_m\":[%.9f,%.9f,%.9f]}",
+                      g.width, g.height, g.fx_px, g.fy_px, g.cx_px, g.cy_px, g.R[0], g.R[1], g.R[2],
+                      g.R[3], g.R[4], g.R[5], g.R[6], g.R[7], g.R[8], g.t_m[0], g.t_m[1], g.t_m[2]);
+    if (n < 0 || len + static_cast<std::size_t>(n) >= size) return false;
+    len += static_cast<std::size_t>(n);
+    return true;
+}
 }  // namespace
 
 std::size_t MetaJsonlSink::format(const msg::OutputFrame& frame, char* buf,
@@ -316,6 +336,7 @@ std::size_t MetaJsonlSink::format(const msg::OutputFrame& frame, char* buf,
     if (n < 0 || static_cast<std::size_t>(n) >= size) return 0;
     std::size_t len = static_cast<std::size_t>(n);
     if (!formatTruth(m.truth, m.truthCount, buf, size, len)) return 0;
+    if (!formatExposure(m.t_sample_s, m.exposure_s, m.camera, buf, size, len)) return 0;
     // Interlaced: each field's own exposure (the frame-level keys describe field 1).
     if (m.fieldCount == msg::kMaxFields) {
         n = std::snprintf(buf + len, size - len, ",\"fields\":[");
@@ -329,6 +350,7 @@ std::size_t MetaJsonlSink::format(const msg::OutputFrame& frame, char* buf,
             if (n < 0 || len + static_cast<std::size_t>(n) >= size) return 0;
             len += static_cast<std::size_t>(n);
             if (!formatTruth(fm.truth, fm.truthCount, buf, size, len)) return 0;
+            if (!formatExposure(fm.t_sample_s, m.exposure_s, fm.camera, buf, size, len)) return 0;
             if (len + 1 >= size) return 0;
             buf[len++] = '}';
         }

@@ -62,6 +62,7 @@ class ScenarioRenderer {
                      render::RowExecutor& exec, int rowParity = -1) noexcept;
 
     Renderer& renderer() { return *renderer_; }
+    const Renderer& renderer() const { return *renderer_; }
     // The lunar sky light of the frames prepared from now on ([atmosphere] lunar_sky_scale).
     void setLunarSkyScale(double scale) { scenario_.scene.lunarSkyScale = scale; }
     const Scenario& scenario() const { return scenario_; }

@@ -320,6 +320,7 @@ void FrameLoop::weaveFields(Slot& s) noexcept {
     }
     s.meta.t_sample_s = s.fieldMeta.t_sample_s;
     s.meta.platform = s.fieldMeta.platform;
+    s.meta.camera = s.fieldMeta.camera;
     s.meta.truthCount = s.fieldMeta.truthCount;
     for (int i = 0; i < s.fieldMeta.truthCount && i < kMaxTruthBoxes; ++i)
         s.meta.truth[i] = s.fieldMeta.truth[i];
@@ -343,7 +344,8 @@ void FrameLoop::exposeFrame(Slot& s) noexcept {
         applied.gate_s = req.platform.gate_s;
         camera_.expose(req, in, counts, applied);
         applied.t_sample_s = t_f;
-        applied.truthCount = m.truthCount;  // this field's own truth (the render's, at t_f)
+        applied.camera = m.camera;  // this field's camera and own truth (at t_f)
+        applied.truthCount = m.truthCount;
         for (int i = 0; i < m.truthCount && i < kMaxTruthBoxes; ++i)
             applied.truth[i] = m.truth[i];
         m.frame = s.frame;

@@ -79,6 +79,25 @@ void SceneRenderStage::render(const FrameRequest& req, RadianceTarget out,
         const ImageView<float> band = out.band_W_m2_sr.empty() ? band_.view() : out.band_W_m2_sr;
         sr_->renderFrame(t_s, out.lpe_pe_s_m2_sr, band, *pool_);
     }
+    // The camera's geometry (msg::CameraGeometry: OpenCV's axes, x right, y down, z forward).
+    msg::CameraGeometry& g = meta.camera;
+    const render::PinholeCamera& pin = r.camera();
+    Vec3 c, right, up, fwd;
+    r.cameraAxes(&c, &right, &up, &fwd);
+    g.valid = true;
+    g.width = pin.width;
+    g.height = pin.height;
+    g.fx_px = pin.focalLength_m / pin.pitchX_m;
+    g.fy_px = pin.focalLength_m / pin.pitchY_m;
+    g.cx_px = 0.5 * pin.width;
+    g.cy_px = 0.5 * pin.height;
+    const Vec3 rows[3] = {right, up * -1.0, fwd};
+    for (int i = 0; i < 3; ++i) {
+        g.R[3 * i] = rows[i].x;
+        g.R[3 * i + 1] = rows[i].y;
+        g.R[3 * i + 2] = rows[i].z;
+        g.t_m[i] = -dot(rows[i], c);
+    }
     const int n = r.truthBoxes(truth_, kMaxTruthBoxes);
     meta.truthCount = n;
     for (int i = 0; i < n; ++i) {

@@ -22,6 +22,19 @@ struct TruthBox {
 };
 inline constexpr int kMaxTruthBoxes = 16;
 
+// The camera's geometry at an exposure (a rendered scene; `valid` false for a test pattern), as a
+// pinhole in OpenCV's axes: a scene point X (ENU metres, the scene's frame) is at camera point
+// x_c = R·X + t (x right, y down, z forward along the optical axis) and at pixel
+// (fx·x_c/z_c + cx, fy·y_c/z_c + cy), (0, 0) being the image's top-left corner (pixel centres at
+// +0.5, as the truth boxes), so cx = width/2, cy = height/2.
+struct CameraGeometry {
+    bool valid = false;
+    std::int32_t width = 0, height = 0;
+    double fx_px = 0.0, fy_px = 0.0, cx_px = 0.0, cy_px = 0.0;
+    double R[9] = {};  // row-major: rows are the camera's x, y, z axes in the scene frame
+    double t_m[3] = {};
+};
+
 // Request to render and expose one frame (or one field of an interlaced frame).
 struct FrameRequest {
     std::int64_t frame = 0;   // frame index k
@@ -54,9 +67,11 @@ struct FieldMeta {
     double t_sample_s = 0.0;  // exposure mid-time [s]
     double gain_V = 0.0;      // MCP control voltage applied (a linear camera: as commanded) [V]
     double gate_s = 0.0;      // photocathode gate applied [s] (0: continuous)
-    // The truth of this exposure's instant (an interlaced frame's fields are a field apart).
+    // The truth and the camera's geometry at this exposure's instant (an interlaced frame's
+    // fields are a field apart).
     std::int32_t truthCount = 0;
     TruthBox truth[kMaxTruthBoxes];
+    CameraGeometry camera;
 };
 inline constexpr int kMaxFields = 2;
 
@@ -73,6 +88,7 @@ struct FrameMeta {
     PlatformState platform;   // as commanded
     std::int32_t truthCount = 0;
     TruthBox truth[kMaxTruthBoxes];
+    CameraGeometry camera;  // at t_sample_s (the render stage's; invalid for a test pattern)
     std::int32_t fieldCount = 1;
     FieldMeta field[kMaxFields];  // as applied, per exposure
     // Trigger clock: CLOCK_MONOTONIC time of the rising edge that started the exposure (0 else).

@@ -261,6 +261,14 @@ int Renderer::truthBoxes(ObjectTruth* out, int maxBoxes) const noexcept {
     return n;
 }
 
+void Renderer::cameraAxes(Vec3* position_m, Vec3* right, Vec3* up, Vec3* forward) const noexcept {
+    const Impl& im = *impl_;
+    *position_m = im.camPos;
+    *right = im.camRight;
+    *up = im.camUp;
+    *forward = im.camFwd;
+}
+
 bool Renderer::pixelSurface(int x, int y, Vec3* normal, double* skyViewFactor) const noexcept {
     const Impl& im = *impl_;
     const std::size_t i = static_cast<std::size_t>(y) * im.W + x;

@@ -164,6 +164,9 @@ class Renderer {
 
     const RenderStats& lastStats() const { return stats_; }
     const PinholeCamera& camera() const { return config_.camera; }
+    // The camera's pose in the scene frame (ENU metres) as last set: its centre and unit axes,
+    // right and up in the image plane and forward along the optical axis.
+    void cameraAxes(Vec3* position_m, Vec3* right, Vec3* up, Vec3* forward) const noexcept;
     // A tracked object's ground truth in the current pose (truthBoxes).
     struct ObjectTruth {
         int id = 0;

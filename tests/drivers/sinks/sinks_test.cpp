@@ -8,6 +8,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <chrono>
 #include <csignal>
@@ -58,9 +59,26 @@ TEST(Sinks, MetaLineListsTheFieldsOfAnInterlacedFrame) {
     meta.field[1].truth[0] = b1;
     meta.truthCount = 1;
     meta.truth[0] = b1;
+    // 20-ms exposures; field 1's camera geometry (the frame's), field 0's left unknown.
+    meta.exposure_s = 0.02;
+    msg::CameraGeometry g;
+    g.valid = true;
+    g.width = 768;
+    g.height = 494;
+    g.fx_px = 2000.0;
+    g.fy_px = 1692.3;
+    g.cx_px = 384.0;
+    g.cy_px = 247.0;
+    const double R[9] = {0.0, 1.0, 0.0, 0.0, 0.0, -1.0, -1.0, 0.0, 0.0};
+    std::copy(R, R + 9, g.R);
+    g.t_m[0] = 1.5;
+    g.t_m[1] = -2.25;
+    g.t_m[2] = 10.0;
+    meta.field[1].camera = g;
+    meta.camera = g;
     msg::OutputFrame f;
     f.meta = &meta;
-    char buf[4096];
+    char buf[8192];
     const std::size_t n = MetaJsonlSink::format(f, buf, sizeof buf);
     ASSERT_GT(n, 0u);
     const std::string line(buf, n);
@@ -70,19 +88,28 @@ TEST(Sinks, MetaLineListsTheFieldsOfAnInterlacedFrame) {
     const std::string box1 =
         "{\"id\":7,\"class\":\"person\",\"x_px\":1.500,\"y_px\":10.000,\"w_px\":5.500,"
         "\"h_px\":20.000,\"visible\":1.0000,\"truncated\":false,\"range_m\":31.250}";
-    EXPECT_NE(line.find("\"truth\":[" + box1 +
-                        "],\"fields\":[{\"t_sample_s\":0.083333333,"
-                        "\"gain_V\":5.5,\"gate_s\":0,\"truth\":[" +
-                        box0 +
-                        "]},{\"t_sample_s\":0.100000000,\"gain_V\":5.75,\"gate_s\":0.0001,"
-                        "\"truth\":[" +
-                        box1 + "]}]}\n"),
-              std::string::npos)
+    const std::string camera =
+        ",\"camera\":{\"width\":768,\"height\":494,\"fx_px\":2000.000000,\"fy_px\":1692.300000,"
+        "\"cx_px\":384.000,\"cy_px\":247.000,\"R\":[0.000000000000,1.000000000000,"
+        "0.000000000000,0.000000000000,0.000000000000,-1.000000000000,-1.000000000000,"
+        "0.000000000000,0.000000000000],\"t_m\":[1.500000000,-2.250000000,10.000000000]}";
+    EXPECT_NE(
+        line.find("\"truth\":[" + box1 +
+                  "],\"exposure_start_s\":0.090000000,\"exposure_end_s\":0.110000000" + camera +
+                  ",\"fields\":[{\"t_sample_s\":0.083333333,"
+                  "\"gain_V\":5.5,\"gate_s\":0,\"truth\":[" +
+                  box0 +
+                  "],\"exposure_start_s\":0.073333333,\"exposure_end_s\":0.093333333},"
+                  "{\"t_sample_s\":0.100000000,\"gain_V\":5.75,\"gate_s\":0.0001,"
+                  "\"truth\":[" +
+                  box1 + "],\"exposure_start_s\":0.090000000,\"exposure_end_s\":0.110000000" +
+                  camera + "}]}\n"),
+        std::string::npos)
         << line;
     meta.fieldCount = 1;
     const std::string one(buf, MetaJsonlSink::format(f, buf, sizeof buf));
     EXPECT_EQ(one.find("fields"), std::string::npos) << one;
-    EXPECT_EQ(one.substr(one.size() - 3), "]}\n");
+    EXPECT_EQ(one.substr(one.size() - 4), "]}}\n");  // the camera block closes the line
     // Too small a buffer gives nothing rather than a cut line.
     meta.fieldCount = 2;
     EXPECT_EQ(MetaJsonlSink::format(f, buf, n - 1), 0u);

@@ -248,5 +248,72 @@ TEST(Truth, FieldsOfAnInterlacedFrameCarryTheirOwnBoxes) {
     EXPECT_GE(checked, 4);
 }
 
+// The camera's geometry in the metadata (msg::CameraGeometry, docs/contracts.md) puts every
+// primary hit of the G-buffer back on its own pixel centre: K·(R·X + t) with X the hit in the
+// scene frame. The scene's own camera (vehicle-drive) and a pose from telemetry, turned and
+// pitched down over the RIT site (the airborne pass's scene).
+TEST(CameraGeometry, ProjectsTheGBuffersHitsToTheirPixelCentres) {
+    const std::filesystem::path air =
+        std::filesystem::path(NVS_SOURCE_DIR) / "scenarios" / "airborne-pass" / "scenario.toml";
+    for (const std::filesystem::path& file : {kDrive, air}) {
+        Scenario sc = loadScenario(file, test::configDir());
+        sc.renderCoarse = 4;
+        auto stage = SceneRenderStage::create(sc, test::dataDirs());
+        const int W = sc.width, H = sc.height;
+        ImageF pe(W, H), band(W, H);
+        FrameRequest req;
+        req.t_sample_s = 0.5;
+        req.platform = sc.platform;
+        req.platform.lampMask = stage->initialLampMask();
+        if (file == air) {
+            const auto& site = stage->scenario().scenario().scene.site;
+            req.platform.poseFromTelemetry = true;
+            req.platform.lat_deg = site.lat_deg + 0.004;
+            req.platform.lon_deg = site.lon_deg - 0.003;
+            req.platform.alt_m = site.height_m + 600.0;
+            req.platform.yaw_rad = 2.6;
+            req.platform.pitch_rad = -0.5;
+            req.platform.roll_rad = 0.05;
+        }
+        FrameMeta meta;
+        stage->render(req, RadianceTarget{pe.view(), band.view()}, meta);
+        const msg::CameraGeometry& g = meta.camera;
+        ASSERT_TRUE(g.valid);
+        EXPECT_EQ(g.width, W);
+        EXPECT_EQ(g.height, H);
+        const render::Renderer& r = stage->scenario().renderer();
+        double worst = 0.0;
+        int hits = 0;
+        for (int y = 3; y < H; y += 17) {
+            for (int x = 5; x < W; x += 23) {
+                Vec3 X;
+                int m = -1, o = -1;
+                if (!r.pixelHit(x, y, &X, &m, &o)) continue;
+                double c[3];
+                for (int i = 0; i < 3; ++i)
+                    c[i] =
+                        g.R[3 * i] * X.x + g.R[3 * i + 1] * X.y + g.R[3 * i + 2] * X.z + g.t_m[i];
+                ASSERT_GT(c[2], 0.0);
+                const double u = g.fx_px * c[0] / c[2] + g.cx_px;
+                const double v = g.fy_px * c[1] / c[2] + g.cy_px;
+                worst = std::max({worst, std::fabs(u - (x + 0.5)), std::fabs(v - (y + 0.5))});
+                ++hits;
+            }
+        }
+        std::printf("%s: %d hits projected, worst %.4f px from their pixel centres\n",
+                    file.parent_path().filename().c_str(), hits, worst);
+        EXPECT_GT(hits, 500);
+        EXPECT_LT(worst, 0.01);
+        // R is a rotation.
+        for (int i = 0; i < 3; ++i) {
+            for (int j = 0; j < 3; ++j) {
+                const double d = g.R[3 * i] * g.R[3 * j] + g.R[3 * i + 1] * g.R[3 * j + 1] +
+                                 g.R[3 * i + 2] * g.R[3 * j + 2];
+                EXPECT_NEAR(d, i == j ? 1.0 : 0.0, 1e-12);
+            }
+        }
+    }
+}
+
 }  // namespace
 }  // namespace nvs::rt
