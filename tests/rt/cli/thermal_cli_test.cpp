@@ -4,11 +4,13 @@
 // visible radiance into a thermal preset, a thermal render into an intensified one, another band,
 // another size — is refused with one line and exit 2, and nothing is written.
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <string>
+#include <system_error>
 
 #include "sim/io/exr.h"
 #include "sim/io/image_file.h"
@@ -38,13 +40,23 @@ fs::path writeRadiance(const fs::path& p, int w, int h, float v,
     return p;
 }
 
-// One render of the night's first frame, shared by the tests of this file (one process).
+// One render of the night's first frame, shared by the tests of this file run in one process;
+// a folder per process, removed when it exits, since ctest runs the tests as processes side by
+// side (with one folder, one test's fs::remove took the other's render away).
+struct RenderDir {
+    fs::path dir =
+        fs::path(NVS_BINARY_DIR) / ("test-thermal-cli-render-" + std::to_string(::getpid()));
+    ~RenderDir() {
+        std::error_code ec;
+        fs::remove_all(dir, ec);
+    }
+};
+
 const fs::path& nightRender() {
+    static const RenderDir folder;
     static const fs::path file = [] {
-        const fs::path dir = fs::path(NVS_BINARY_DIR) / "test-thermal-cli-render";
-        fs::create_directories(dir);
-        const fs::path f = dir / "night.exr";
-        fs::remove(f);
+        fs::create_directories(folder.dir);
+        const fs::path f = folder.dir / "night.exr";
         const auto r = nvstim("render " + kNight.string() + " --frame 0 --out " + f.string());
         EXPECT_EQ(r.status, 0) << r.err;
         return f;
