@@ -163,6 +163,61 @@ void Renderer::render(const FrameSky& sky, ImageView<float> pe, ImageView<float>
     stats_.secondaryRays = im.secondary;
 }
 
+namespace {
+// The visible fraction of a tracked object (Renderer::ObjectTruth::visible): samples on every
+// triangle (both sides: a back face's ray meets the object's front first, which counts as seen,
+// so the fraction does not depend on the mesh's winding), each seen when the first hit along
+// the camera's ray is this object, weighted by its projected solid angle.
+double visibleFraction(const Renderer::Impl& im, const ObjectData& od,
+                       const PinholeCamera& cam) noexcept {
+    const double W = cam.width, H = cam.height;
+    const std::vector<std::uint32_t>& tri = od.obj->mesh.triangles;
+    double seen = 0.0, total = 0.0;
+    for (std::size_t k = 0; k + 2 < tri.size(); k += 3) {
+        const Vec3 a = toV(od.vbuf[tri[k]]), b = toV(od.vbuf[tri[k + 1]]),
+                   c = toV(od.vbuf[tri[k + 2]]);
+        const Vec3 cr = cross(b - a, c - a);
+        const double area = 0.5 * norm(cr);
+        if (!(area > 0.0)) continue;
+        const Vec3 nrm = cr * (0.5 / area);
+        // Subdivision from the triangle's longest edge in the image (at its centroid's
+        // distance): about one sample per 12 px of edge, 1 … 6 per edge.
+        const double dist = norm((a + b + c) * (1.0 / 3.0) - im.camPos);
+        const double edge_m = std::max({norm(b - a), norm(c - b), norm(a - c)});
+        const double edge_px = edge_m / std::max(dist, 1e-3) * cam.focalLength_m / cam.pitchX_m;
+        const int m = std::clamp(static_cast<int>(std::ceil(edge_px / 12.0)), 1, 6);
+        const double subArea = area / (m * m);
+        // The m² sub-triangles' centroids in barycentric steps of 1/m: the upright ones
+        // (i + j ≤ m − 1) at ((i + 1/3), (j + 1/3))/m, the inverted ones at ((i + 2/3),
+        // (j + 2/3))/m (i + j ≤ m − 2).
+        for (int i = 0; i < m; ++i) {
+            for (int j = 0; i + j < m; ++j) {
+                for (int up = 0; up < 2 && (up == 0 || i + j <= m - 2); ++up) {
+                    const double o = up == 0 ? 1.0 / 3.0 : 2.0 / 3.0;
+                    const Vec3 q = a + (b - a) * ((i + o) / m) + (c - a) * ((j + o) / m);
+                    double u = 0.0, v = 0.0;
+                    if (!im.project(q, cam, &u, &v) || u < 0.0 || v < 0.0 || u >= W || v >= H)
+                        continue;
+                    const Vec3 d = q - im.camPos;
+                    const double r = norm(d);
+                    const Vec3 dir = d * (1.0 / r);
+                    const double w = subArea * std::fabs(dot(nrm, dir)) / (r * r);
+                    total += w;
+                    RTCRayHit rh;
+                    // A first hit this object's, or none before the sample (a ray that grazes
+                    // the triangle's own edge), counts as seen.
+                    if (!im.intersect(im.camPos, dir, &rh) || rh.hit.geomID == od.geomId ||
+                        rh.ray.tfar > static_cast<float>(r * (1.0 - 1e-5))) {
+                        seen += w;
+                    }
+                }
+            }
+        }
+    }
+    return total > 0.0 ? seen / total : 0.0;
+}
+}  // namespace
+
 int Renderer::truthBoxes(ObjectTruth* out, int maxBoxes) const noexcept {
     const Impl& im = *impl_;
     const PinholeCamera& cam = config_.camera;
@@ -207,55 +262,7 @@ int Renderer::truthBoxes(ObjectTruth* out, int maxBoxes) const noexcept {
         t.h_px = static_cast<float>(y1 - y0);
         t.range_m =
             static_cast<float>(norm(centroid * (1.0 / static_cast<double>(nv)) - im.camPos));
-        // Visible fraction: samples on every triangle (both sides: a back face's ray meets the
-        // object's front first, which counts as seen, so the fraction does not depend on the
-        // mesh's winding), each seen when the first hit along the camera's ray is this object.
-        const std::vector<std::uint32_t>& tri = od.obj->mesh.triangles;
-        double seen = 0.0, total = 0.0;
-        for (std::size_t k = 0; k + 2 < tri.size(); k += 3) {
-            const Vec3 a = toV(od.vbuf[tri[k]]), b = toV(od.vbuf[tri[k + 1]]),
-                       c = toV(od.vbuf[tri[k + 2]]);
-            const Vec3 cr = cross(b - a, c - a);
-            const double area = 0.5 * norm(cr);
-            if (!(area > 0.0)) continue;
-            const Vec3 nrm = cr * (0.5 / area);
-            // Subdivision from the triangle's longest edge in the image (at its centroid's
-            // distance): about one sample per 12 px of edge, 1 … 6 per edge.
-            const Vec3 g = (a + b + c) * (1.0 / 3.0);
-            const double dist = norm(g - im.camPos);
-            const double edge_m = std::max({norm(b - a), norm(c - b), norm(a - c)});
-            const double edge_px = edge_m / std::max(dist, 1e-3) * cam.focalLength_m / cam.pitchX_m;
-            const int m = std::clamp(static_cast<int>(std::ceil(edge_px / 12.0)), 1, 6);
-            const double subArea = area / (m * m);
-            // The m² sub-triangles' centroids in barycentric steps of 1/m: the upright ones
-            // (i + j ≤ m − 1) at ((i + 1/3), (j + 1/3))/m, the inverted ones at ((i + 2/3),
-            // (j + 2/3))/m (i + j ≤ m − 2).
-            for (int i = 0; i < m; ++i) {
-                for (int j = 0; i + j < m; ++j) {
-                    for (int up = 0; up < 2; ++up) {
-                        if (up == 1 && i + j > m - 2) continue;
-                        const double o = up == 0 ? 1.0 / 3.0 : 2.0 / 3.0;
-                        const double s1 = (i + o) / m, s2 = (j + o) / m;
-                        const Vec3 q = a + (b - a) * s1 + (c - a) * s2;
-                        double u = 0.0, v = 0.0;
-                        if (!toPixel(q, &u, &v) || u < 0.0 || v < 0.0 || u >= W || v >= H) continue;
-                        const Vec3 d = q - im.camPos;
-                        const double r = norm(d);
-                        const Vec3 dir = d * (1.0 / r);
-                        const double w = subArea * std::fabs(dot(nrm, dir)) / (r * r);
-                        total += w;
-                        RTCRayHit rh;
-                        // A first hit this object's, or none before the sample (a ray that
-                        // grazes the triangle's own edge), counts as seen.
-                        if (!im.intersect(im.camPos, dir, &rh) || rh.hit.geomID == od.geomId ||
-                            rh.ray.tfar > static_cast<float>(r * (1.0 - 1e-5))) {
-                            seen += w;
-                        }
-                    }
-                }
-            }
-        }
-        t.visible = total > 0.0 ? static_cast<float>(seen / total) : 0.0f;
+        t.visible = static_cast<float>(visibleFraction(im, od, cam));
         out[n++] = t;
     }
     return n;
