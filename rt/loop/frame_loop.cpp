@@ -22,6 +22,8 @@ FrameLoop::FrameLoop(const LoopConfig& config, PlatformSource& platform, RenderS
       period_ns_(WallClock(config.rate).deadline_ns(1)) {
     // Default exposure: one frame (progressive) or one field (interlaced).
     exposure_s_ = config.exposure_s > 0.0 ? config.exposure_s : field_s_;
+    firstExposureLead_ns_ =
+        std::llround((static_cast<double>(fields_ - 1) * field_s_ + 0.5 * exposure_s_) * 1e9);
     // Each slot holds the images the render stage fills, each in its own unit.
     const RenderStage::Outputs out = render.outputs();
     const auto image = [&](bool wanted) {
@@ -46,12 +48,9 @@ FrameLoop::FrameLoop(const LoopConfig& config, PlatformSource& platform, RenderS
     }
     PacingContext ctx{wall_, sim_,          stop_,      *this,       events_, stats_,  trigger_,
                       live_, config.frames, period_ns_, exposure_s_, fields_, field_s_};
-    // With a gate line, frame k's first exposure (a field earlier when interlaced, less half
-    // the exposure) is its deadline: its pulse rises there, so the frame must be made before.
-    if (!observers_.empty()) {
-        ctx.markLead_ns =
-            std::llround((static_cast<double>(fields_ - 1) * field_s_ + 0.5 * exposure_s_) * 1e9);
-    }
+    // With a gate line, frame k's first exposure is its deadline: its pulse rises there, so the
+    // frame must be made before.
+    if (!observers_.empty()) ctx.markLead_ns = firstExposureLead_ns_;
     pacing_ = makePacing(config.clock, ctx, config.trigger, config.triggerTimeout_s);
 }
 
@@ -119,8 +118,7 @@ void FrameLoop::start(std::vector<std::string>& messages) {
     // (release; they acquire it).
     const std::int64_t now_ns = monotonicNow_ns();
     stats_.loopStart_s = static_cast<double>(now_ns - called_ns) * 1e-9;
-    const double firstExposure_s = static_cast<double>(fields_ - 1) * field_s_ + 0.5 * exposure_s_;
-    wall_.start(now_ns + wall_.deadline_ns(1) + std::llround(firstExposure_s * 1e9));
+    wall_.start(now_ns + wall_.deadline_ns(1) + firstExposureLead_ns_);
     pacing_->started(now_ns);
     go_.store(true, std::memory_order_release);
     go_.notify_all();
@@ -306,6 +304,16 @@ void FrameLoop::scheduleExposure(const Slot& s, int field, double gate_s) noexce
         o->exposureScheduled(w);
 }
 
+namespace {
+// A set of truth boxes, `count` of them, into `to` (kMaxTruthBoxes long); its count into
+// `toCount`.
+void copyTruth(const TruthBox* from, std::int32_t count, TruthBox* to,
+               std::int32_t& toCount) noexcept {
+    toCount = std::min(count, kMaxTruthBoxes);
+    std::copy(from, from + toCount, to);
+}
+}  // namespace
+
 void FrameLoop::weaveFields(Slot& s) noexcept {
     // Weave: field 1's rows (odd, top field first). The frame is described by field 1, which
     // completes it (messages.h); field[0] keeps the first field's own exposure.
@@ -321,9 +329,7 @@ void FrameLoop::weaveFields(Slot& s) noexcept {
     s.meta.t_sample_s = s.fieldMeta.t_sample_s;
     s.meta.platform = s.fieldMeta.platform;
     s.meta.camera = s.fieldMeta.camera;
-    s.meta.truthCount = s.fieldMeta.truthCount;
-    for (int i = 0; i < s.fieldMeta.truthCount && i < kMaxTruthBoxes; ++i)
-        s.meta.truth[i] = s.fieldMeta.truth[i];
+    copyTruth(s.fieldMeta.truth, s.fieldMeta.truthCount, s.meta.truth, s.meta.truthCount);
 }
 
 void FrameLoop::exposeFrame(Slot& s) noexcept {
@@ -345,9 +351,7 @@ void FrameLoop::exposeFrame(Slot& s) noexcept {
         camera_.expose(req, in, counts, applied);
         applied.t_sample_s = t_f;
         applied.camera = m.camera;  // this field's camera and own truth (at t_f)
-        applied.truthCount = m.truthCount;
-        for (int i = 0; i < m.truthCount && i < kMaxTruthBoxes; ++i)
-            applied.truth[i] = m.truth[i];
+        copyTruth(m.truth, m.truthCount, applied.truth, applied.truthCount);
         m.frame = s.frame;
         m.t_sample_s = t_f;
         m.exposure_s = exposure_s_;

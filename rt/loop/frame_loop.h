@@ -239,6 +239,9 @@ class FrameLoop final : private ReadyFrames {
     double exposure_s_;
     int fields_;      // exposures per frame: 1 progressive, 2 interlaced
     double field_s_;  // field period (interlaced) [s]
+    // How long before its tick a frame's first exposure starts: half the exposure, and a field
+    // more when interlaced [ns] (the origin's placement; a gate line's frame deadline).
+    std::int64_t firstExposureLead_ns_ = 0;
     std::int64_t period_ns_;
     std::vector<ExposureObserver*> observers_;
     std::vector<SinkWorker*> workers_;

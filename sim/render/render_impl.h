@@ -256,11 +256,13 @@ struct Renderer::Impl {
     }
 
     // Pinhole projection of a scene point to pixel coordinates (the inverse of pixelDir: pixel
-    // x grows along camRight, y along −camUp). False when the point is not in front.
-    bool project(const Vec3& q, const PinholeCamera& c, double* u, double* v) const noexcept {
+    // x grows along camRight, y along −camUp). False when the point is not in front: not more
+    // than `minDepth_m` along the optical axis.
+    bool project(const Vec3& q, const PinholeCamera& c, double* u, double* v,
+                 double minDepth_m = 1e-6) const noexcept {
         const Vec3 d = q - camPos;
         const double zf = dot(d, camFwd);
-        if (!(zf > 1e-6)) return false;
+        if (!(zf > minDepth_m)) return false;
         *u = dot(d, camRight) / zf * c.focalLength_m / c.pitchX_m + 0.5 * c.width;
         *v = -dot(d, camUp) / zf * c.focalLength_m / c.pitchY_m + 0.5 * c.height;
         return true;

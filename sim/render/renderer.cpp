@@ -222,14 +222,6 @@ int Renderer::truthBoxes(ObjectTruth* out, int maxBoxes) const noexcept {
     const Impl& im = *impl_;
     const PinholeCamera& cam = config_.camera;
     const double W = cam.width, H = cam.height;
-    const auto toPixel = [&](const Vec3& q, double* u, double* v) {
-        const Vec3 d = q - im.camPos;
-        const double zf = dot(d, im.camFwd);
-        if (zf <= 1e-3) return false;
-        *u = dot(d, im.camRight) / zf * cam.focalLength_m / cam.pitchX_m + 0.5 * W;
-        *v = -dot(d, im.camUp) / zf * cam.focalLength_m / cam.pitchY_m + 0.5 * H;
-        return true;
-    };
     int n = 0;
     for (const ObjectData& od : im.objects) {
         if (od.obj->trackId < 0 || n >= maxBoxes) continue;
@@ -241,7 +233,7 @@ int Renderer::truthBoxes(ObjectTruth* out, int maxBoxes) const noexcept {
             const Vec3 q = toV(od.vbuf[i]);
             centroid = centroid + q;
             double u = 0.0, v = 0.0;
-            if (!toPixel(q, &u, &v)) {
+            if (!im.project(q, cam, &u, &v, 1e-3)) {  // 1 mm in front, as the box always had
                 behind = true;
                 continue;
             }
