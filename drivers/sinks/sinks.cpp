@@ -313,6 +313,52 @@ bool formatExposure(double t_sample_s, double exposure_s, const msg::CameraGeome
     len += static_cast<std::size_t>(n);
     return true;
 }
+// Adds a snprintf's count to len; false when it did not fit.
+bool took(int n, std::size_t size, std::size_t& len) noexcept {
+    if (n < 0 || len + static_cast<std::size_t>(n) >= size) return false;
+    len += static_cast<std::size_t>(n);
+    return true;
+}
+
+// A rig's channel (msg::RigMeta): `,"channel":…,"rig":{…},"faults":{…}` at buf + len.
+bool formatRig(const msg::RigMeta& r, char* buf, std::size_t size, std::size_t& len) noexcept {
+    const int own = r.channel;
+    const int count = std::min(r.channels, msg::kMaxChannels);
+    if (!took(std::snprintf(buf + len, size - len, ",\"channel\":\"%.15s\",\"rig\":{\"channels\":[",
+                            r.name[own]),
+              size, len))
+        return false;
+    for (int j = 0; j < count; ++j) {
+        if (!took(std::snprintf(buf + len, size - len, "%s\"%.15s\"", j > 0 ? "," : "", r.name[j]),
+                  size, len))
+            return false;
+    }
+    if (!took(std::snprintf(buf + len, size - len, "],\"ground_z_m\":%.6f,\"ground_homography\":{",
+                            r.groundZ_m),
+              size, len))
+        return false;
+    bool first = true;
+    for (int j = 0; j < count; ++j) {
+        if (j == own || !r.valid[j]) continue;
+        const double* h = r.H[j];
+        if (!took(
+                std::snprintf(buf + len, size - len,
+                              "%s\"%.15s\":[%.12g,%.12g,%.12g,%.12g,%.12g,%.12g,%.12g,%.12g,%.12g]",
+                              first ? "" : ",", r.name[j], h[0], h[1], h[2], h[3], h[4], h[5], h[6],
+                              h[7], h[8]),
+                size, len))
+            return false;
+        first = false;
+    }
+    return took(
+        std::snprintf(buf + len, size - len,
+                      "}},\"faults\":{\"skew_s\":%.9f,\"stamp_jitter_s\":%.9f,"
+                      "\"dropped_before\":%lld,\"misregistration_deg\":[%.6f,%.6f,%.6f]}",
+                      r.skew_s, r.stampJitter_s, static_cast<long long>(r.droppedBefore),
+                      r.misregistration_rad[0] * kDegPerRad, r.misregistration_rad[1] * kDegPerRad,
+                      r.misregistration_rad[2] * kDegPerRad),
+        size, len);
+}
 }  // namespace
 
 std::size_t MetaJsonlSink::format(const msg::OutputFrame& frame, char* buf,
@@ -320,6 +366,8 @@ std::size_t MetaJsonlSink::format(const msg::OutputFrame& frame, char* buf,
     const msg::FrameMeta& m = *frame.meta;
     const msg::PlatformState& p = m.platform;  // as commanded
     const msg::FieldMeta& a = m.applied();     // gain and gate as the camera applied them
+    // The stamps as reported: a rig channel's jitter fault added (its truth under "faults").
+    const double jitter_s = m.rig.channel >= 0 ? m.rig.stampJitter_s : 0.0;
     int n = std::snprintf(
         buf, size,
         "{\"frame\":%lld,\"tick\":%lld,\"repeat\":%s,\"t_sample_s\":%.9f,\"utc_unix_s\":%.6f,"
@@ -328,15 +376,16 @@ std::size_t MetaJsonlSink::format(const msg::OutputFrame& frame, char* buf,
         "\"gate_mode\":%d,\"agc\":%s,\"lamps\":%u,\"pose_from_telemetry\":%s,\"stale\":%s,"
         "\"truth\":[",
         static_cast<long long>(m.frame), static_cast<long long>(frame.tick),
-        frame.repeat ? "true" : "false", m.t_sample_s, p.utc_unix_s, m.exposure_s, p.lat_deg,
-        p.lon_deg, p.alt_m, p.yaw_rad * kDegPerRad, p.pitch_rad * kDegPerRad,
+        frame.repeat ? "true" : "false", m.t_sample_s + jitter_s, p.utc_unix_s, m.exposure_s,
+        p.lat_deg, p.lon_deg, p.alt_m, p.yaw_rad * kDegPerRad, p.pitch_rad * kDegPerRad,
         p.roll_rad * kDegPerRad, a.gain_V, a.gate_s, static_cast<int>(p.gateMode),
         p.agc ? "true" : "false", p.lampMask, p.poseFromTelemetry ? "true" : "false",
         p.stale ? "true" : "false");
     if (n < 0 || static_cast<std::size_t>(n) >= size) return 0;
     std::size_t len = static_cast<std::size_t>(n);
     if (!formatTruth(m.truth, m.truthCount, buf, size, len)) return 0;
-    if (!formatExposure(m.t_sample_s, m.exposure_s, m.camera, buf, size, len)) return 0;
+    if (!formatExposure(m.t_sample_s + jitter_s, m.exposure_s, m.camera, buf, size, len)) return 0;
+    if (m.rig.channel >= 0 && !formatRig(m.rig, buf, size, len)) return 0;
     // Interlaced: each field's own exposure (the frame-level keys describe field 1).
     if (m.fieldCount == msg::kMaxFields) {
         n = std::snprintf(buf + len, size - len, ",\"fields\":[");
@@ -346,11 +395,12 @@ std::size_t MetaJsonlSink::format(const msg::OutputFrame& frame, char* buf,
             const msg::FieldMeta& fm = m.field[f];
             n = std::snprintf(buf + len, size - len,
                               "%s{\"t_sample_s\":%.9f,\"gain_V\":%.6g,\"gate_s\":%.9g,\"truth\":[",
-                              f > 0 ? "," : "", fm.t_sample_s, fm.gain_V, fm.gate_s);
+                              f > 0 ? "," : "", fm.t_sample_s + jitter_s, fm.gain_V, fm.gate_s);
             if (n < 0 || len + static_cast<std::size_t>(n) >= size) return 0;
             len += static_cast<std::size_t>(n);
             if (!formatTruth(fm.truth, fm.truthCount, buf, size, len)) return 0;
-            if (!formatExposure(fm.t_sample_s, m.exposure_s, fm.camera, buf, size, len)) return 0;
+            if (!formatExposure(fm.t_sample_s + jitter_s, m.exposure_s, fm.camera, buf, size, len))
+                return 0;
             if (len + 1 >= size) return 0;
             buf[len++] = '}';
         }

@@ -1,6 +1,7 @@
 #include "rt/compose/scenario.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <ctime>
@@ -218,25 +219,26 @@ std::string hzText(double hz) {
     return buf;
 }
 
-// [scenario] and [camera]: names, seed, scan, rate, size, depth, exposure, start and duration.
-// One set of defaults: the camera preset's where there is one, else 320×240, 8 bits, 60 Hz
-// progressive (30 Hz interlaced).
-void readScenarioTable(const ConfigTable& root, const std::filesystem::path& configDir,
-                       Scenario& sc) {
-    const ConfigTable s = root.table("scenario");
-    sc.name = s.require<std::string>("name");
-    sc.description = s.get<std::string>("description", "");
-    sc.group = s.get<std::string>("group", "");
-    const std::int64_t scenarioSeed = s.get<std::int64_t>("seed", 1);
-    if (scenarioSeed < 0) s.fail("seed", "must not be negative");
-    sc.seed = static_cast<std::uint64_t>(scenarioSeed);
+// The format of the frames: scan, rate, size, depth and exposure from `s` ([scenario], or a
+// [[channel]]), and the camera from `cam` ([camera], or the same [[channel]]). One set of
+// defaults: the camera preset's where there is one, else 320×240, 8 bits, 60 Hz progressive
+// (30 Hz interlaced).
+struct Format {
+    CameraSpec camera;
+    FrameRate rate;
+    ScanKind scan = ScanKind::Progressive;
+    int width = 320, height = 240, bits = 8;
+    double exposure_s = 0.0;
+};
+Format readFormat(const ConfigTable& s, const std::optional<ConfigTable>& cam, std::uint64_t seed,
+                  const std::filesystem::path& configDir) {
+    Format f;
     const std::optional<double> hzGiven = s.optional<double>("frame_rate_hz");
     const std::optional<int> widthGiven = s.optional<int>("width");
     const std::optional<int> heightGiven = s.optional<int>("height");
     const std::optional<int> bitsGiven = s.optional<int>("bits");
-    const std::optional<ConfigTable> cam = root.optionalTable("camera");
-    if (cam) readCamera(*cam, widthGiven, heightGiven, bitsGiven, sc.seed, configDir, sc.camera);
-    const sensor::CameraParams& cp = sc.camera.params;
+    if (cam) readCamera(*cam, widthGiven, heightGiven, bitsGiven, seed, configDir, f.camera);
+    const sensor::CameraParams& cp = f.camera.params;
     // Scan follows the camera: a field-scan camera (RS-170, CCIR) delivers interlaced frames,
     // two fields each, every field exposed at its own time; a frame-scan camera, progressive.
     const bool fieldCamera = cam && cp.scan == sensor::ScanMode::Field;
@@ -244,8 +246,8 @@ void readScenarioTable(const ConfigTable& root, const std::filesystem::path& con
     if (scan != "progressive" && scan != "interlaced") {
         s.fail("scan", "must be \"progressive\" or \"interlaced\"");
     }
-    sc.scan = scan == "interlaced" ? ScanKind::Interlaced : ScanKind::Progressive;
-    const bool interlaced = sc.scan == ScanKind::Interlaced;
+    f.scan = scan == "interlaced" ? ScanKind::Interlaced : ScanKind::Progressive;
+    const bool interlaced = f.scan == ScanKind::Interlaced;
     if (interlaced && cam && cp.scan != sensor::ScanMode::Field) {
         s.fail("scan",
                "interlaced output needs a field-scan camera preset (the preset has "
@@ -258,11 +260,11 @@ void readScenarioTable(const ConfigTable& root, const std::filesystem::path& con
     const double camRate_hz = fieldPerFrame ? cp.field_rate_Hz : cp.field_rate_Hz / 2.0;
     const double hz = hzGiven ? *hzGiven : (cam ? camRate_hz : (interlaced ? 30.0 : 60.0));
     try {
-        sc.rate = FrameRate::fromHz(hz);
+        f.rate = FrameRate::fromHz(hz);
     } catch (const SetupError& e) {
         s.fail("frame_rate_hz", e.what());
     }
-    if (fieldPerFrame && std::abs(sc.rate.hz() - cp.field_rate_Hz) > 1e-3 * cp.field_rate_Hz) {
+    if (fieldPerFrame && std::abs(f.rate.hz() - cp.field_rate_Hz) > 1e-3 * cp.field_rate_Hz) {
         // Otherwise each field would last a frame period: a camera that does not exist.
         s.fail("frame_rate_hz",
                "a field-scan camera in progressive scan emits one frame per field: the rate "
@@ -270,17 +272,116 @@ void readScenarioTable(const ConfigTable& root, const std::filesystem::path& con
                    hzText(cp.field_rate_Hz) + " Hz), or set scan = \"interlaced\" for " +
                    hzText(cp.field_rate_Hz / 2.0) + " frames/s");
     }
-    sc.width = widthGiven ? *widthGiven : (cam ? cp.width : 320);
-    sc.height = heightGiven ? *heightGiven : (cam ? cp.height : 240);
-    if (sc.width < 8 || sc.width > 8192) s.fail("width", "must be in [8, 8192]");
-    if (sc.height < 8 || sc.height > 8192) s.fail("height", "must be in [8, 8192]");
-    sc.bits = bitsGiven ? *bitsGiven : (cam ? cp.adc_bits : 8);
-    if (sc.bits < 1 || sc.bits > 16) s.fail("bits", "must be in [1, 16]");
+    f.width = widthGiven ? *widthGiven : (cam ? cp.width : 320);
+    f.height = heightGiven ? *heightGiven : (cam ? cp.height : 240);
+    if (f.width < 8 || f.width > 8192) s.fail("width", "must be in [8, 8192]");
+    if (f.height < 8 || f.height > 8192) s.fail("height", "must be in [8, 8192]");
+    f.bits = bitsGiven ? *bitsGiven : (cam ? cp.adc_bits : 8);
+    if (f.bits < 1 || f.bits > 16) s.fail("bits", "must be in [1, 16]");
     // The camera runs at the loop's rate: one call per emitted frame (progressive), or one per
     // field, two per emitted frame (interlaced).
-    if (cam) sc.camera.params.field_rate_Hz = fieldPerFrame ? sc.rate.hz() : 2.0 * sc.rate.hz();
-    if (sc.camera.thermal) sc.camera.thermalParams->frame_rate_Hz = sc.rate.hz();
-    sc.exposure_s = finiteIn(s, "exposure_s", 0.0, 0.0, 1000.0);
+    if (cam) f.camera.params.field_rate_Hz = fieldPerFrame ? f.rate.hz() : 2.0 * f.rate.hz();
+    if (f.camera.thermal) f.camera.thermalParams->frame_rate_Hz = f.rate.hz();
+    f.exposure_s = finiteIn(s, "exposure_s", 0.0, 0.0, 1000.0);
+    return f;
+}
+
+void applyFormat(const Format& f, Scenario& sc) {
+    sc.camera = f.camera;
+    sc.rate = f.rate;
+    sc.scan = f.scan;
+    sc.width = f.width;
+    sc.height = f.height;
+    sc.bits = f.bits;
+    sc.exposure_s = f.exposure_s;
+}
+
+// A [fwd, right, down] or [yaw, pitch, roll] array of three finite numbers within ±limit.
+std::array<double, 3> triple(const ConfigTable& t, std::string_view key, double limit) {
+    const auto v = t.get<std::vector<double>>(key, {0.0, 0.0, 0.0});
+    if (v.size() != 3) t.fail(key, "needs three numbers");
+    for (const double x : v) {
+        if (!(std::fabs(x) <= limit)) {
+            t.fail(key, "each must be finite and within ±" + hzText(limit));
+        }
+    }
+    return {v[0], v[1], v[2]};
+}
+
+// [[channel]]: a rig of two to four cameras on the platform (docs/fusion.md).
+void readChannels(const ConfigTable& root, const std::filesystem::path& configDir, Scenario& sc) {
+    const std::vector<ConfigTable> chans = root.tableArray("channel");
+    if (chans.empty()) return;
+    if (root.contains("camera")) {
+        throw SetupError(root.location("camera"),
+                         "[camera] and [[channel]] exclude each other (give each channel its "
+                         "preset)");
+    }
+    if (chans.size() < 2 || chans.size() > static_cast<std::size_t>(msg::kMaxChannels)) {
+        throw SetupError(
+            root.location("channel"),
+            "a rig has 2 to " + std::to_string(msg::kMaxChannels) + " [[channel]] tables");
+    }
+    const ConfigTable s = root.table("scenario");
+    for (const char* key : {"frame_rate_hz", "width", "height", "bits", "scan", "exposure_s"}) {
+        if (s.contains(key)) s.fail(key, "with [[channel]], give it in each channel");
+    }
+    for (const ConfigTable& c : chans) {
+        ChannelSpec ch;
+        ch.loc = c.location();
+        ch.name = c.require<std::string>("name");
+        const bool nameOk = !ch.name.empty() && ch.name.size() <= 15 &&
+                            ch.name.find_first_not_of(
+                                "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnop"
+                                "qrstuvwxyz0123456789_-") == std::string::npos;
+        if (!nameOk) c.fail("name", "must be 1 to 15 characters of [A-Za-z0-9_-]");
+        for (const ChannelSpec& o : sc.channels) {
+            if (o.name == ch.name) c.fail("name", "two channels are named '" + ch.name + "'");
+        }
+        const Format f = readFormat(c, c, sc.seed + sc.channels.size(), configDir);
+        ch.camera = f.camera;
+        ch.rate = f.rate;
+        ch.scan = f.scan;
+        ch.width = f.width;
+        ch.height = f.height;
+        ch.bits = f.bits;
+        ch.exposure_s = f.exposure_s;
+        const auto arm = triple(c, "lever_arm_m", 100.0);
+        const auto bore = triple(c, "boresight_deg", 90.0);
+        ch.mount.leverArm_m = {arm[0], arm[1], arm[2]};
+        ch.mount.yaw_rad = bore[0] * kRadPerDeg;
+        ch.mount.pitch_rad = bore[1] * kRadPerDeg;
+        ch.mount.roll_rad = bore[2] * kRadPerDeg;
+        ch.faults.skew_s = finiteIn(c, "skew_s", 0.0, -0.1, 0.1);
+        ch.faults.stampJitter_s = finiteIn(c, "stamp_jitter_s", 0.0, 0.0, 0.01);
+        ch.faults.dropProbability = finiteIn(c, "drop_probability", 0.0, 0.0, 0.5);
+        const auto mis = triple(c, "misregistration_deg", 10.0);
+        for (int i = 0; i < 3; ++i)
+            ch.faults.misregistration_rad[i] = mis[static_cast<std::size_t>(i)] * kRadPerDeg;
+        sc.channels.push_back(ch);
+    }
+    applyFormat(Format{sc.channels[0].camera, sc.channels[0].rate, sc.channels[0].scan,
+                       sc.channels[0].width, sc.channels[0].height, sc.channels[0].bits,
+                       sc.channels[0].exposure_s},
+                sc);
+    sc.channelIndex = 0;
+}
+
+// [scenario] and [camera] (or [[channel]]): names, seed, the format, start and duration.
+void readScenarioTable(const ConfigTable& root, const std::filesystem::path& configDir,
+                       Scenario& sc) {
+    const ConfigTable s = root.table("scenario");
+    sc.name = s.require<std::string>("name");
+    sc.description = s.get<std::string>("description", "");
+    sc.group = s.get<std::string>("group", "");
+    const std::int64_t scenarioSeed = s.get<std::int64_t>("seed", 1);
+    if (scenarioSeed < 0) s.fail("seed", "must not be negative");
+    sc.seed = static_cast<std::uint64_t>(scenarioSeed);
+    if (root.contains("channel")) {
+        readChannels(root, configDir, sc);
+    } else {
+        applyFormat(readFormat(s, root.optionalTable("camera"), sc.seed, configDir), sc);
+    }
     sc.utcStart = s.get<std::string>("utc_start", sc.utcStart);
     if (!parseIso8601Utc(sc.utcStart, &sc.utcStart_unix_s)) {
         s.fail("utc_start", "not an ISO 8601 UTC instant such as 2024-01-25T17:54:00Z");
@@ -387,15 +488,26 @@ void readFrames(const ConfigTable& root, const std::string& file,
             throw SetupError(root.location("source"), "[[source]] and [scene] exclude each other");
         }
         if (!sc.camera.enabled) {
-            throw SetupError(root.location("scene"), "a rendered scenario needs a [camera] preset");
+            throw SetupError(root.location("scene"),
+                             "a rendered scenario needs a [camera] preset (or [[channel]])");
         }
         readSceneTables(root, file, configDir, sc.scene);
-        if (sc.camera.thermal && !sc.scene.thermal) {
-            throw SetupError(root.location("camera"),
-                             "a thermal camera preset needs a [thermal] table (weather, "
-                             "materials, focal_length_mm: docs/scenarios.md)");
+        sc.groundZ_m = finiteIn(root.table("scene"), "ground_z_m", 0.0, -1e4, 1e4);
+        // A rig: each channel's camera; otherwise [camera].
+        std::vector<std::pair<const CameraSpec*, FileLoc>> cams;
+        for (const ChannelSpec& ch : sc.channels)
+            cams.emplace_back(&ch.camera, ch.loc);
+        if (cams.empty()) cams.emplace_back(&sc.camera, root.location("camera"));
+        bool anyThermal = false;
+        for (const auto& [cam, loc] : cams) {
+            anyThermal = anyThermal || cam->thermal;
+            if (cam->thermal && !sc.scene.thermal) {
+                throw SetupError(loc,
+                                 "a thermal camera preset needs a [thermal] table (weather, "
+                                 "materials, focal_length_mm: docs/scenarios.md)");
+            }
         }
-        if (!sc.camera.thermal && sc.scene.thermal) {
+        if (!anyThermal && sc.scene.thermal) {
             throw SetupError(sc.scene.thermal->loc, "[thermal] needs a thermal camera preset");
         }
         return;
@@ -505,6 +617,21 @@ Scenario fromDocument(const ConfigDocument& doc, const std::string& file,
 }
 
 }  // namespace
+
+Scenario channelScenario(const Scenario& rig, std::size_t i) {
+    Scenario sc = rig;
+    if (rig.channels.empty()) return sc;
+    const ChannelSpec& ch = rig.channels.at(i);
+    sc.camera = ch.camera;
+    sc.rate = ch.rate;
+    sc.scan = ch.scan;
+    sc.width = ch.width;
+    sc.height = ch.height;
+    sc.bits = ch.bits;
+    sc.exposure_s = ch.exposure_s;
+    sc.channelIndex = static_cast<int>(i);
+    return sc;
+}
 
 Scenario loadScenario(const std::filesystem::path& path, const std::filesystem::path& configDir) {
     std::filesystem::path file = path;

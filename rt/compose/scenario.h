@@ -69,6 +69,20 @@
 //               rate (scan = "field") or frame rate (scan = "frame", or an interlaced
 //               scenario); the camera is driven at the scenario's rate, or at twice it when
 //               interlaced (one call per field; interlaced needs a field-scan preset).
+//   [[channel]] a camera rig instead of [camera] (docs/fusion.md): two to four channels on one
+//               time line, each with the keys of [camera] and
+//                                      name            string   required, [A-Za-z0-9_-]{1,15}
+//                                      frame_rate_hz width height bits scan exposure_s: as in
+//                                                      [scenario] (defaults: the preset's)
+//                                      lever_arm_m     [fwd, right, down] m from the platform's
+//                                                      camera (|·| ≤ 100 m)       [0, 0, 0]
+//                                      boresight_deg   [yaw, pitch, roll] (±90°)  [0, 0, 0]
+//                                      skew_s          exposures this much late (±0.1 s)  0
+//                                      stamp_jitter_s  rms noise on the stamps (≤ 0.01 s) 0
+//                                      drop_probability frames never sent (≤ 0.5)         0
+//                                      misregistration_deg [yaw, pitch, roll] of the true
+//                                                      boresight against the published (±10°)
+//               [scene] ground_z_m: the plane of the published homographies (0)
 
 #include <cstdint>
 #include <filesystem>
@@ -77,6 +91,7 @@
 #include <vector>
 
 #include "rt/clock/clock.h"
+#include "rt/compose/rig.h"
 #include "rt/loop/frame_loop.h"
 #include "rt/loop/stages.h"
 #include "sim/astro/ephemeris.h"
@@ -139,6 +154,30 @@ struct ThermalSpec {
     FileLoc loc;                          // the [thermal] table
 };
 
+// One [[channel]] of a rig: its camera and format, its mounting, and the faults injected.
+struct ChannelFaults {
+    double skew_s = 0.0;
+    double stampJitter_s = 0.0;  // rms
+    double dropProbability = 0.0;
+    double misregistration_rad[3] = {};  // yaw, pitch, roll
+    bool any() const noexcept {
+        return skew_s != 0.0 || stampJitter_s != 0.0 || dropProbability != 0.0 ||
+               misregistration_rad[0] != 0.0 || misregistration_rad[1] != 0.0 ||
+               misregistration_rad[2] != 0.0;
+    }
+};
+struct ChannelSpec {
+    std::string name;
+    FileLoc loc;
+    CameraSpec camera;
+    FrameRate rate;
+    ScanKind scan = ScanKind::Progressive;
+    int width = 0, height = 0, bits = 8;
+    double exposure_s = 0.0;
+    Mount mount;
+    ChannelFaults faults;
+};
+
 struct SceneSpec {
     std::optional<ThermalSpec> thermal;  // with a thermal camera preset
     astro::Site site;
@@ -191,6 +230,10 @@ struct Scenario {
     TestPatternSpec testPattern;
     CameraSpec camera;
     SceneSpec scene;  // rendered scenarios
+    // A rig ([[channel]]): its channels; `camera` and the format above are the first one's.
+    std::vector<ChannelSpec> channels;
+    int channelIndex = -1;   // channelScenario(i): i
+    double groundZ_m = 0.0;  // [scene] ground_z_m
 
     // How the emitted frames' rows were exposed (interlaced: the camera's field order; top
     // field first without a camera).
@@ -200,6 +243,10 @@ struct Scenario {
                                                               : msg::FieldOrder::BottomFirst;
     }
 };
+
+// Channel i of a rig as a scenario of its own: the rig's, with the channel's camera, format
+// and seed (channelIndex = i; the channels kept, for the peers' mountings).
+Scenario channelScenario(const Scenario& rig, std::size_t i);
 
 // Reads a scenario TOML file (or SCENARIO/scenario.toml for a folder); camera presets and
 // spectra from configDir. Throws SetupError.

@@ -5,6 +5,7 @@
 #include <cstring>
 
 #include "rt/clock/threads.h"
+#include "sim/core/rng.h"
 
 namespace nvs::rt {
 
@@ -84,7 +85,12 @@ void FrameLoop::joinWorkers() {
 }
 
 void FrameLoop::start(std::vector<std::string>& messages) {
-    const std::int64_t called_ns = monotonicNow_ns();
+    prepare(messages);
+    go(0);
+}
+
+void FrameLoop::prepare(std::vector<std::string>& messages) {
+    prepared_ns_ = monotonicNow_ns();
     startWorkers();
     for (auto& ch : channels_)
         ch->start(config_.realtime);
@@ -112,13 +118,17 @@ void FrameLoop::start(std::vector<std::string>& messages) {
             messages.push_back(*m);
         }
     }
+}
+
+void FrameLoop::go(std::int64_t origin_ns) {
     // Every thread runs and waits. Frame 0's first exposure (t_0 − exposure/2, and a field
     // earlier when interlaced: the gate pulse rises there) is one period away, so frame 0 has
     // a whole period to be made before it. The origin is published to the threads by go_
     // (release; they acquire it).
     const std::int64_t now_ns = monotonicNow_ns();
-    stats_.loopStart_s = static_cast<double>(now_ns - called_ns) * 1e-9;
-    wall_.start(now_ns + wall_.deadline_ns(1) + firstExposureLead_ns_);
+    stats_.loopStart_s = static_cast<double>(now_ns - prepared_ns_) * 1e-9;
+    if (origin_ns == 0) origin_ns = now_ns + originLead_ns();
+    wall_.start(origin_ns + std::llround(config_.skew_s * 1e9));
     pacing_->started(now_ns);
     go_.store(true, std::memory_order_release);
     go_.notify_all();
@@ -228,7 +238,9 @@ void FrameLoop::renderFrame(Slot& s, std::int64_t r, const FrameStart& at) noexc
     s.edge_ns = at.edge_ns;
     for (int f = 0; f < fields_; ++f) {
         // Field f of an interlaced frame: t_f = t_k − (1 − f)·T_f; progressive: t_k.
-        const double t_f = at.t_k_s - static_cast<double>(fields_ - 1 - f) * field_s_;
+        // A rig channel's skew: the exposure that much late on the rig's time line.
+        const double t_f =
+            at.t_k_s - static_cast<double>(fields_ - 1 - f) * field_s_ + config_.skew_s;
         // Field 0 (or the whole frame) into the slot's images; field 1 into its field buffers.
         const RadianceTarget out =
             f == 0 ? RadianceTarget{s.lpe_pe_s_m2_sr.view(), s.band_W_m2_sr.view()}
@@ -299,7 +311,8 @@ void FrameLoop::scheduleExposure(const Slot& s, int field, double gate_s) noexce
     w.start_s = w.t_sample_s - 0.5 * exposure_s_;
     w.exposure_s = exposure_s_;
     w.gate_s = gate_s;
-    w.startMonotonic_ns = pacing_->monotonic_ns(w.start_s);
+    // The loop's own clock runs skew_s behind the rig's (its origin moved by the skew).
+    w.startMonotonic_ns = pacing_->monotonic_ns(w.start_s - config_.skew_s);
     for (ExposureObserver* o : observers_)
         o->exposureScheduled(w);
 }
@@ -329,6 +342,7 @@ void FrameLoop::weaveFields(Slot& s) noexcept {
     s.meta.t_sample_s = s.fieldMeta.t_sample_s;
     s.meta.platform = s.fieldMeta.platform;
     s.meta.camera = s.fieldMeta.camera;
+    s.meta.rig = s.fieldMeta.rig;
     copyTruth(s.fieldMeta.truth, s.fieldMeta.truthCount, s.meta.truth, s.meta.truthCount);
 }
 
@@ -370,6 +384,7 @@ void FrameLoop::exposeFrame(Slot& s) noexcept {
     }
     s.meta.fieldCount = fields_;
     s.meta.triggerEdge_ns = s.edge_ns;
+    s.meta.rig.stampJitter_s = faultJitter_s(s.frame);
     if (stale) events_.count(LoopEvent::StaleFrame);
     live_.stale.store(stale, std::memory_order_relaxed);
 }
@@ -411,6 +426,20 @@ void FrameLoop::cameraThread(bool realtime) {
 }
 
 // ---- output thread ---------------------------------------------------------------------------
+
+bool FrameLoop::faultDrop(std::int64_t k) const noexcept {
+    if (!(config_.dropProbability > 0.0)) return false;
+    std::uint32_t w[4];
+    PixelRng(config_.faultSeed, RngStream::Faults, static_cast<std::uint64_t>(k)).block(0, 0, 0, w);
+    return uniformFromWord(w[0]) < config_.dropProbability;
+}
+
+double FrameLoop::faultJitter_s(std::int64_t k) const noexcept {
+    if (!(config_.stampJitter_s > 0.0)) return 0.0;
+    std::uint32_t w[4];
+    PixelRng(config_.faultSeed, RngStream::Faults, static_cast<std::uint64_t>(k)).block(0, 0, 0, w);
+    return config_.stampJitter_s * static_cast<double>(normalFromWord(w[1]));
+}
 
 bool FrameLoop::waitReady(std::int64_t k) noexcept {
     for (;;) {
@@ -498,9 +527,20 @@ void FrameLoop::missTick(std::int64_t k, std::int64_t now_ns, int held) {
 bool FrameLoop::outputTick(std::int64_t k, std::int64_t now_ns, int& held) {
     const std::int64_t w0 = monotonicNow_ns();
     events_.count(LoopEvent::Tick);
-    const int use = takeReady(k);
+    int use = takeReady(k);
     const std::int64_t overhead_ns = monotonicNow_ns() - w0;
+    if (use >= 0 && faultDrop(k)) {
+        // A rig's drop fault: made, never sent; the next frame sent says how many were lost.
+        free_.push(use);
+        notify(freeSeq_);
+        use = -1;
+        ++faultDropped_;
+        ++faultDrops_;
+        return true;
+    }
     if (use >= 0) {
+        slots_[use].meta.rig.droppedBefore = faultDropped_;
+        faultDropped_ = 0;
         if (held >= 0) free_.push(held);
         held = use;
         notify(freeSeq_);

@@ -113,6 +113,13 @@ struct LoopConfig {
     TriggerSource* trigger = nullptr;  // ClockKind::Trigger: the edges (outlives the loop)
     double triggerTimeout_s = 0.0;     // no edge for this long: stalled; 0: three periods
     int sinkQueueFrames = 8;           // frames each output's queue holds (1..64)
+    // A rig's channel (docs/fusion.md): its faults, drawn per frame from faultSeed (the same
+    // on every run). Skew: every exposure this much late on the rig's time line (t_sample_s
+    // and the gate pulses; with the wall clock the frames are emitted that much late too).
+    double skew_s = 0.0;
+    double stampJitter_s = 0.0;    // rms of the noise on the reported stamps (RigMeta)
+    double dropProbability = 0.0;  // frames made but never sent
+    std::uint64_t faultSeed = 0;
 };
 
 // Single-producer single-consumer ring of small integers (slot numbers).
@@ -154,8 +161,16 @@ class FrameLoop final : private ReadyFrames {
     FrameLoop& operator=(const FrameLoop&) = delete;
 
     // Starts the sink workers and the loop's threads. Messages about refused real-time settings go
-    // to `messages`.
+    // to `messages`. The same as prepare() then go(0).
     void start(std::vector<std::string>& messages);
+    // The two halves of start(), for a rig whose channels share one origin: prepare() makes
+    // the threads, which wait; go() takes the run clock's origin, frame 0's tick, at origin_ns
+    // on CLOCK_MONOTONIC (the skew added), or 0: originLead_ns() from now.
+    void prepare(std::vector<std::string>& messages);
+    void go(std::int64_t origin_ns);
+    // How far ahead of go() the origin lies at least: a period and frame 0's first exposure's
+    // lead, so that frame 0 has a whole period to be made.
+    std::int64_t originLead_ns() const noexcept { return period_ns_ + firstExposureLead_ns_; }
     // Asks both threads to finish the frame in hand and stop (async-signal-safe: a store).
     void requestStop() noexcept;
     bool finished() const noexcept { return outputDone_.load(std::memory_order_acquire); }
@@ -172,6 +187,8 @@ class FrameLoop final : private ReadyFrames {
     // The run clock's origin and deadlines on CLOCK_MONOTONIC (wall and trigger clocks).
     const WallClock& wallClock() const { return wall_; }
     const TriggerStats& triggerStats() const { return trigger_; }
+    // Frames a rig's drop fault kept from the outputs (after join()).
+    std::int64_t faultDrops() const { return faultDrops_; }
     // Exposure time of one frame (progressive) or field (interlaced) [s].
     double exposure_s() const { return exposure_s_; }
     // Each sink's queue and thread, in the order of the sinks given (counters any time; the
@@ -222,6 +239,9 @@ class FrameLoop final : private ReadyFrames {
     int takeReady(std::int64_t k) noexcept;  // frame k's slot, or −1 (late frames discarded)
     void missTick(std::int64_t k, std::int64_t now_ns, int held);  // by the late-frame policy
     void emit(int slot, std::int64_t tick, bool repeat, std::int64_t now_ns);
+    // A rig's injected faults for frame k: dropped (true), and the jitter of its stamps.
+    bool faultDrop(std::int64_t k) const noexcept;
+    double faultJitter_s(std::int64_t k) const noexcept;
     void startWorkers();            // one thread per sink worker (start)
     void joinWorkers();             // stops them and waits (join)
     void drainChannels();           // join: what is queued is written
@@ -279,11 +299,14 @@ class FrameLoop final : private ReadyFrames {
     // Set once the run clock's origin is taken (start), or by requestStop: until then the
     // loop's threads, already made, wait in awaitGo().
     std::atomic<bool> go_{false};
+    std::int64_t prepared_ns_ = 0;  // when prepare() was called
     void awaitGo() noexcept;
     std::string failure_;
 
     RunStats stats_;
     std::int64_t lastRendered_ = -2;  // frame index last rendered (render thread)
+    std::int64_t faultDropped_ = 0;   // frames dropped by the fault since the last emitted
+    std::int64_t faultDrops_ = 0;     // in all (output thread; read after join)
     // Trigger clock (render thread, except trigger_.latency: output thread).
     TriggerStats trigger_;
     LiveCounters live_;

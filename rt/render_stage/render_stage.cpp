@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 
 #include "sim/core/error.h"
 
@@ -30,7 +31,63 @@ std::unique_ptr<SceneRenderStage> SceneRenderStage::create(const Scenario& sc,
     for (int i = 0; i < s->lampCount_; ++i) {
         if (lamps[static_cast<std::size_t>(i)].on) s->initialLamps_ |= 1u << i;
     }
+    if (sc.channelIndex >= 0 && !sc.channels.empty()) s->setUpRig(sc);
     return s;
+}
+
+void SceneRenderStage::setUpRig(const Scenario& sc) {
+    rig_ = true;
+    sceneCamera_ = sr_->scene().camera;
+    msg::RigMeta& m = rigMeta_;
+    m.channel = sc.channelIndex;
+    m.channels = static_cast<std::int32_t>(sc.channels.size());
+    m.groundZ_m = sc.groundZ_m;
+    for (std::size_t i = 0; i < sc.channels.size(); ++i) {
+        const ChannelSpec& ch = sc.channels[i];
+        mounts_[i] = ch.mount;
+        pins_[i] = sr_->renderer().camera();  // until setRigPinholes
+        std::snprintf(m.name[i], sizeof m.name[i], "%s", ch.name.c_str());
+    }
+    const ChannelFaults& f = sc.channels[static_cast<std::size_t>(sc.channelIndex)].faults;
+    misregistration_.yaw_rad = f.misregistration_rad[0];
+    misregistration_.pitch_rad = f.misregistration_rad[1];
+    misregistration_.roll_rad = f.misregistration_rad[2];
+    for (int i = 0; i < 3; ++i)
+        m.misregistration_rad[i] = f.misregistration_rad[i];
+    m.skew_s = f.skew_s;
+    base_ = sceneCamera_;
+    published_ = mountedPose(base_, mounts_[sc.channelIndex]);
+}
+
+void SceneRenderStage::setRigPinholes(const render::PinholeCamera* pins, int count) noexcept {
+    for (int i = 0; i < count && i < msg::kMaxChannels; ++i)
+        pins_[i] = pins[i];
+}
+
+bool SceneRenderStage::poseRig(const PlatformState& p) noexcept {
+    const scene::CameraPose base = p.poseFromTelemetry ? poseFor(p) : sceneCamera_;
+    const scene::CameraPose published = mountedPose(base, mounts_[rigMeta_.channel]);
+    const scene::CameraPose truePose =
+        misregistration_.identity() ? published : mountedPose(published, misregistration_);
+    if (!poseUsable(base) || !poseUsable(truePose)) return false;
+    base_ = base;
+    published_ = published;
+    sr_->renderer().setCamera(truePose);
+    return true;
+}
+
+void SceneRenderStage::publishRig(FrameMeta& meta) const noexcept {
+    // What a consumer registers with: the declared mountings, not a misregistered truth.
+    const int own = rigMeta_.channel;
+    meta.camera = cameraGeometry(published_, pins_[own]);
+    meta.rig = rigMeta_;
+    // The platform camera's pose, from which every channel is mounted.
+    const scene::CameraPose& base = base_;
+    for (int j = 0; j < rigMeta_.channels; ++j) {
+        const msg::CameraGeometry peer =
+            j == own ? meta.camera : cameraGeometry(mountedPose(base, mounts_[j]), pins_[j]);
+        meta.rig.valid[j] = groundHomography(meta.camera, peer, rigMeta_.groundZ_m, meta.rig.H[j]);
+    }
 }
 
 bool SceneRenderStage::poseUsable(const scene::CameraPose& pose) noexcept {
@@ -57,7 +114,9 @@ void SceneRenderStage::render(const FrameRequest& req, RadianceTarget out,
     lastGoodT_s_ = t_s;
     for (int i = 0; i < lampCount_; ++i)
         r.setLampOn(i, ((req.platform.lampMask >> i) & 1u) != 0);
-    if (req.platform.poseFromTelemetry) {
+    if (rig_) {
+        if (!poseRig(req.platform)) held = true;  // the last camera kept
+    } else if (req.platform.poseFromTelemetry) {
         const scene::CameraPose pose = poseFor(req.platform);
         if (poseUsable(pose)) {
             r.setCamera(pose);
@@ -80,23 +139,12 @@ void SceneRenderStage::render(const FrameRequest& req, RadianceTarget out,
         sr_->renderFrame(t_s, out.lpe_pe_s_m2_sr, band, *pool_);
     }
     // The camera's geometry (msg::CameraGeometry: OpenCV's axes, x right, y down, z forward).
-    msg::CameraGeometry& g = meta.camera;
-    const render::PinholeCamera& pin = r.camera();
-    Vec3 c, right, up, fwd;
-    r.cameraAxes(&c, &right, &up, &fwd);
-    g.valid = true;
-    g.width = pin.width;
-    g.height = pin.height;
-    g.fx_px = pin.focalLength_m / pin.pitchX_m;
-    g.fy_px = pin.focalLength_m / pin.pitchY_m;
-    g.cx_px = 0.5 * pin.width;
-    g.cy_px = 0.5 * pin.height;
-    const Vec3 rows[3] = {right, up * -1.0, fwd};
-    for (int i = 0; i < 3; ++i) {
-        g.R[3 * i] = rows[i].x;
-        g.R[3 * i + 1] = rows[i].y;
-        g.R[3 * i + 2] = rows[i].z;
-        g.t_m[i] = -dot(rows[i], c);
+    if (rig_) {
+        publishRig(meta);
+    } else {
+        Vec3 c, right, up, fwd;
+        r.cameraAxes(&c, &right, &up, &fwd);
+        meta.camera = cameraGeometry(c, right, up, fwd, r.camera());
     }
     const int n = r.truthBoxes(truth_, kMaxTruthBoxes);
     meta.truthCount = n;

@@ -25,6 +25,7 @@
 #include <string>
 
 #include "rt/compose/platform_pose.h"
+#include "rt/compose/rig.h"
 #include "rt/compose/scene_setup.h"
 #include "rt/compose/thermal_scene.h"
 #include "rt/loop/stages.h"
@@ -59,8 +60,16 @@ class SceneRenderStage final : public RenderStage {
     // The renderer's primary-visibility line (Renderer::primaryVisibilityNote), chosen at setup.
     const std::string& primaryVisibilityNote() const noexcept { return visibilityNote_; }
     std::int64_t heldFrames() const noexcept { return heldFrames_.load(std::memory_order_relaxed); }
+    // A rig's channel (Scenario::channelIndex ≥ 0): every channel's pinhole, by index, for the
+    // ground-plane homographies of its metadata (set before the first frame).
+    void setRigPinholes(const render::PinholeCamera* pins, int count) noexcept;
 
   private:
+    // A rig's channel: the camera as mounted (and, with a misregistration, as it truly looks);
+    // its published geometry and homographies into `meta`.
+    bool poseRig(const PlatformState& p) noexcept;
+    void publishRig(FrameMeta& meta) const noexcept;
+    void setUpRig(const Scenario& sc);
     SceneRenderStage() = default;
     std::unique_ptr<ScenarioRenderer> sr_;
     std::unique_ptr<ThermalScene> thermal_;  // with a thermal camera
@@ -78,6 +87,15 @@ class SceneRenderStage final : public RenderStage {
     std::uint32_t initialLamps_ = 0;
     int lampCount_ = 0;
     render::Renderer::ObjectTruth truth_[kMaxTruthBoxes] = {};
+    // A rig's channel (rt/compose/rig.h).
+    bool rig_ = false;
+    scene::CameraPose sceneCamera_;  // the platform's camera without telemetry
+    scene::CameraPose base_;         // the platform's camera of the frame in hand
+    scene::CameraPose published_;    // this channel's camera as mounted (published)
+    Mount mounts_[msg::kMaxChannels];
+    Mount misregistration_;
+    render::PinholeCamera pins_[msg::kMaxChannels];
+    msg::RigMeta rigMeta_;  // its constant part
 };
 
 }  // namespace nvs::rt

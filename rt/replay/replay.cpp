@@ -332,17 +332,37 @@ fs::path replayScenario(const fs::path& dir, const fs::path& nvstimExe, const fs
     const fs::path scenario = dir / "scenario.toml";
     if (!fs::is_directory(dir)) throw SetupError(dir.string() + ": not a scenario folder");
     if (!fs::exists(scenario)) throw SetupError(dir.string() + ": no scenario.toml");
-    fs::create_directories(workDir / "frames");
     const fs::path log = workDir / "run.log";
-    const int rc = runProcess({nvstimExe.string(), "run", scenario.string(), "--clock", "sim",
-                               "--output", "pgm:" + (workDir / "frames").string(), "--output",
-                               "meta:" + (workDir / "meta.jsonl").string()},
-                              log);
+    std::vector<std::string> args = {nvstimExe.string(), "run", scenario.string(), "--clock",
+                                     "sim"};
+    const std::vector<std::string> channels = rigChannels(dir);
+    for (const std::string& ch : channels.empty() ? std::vector<std::string>{""} : channels) {
+        // A rig: each channel's frames and metadata in a folder of its own.
+        const fs::path out = ch.empty() ? workDir : workDir / ch;
+        const std::string route = ch.empty() ? "" : "?channel=" + ch;
+        fs::create_directories(out / "frames");
+        args.insert(args.end(), {"--output", "pgm:" + (out / "frames").string() + route, "--output",
+                                 "meta:" + (out / "meta.jsonl").string() + route});
+    }
+    const int rc = runProcess(args, log);
     if (rc != 0) {
         throw SetupError(scenario.string() + ": replay run failed (exit " + std::to_string(rc) +
                          "): " + lastLine(log));
     }
-    return workDir / "frames";
+    return channels.empty() ? workDir / "frames" : workDir;
+}
+
+std::vector<std::string> rigChannels(const fs::path& dir) {
+    // The [[channel]] names alone; the run itself checks the whole file.
+    const ConfigDocument doc = ConfigDocument::parseFile(dir / "scenario.toml");
+    std::vector<std::string> names;
+    for (const ConfigTable& c : doc.root().tableArray("channel")) {
+        const std::string name = c.require<std::string>("name");
+        if (name.empty() || name.find_first_of("/.?&=") != std::string::npos)
+            c.fail("name", "not a channel name");  // the run says what is allowed
+        names.push_back(name);
+    }
+    return names;
 }
 
 namespace {
@@ -379,17 +399,18 @@ bool isBlessOutput(const fs::directory_entry& e) {
 
 }  // namespace
 
-void blessScenario(const fs::path& dir, const fs::path& nvstimExe) {
-    const fs::path exp = expectedFolder(dir);
-    TempDir temp;
-    const fs::path work = temp.path();
-    const fs::path frames = replayScenario(dir, nvstimExe, work);
-    const auto files = framesIn(frames);
+namespace {
+
+// The expectations of one stream (a camera, or a rig's channel) from its replay in `work`
+// (frames/ and meta.jsonl) into `exp`.
+void blessStream(const fs::path& dir, const fs::path& exp, const fs::path& work) {
+    const auto files = framesIn(work / "frames");
     if (files.empty()) throw SetupError(dir.string() + ": the replay produced no frames");
     std::error_code ec;
     fs::create_directory(exp, ec);
     if (ec) throw SetupError(exp.string() + ": cannot create: " + ec.message());
-    if (fs::canonical(exp).parent_path() != fs::canonical(dir)) {
+    if (fs::canonical(exp).parent_path() != fs::canonical(dir) &&
+        fs::canonical(exp).parent_path().parent_path() != fs::canonical(dir)) {
         throw SetupError(exp.string() + ": resolves outside the scenario folder");
     }
     const auto windows = windowsFor(static_cast<int>(files.size()));
@@ -447,11 +468,53 @@ void blessScenario(const fs::path& dir, const fs::path& nvstimExe) {
     }
 }
 
-ReplayResult checkScenario(const fs::path& dir, const fs::path& nvstimExe) {
-    const fs::path exp = dir / "expected";
+}  // namespace
+
+void blessScenario(const fs::path& dir, const fs::path& nvstimExe) {
+    const fs::path exp = expectedFolder(dir);
+    const std::vector<std::string> channels = rigChannels(dir);
+    TempDir temp;
+    const fs::path work = temp.path();
+    (void)replayScenario(dir, nvstimExe, work);
+    if (channels.empty()) {
+        blessStream(dir, exp, work);
+        return;
+    }
+    // A rig: expected/CHANNEL/ for each channel.
+    std::error_code ec;
+    fs::create_directory(exp, ec);
+    if (ec) throw SetupError(exp.string() + ": cannot create: " + ec.message());
+    for (const std::string& ch : channels) {
+        const fs::path sub = exp / ch;
+        if (fs::is_symlink(fs::symlink_status(sub))) {
+            throw SetupError(sub.string() +
+                             ": is a symbolic link; --bless writes only real folders");
+        }
+        blessStream(dir, sub, work / ch);
+    }
+}
+
+namespace {
+
+struct Ref {
+    int first, count;
+    double level, noise;
+};
+
+// One stream's expectations (expected/ or expected/CHANNEL/), read strictly.
+struct Expectations {
+    std::string fingerprint;
+    int frames = 0;
+    std::string metaSha;
+    std::vector<std::string> frameSha;
+    std::vector<Ref> refs;
+    std::vector<ImageF> refMean, refMeanVar, refPixVar;
+};
+
+Expectations readExpectations(const fs::path& dir, const fs::path& exp) {
     if (!fs::exists(exp / "digest.toml") || !fs::exists(exp / "stats.toml")) {
-        throw SetupError(dir.string() + ": no expectations (run `nvstim replay " + dir.string() +
-                         " --bless` first)");
+        throw SetupError(dir.string() + ": no expectations in " + exp.string() +
+                         " (run `nvstim replay " + dir.string() + " --bless` first)");
     }
     // Expectations, strictly.
     const ConfigDocument digestDoc = ConfigDocument::parseFile(exp / "digest.toml");
@@ -474,10 +537,6 @@ ReplayResult checkScenario(const fs::path& dir, const fs::path& nvstimExe) {
     const ConfigTable st = statsDoc.root();
     if (st.require<int>("block_px") != kReplayBlock_px)
         st.fail("block_px", "unsupported block size");
-    struct Ref {
-        int first, count;
-        double level, noise;
-    };
     std::vector<Ref> refs;
     for (const ConfigTable& w : st.tableArray("window")) {
         const Ref ref{w.require<int>("first"), w.require<int>("count"),
@@ -510,16 +569,26 @@ ReplayResult checkScenario(const fs::path& dir, const fs::path& nvstimExe) {
         refPixVar.push_back(readReference(exp / (stem + "_pixvar.pfm")));
     }
 
-    TempDir temp;
-    const fs::path work = temp.path();
-    const fs::path frames = replayScenario(dir, nvstimExe, work);
-    const auto files = framesIn(frames);
+    return Expectations{
+        fingerprint,           expectedFrames,      metaSha, frameSha, refs, std::move(refMean),
+        std::move(refMeanVar), std::move(refPixVar)};
+}
 
+// Compares one stream's replay in `work` (frames/, meta.jsonl) with its expectations; error
+// images into failDir. False when it moved.
+bool compareStream(const Expectations& e, const fs::path& work, const fs::path& failDir,
+                   std::ostringstream& rep) {
+    const auto files = framesIn(work / "frames");
+    const int expectedFrames = e.frames;
+    const std::string& fingerprint = e.fingerprint;
+    const std::string& metaSha = e.metaSha;
+    const std::vector<std::string>& frameSha = e.frameSha;
+    const std::vector<Ref>& refs = e.refs;
+    const std::vector<ImageF>& refMean = e.refMean;
+    const std::vector<ImageF>& refMeanVar = e.refMeanVar;
+    const std::vector<ImageF>& refPixVar = e.refPixVar;
     ReplayResult r;
     r.passed = true;
-    std::ostringstream rep;
-    const std::string name =
-        dir.filename().empty() ? dir.parent_path().filename().string() : dir.filename().string();
     char line[512];
     if (static_cast<int>(files.size()) != expectedFrames) {
         r.passed = false;
@@ -574,8 +643,6 @@ ReplayResult checkScenario(const fs::path& dir, const fs::path& nvstimExe) {
             << thisBuild << "\": digests are not comparable)\n";
     }
     // 2. Statistics per window.
-    const fs::path failDir = dir / "check-failures";
-    fs::remove_all(failDir);
     for (std::size_t i = 0; i < refs.size(); ++i) {
         const Ref& ref = refs[i];
         if (static_cast<std::int64_t>(ref.first) + ref.count >
@@ -669,6 +736,35 @@ ReplayResult checkScenario(const fs::path& dir, const fs::path& nvstimExe) {
         rep << line;
     }
     if (fs::exists(failDir)) rep << "  error images: " << failDir.string() << "/\n";
+    return r.passed;
+}
+
+}  // namespace
+
+ReplayResult checkScenario(const fs::path& dir, const fs::path& nvstimExe) {
+    const std::vector<std::string> channels = rigChannels(dir);
+    const std::vector<std::string> streams =
+        channels.empty() ? std::vector<std::string>{""} : channels;
+    // Every stream's expectations first, strictly, then one replay.
+    std::vector<Expectations> expected;
+    for (const std::string& ch : streams)
+        expected.push_back(readExpectations(dir, dir / "expected" / ch));
+    TempDir temp;
+    const fs::path work = temp.path();
+    (void)replayScenario(dir, nvstimExe, work);
+    ReplayResult r;
+    r.passed = true;
+    std::ostringstream rep;
+    const std::string name =
+        dir.filename().empty() ? dir.parent_path().filename().string() : dir.filename().string();
+    const fs::path failDir = dir / "check-failures";
+    fs::remove_all(failDir);
+    for (std::size_t i = 0; i < streams.size(); ++i) {
+        if (!streams[i].empty()) rep << "  channel " << streams[i] << ":\n";
+        const bool ok = compareStream(expected[i], work / streams[i],
+                                      streams[i].empty() ? failDir : failDir / streams[i], rep);
+        r.passed = r.passed && ok;
+    }
     r.report = "replay " + name + ": " + (r.passed ? "PASS" : "FAIL") + "\n" + rep.str();
     return r;
 }

@@ -26,6 +26,7 @@
 
 #include <filesystem>
 #include <string>
+#include <vector>
 
 namespace nvs::rt {
 
@@ -60,6 +61,11 @@ std::filesystem::path makeReplayTempDir();
 std::filesystem::path replayScenario(const std::filesystem::path& dir,
                                      const std::filesystem::path& nvstimExe,
                                      const std::filesystem::path& workDir);
+
+// A rig's channel names ([[channel]] name, in order); empty for a single camera. A rig replays
+// each channel into WORK/CHANNEL/{frames/, meta.jsonl} and keeps its expectations in
+// expected/CHANNEL/ (replayScenario then returns WORK).
+std::vector<std::string> rigChannels(const std::filesystem::path& dir);
 
 // Replays and writes expected/ (bless), or compares against it (check). --bless writes only a
 // real expected/ folder inside `dir` (a symbolic link is an error) and removes only the files

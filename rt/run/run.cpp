@@ -294,7 +294,7 @@ LoopConfig loopConfigFor(const Scenario& sc, const RunRequest& req) {
 
 // One live status line from the loop's atomic counters; returns the frames emitted so far.
 std::int64_t printLiveStatus(std::FILE* status, const FrameLoop& loop, double dt_s,
-                             std::int64_t lastEmitted) {
+                             std::int64_t lastEmitted, const std::string& label) {
     const LiveCounters& l = loop.live();
     const std::int64_t e = l.emitted.load();
     const std::int64_t lat = l.lastLatency_ns.load();
@@ -307,33 +307,177 @@ std::int64_t printLiveStatus(std::FILE* status, const FrameLoop& loop, double dt
     }
     // A miss is repeated or sends nothing; late and skipped say what became of the frames that
     // missed; queue drops are frames a stalled output could not take.
-    std::fprintf(status,
-                 "nvstim run: frame %lld  %.2f fps  misses %lld (repeated %lld, nothing "
-                 "sent %lld)  late %lld  skipped %lld  sink errors %lld  queue drops %lld"
-                 "%s  latency %s%.2f ms%s%s\n",
-                 static_cast<long long>(e), static_cast<double>(e - lastEmitted) / dt_s,
-                 static_cast<long long>(l.misses.load()), static_cast<long long>(l.repeats.load()),
-                 static_cast<long long>(l.dropped.load()), static_cast<long long>(l.late.load()),
-                 static_cast<long long>(l.skipped.load()),
-                 static_cast<long long>(l.sinkErrors.load()),
-                 static_cast<long long>(l.queueDrops.load()),
-                 l.outputsFailed.load() > 0 ? "  OUTPUT FAILED" : "", lat < 0 ? "n/a " : "",
-                 lat < 0 ? 0.0 : static_cast<double>(lat) * 1e-6,
-                 l.stale.load() ? "  TELEMETRY STALE" : "", trig);
+    std::fprintf(
+        status,
+        "nvstim run: %s%sframe %lld  %.2f fps  misses %lld (repeated %lld, nothing "
+        "sent %lld)  late %lld  skipped %lld  sink errors %lld  queue drops %lld"
+        "%s  latency %s%.2f ms%s%s\n",
+        label.c_str(), label.empty() ? "" : ": ", static_cast<long long>(e),
+        static_cast<double>(e - lastEmitted) / dt_s, static_cast<long long>(l.misses.load()),
+        static_cast<long long>(l.repeats.load()), static_cast<long long>(l.dropped.load()),
+        static_cast<long long>(l.late.load()), static_cast<long long>(l.skipped.load()),
+        static_cast<long long>(l.sinkErrors.load()), static_cast<long long>(l.queueDrops.load()),
+        l.outputsFailed.load() > 0 ? "  OUTPUT FAILED" : "", lat < 0 ? "n/a " : "",
+        lat < 0 ? 0.0 : static_cast<double>(lat) * 1e-6, l.stale.load() ? "  TELEMETRY STALE" : "",
+        trig);
     std::fflush(status);
     return e;
 }
 
 }  // namespace
 
-int runScenario(const RunRequest& req, std::FILE* status) {
-    // SIGINT and SIGTERM stop the run from the start, setup included. A shell without job
-    // control starts background commands with SIGINT ignored; sigaction replaces that inherited
-    // SIG_IGN on purpose: a stimulator asked to stop must stop, whoever started it. A signal
-    // that arrives during setup (camera FFT plans, telemetry files) is kept and honoured as
-    // soon as the loop exists.
-    installStopSignals();
-    // Setup: everything that can fail fails here, before the first frame.
+namespace {
+
+// One camera's pipeline (a rig has one per channel): its outputs, stages, platform source and
+// frame loop, built in this order and torn down in the reverse.
+struct Pipeline {
+    Scenario sc;
+    std::string label;  // the channel's name ("" without a rig)
+    std::vector<std::unique_ptr<FrameSink>> sinks;
+    std::unique_ptr<SceneRenderStage> sceneStage;
+    std::unique_ptr<TestPatternRender> testPattern;
+    std::unique_ptr<PlatformSource> platform;
+    GammaTableCache gammaTables;          // the MCP's Gamma tables, built here at setup
+    std::unique_ptr<RowPool> cameraPool;  // [runtime] camera_threads > 1; outlives the stage
+    std::unique_ptr<CameraStage> camera;
+    std::unique_ptr<TriggerSource> trigger;
+    std::vector<std::string> notes;
+    std::unique_ptr<FrameLoop> loop;
+    std::string prefix() const { return label.empty() ? "" : label + ": "; }
+};
+
+// The camera stage of a pipeline: the bolometer, the IICCD chain or the linear test camera.
+void makeCamera(Pipeline& p, const RunRequest& req, std::FILE* status) {
+    const Scenario& sc = p.sc;
+    if (sc.camera.thermal) {
+        const ThermalScene& th = *p.sceneStage->thermal();
+        std::fprintf(status,
+                     "nvstim run: %sthermal: %zu surface classes, heat balance %s (%zu kB of "
+                     "state), weather %s\n",
+                     p.prefix().c_str(), th.surfaces().size(),
+                     th.report().fromCache ? "from the cache" : "solved",
+                     th.report().stateBytes / 1024, th.weather().file().c_str());
+        // The camera powered up before the run, its start-up shutter done facing the night.
+        const double start = th.groundRadianceAt(sc.utcStart_unix_s);
+        p.camera = std::make_unique<BolometerCameraStage>(*sc.camera.thermalParams, sc.bits,
+                                                          sc.camera.seed, start, req.dirs.config);
+    } else if (sc.camera.enabled) {
+        auto iiccd = std::make_unique<IiccdCameraStage>(
+            sc.camera.params, sc.camera.spectrum, sc.camera.seed,
+            sc.camera.controlsFromPlatform ? IiccdCameraStage::Controls::Platform
+                                           : IiccdCameraStage::Controls::Preset,
+            req.dirs.config, p.gammaTables);
+        if (sc.cameraThreads > 1) {
+            p.cameraPool =
+                std::make_unique<RowPool>(sc.cameraThreads, sc.realtime, kThreadCameraWorker);
+            iiccd->setExecutor(p.cameraPool.get());
+        }
+        p.camera = std::move(iiccd);
+    } else {
+        p.camera = std::make_unique<LinearCamera>(sc.testPattern.fullScale_W_m2_sr, sc.bits);
+    }
+}
+
+// A pipeline for `p.sc` with these outputs (setup errors thrown).
+void buildPipeline(Pipeline& p, const RunRequest& req, const std::vector<std::string>& outputs,
+                   std::FILE* status) {
+    Scenario& sc = p.sc;
+    LoopConfig cfg = loopConfigFor(sc, req);
+    for (const std::string& o : outputs)
+        p.sinks.push_back(makeSink(o, sc, cfg.frames));
+    // Frames: the scene renderer (photoelectron radiance, which the camera takes as is) or the
+    // test pattern (band radiance).
+    p.testPattern = std::make_unique<TestPatternRender>(sc.testPattern.radianceMax_W_m2_sr,
+                                                        sc.testPattern.targetSpeed_px_s);
+    RenderStage* render = p.testPattern.get();
+    if (sc.rendered) {
+        p.sceneStage = SceneRenderStage::create(sc, req.dirs);
+        render = p.sceneStage.get();
+        if (sc.primaryVisibility != render::PrimaryVisibility::kEmbree) {
+            std::fprintf(status, "nvstim run: %s%s\n", p.prefix().c_str(),
+                         p.sceneStage->primaryVisibilityNote().c_str());
+        }
+        sc.platform.lampMask = p.sceneStage->initialLampMask();
+        sc.camera.spectrum = "pe";
+    }
+    p.platform =
+        makePlatformSource(req.telemetry ? req.telemetry : sc.telemetry, sc, req.clock, req.dirs);
+    if (!sc.events.empty()) {
+        SceneRenderStage* stage = p.sceneStage.get();
+        p.platform = std::make_unique<TimelineSource>(
+            std::move(p.platform), resolveTimeline(sc, [stage](const std::string& name) {
+                return stage ? stage->scenario().scene().lampIndex(name) : -1;
+            }));
+    }
+    makeCamera(p, req, status);
+    // External trigger: the frames follow its edges on the wall clock. The sim clock keeps
+    // its nominal cadence, so a triggered scenario still replays bit for bit.
+    if (sc.trigger && req.clock == ClockKind::Wall) {
+        p.trigger = makeTrigger(*sc.trigger, sc.file + ": [runtime] trigger");
+        cfg.clock = ClockKind::Trigger;
+        cfg.trigger = p.trigger.get();
+    } else if (sc.trigger) {
+        p.notes.push_back("[runtime] trigger is not used with --clock sim (nominal " +
+                          std::to_string(sc.rate.hz()) + " Hz)");
+    }
+    // A live bus under the sim clock: the frames step with the telemetry's own time. The line
+    // says the bus is open and the loop waits, so a sender may start (tests/hil waits for it).
+    const std::optional<std::string>& tel = req.telemetry ? req.telemetry : sc.telemetry;
+    if (req.clock == ClockKind::Sim && tel && tel->rfind("can:", 0) == 0) {
+        p.notes.push_back("lockstep: frames follow the time signal of " + *tel);
+    }
+    if (sc.channelIndex >= 0 && !sc.channels.empty()) {
+        const ChannelSpec& ch = sc.channels[static_cast<std::size_t>(sc.channelIndex)];
+        cfg.skew_s = ch.faults.skew_s;
+        cfg.stampJitter_s = ch.faults.stampJitter_s;
+        cfg.dropProbability = ch.faults.dropProbability;
+        cfg.faultSeed = sc.seed * 131 + static_cast<std::uint64_t>(sc.channelIndex) + 1;
+    }
+    std::vector<FrameSink*> raw;
+    for (auto& s : p.sinks)
+        raw.push_back(s.get());
+    p.loop = std::make_unique<FrameLoop>(cfg, *p.platform, *render, *p.camera, raw);
+}
+
+// The command line's outputs, per channel: a rig's name theirs with ?channel=NAME.
+std::vector<std::vector<std::string>> routeOutputs(const std::vector<std::string>& outputs,
+                                                   const Scenario& sc) {
+    const std::size_t n = sc.channels.empty() ? 1 : sc.channels.size();
+    std::vector<std::vector<std::string>> routed(n);
+    std::string names;
+    for (const ChannelSpec& ch : sc.channels)
+        names += (names.empty() ? "" : ", ") + ch.name;
+    for (const std::string& o : outputs) {
+        Spec s = parseSpec(o, "--output");
+        const std::optional<std::string> ch = s.take("channel");
+        if (sc.channels.empty()) {
+            if (ch) throw SetupError("--output " + o + ": channel= needs a rig ([[channel]])");
+            routed[0].push_back(o);
+            continue;
+        }
+        if (!ch) {
+            throw SetupError("--output " + o +
+                             ": the scenario is a rig; name the channel with "
+                             "?channel=NAME (" +
+                             names + ")");
+        }
+        std::size_t i = 0;
+        while (i < sc.channels.size() && sc.channels[i].name != *ch)
+            ++i;
+        if (i == sc.channels.size()) {
+            throw SetupError("--output " + o + ": no channel '" + *ch + "' (" + names + ")");
+        }
+        // The spec without its channel parameter.
+        std::string rest = s.scheme + ":" + s.target;
+        for (std::size_t k = 0; k < s.params.size(); ++k)
+            rest += (k == 0 ? "?" : "&") + s.params[k].first + "=" + s.params[k].second;
+        routed[i].push_back(rest);
+    }
+    return routed;
+}
+
+// The scenario with the command line's overrides of [runtime].
+Scenario scenarioFor(const RunRequest& req) {
     Scenario sc = loadScenario(req.scenario, req.dirs.config);
     if (req.primaryVisibility) sc.primaryVisibility = *req.primaryVisibility;
     if (req.renderThreads) {
@@ -348,137 +492,167 @@ int runScenario(const RunRequest& req, std::FILE* status) {
         }
         sc.cameraThreads = *req.cameraThreads;
     }
-    LoopConfig cfg = loopConfigFor(sc, req);
-    int toStdout = 0;
-    std::vector<std::unique_ptr<FrameSink>> sinks;
-    for (const std::string& o : req.outputs) {
-        if (o.size() > 2 && o.compare(o.size() - 2, 2, ":-") == 0) ++toStdout;
-        sinks.push_back(makeSink(o, sc, cfg.frames));
-    }
-    if (toStdout > 1) throw SetupError("--output: only one output can go to stdout");
-    // Frames: the scene renderer (photoelectron radiance, which the camera takes as is) or the
-    // test pattern (band radiance).
-    std::unique_ptr<SceneRenderStage> sceneStage;
-    TestPatternRender testPattern(sc.testPattern.radianceMax_W_m2_sr,
-                                  sc.testPattern.targetSpeed_px_s);
-    RenderStage* render = &testPattern;
-    if (sc.rendered) {
-        sceneStage = SceneRenderStage::create(sc, req.dirs);
-        render = sceneStage.get();
-        if (sc.primaryVisibility != render::PrimaryVisibility::kEmbree) {
-            std::fprintf(status, "nvstim run: %s\n", sceneStage->primaryVisibilityNote().c_str());
+    if (!sc.channels.empty()) {
+        const std::optional<std::string>& tel = req.telemetry ? req.telemetry : sc.telemetry;
+        if (tel && tel->rfind("serial:", 0) == 0) {
+            throw SetupError(
+                "a rig's channels each read the telemetry; a serial port has one "
+                "reader (use can: or replay:)");
         }
-        sc.platform.lampMask = sceneStage->initialLampMask();
-        sc.camera.spectrum = "pe";
-    }
-    std::unique_ptr<PlatformSource> platform =
-        makePlatformSource(req.telemetry ? req.telemetry : sc.telemetry, sc, req.clock, req.dirs);
-    if (!sc.events.empty()) {
-        platform = std::make_unique<TimelineSource>(
-            std::move(platform), resolveTimeline(sc, [&](const std::string& name) {
-                return sceneStage ? sceneStage->scenario().scene().lampIndex(name) : -1;
-            }));
-    }
-    GammaTableCache gammaTables;          // the MCP's Gamma tables, built here at setup
-    std::unique_ptr<RowPool> cameraPool;  // [runtime] camera_threads > 1; outlives the stage
-    std::unique_ptr<CameraStage> camera;
-    if (sc.camera.thermal) {
-        const ThermalScene& th = *sceneStage->thermal();
-        std::fprintf(status,
-                     "nvstim run: thermal: %zu surface classes, heat balance %s (%zu kB of "
-                     "state), weather %s\n",
-                     th.surfaces().size(), th.report().fromCache ? "from the cache" : "solved",
-                     th.report().stateBytes / 1024, th.weather().file().c_str());
-        // The camera powered up before the run, its start-up shutter done facing the night.
-        const double start = sceneStage->thermal()->groundRadianceAt(sc.utcStart_unix_s);
-        camera = std::make_unique<BolometerCameraStage>(*sc.camera.thermalParams, sc.bits,
-                                                        sc.camera.seed, start, req.dirs.config);
-    } else if (sc.camera.enabled) {
-        auto iiccd = std::make_unique<IiccdCameraStage>(
-            sc.camera.params, sc.camera.spectrum, sc.camera.seed,
-            sc.camera.controlsFromPlatform ? IiccdCameraStage::Controls::Platform
-                                           : IiccdCameraStage::Controls::Preset,
-            req.dirs.config, gammaTables);
-        if (sc.cameraThreads > 1) {
-            cameraPool =
-                std::make_unique<RowPool>(sc.cameraThreads, sc.realtime, kThreadCameraWorker);
-            iiccd->setExecutor(cameraPool.get());
+        if (sc.trigger) {
+            throw SetupError(sc.file +
+                             ": [runtime] trigger: a rig runs on one time line; an external "
+                             "trigger drives a single camera");
         }
-        camera = std::move(iiccd);
-    } else {
-        camera = std::make_unique<LinearCamera>(sc.testPattern.fullScale_W_m2_sr, sc.bits);
     }
-    std::vector<FrameSink*> raw;
-    for (auto& s : sinks)
-        raw.push_back(s.get());
-    // External trigger: the frames follow its edges on the wall clock. The sim clock keeps
-    // its nominal cadence, so a triggered scenario still replays bit for bit.
-    std::vector<std::string> notes;
-    std::unique_ptr<TriggerSource> trigger;
-    if (sc.trigger && req.clock == ClockKind::Wall) {
-        trigger = makeTrigger(*sc.trigger, sc.file + ": [runtime] trigger");
-        cfg.clock = ClockKind::Trigger;
-        cfg.trigger = trigger.get();
-    } else if (sc.trigger) {
-        notes.push_back("[runtime] trigger is not used with --clock sim (nominal " +
-                        std::to_string(sc.rate.hz()) + " Hz)");
-    }
-    // A live bus under the sim clock: the frames step with the telemetry's own time. The line
-    // says the bus is open and the loop waits, so a sender may start (tests/hil waits for it).
-    const std::optional<std::string>& tel = req.telemetry ? req.telemetry : sc.telemetry;
-    if (req.clock == ClockKind::Sim && tel && tel->rfind("can:", 0) == 0) {
-        notes.push_back("lockstep: frames follow the time signal of " + *tel);
-    }
+    return sc;
+}
 
+// Every pipeline of the run: one, or one per channel of a rig.
+std::vector<std::unique_ptr<Pipeline>> buildPipelines(const RunRequest& req, const Scenario& sc,
+                                                      std::FILE* status) {
+    const auto routed = routeOutputs(req.outputs, sc);
+    int toStdout = 0;
+    for (const std::string& o : req.outputs)
+        if (o.size() > 2 && o.compare(o.size() - 2, 2, ":-") == 0) ++toStdout;
+    if (toStdout > 1) throw SetupError("--output: only one output can go to stdout");
+    std::vector<std::unique_ptr<Pipeline>> pipes;
+    for (std::size_t i = 0; i < routed.size(); ++i) {
+        auto p = std::make_unique<Pipeline>();
+        p->sc = channelScenario(sc, i);
+        if (!sc.channels.empty()) p->label = sc.channels[i].name;
+        buildPipeline(*p, req, routed[i], status);
+        pipes.push_back(std::move(p));
+    }
+    // A rig: every channel's pinhole, for the homographies each publishes.
+    std::vector<render::PinholeCamera> pins;
+    for (const auto& p : pipes)
+        if (p->sceneStage) pins.push_back(p->sceneStage->scenario().renderer().camera());
+    for (const auto& p : pipes) {
+        if (p->sceneStage && pins.size() == pipes.size()) {
+            p->sceneStage->setRigPinholes(pins.data(), static_cast<int>(pins.size()));
+        }
+    }
+    return pipes;
+}
+
+// The stats file: a pipeline's JSON object, or a rig's {"channels":[…]} of them.
+int writeStats(const RunRequest& req, const std::vector<std::unique_ptr<Pipeline>>& pipes,
+               bool interrupted, std::FILE* status) {
+    std::string json;
+    if (pipes.size() == 1 && pipes[0]->label.empty()) {
+        json = statsJson(*pipes[0]->loop, *pipes[0]->platform, pipes[0]->sinks, interrupted);
+    } else {
+        json = "{\"channels\":[";
+        for (std::size_t i = 0; i < pipes.size(); ++i) {
+            const Pipeline& p = *pipes[i];
+            std::string one = statsJson(*p.loop, *p.platform, p.sinks, interrupted);
+            char extra[160];
+            std::snprintf(extra, sizeof extra, "{\"channel\":\"%s\",\"fault_drops\":%lld,",
+                          jsonEscape(p.label).c_str(),
+                          static_cast<long long>(p.loop->faultDrops()));
+            json += (i > 0 ? "," : "") + std::string(extra) + one.substr(1);
+        }
+        json += "],\"interrupted\":" + std::string(interrupted ? "true" : "false") + "}";
+    }
+    json += "\n";
+    drivers::AtomicFile f;
+    int rc = f.open(req.statsPath->c_str());
+    if (rc == 0) rc = f.write(json.data(), json.size());
+    if (rc == 0) rc = f.commit(true);
+    if (rc != 0) {
+        std::fprintf(status, "nvstim run: --stats %s: %s\n", req.statsPath->c_str(),
+                     std::strerror(-rc));
+        return kRunFailed;
+    }
+    return 0;
+}
+
+// Starts every loop on one origin: the rig's time line (frame 0's tick of each channel, its
+// skew added), far enough ahead for the slowest to make its first frame.
+void startAll(const std::vector<std::unique_ptr<Pipeline>>& pipes, std::FILE* status) {
     std::string mainMsg;
     applyThreadSpec(kThreadMain, false, mainMsg);
-    FrameLoop loop(cfg, *platform, *render, *camera, raw);
-    std::vector<std::string> messages = notes;
-    if (stopRequested().load(std::memory_order_relaxed)) loop.requestStop();
-    loop.start(messages);
-    for (const auto& m : messages)
-        std::fprintf(status, "nvstim run: %s\n", m.c_str());
+    std::int64_t lead_ns = 0;
+    for (const auto& p : pipes) {
+        std::vector<std::string> messages = p->notes;
+        if (stopRequested().load(std::memory_order_relaxed)) p->loop->requestStop();
+        p->loop->prepare(messages);
+        for (const auto& m : messages)
+            std::fprintf(status, "nvstim run: %s%s\n", p->prefix().c_str(), m.c_str());
+        lead_ns = std::max(lead_ns, p->loop->originLead_ns());
+    }
+    const std::int64_t origin_ns = monotonicNow_ns() + lead_ns;
+    for (const auto& p : pipes)
+        p->loop->go(pipes.size() == 1 ? 0 : origin_ns);
+}
 
-    // Live status at most once a second, from the loop's atomic counters.
+}  // namespace
+
+int runScenario(const RunRequest& req, std::FILE* status) {
+    // SIGINT and SIGTERM stop the run from the start, setup included. A shell without job
+    // control starts background commands with SIGINT ignored; sigaction replaces that inherited
+    // SIG_IGN on purpose: a stimulator asked to stop must stop, whoever started it. A signal
+    // that arrives during setup (camera FFT plans, telemetry files) is kept and honoured as
+    // soon as the loop exists.
+    installStopSignals();
+    // Setup: everything that can fail fails here, before the first frame.
+    const Scenario sc = scenarioFor(req);
+    std::vector<std::unique_ptr<Pipeline>> pipes = buildPipelines(req, sc, status);
+    startAll(pipes, status);
+
+    // Live status at most once a second, from the loops' atomic counters.
     auto lastPrint = std::chrono::steady_clock::now();
-    std::int64_t lastEmitted = 0;
-    while (!loop.finished()) {
+    std::vector<std::int64_t> lastEmitted(pipes.size(), 0);
+    for (;;) {
+        bool finished = true;
+        for (const auto& p : pipes)
+            finished = finished && p->loop->finished();
+        if (finished) break;
         std::this_thread::sleep_for(std::chrono::milliseconds(50));
-        if (stopRequested().load(std::memory_order_relaxed) || platform->failed()) {
-            loop.requestStop();
+        for (const auto& p : pipes) {
+            if (stopRequested().load(std::memory_order_relaxed) || p->platform->failed()) {
+                for (const auto& q : pipes)
+                    q->loop->requestStop();
+            }
         }
         const auto now = std::chrono::steady_clock::now();
         const double dt = std::chrono::duration<double>(now - lastPrint).count();
         if (dt >= 1.0) {
-            lastEmitted = printLiveStatus(status, loop, dt, lastEmitted);
+            for (std::size_t i = 0; i < pipes.size(); ++i) {
+                lastEmitted[i] =
+                    printLiveStatus(status, *pipes[i]->loop, dt, lastEmitted[i], pipes[i]->label);
+            }
             lastPrint = now;
         }
     }
-    loop.join();
+    for (const auto& p : pipes)
+        p->loop->join();
     const bool interrupted = stopRequested().load(std::memory_order_relaxed);
     // Shutdown: close every device and file (renames temporaries into place).
     int closeFailures = 0;
-    for (auto& s : sinks)
-        closeFailures += s->close() != 0 ? 1 : 0;
-    printSummary(status, sc.name, loop, *platform, sinks);
-    if (req.statsPath) {
-        const std::string json = statsJson(loop, *platform, sinks, interrupted) + "\n";
-        drivers::AtomicFile f;
-        int rc = f.open(req.statsPath->c_str());
-        if (rc == 0) rc = f.write(json.data(), json.size());
-        if (rc == 0) rc = f.commit(true);
-        if (rc != 0) {
-            std::fprintf(status, "nvstim run: --stats %s: %s\n", req.statsPath->c_str(),
-                         std::strerror(-rc));
-            return kRunFailed;
+    bool failed = false, outputFailed = false;
+    for (const auto& p : pipes) {
+        for (auto& s : p->sinks)
+            closeFailures += s->close() != 0 ? 1 : 0;
+        printSummary(status, p->label.empty() ? sc.name : sc.name + ": " + p->label, *p->loop,
+                     *p->platform, p->sinks);
+        if (p->platform->failed())
+            std::fprintf(status, "nvstim run: stopped: bad telemetry input\n");
+        failed = failed || !p->loop->failure().empty() || p->platform->failed();
+        // Bit 4: an output failed, or lost a frame to a write error (a frame file on a full
+        // disk); frames a slow consumer's queue could not take are counted (queue drops), not
+        // failures.
+        const RunCounters& rc = p->loop->stats().counters;
+        outputFailed = outputFailed || rc.outputsFailed > 0 || rc.sinkErrors > 0;
+        if (!p->label.empty() && p->loop->faultDrops() > 0) {
+            std::fprintf(status, "nvstim run: %s: %lld frames dropped by the drop fault\n",
+                         p->label.c_str(), static_cast<long long>(p->loop->faultDrops()));
         }
     }
-    if (platform->failed()) std::fprintf(status, "nvstim run: stopped: bad telemetry input\n");
-    if (!loop.failure().empty() || platform->failed()) return kRunFailed;
-    // Bit 4: an output failed, or lost a frame to a write error (a frame file on a full disk);
-    // frames a slow consumer's queue could not take are counted (queue drops), not failures.
-    const RunCounters& rc = loop.stats().counters;
-    const bool outputFailed = rc.outputsFailed > 0 || rc.sinkErrors > 0 || closeFailures > 0;
+    if (req.statsPath && writeStats(req, pipes, interrupted, status) != 0) return kRunFailed;
+    if (failed) return kRunFailed;
+    outputFailed = outputFailed || closeFailures > 0;
     if (outputFailed)
         std::fprintf(status, "nvstim run: an output failed or had write errors (exit status 4)\n");
     return (outputFailed ? kRunOutputFailed : 0) | (interrupted ? kRunInterrupted : 0);

@@ -31,6 +31,7 @@ enum class RngStream : std::uint32_t {
     ReadNoise = 4,
     FixedPattern = 5,
     Scene = 6,
+    Faults = 7,  // a rig channel's injected faults (rt/loop: dropped frames, stamp jitter)
 };
 
 // ---- Per-pixel noise words (Philox4x32-10) ---------------------------------------------------

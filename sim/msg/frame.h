@@ -35,6 +35,27 @@ struct CameraGeometry {
     double t_m[3] = {};
 };
 
+// A channel of a camera rig (rt/compose/rig.h, docs/fusion.md): which channel made the frame, the
+// homography of the ground plane from its pixels to every channel's (as published: the declared
+// mountings), and the faults injected into it, the truth a consumer is measured against.
+inline constexpr int kMaxChannels = 4;
+struct RigMeta {
+    std::int32_t channel = -1;         // its index in the scenario; −1: not a rig
+    std::int32_t channels = 0;         // channels in the rig
+    char name[kMaxChannels][16] = {};  // each channel's name, NUL-terminated
+    double groundZ_m = 0.0;            // the plane of the homographies: z = groundZ_m (ENU)
+    // H[j]: this channel's pixel → channel j's, at t_sample_s (row-major, H[j][8] = 1; own
+    // index: identity); valid[j] false where the plane is seen edge-on.
+    double H[kMaxChannels][9] = {};
+    bool valid[kMaxChannels] = {};
+    // Faults (docs/fusion.md, "Faults on demand"):
+    double skew_s = 0.0;                 // every exposure of the channel this much late
+    double stampJitter_s = 0.0;          // this frame's stamps minus its true times
+    std::int64_t droppedBefore = 0;      // frames dropped since the one emitted before
+    double misregistration_rad[3] = {};  // yaw, pitch, roll of the true boresight against
+                                         // the published one
+};
+
 // Request to render and expose one frame (or one field of an interlaced frame).
 struct FrameRequest {
     std::int64_t frame = 0;   // frame index k
@@ -93,6 +114,7 @@ struct FrameMeta {
     FieldMeta field[kMaxFields];  // as applied, per exposure
     // Trigger clock: CLOCK_MONOTONIC time of the rising edge that started the exposure (0 else).
     std::int64_t triggerEdge_ns = 0;
+    RigMeta rig;  // a channel of a rig (rig.channel ≥ 0)
 
     // What the camera applied to the exposure that completes the frame.
     const FieldMeta& applied() const {

@@ -7,9 +7,14 @@
 # Reports deadline misses (repeated frames and ticks with nothing sent) in the first second and
 # after it, the emission period p50/p99/max, render → emission latency and the CPU per field.
 #
+# With WALL_SCENARIO=airborne-pass-fusion, the same flight seen by the fusion rig (the intensified
+# camera and a thermal one on one time line, docs/fusion.md): each channel's outputs, misses and
+# period apart.
+#
 # Not run by `make test` (it takes the time it is given). Usage:
 #   tests/perf/airborne_wall.sh [BUILD_DIR]       # default build/release
-# Environment: WALL_SECONDS (60), WALL_OUT (a folder to keep the files; default temporary),
+# Environment: WALL_SECONDS (60), WALL_SCENARIO (airborne-pass, or airborne-pass-fusion),
+# WALL_OUT (a folder to keep the files; default temporary),
 # WALL_REALTIME=1 ([runtime] realtime = true: SCHED_FIFO threads and mlockall; needs the
 # privilege to use them).
 set -eu
@@ -25,7 +30,9 @@ if [ -n "${WALL_OUT:-}" ]; then
 else
   out=$(mktemp -d "${TMPDIR:-/tmp}/nvstim-wall-XXXXXX"); keep=0
 fi
-frames=$(python3 -c "import math; print(math.ceil($seconds * 30000 / 1001))")
+scenario=${WALL_SCENARIO:-airborne-pass}
+# A rig's channels (their [[channel]] names), each with outputs of its own.
+channels=$(python3 -c "import sys, tomllib; print(' '.join(c['name'] for c in tomllib.load(open(sys.argv[1], 'rb')).get('channel', [])))" "$here/scenarios/$scenario/scenario.toml")
 
 # Telemetry (config/can/nvstim.dbc, Intel order, as scenarios/airborne-pass/make_flight.py
 # writes it): position 50 Hz, attitude 100 Hz, time 10 Hz, for the run and 5 s more.
@@ -66,45 +73,64 @@ with open(path, "w") as f:
     f.writelines(l for _, _, l in lines)
 PY
 
-sed -e "s#\"\.\./rit/#\"$here/scenarios/rit/#" -e "s#replay:flight.candump#replay:$out/orbit.candump#" \
-    -e "s#^duration_s = .*#duration_s = $((seconds + 2))#" \
-    "$here/scenarios/airborne-pass/scenario.toml" > "$out/scenario.toml"
+sed -e "s#\"\.\./rit/#\"$here/scenarios/rit/#" -e "s#\"\.\./\.\./config/#\"$here/config/#" \
+    -e "s#replay:[^\"]*flight.candump#replay:$out/orbit.candump#" \
+    -e "s#^duration_s = .*#duration_s = $seconds#" \
+    "$here/scenarios/$scenario/scenario.toml" > "$out/scenario.toml"
 if [ "${WALL_REALTIME:-0}" = 1 ]; then
   printf '\n[runtime]\nrealtime = true\n' >> "$out/scenario.toml"
 fi
 
-echo "airborne_wall: $frames frames ($seconds s) on the wall clock (realtime ${WALL_REALTIME:-0}), load $(cut -d' ' -f1-3 /proc/loadavg)" >&2
+if [ -z "$channels" ]; then
+  outputs="--output y4m:/dev/null --output meta:$out/meta.jsonl"
+else
+  outputs=""
+  for c in $channels; do
+    outputs="$outputs --output y4m:/dev/null?channel=$c --output meta:$out/meta-$c.jsonl?channel=$c"
+  done
+fi
+
+echo "airborne_wall: $scenario, $seconds s on the wall clock (realtime ${WALL_REALTIME:-0}), load $(cut -d' ' -f1-3 /proc/loadavg)" >&2
 status=0
+# shellcheck disable=SC2086  # $outputs is a list of words
 /usr/bin/time -f "%U %S" -o "$out/cpu" "$nvstim" run "$out/scenario.toml" --clock wall \
-    --frames "$frames" --output y4m:/dev/null --output "meta:$out/meta.jsonl" \
-    --stats "$out/stats.json" 2>"$out/run.log" || status=$?
-python3 - "$out" "$status" <<'PY'
+    $outputs --stats "$out/stats.json" 2>"$out/run.log" || status=$?
+python3 - "$out" "$status" $channels <<'PY'
 import json, sys
-out, status = sys.argv[1], int(sys.argv[2])
-st = json.load(open(out + "/stats.json"))
+out, status, channels = sys.argv[1], int(sys.argv[2]), sys.argv[3:]
+stats = json.load(open(out + "/stats.json"))
 user, sys_ = (float(x) for x in open(out + "/cpu").read().split())
-early = late = 0
-ticks = []
-for line in open(out + "/meta.jsonl"):
-    m = json.loads(line)
-    ticks.append(m["tick"])
-    if m["repeat"]:
-        if m["t_sample_s"] < 1.0: early += 1
-        else: late += 1
-gaps = sum(b - a - 1 for a, b in zip(ticks, ticks[1:]) if b - a > 1)
-# Ticks before the first frame was ready (nothing to send yet): at the start, in the first second.
-lead = ticks[0] if ticks else 0
-early += lead
-p, r = st["period"], st["render_latency"]
-fields = 2 * st["frames_rendered"]
-print("airborne_wall: exit %d, %d frames emitted, %d rendered; deadline misses %d: in the first "
-      "second %d (%d of them before the first frame), after it %d (repeated %d, nothing sent %d)"
-      % (status, st["frames_emitted"], st["frames_rendered"], st["deadline_misses"], early, lead,
-         late + gaps, late, gaps))
-print("airborne_wall: period p50 %.2f p99 %.2f max %.2f ms; render to emission p50 %.1f p99 %.1f "
-      "max %.1f ms; CPU %.1f ms per field; load %s" % (p["p50_s"] * 1e3, p["p99_s"] * 1e3,
-      p["max_s"] * 1e3, r["p50_s"] * 1e3, r["p99_s"] * 1e3, r["max_s"] * 1e3,
-      (user + sys_) / max(fields, 1) * 1e3, " ".join(open("/proc/loadavg").read().split()[:3])))
+per = stats["channels"] if channels else [dict(stats, channel="")]
+work = 0
+for st in per:
+    name = st["channel"]
+    label = "airborne_wall: " + (name + ": " if name else "")
+    early = late = 0
+    ticks = []
+    for line in open(out + ("/meta-%s.jsonl" % name if name else "/meta.jsonl")):
+        m = json.loads(line)
+        ticks.append(m["tick"])
+        if m["repeat"]:
+            if m["t_sample_s"] < 1.0: early += 1
+            else: late += 1
+    gaps = sum(b - a - 1 for a, b in zip(ticks, ticks[1:]) if b - a > 1)
+    # Ticks before the first frame was ready (nothing to send yet): at the start, in the first
+    # second.
+    lead = ticks[0] if ticks else 0
+    early += lead
+    p, r = st["period"], st["render_latency"]
+    exposures = (2 if st["scan"] == "interlaced" else 1) * st["frames_rendered"]
+    work += exposures
+    print("%sexit %d, %d ticks, %d frames emitted, %d rendered; deadline misses %d (%.3f %%): in "
+          "the first second %d (%d of them before the first frame), after it %d (repeated %d, "
+          "nothing sent %d)" % (label, status, st["ticks"], st["frames_emitted"],
+          st["frames_rendered"], st["deadline_misses"],
+          100.0 * st["deadline_misses"] / max(st["ticks"], 1), early, lead, late + gaps, late, gaps))
+    print("%speriod p50 %.2f p99 %.2f max %.2f ms; render to emission p50 %.1f p99 %.1f max %.1f ms"
+          % (label, p["p50_s"] * 1e3, p["p99_s"] * 1e3, p["max_s"] * 1e3, r["p50_s"] * 1e3,
+             r["p99_s"] * 1e3, r["max_s"] * 1e3))
+print("airborne_wall: CPU %.1f ms per exposure (field or frame) over every channel; load %s"
+      % ((user + sys_) / max(work, 1) * 1e3, " ".join(open("/proc/loadavg").read().split()[:3])))
 PY
 [ "$keep" = 1 ] || rm -rf "$out"
 exit "$status"

@@ -735,5 +735,110 @@ TEST(FrameLoop, FrameZerosFirstExposureIsAPeriodAfterTheStart) {
     }
 }
 
+// What a rig's channel emits: each frame's number, exposure time and fault truth.
+class FaultRecorder final : public FrameSink, public ExposureObserver {
+  public:
+    const char* name() const noexcept override { return "faults"; }
+    int write(const OutputFrame& f) noexcept override {
+        if (n < kMax) {
+            frame[n] = f.meta->frame;
+            t_s[n] = f.meta->t_sample_s;
+            jitter_s[n] = f.meta->rig.stampJitter_s;
+            droppedBefore[n] = f.meta->rig.droppedBefore;
+            ++n;
+        }
+        return 0;
+    }
+    int close() noexcept override { return 0; }
+    std::string status() const override { return "faults"; }
+    void exposureScheduled(const ExposureWindow& w) noexcept override {
+        if (windows < kMax) windowStart_ns[windows++] = w.startMonotonic_ns;
+    }
+    static constexpr int kMax = 4096;
+    std::int64_t frame[kMax] = {}, droppedBefore[kMax] = {}, windowStart_ns[kMax] = {};
+    double t_s[kMax] = {}, jitter_s[kMax] = {};
+    int n = 0, windows = 0;
+};
+
+// A rig channel's faults (docs/fusion.md): the skew moves every exposure on the time line, the
+// stamp jitter has the rms asked for and no bias, a tenth of the frames are dropped and each
+// gap in the frame numbers is the next frame's dropped_before; the same frames and jitters on
+// a second run.
+TEST(FrameLoop, RigFaultsAreInjectedAsConfiguredAndRecorded) {
+    LoopConfig cfg = smallLoop(FrameRate{30, 1}, ClockKind::Sim, 3000);
+    cfg.skew_s = 0.004;
+    cfg.stampJitter_s = 3e-4;
+    cfg.dropProbability = 0.1;
+    cfg.faultSeed = 5;
+    SlowRender render(-1, 0.0);
+    LinearCamera camera(1000.0, 16);
+    HeldPlatform platform(PlatformState{});
+    std::vector<std::int64_t> firstRun;
+    for (int run = 0; run < 2; ++run) {
+        FaultRecorder rec;
+        FrameLoop loop(cfg, platform, render, camera, {&rec});
+        std::vector<std::string> msgs;
+        loop.start(msgs);
+        loop.join();
+        ASSERT_GT(rec.n, 0);
+        EXPECT_EQ(rec.n + loop.faultDrops(), 3000);
+        const double dropped = static_cast<double>(loop.faultDrops()) / 3000.0;
+        EXPECT_NEAR(dropped, 0.1, 4.0 * std::sqrt(0.1 * 0.9 / 3000.0));
+        std::int64_t gaps = rec.frame[0];
+        EXPECT_EQ(rec.droppedBefore[0], rec.frame[0]);
+        double sum = 0.0, sum2 = 0.0;
+        for (int i = 0; i < rec.n; ++i) {
+            EXPECT_NEAR(rec.t_s[i], static_cast<double>(rec.frame[i]) / 30.0 + 0.004, 1e-12);
+            if (i > 0) {
+                EXPECT_EQ(rec.droppedBefore[i], rec.frame[i] - rec.frame[i - 1] - 1);
+                gaps += rec.frame[i] - rec.frame[i - 1] - 1;
+            }
+            sum += rec.jitter_s[i];
+            sum2 += rec.jitter_s[i] * rec.jitter_s[i];
+        }
+        EXPECT_EQ(gaps + (2999 - rec.frame[rec.n - 1]), loop.faultDrops());
+        const double mean = sum / rec.n, rms = std::sqrt(sum2 / rec.n - mean * mean);
+        EXPECT_NEAR(mean, 0.0, 4.0 * 3e-4 / std::sqrt(rec.n));
+        EXPECT_NEAR(rms, 3e-4, 0.1 * 3e-4);
+        std::vector<std::int64_t> frames(rec.frame, rec.frame + rec.n);
+        if (run == 0) firstRun = frames;
+        if (run == 1) {
+            EXPECT_EQ(frames, firstRun);
+        }
+    }
+}
+
+// Two channels started on one origin (prepare, then go with the same instant): the skewed one's
+// run clock and its exposure windows lie exactly its skew later on CLOCK_MONOTONIC.
+TEST(FrameLoop, RigChannelsShareOneOriginAndASkewMovesTheExposures) {
+    LoopConfig a = smallLoop(FrameRate{30, 1}, ClockKind::Wall, 4);
+    LoopConfig b = a;
+    b.skew_s = 0.002;
+    SlowRender render(-1, 0.0);
+    SlowRender render2(-1, 0.0);
+    LinearCamera camera(1000.0, 16), camera2(1000.0, 16);
+    HeldPlatform platform(PlatformState{}), platform2(PlatformState{});
+    FaultRecorder ra, rb;
+    FrameLoop la(a, platform, render, camera, {&ra});
+    FrameLoop lb(b, platform2, render2, camera2, {&rb});
+    std::vector<std::string> msgs;
+    la.prepare(msgs);
+    lb.prepare(msgs);
+    const std::int64_t origin_ns = monotonicNow_ns() + la.originLead_ns();
+    la.go(origin_ns);
+    lb.go(origin_ns);
+    la.join();
+    lb.join();
+    EXPECT_EQ(la.wallClock().start_ns(), origin_ns);
+    EXPECT_EQ(lb.wallClock().start_ns(), origin_ns + 2'000'000);
+    ASSERT_EQ(ra.windows, 4);
+    ASSERT_EQ(rb.windows, 4);
+    for (int i = 0; i < 4; ++i) {
+        EXPECT_NEAR(static_cast<double>(rb.windowStart_ns[i] - ra.windowStart_ns[i]), 2e6, 1.0)
+            << "frame " << i;  // one nanosecond of rounding
+        EXPECT_NEAR(rb.t_s[i] - ra.t_s[i], 0.002, 1e-12);
+    }
+}
+
 }  // namespace
 }  // namespace nvs::rt
