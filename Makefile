@@ -13,12 +13,15 @@ PACKAGES := build-essential cmake ninja-build pkg-config \
             libtomlplusplus-dev libcli11-dev libgtest-dev libgmock-dev libbenchmark-dev \
             librandom123-dev libgsl-dev liberfa-dev libembree-dev libopenexr-dev libfftw3-dev \
             libgpiod-dev libtinyobjloader-dev libssl-dev libpng-dev python3 python3-ephem python3-matplotlib clang-format ffmpeg \
+            python3-numpy python3-opencv \
             libegl-dev libgl-dev libegl-mesa0 libgl1-mesa-dri libosmesa6-dev \
             qemu-system-x86 busybox-static can-utils v4l-utils kmod cpio gpiod \
             qemu-user valgrind
 # libegl-dev, libgl-dev: headers of the OpenGL primary-visibility pass (sim/render/gl_*); Mesa's
 # EGL (libegl-mesa0), its llvmpipe driver (libgl1-mesa-dri) and OSMesa (libosmesa6-dev) run it
 # without a GPU. They are loaded at run time, so nvstim builds and runs without them.
+# python3-numpy and python3-opencv: the reference fusion consumer (examples/fusion, docs/fusion.md)
+# and its tests (tests/fusion, tests/hil's fusion case).
 # The line before last is the HIL test's (tests/hil): a QEMU virtual machine with Debian's
 # kernel, busybox, can-utils, v4l2-ctl and libgpiod's tools (gpiod: gpiodetect, gpioinfo,
 # gpiomon); the kernel packages themselves (and linux-source-6.1 for gpio-sim) are fetched by

@@ -324,8 +324,9 @@ bool took(int n, std::size_t size, std::size_t& len) noexcept {
 bool formatRig(const msg::RigMeta& r, char* buf, std::size_t size, std::size_t& len) noexcept {
     const int own = r.channel;
     const int count = std::min(r.channels, msg::kMaxChannels);
-    if (!took(std::snprintf(buf + len, size - len, ",\"channel\":\"%.15s\",\"rig\":{\"channels\":[",
-                            r.name[own]),
+    if (!took(std::snprintf(buf + len, size - len,
+                            ",\"channel\":\"%.15s\",\"rig\":{\"trigger_count\":%lld,\"channels\":[",
+                            r.name[own], static_cast<long long>(r.triggerCount)),
               size, len))
         return false;
     for (int j = 0; j < count; ++j) {

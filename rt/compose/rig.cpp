@@ -55,6 +55,22 @@ void planeMap(const msg::CameraGeometry& g, double z0_m, double G[9]) noexcept {
 
 }  // namespace
 
+std::int64_t RigClock::count(int c, std::int64_t k) const noexcept {
+    const double start_s = first_s[c] + static_cast<double>(k) * period_s[c];
+    std::int64_t n = k;  // its own channel's earlier frames
+    for (int j = 0; j < channels; ++j) {
+        if (j == c) continue;
+        // Frames m ≥ 0 of channel j with first_j + m·P_j < start (or equal, j listed first).
+        const double m = (start_s - first_s[j]) / period_s[j];
+        if (!(m > -1e-9)) continue;
+        const double whole = std::round(m);
+        const bool tie = std::fabs(m - whole) < 1e-9;
+        n += tie ? static_cast<std::int64_t>(whole) + (j < c ? 1 : 0)
+                 : static_cast<std::int64_t>(std::ceil(m));
+    }
+    return n;
+}
+
 scene::CameraPose mountedPose(const scene::CameraPose& base, const Mount& m) noexcept {
     Vec3 fwd, right, up;
     poseAxes(base, fwd, right, up);

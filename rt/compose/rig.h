@@ -16,12 +16,26 @@
 // View Geometry, 2nd ed., §13.1), normalised to H[8] = 1. It is exact for points on the plane;
 // a point at height h above it is displaced by the parallax of h over the baseline.
 
+#include <cstdint>
+
 #include "sim/core/geometry.h"
 #include "sim/msg/frame.h"
 #include "sim/render/renderer.h"
 #include "sim/scene/scene.h"
 
 namespace nvs::rt {
+
+// The rig's shared trigger counter: every frame any channel starts (its first exposure's start)
+// counted in one sequence, in order of time on the rig's time line (ties: the channel listed
+// first), as a sync generator that fires each camera would count its pulses. Frame k of channel c
+// starts at first_s[c] + k·period_s[c].
+struct RigClock {
+    int channels = 0;
+    double period_s[msg::kMaxChannels] = {};
+    double first_s[msg::kMaxChannels] = {};
+    // The counter's value for frame k of channel c: the frames of every channel started before.
+    std::int64_t count(int c, std::int64_t k) const noexcept;
+};
 
 struct Mount {
     Vec3 leverArm_m;  // platform camera body axes: forward, right, down

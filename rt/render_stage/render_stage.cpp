@@ -47,7 +47,16 @@ void SceneRenderStage::setUpRig(const Scenario& sc) {
         mounts_[i] = ch.mount;
         pins_[i] = sr_->renderer().camera();  // until setRigPinholes
         std::snprintf(m.name[i], sizeof m.name[i], "%s", ch.name.c_str());
+        // Its frames' first exposures: a field and half an exposure before the frame's
+        // mid-time when interlaced, half an exposure when progressive (rt/loop/frame_loop.h).
+        const bool interlaced = ch.scan == ScanKind::Interlaced;
+        const double period_s = ch.rate.period_s();
+        const double field_s = interlaced ? 0.5 * period_s : period_s;
+        const double exposure_s = ch.exposure_s > 0.0 ? ch.exposure_s : field_s;
+        rigClock_.period_s[i] = period_s;
+        rigClock_.first_s[i] = ch.faults.skew_s - (interlaced ? field_s : 0.0) - 0.5 * exposure_s;
     }
+    rigClock_.channels = m.channels;
     const ChannelFaults& f = sc.channels[static_cast<std::size_t>(sc.channelIndex)].faults;
     misregistration_.yaw_rad = f.misregistration_rad[0];
     misregistration_.pitch_rad = f.misregistration_rad[1];
@@ -76,11 +85,12 @@ bool SceneRenderStage::poseRig(const PlatformState& p) noexcept {
     return true;
 }
 
-void SceneRenderStage::publishRig(FrameMeta& meta) const noexcept {
+void SceneRenderStage::publishRig(std::int64_t frame, FrameMeta& meta) const noexcept {
     // What a consumer registers with: the declared mountings, not a misregistered truth.
     const int own = rigMeta_.channel;
     meta.camera = cameraGeometry(published_, pins_[own]);
     meta.rig = rigMeta_;
+    meta.rig.triggerCount = rigClock_.count(own, frame);
     // The platform camera's pose, from which every channel is mounted.
     const scene::CameraPose& base = base_;
     for (int j = 0; j < rigMeta_.channels; ++j) {
@@ -140,7 +150,7 @@ void SceneRenderStage::render(const FrameRequest& req, RadianceTarget out,
     }
     // The camera's geometry (msg::CameraGeometry: OpenCV's axes, x right, y down, z forward).
     if (rig_) {
-        publishRig(meta);
+        publishRig(req.frame, meta);
     } else {
         Vec3 c, right, up, fwd;
         r.cameraAxes(&c, &right, &up, &fwd);

@@ -68,7 +68,7 @@ class SceneRenderStage final : public RenderStage {
     // A rig's channel: the camera as mounted (and, with a misregistration, as it truly looks);
     // its published geometry and homographies into `meta`.
     bool poseRig(const PlatformState& p) noexcept;
-    void publishRig(FrameMeta& meta) const noexcept;
+    void publishRig(std::int64_t frame, FrameMeta& meta) const noexcept;
     void setUpRig(const Scenario& sc);
     SceneRenderStage() = default;
     std::unique_ptr<ScenarioRenderer> sr_;
@@ -96,6 +96,7 @@ class SceneRenderStage final : public RenderStage {
     Mount misregistration_;
     render::PinholeCamera pins_[msg::kMaxChannels];
     msg::RigMeta rigMeta_;  // its constant part
+    RigClock rigClock_;
 };
 
 }  // namespace nvs::rt

@@ -48,6 +48,7 @@ struct RigMeta {
     // index: identity); valid[j] false where the plane is seen edge-on.
     double H[kMaxChannels][9] = {};
     bool valid[kMaxChannels] = {};
+    std::int64_t triggerCount = 0;  // the rig's shared counter of frames started (RigClock)
     // Faults (docs/fusion.md, "Faults on demand"):
     double skew_s = 0.0;                 // every exposure of the channel this much late
     double stampJitter_s = 0.0;          // this frame's stamps minus its true times

@@ -13,7 +13,8 @@ import os
 import re
 import sys
 
-SCANNED_DIRS = ("sim", "rt", "drivers", "tests", "cmake", "config", "scenarios", "docs", ".ci")
+SCANNED_DIRS = ("sim", "rt", "drivers", "tests", "cmake", "config", "scenarios", "docs", ".ci",
+                "examples")
 SCANNED_TOP = ("CMakeLists.txt", "CMakePresets.json", "Makefile", "README.md")
 TEXT_EXT = {".cpp", ".h", ".hpp", ".c", ".cmake", ".txt", ".py", ".sh", ".md", ".toml", ".json",
             ".dbc", ".csv", ""}

@@ -11,8 +11,10 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <random>
+#include <vector>
 
 #include "rt/compose/scenario.h"
 #include "rt/render_stage/render_stage.h"
@@ -185,6 +187,49 @@ TEST(RigGeometry, PublishedGeometryIsTheRenderedOneAndAMisregistrationIsNot) {
             }
         }
     }
+}
+
+// The shared trigger counter against a brute-force merge: every frame started by three channels
+// of unrelated rates (59.94, 30, 29.97 Hz) and phases, sorted by start time (ties: the channel
+// listed first), is numbered 0, 1, 2, … in that order.
+TEST(RigClock, CountsEveryChannelsFramesInOrderOfTime) {
+    RigClock rc;
+    rc.channels = 3;
+    const double period_s[3] = {1001.0 / 60000.0, 1.0 / 30.0, 1001.0 / 30000.0};
+    const double first_s[3] = {-0.5 / 59.94, 0.001 - 1.0 / 60.0, -1.5 * 1001.0 / 60000.0};
+    for (int c = 0; c < 3; ++c) {
+        rc.period_s[c] = period_s[c];
+        rc.first_s[c] = first_s[c];
+    }
+    struct Start {
+        double t_s;
+        int c;
+        std::int64_t k;
+    };
+    std::vector<Start> all;
+    for (int c = 0; c < 3; ++c)
+        for (std::int64_t k = 0; k < 3000; ++k)
+            all.push_back({first_s[c] + static_cast<double>(k) * period_s[c], c, k});
+    std::stable_sort(all.begin(), all.end(), [](const Start& a, const Start& b) {
+        return a.t_s < b.t_s || (a.t_s == b.t_s && a.c < b.c);
+    });
+    // Only the starts before the earliest channel's last are complete in the list.
+    double end_s = 1e300;
+    for (int c = 0; c < 3; ++c)
+        end_s = std::min(end_s, first_s[c] + 2999.0 * period_s[c]);
+    std::int64_t n = 0;
+    for (const Start& s : all) {
+        if (s.t_s > end_s) break;
+        EXPECT_EQ(rc.count(s.c, s.k), n) << "channel " << s.c << " frame " << s.k;
+        ++n;
+    }
+    EXPECT_GT(n, 5900);
+    // Two channels of one rate and phase: the first listed counts first.
+    RigClock same;
+    same.channels = 2;
+    same.period_s[0] = same.period_s[1] = 0.1;
+    EXPECT_EQ(same.count(0, 5), 10);
+    EXPECT_EQ(same.count(1, 5), 11);
 }
 
 Scenario parse(const std::string& text) {
