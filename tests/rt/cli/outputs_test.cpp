@@ -282,5 +282,26 @@ TEST(Outputs, ReplayBlessOfANonScenarioCreatesNothing) {
     EXPECT_FALSE(fs::exists(dir / "no-such"));
 }
 
+// A rig's outputs each name a channel; a single camera's run has none to name. One line each,
+// before any frame (docs/contracts.md, "Output specs").
+TEST(Outputs, ARigsOutputsNameTheirChannel) {
+    const WorkDir work;
+    const std::string rig = std::string(NVS_SOURCE_DIR) + "/scenarios/rit-fusion";
+    const std::string y4m = (work.path / "x.y4m").string();
+    struct Case {
+        std::string args, says;
+    };
+    for (const Case& c :
+         {Case{rig + " --output y4m:" + y4m, "name the channel with ?channel=NAME (ii, lwir)"},
+          Case{rig + " --output 'y4m:" + y4m + "?channel=uv'", "no channel 'uv' (ii, lwir)"},
+          Case{std::string(NVS_SOURCE_DIR) + "/scenarios/thesis-nolight --output 'y4m:" + y4m +
+                   "?channel=ii'",
+               "channel= needs a rig"}}) {
+        const CliRun r = nvstim("run " + c.args + " --clock sim --frames 1");
+        test::expectOneLineRefusal(r, c.says);
+        EXPECT_FALSE(fs::exists(y4m)) << c.args;
+    }
+}
+
 }  // namespace
 }  // namespace nvs
