@@ -93,7 +93,7 @@ const char* y4mInterlace(msg::FieldOrder order) {
 }  // namespace
 
 Y4mSink::Y4mSink(const std::string& path, int width, int height, int bits, msg::FrameRate rate,
-                 msg::FieldOrder order)
+                 msg::FieldOrder order, PixelAspect aspect)
     : name_("y4m:" + path),
       toStdout_(path == "-"),
       width_(width),
@@ -106,7 +106,8 @@ Y4mSink::Y4mSink(const std::string& path, int width, int height, int bits, msg::
     std::memcpy(buffer_.data(), "FRAME\n", 6);
     header_ = "YUV4MPEG2 W" + std::to_string(width) + " H" + std::to_string(height) + " F" +
               std::to_string(rate.num) + ":" + std::to_string(rate.den) + " " +
-              y4mInterlace(order) + " A1:1 " + (wide_ ? "Cmono16" : "Cmono") + "\n";
+              y4mInterlace(order) + " A" + std::to_string(aspect.num) + ":" +
+              std::to_string(aspect.den) + " " + (wide_ ? "Cmono16" : "Cmono") + "\n";
     const int rc = toStdout_ ? 0 : file_.open(path.c_str());
     if (rc != 0) throw SetupError(name_ + ": cannot open: " + std::strerror(-rc));
     out_.attach(toStdout_ ? STDOUT_FILENO : file_.fd());

@@ -57,11 +57,17 @@ struct SinkCounters {
 
 std::string describe(const char* name, SinkState state, const SinkCounters& c);
 
+// The pixels' width over their height as a ratio (a y4m header's A tag; a camera with
+// 11 × 13 µm cells: {11, 13}).
+struct PixelAspect {
+    int num = 1, den = 1;
+};
+
 class Y4mSink final : public msg::FrameSink {
   public:
     // path "-" is stdout. `bits` is the camera's ADC depth.
     Y4mSink(const std::string& path, int width, int height, int bits, msg::FrameRate rate,
-            msg::FieldOrder order = msg::FieldOrder::Progressive);
+            msg::FieldOrder order = msg::FieldOrder::Progressive, PixelAspect aspect = {});
     ~Y4mSink() override;
     const char* name() const noexcept override { return name_.c_str(); }
     int write(const msg::OutputFrame& frame) noexcept override;

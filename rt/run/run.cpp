@@ -19,6 +19,7 @@
 #include "rt/run/timeline.h"
 #include "rt/synth/synth.h"
 #include "sim/core/error.h"
+#include "sim/sensor/mtf.h"
 
 namespace nvs::rt {
 
@@ -68,6 +69,41 @@ Spec parseSpec(const std::string& text, const std::string& what) {
     return s;
 }
 
+namespace {
+
+// The pixels' aspect (width over height) as the y4m header gives it: the camera's cells as the
+// renderer sees them (rt/compose/scene_setup.cpp: the preset's pitch, another image size keeping
+// the sensor's field of view), as the nearest ratio of integers up to 10⁴ (continued fractions).
+drivers::PixelAspect pixelAspect(const Scenario& sc) {
+    if (!sc.rendered || !sc.camera.enabled) return {};
+    double x = 0.0;
+    if (sc.camera.thermal) {
+        const auto& tp = *sc.camera.thermalParams;
+        x = (static_cast<double>(tp.width) / sc.width) /
+            (static_cast<double>(tp.height) / sc.height);
+    } else {
+        const sensor::CameraParams& cp = sc.camera.params;
+        x = sensor::cathodePitchX_mm(cp) / sensor::cathodePitchY_mm(cp) *
+            (static_cast<double>(cp.width) / sc.width) /
+            (static_cast<double>(cp.height) / sc.height);
+    }
+    if (!(x > 0.0) || !std::isfinite(x)) return {};
+    long h0 = 0, h1 = 1, k0 = 1, k1 = 0;  // convergents h/k
+    double r = x;
+    for (int i = 0; i < 20; ++i) {
+        const long a = static_cast<long>(std::floor(r));
+        const long h2 = a * h1 + h0, k2 = a * k1 + k0;
+        if (k2 > 10000 || h2 > 10000) break;
+        h0 = h1, h1 = h2, k0 = k1, k1 = k2;
+        if (std::fabs(static_cast<double>(h1) / static_cast<double>(k1) - x) < 1e-9 * x) break;
+        r = 1.0 / (r - static_cast<double>(a));
+        if (!std::isfinite(r)) break;
+    }
+    return {static_cast<int>(h1), static_cast<int>(k1)};
+}
+
+}  // namespace
+
 std::unique_ptr<FrameSink> makeSink(const std::string& text, const Scenario& sc,
                                     std::int64_t frames) {
     Spec s = parseSpec(text, "--output");
@@ -75,7 +111,7 @@ std::unique_ptr<FrameSink> makeSink(const std::string& text, const Scenario& sc,
     std::unique_ptr<FrameSink> sink;
     if (s.scheme == "y4m") {
         sink = std::make_unique<drivers::Y4mSink>(s.target, sc.width, sc.height, sc.bits, sc.rate,
-                                                  sc.fieldOrder());
+                                                  sc.fieldOrder(), pixelAspect(sc));
     } else if (s.scheme == "pgm") {
         sink = std::make_unique<drivers::PgmSequenceSink>(s.target, sc.width, sc.height, sc.bits);
     } else if (s.scheme == "png") {

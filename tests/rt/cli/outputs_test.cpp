@@ -303,5 +303,28 @@ TEST(Outputs, ARigsOutputsNameTheirChannel) {
     }
 }
 
+// A y4m stream says its pixels' shape: the PULNiX TM-745E's CCD has 11.0 × 13.0 µm cells
+// (config/cameras/pulnix-ag5745ef3.toml, its Table 11-2), so a player must draw them 11:13
+// (A11:13); the thermal core's 12 µm cells are square. At another image size the sensor's field
+// of view is kept.
+TEST(Outputs, Y4mHeaderGivesThePixelsAspect) {
+    const WorkDir work;
+    const std::string y4m = (work.path / "a.y4m").string();
+    const std::string src = NVS_SOURCE_DIR;
+    struct Case {
+        std::string scenario, extra, aspect;
+    };
+    for (const Case& c : {Case{"/scenarios/thesis-stlamp", "", " A11:13 "},
+                          Case{"/scenarios/thesis-nolight-lwir", "", " A1:1 "}}) {
+        const CliRun r =
+            nvstim("run " + src + c.scenario + " --clock sim --frames 1 --output y4m:" + y4m);
+        ASSERT_EQ(r.status, 0) << r.err;
+        std::ifstream f(y4m);
+        std::string header;
+        std::getline(f, header);
+        EXPECT_NE(header.find(c.aspect), std::string::npos) << c.scenario << ": " << header;
+    }
+}
+
 }  // namespace
 }  // namespace nvs
