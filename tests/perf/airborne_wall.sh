@@ -13,7 +13,8 @@
 #
 # Not run by `make test` (it takes the time it is given). Usage:
 #   tests/perf/airborne_wall.sh [BUILD_DIR]       # default build/release
-# Environment: WALL_SECONDS (60), WALL_SCENARIO (airborne-pass, or airborne-pass-fusion),
+# Environment: WALL_SECONDS (60), WALL_SCENARIO (airborne-pass, airborne-pass-fusion, or a
+# scenario folder's path),
 # WALL_OUT (a folder to keep the files; default temporary),
 # WALL_REALTIME=1 ([runtime] realtime = true: SCHED_FIFO threads and mlockall; needs the
 # privilege to use them).
@@ -31,8 +32,11 @@ else
   out=$(mktemp -d "${TMPDIR:-/tmp}/nvstim-wall-XXXXXX"); keep=0
 fi
 scenario=${WALL_SCENARIO:-airborne-pass}
+# A shipped scenario's name, or the path of a scenario folder modelled on one (its relative paths
+# are those of a folder in scenarios/).
+case $scenario in */*) sdir=$scenario ;; *) sdir=$here/scenarios/$scenario ;; esac
 # A rig's channels (their [[channel]] names), each with outputs of its own.
-channels=$(python3 -c "import sys, tomllib; print(' '.join(c['name'] for c in tomllib.load(open(sys.argv[1], 'rb')).get('channel', [])))" "$here/scenarios/$scenario/scenario.toml")
+channels=$(python3 -c "import sys, tomllib; print(' '.join(c['name'] for c in tomllib.load(open(sys.argv[1], 'rb')).get('channel', [])))" "$sdir/scenario.toml")
 
 # Telemetry (config/can/nvstim.dbc, Intel order, as scenarios/airborne-pass/make_flight.py
 # writes it): position 50 Hz, attitude 100 Hz, time 10 Hz, for the run and 5 s more.
@@ -76,7 +80,7 @@ PY
 sed -e "s#\"\.\./rit/#\"$here/scenarios/rit/#" -e "s#\"\.\./\.\./config/#\"$here/config/#" \
     -e "s#replay:[^\"]*flight.candump#replay:$out/orbit.candump#" \
     -e "s#^duration_s = .*#duration_s = $seconds#" \
-    "$here/scenarios/$scenario/scenario.toml" > "$out/scenario.toml"
+    "$sdir/scenario.toml" > "$out/scenario.toml"
 if [ "${WALL_REALTIME:-0}" = 1 ]; then
   printf '\n[runtime]\nrealtime = true\n' >> "$out/scenario.toml"
 fi
