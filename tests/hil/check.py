@@ -97,7 +97,8 @@ def indices(frames, seqs, ref):
         seqs[trusted], seqs[min(n, len(seqs)) - 1], trusted)
 
 
-def compare(name, frames, seqs, ref, expect_first=None, expect_count=None):
+def compare(name, frames, seqs, ref, expect_first=None, expect_count=None,
+            ref_name="the host's y4m"):
     idx, how = indices(frames, seqs, ref)
     if not check(idx is not None, "%s: frame indices (%s)" % (name, how)):
         return None
@@ -111,8 +112,8 @@ def compare(name, frames, seqs, ref, expect_first=None, expect_count=None):
         return None
     same = [frames[i] == ref[k] for i, k in enumerate(idx)]
     bad = [idx[i] for i, s in enumerate(same) if not s]
-    check(not bad, "%s: %d frames byte-identical to the host's y4m (frames %d..%d)%s" % (
-        name, len(frames), idx[0], idx[-1], "; differ: %s" % bad[:10] if bad else ""))
+    check(not bad, "%s: %d frames byte-identical to %s (frames %d..%d)%s" % (
+        name, len(frames), ref_name, idx[0], idx[-1], "; differ: %s" % bad[:10] if bad else ""))
     return idx
 
 

@@ -9,19 +9,25 @@
 # Exit 0 pass, 1 fail, 77 skipped (ctest SKIP_RETURN_CODE) with the reason on stdout: no QEMU
 # or a tool missing, or Debian's kernel packages cannot be fetched. Environment: NVS_HIL_CACHE
 # (kernel layer cache), NVS_HIL_QEMU (the emulator, default qemu-system-x86_64),
-# NVS_HIL_VM_TIMEOUT_S (default 540), NVS_HIL_FULL_FRAMES (frames of the full-size scenario,
-# default 2; 0 leaves it out), NVS_HIL_CASES (the cases run, default "grey y16 gpio full").
+# NVS_HIL_VM_TIMEOUT_S (default 660), NVS_HIL_FULL_FRAMES (frames of the full-size scenario,
+# default 2; 0 leaves it out), NVS_HIL_CASES (the cases run, default "grey y16 gpio fusion full"),
+# NVS_HIL_FUSION_FRAMES (frames a channel in the fusion case, default 8), NVS_HIL_FUSION_CACHE
+# (1, the default: the fusion case's thermal heat balance and atmosphere tables are the host's,
+# carried in the initramfs; 0: the VM solves them).
 # The GPIO case alone is skipped, with "hil: gpio: SKIPPED: reason" on stdout, where gpio-sim
 # could not be built (make_kernel.sh's gpio-sim.skip), libgpiod's tools (Debian package gpiod)
-# are missing or no HIL_GPIO helper (tests/hil/hil_gpio.cpp) was given.
+# are missing or no HIL_GPIO helper (tests/hil/hil_gpio.cpp) was given; the fusion case alone,
+# with "hil: fusion: SKIPPED: reason", where /usr/bin/python3 has no numpy or OpenCV (the
+# reference fusion consumer, examples/fusion, needs them).
 #
 # Steps: (1) the kernel layer (tests/hil/make_kernel.sh, cached under NVS_HIL_CACHE, default
 # ~/.cache/nvstim/hil); (2) the host reference: the same nvstim, scenarios and candump log
 # replayed (`--telemetry replay:`) to y4m files; (3) the initramfs, cached in WORK_DIR by a hash
 # of everything in it; (4) the VM runs tests/hil/init.sh and leaves a tar on its second disk;
-# (5) tests/hil/check.py compares; ISA_COMPARE (tests/isa's nvs_isa_compare) compares the VM's
-# frames of a full-size shipped scenario (thesis-stlamp, 768 x 494) with the host's: the VM's
-# CPU (-cpu max under TCG) has no AVX-512 (docs/portability.md).
+# (5) tests/hil/check.py compares, and tests/hil/check_fusion_hil.py for the fusion case;
+# ISA_COMPARE (tests/isa's nvs_isa_compare) compares the VM's frames of a full-size shipped
+# scenario (thesis-stlamp, 768 x 494) with the host's: the VM's CPU (-cpu max under TCG) has no
+# AVX-512 (docs/portability.md).
 set -uo pipefail
 
 nvstim=$(realpath "${1:?usage: hil.sh NVSTIM SOURCE_DIR WORK_DIR}")
@@ -29,7 +35,7 @@ src=$(realpath "${2:?}")
 work=${3:?}
 isa_compare=${4:-}
 hil_gpio=${5:-}
-CASES=${NVS_HIL_CASES:-grey y16 gpio full}
+CASES=${NVS_HIL_CASES:-grey y16 gpio fusion full}
 here="$src/tests/hil"
 FULL_SCENARIO=thesis-stlamp
 FULL_FRAMES=${NVS_HIL_FULL_FRAMES:-2}  # 0: no full-size scenario (the debug-asan preset's)
@@ -37,7 +43,10 @@ case " ${NVS_HIL_CASES:-full} " in *" full "*) ;; *) FULL_FRAMES=0 ;; esac
 FRAMES=90          # 3 s at 30 Hz
 KILL_AFTER=20      # frames the first client takes before it is killed
 KILL_TAIL=20       # frames the second client then takes
-VM_TIMEOUT_S=${NVS_HIL_VM_TIMEOUT_S:-540}
+VM_TIMEOUT_S=${NVS_HIL_VM_TIMEOUT_S:-660}
+FUSION_FRAMES=${NVS_HIL_FUSION_FRAMES:-8}   # frames a channel (both runs of the fusion case)
+FUSION_CACHE=${NVS_HIL_FUSION_CACHE:-1}
+FUSION_RUNS="nofault:fusion faults:fusion_faults"  # run name : scenario (tests/hil/NAME.toml)
 
 skip() { echo "hil: SKIPPED: $*"; exit 77; }
 fail() { echo "hil: FAILED: $*"; exit 1; }
@@ -84,6 +93,15 @@ case " $CASES " in
     *" gpio "*) if [ -n "$gpio_skip" ]; then echo "hil: gpio: SKIPPED: $gpio_skip"; else GPIO=1; fi ;;
     *) echo "hil: gpio: left out (NVS_HIL_CASES=\"$CASES\")" ;;
 esac
+# The fusion case: the reference consumer's Python (numpy, OpenCV) on the host.
+FUSION=0
+case " $CASES " in
+    *" fusion "*)
+        if /usr/bin/python3 -c "import numpy, cv2" 2> /dev/null; then FUSION=1; else
+            echo "hil: fusion: SKIPPED: /usr/bin/python3 has no numpy or OpenCV (Debian packages python3-numpy, python3-opencv)"
+        fi ;;
+    *) echo "hil: fusion: left out (NVS_HIL_CASES=\"$CASES\")" ;;
+esac
 
 # ---- (2) telemetry and host reference ------------------------------------------------------------
 ref="$work/ref"
@@ -101,6 +119,23 @@ if [ "$FULL_FRAMES" -gt 0 ]; then
         "$src/scenarios/$FULL_SCENARIO/scenario.toml" --clock sim --frames "$FULL_FRAMES" \
         --output "exr:$ref/full/exr" --output "pgm:$ref/full/pgm" > "$ref/full.log" 2>&1 ||
         { cat "$ref/full.log"; fail "host reference run ($FULL_SCENARIO)"; }
+fi
+# The fusion case's rig: each channel's y4m and metadata, with a cache of its own that the VM
+# gets (NVS_HIL_FUSION_CACHE=1): the thermal channel's heat balance and the tables.
+if [ "$FUSION" = 1 ]; then
+    mkdir -p "$ref/fusion-cache"
+    for run in $FUSION_RUNS; do
+        name=${run%%:*} scen=${run#*:}
+        mkdir -p "$ref/fusion/$name"
+        NVS_CONFIG_DIR="$src/config" NVS_CACHE_DIR="$ref/fusion-cache" "$nvstim" run \
+            "$here/$scen.toml" --clock sim --frames "$FUSION_FRAMES" \
+            --output "y4m:$ref/fusion/$name/ii.y4m?channel=ii" \
+            --output "meta:$ref/fusion/$name/ii.jsonl?channel=ii" \
+            --output "y4m:$ref/fusion/$name/lwir.y4m?channel=lwir" \
+            --output "meta:$ref/fusion/$name/lwir.jsonl?channel=lwir" \
+            > "$ref/fusion/$name/nvstim.log" 2>&1 ||
+            { cat "$ref/fusion/$name/nvstim.log"; fail "host reference run (fusion $name)"; }
+    done
 fi
 echo "hil: host reference written (replay of the same log to y4m) [$(elapsed) s]"
 
@@ -134,6 +169,12 @@ mkdir -p "$stage/hil/scenarios/$FULL_SCENARIO"
 cp "$src/scenarios/$FULL_SCENARIO/scenario.toml" "$stage/hil/scenarios/$FULL_SCENARIO/"
 cp -r "$src/scenarios/rit" "$stage/hil/scenarios/rit"
 rm -rf "$stage/hil/scenarios/rit/__pycache__"
+if [ "$FUSION" = 1 ]; then
+    # The rig's scenarios at their place in the repository (their paths are relative to it).
+    mkdir -p "$stage/hil/tests/hil" "$stage/hil/fusion-cache"
+    for run in $FUSION_RUNS; do cp "$here/${run#*:}.toml" "$stage/hil/tests/hil/"; done
+    [ "$FUSION_CACHE" = 1 ] && cp "$ref/fusion-cache"/* "$stage/hil/fusion-cache/"
+fi
 cp "$here/init.sh" "$stage/init"
 chmod +x "$stage/init"
 cat > "$stage/hil/env" << EOF
@@ -146,6 +187,9 @@ KILL_AFTER=$KILL_AFTER
 KILL_TAIL=$KILL_TAIL
 CASES="$CASES"
 GPIO=$GPIO
+FUSION=$FUSION
+FUSION_FRAMES=$FUSION_FRAMES
+FUSION_CACHE=$FUSION_CACHE
 V4L_VER=$(sed -n 's/^v4l2loopback-dkms=//p' "$kdir/packages")
 EOF
 key=$( (cd "$stage" && find . -type f -print0 | LC_ALL=C sort -z | xargs -0 sha256sum;
@@ -185,10 +229,18 @@ tar -xf "$disk" -C "$work/out" 2> /dev/null || { tail -30 "$work/console.log"; f
     { tail -30 "$work/console.log"; fail "inside the VM: $(cat "$work/out/result" 2> /dev/null)"; }
 
 # ---- (5) checks -----------------------------------------------------------------------------------
+# Every case is checked, whichever fails first.
+failed=""
 python3 "$here/check.py" --out "$work/out" --ref "$ref" --frames "$FRAMES" --width 160 --height 120 \
     --kill-after "$KILL_AFTER" --kill-tail "$KILL_TAIL" --nvstim "$nvstim" --cases "$CASES" \
-    --gpio "$GPIO" ||
-    fail "checks (above); VM output kept in $work/out"
+    --gpio "$GPIO" || failed="checks"
+# The fusion case: the captured streams, and the reference fusion consumer on them.
+if [ "$FUSION" = 1 ]; then
+    /usr/bin/python3 "$here/check_fusion_hil.py" --out "$work/out/fusion" --ref "$ref/fusion" \
+        --src "$src" --frames "$FUSION_FRAMES" --runs "$FUSION_RUNS" \
+        ${isa_compare:+--isa-compare "$isa_compare"} || failed="${failed:+$failed and }fusion checks"
+fi
+[ -z "$failed" ] || fail "$failed (above); VM output kept in $work/out"
 # The full-size scenario: it ran (the VM's log says so), and gave the host's frames within the
 # cross-ISA tolerance.
 if [ "$FULL_FRAMES" -eq 0 ]; then

@@ -3,8 +3,10 @@
 # Debian's kernel with real drivers: v4l2loopback, vcan and gpio-sim. For each case (GREY, Y16)
 # it runs nvstim under the sim clock with V4L2 output and CAN telemetry, replays the candump log
 # onto vcan0 with canplayer, captures with v4l2-ctl (a real V4L2 client); the GPIO case runs
-# nvstim on the wall clock against a gpio-sim chip (gpio_case below). Everything the host checks
-# (tests/hil/check.py) goes as a tar archive onto the second disk, /dev/vda.
+# nvstim on the wall clock against a gpio-sim chip (gpio_case below); the fusion case runs a rig
+# of two channels, each on its own v4l2loopback node with its own v4l2-ctl client (fusion_run
+# below). Everything the host checks (tests/hil/check.py, check_fusion_hil.py) goes as a tar
+# archive onto the second disk, /dev/vda.
 # Progress goes to the serial console; the host reads it too.
 export PATH=/bin:/usr/bin:/usr/local/bin
 /bin/busybox --install -s /bin
@@ -14,7 +16,8 @@ mount -t devtmpfs devtmpfs /dev
 mount -t tmpfs tmpfs /tmp
 OUT=/tmp/out
 mkdir -p "$OUT"
-. /hil/env                     # FRAMES, FRAME_W, FRAME_H, KILL_AFTER, KILL_TAIL, V4L_VER, CASES, GPIO
+. /hil/env                     # FRAMES, FRAME_W, FRAME_H, KILL_AFTER, KILL_TAIL, V4L_VER, CASES, GPIO,
+                              # FUSION, FUSION_FRAMES, FUSION_CACHE
 
 say() { echo "hil-vm: $* [$(cut -d" " -f1 /proc/uptime) s]"; echo "$*" >> "$OUT/steps.log"; }
 finish() {
@@ -34,15 +37,20 @@ wait_for() {
     done
     return 1
 }
-has_output() { v4l2-ctl -d /dev/video10 --all | grep -q "Video Output"; }
-has_capture() { v4l2-ctl -d /dev/video10 --all | grep -q "Video Capture"; }
+# has_output / has_capture [DEVICE] (default /dev/video10): the node announces OUTPUT; it has a
+# capture format, i.e. a writer has written a frame (v4l2loopback answers VIDIOC_G_FMT for
+# capture only then; `--all` prints "Streaming Parameters Video Capture" in either state).
+has_output() { v4l2-ctl -d "${1:-/dev/video10}" --all | grep -q "Video Output"; }
+has_capture() { v4l2-ctl -d "${1:-/dev/video10}" --get-fmt-video 2>&1 | grep -q "Width/Height"; }
 started() { grep -q "lockstep:" "$1" || ! kill -0 "$2"; }
+streaming() { grep -q "VIDIOC_STREAMON" "$1" || ! kill -0 "$2"; }  # (or dead)
 file_at_least() { [ "$(stat -c %s "$1" 2> /dev/null || echo 0)" -ge "$2" ]; }
 
 # ---- drivers --------------------------------------------------------------------------------
-# v4l2loopback (docs/hil.md): exclusive_caps=1 (OUTPUT until a writer streams, then CAPTURE),
-# video_nr=10, eight buffers so that a reader a few frames behind is never overwritten.
-V4L_PARAMS="devices=1 video_nr=10 exclusive_caps=1 max_buffers=8 card_label=nvstim"
+# v4l2loopback (docs/hil.md): two nodes, /dev/video10 and /dev/video11 (the fusion case's second
+# channel), each with exclusive_caps=1 (OUTPUT until a writer streams, then CAPTURE); eight
+# buffers so that a reader a few frames behind is never overwritten.
+V4L_PARAMS="devices=2 video_nr=10,11 exclusive_caps=1,1 max_buffers=8 card_label=nvstim,nvstim-2"
 for m in $(cat /hil/modules.load); do
     p=""
     [ "$m" = v4l2loopback.ko ] && p=$V4L_PARAMS
@@ -52,8 +60,28 @@ ip link add dev vcan0 type vcan || finish "ip link add vcan0 failed"
 ip link set vcan0 up || finish "ip link set vcan0 up failed"
 uname -r > "$OUT/kernel.txt"
 v4l2-ctl -d /dev/video10 --info > "$OUT/v4l2-info.txt" 2>&1
+v4l2-ctl -d /dev/video11 --info > "$OUT/v4l2-info-11.txt" 2>&1
 sha256sum /usr/local/bin/nvstim > "$OUT/nvstim.sha256"
 export NVS_CONFIG_DIR=/hil/config NVS_CACHE_DIR=/tmp/cache
+
+# outputs_ready NAME DEVICE…: every DEVICE announces OUTPUT, the module reloaded where one does
+# not. v4l2loopback 0.12.7 with exclusive_caps=1 announces OUTPUT again only after a writer that
+# streamed (STREAMON) closes; one that used write() never becomes a "writer" to it, so after it
+# the node announces neither capture nor output until the module is loaded again.
+outputs_ready() {
+    what=$1; shift
+    for dev in "$@"; do
+        has_output "$dev" && continue
+        say "$what: $dev announces no output after the last writer (v4l2loopback $V4L_VER): reloading the module"
+        echo "no output after write() writer closed" >> "$OUT/v4l2loopback-quirk.txt"
+        rmmod v4l2loopback || finish "rmmod v4l2loopback failed"
+        insmod /hil/modules/v4l2loopback.ko $V4L_PARAMS || finish "insmod v4l2loopback failed"
+        break
+    done
+    for dev in "$@"; do
+        wait_for 10 has_output "$dev" || finish "$what: $dev is no output device"
+    done
+}
 
 # ---- one case ---------------------------------------------------------------------------------
 # run_case NAME SCENARIO FORMAT KILL: nvstim waits for the telemetry's time signal;
@@ -65,16 +93,7 @@ run_case() {
     name=$1 scen=$2 fmt=$3 kill=$4
     d="$OUT/$name"
     mkdir -p "$d"
-    # v4l2loopback 0.12.7 with exclusive_caps=1 announces OUTPUT again only after a writer that
-    # streamed (STREAMON) closes; one that used write() never becomes a "writer" to it, so after
-    # it the node announces neither capture nor output until the module is loaded again.
-    if ! has_output; then
-        say "$name: /dev/video10 announces no output after the last writer (v4l2loopback $V4L_VER): reloading the module"
-        echo "no output after write() writer closed" >> "$OUT/v4l2loopback-quirk.txt"
-        rmmod v4l2loopback || finish "rmmod v4l2loopback failed"
-        insmod /hil/modules/v4l2loopback.ko $V4L_PARAMS || finish "insmod v4l2loopback failed"
-        wait_for 10 has_output || finish "$name: /dev/video10 is no output device"
-    fi
+    outputs_ready "$name" /dev/video10
     say "$name: nvstim run $scen, v4l2 $fmt, can:vcan0 (lockstep)"
     nvstim run "/hil/$scen" --clock sim --frames "$FRAMES" \
         --output "v4l2:/dev/video10?format=$fmt" --telemetry "can:vcan0?idle_s=120" \
@@ -222,6 +241,71 @@ gpio_case() {
 }
 gpioinfo_used() { gpioinfo "$CHIP" | grep -q "line *$1:.*\"gpiomon\""; }
 
+# ---- fusion: a rig on two v4l2loopback nodes ------------------------------------------------------
+# fusion_run NAME SCENARIO: the rig (tests/hil/fusion*.toml: channel ii, 29.97 frames/s
+# interlaced; channel lwir, 30 Hz) under the sim clock, ii on /dev/video10 and lwir on
+# /dev/video11 as GREY, each channel's metadata and (the host's bit-identity check) its y4m to
+# files. A capture client per node (v4l2-ctl, SCHED_FIFO 50 as in run_case) starts as soon as the
+# node offers capture, that is after nvstim's first frame on it; nvstim is stopped (SIGSTOP)
+# while the client starts and streams on, so the client finds that frame (or, polled late, two)
+# written before it and gets every frame from 0 (v4l2loopback serves a new reader from the oldest
+# kept frame while it is at most two behind). Nothing paces the sim clock but rendering; the client, above
+# nvstim on the one CPU, takes each frame as it is written.
+fusion_client() { # fusion_client DIR CHANNEL DEVICE: start its client, nvstim stopped meanwhile
+    kill -STOP "$nv" 2> /dev/null
+    v4l2-ctl -d "$3" --get-fmt-video > "$1/fmt_$2.txt" 2>&1
+    chrt -f 50 v4l2-ctl -d "$3" --stream-mmap=8 --stream-count="$FUSION_FRAMES" --verbose \
+        --stream-to="$1/cap_$2.raw" > "$1/cap_$2.log" 2>&1 &
+    echo $! > "$1/client_$2.pid"
+    wait_for 30 streaming "$1/cap_$2.log" "$(cat "$1/client_$2.pid")" || sleep 1
+    got=$(stat -c %s "$1/cap_$2.raw" 2> /dev/null || echo 0)
+    say "fusion $(basename "$1"): $2 client streaming on $3 ($got bytes captured so far)"
+    kill -CONT "$nv" 2> /dev/null
+}
+fusion_run() {
+    name=$1 scen=$2
+    d="$OUT/fusion/$name"
+    mkdir -p "$d"
+    outputs_ready "fusion $name" /dev/video10 /dev/video11
+    # The thermal channel's heat balance and the atmosphere's tables: the host's (hil.sh) unless
+    # FUSION_CACHE=0, which has the VM solve them.
+    cache=/tmp/fusion-cache-$name
+    mkdir -p "$cache"
+    [ "$FUSION_CACHE" = 1 ] && cp /hil/fusion-cache/* "$cache/" 2> /dev/null
+    say "fusion $name: nvstim run $scen --clock sim --frames $FUSION_FRAMES: ii on /dev/video10, lwir on /dev/video11 (GREY)"
+    t0=$(cut -d" " -f1 /proc/uptime)
+    NVS_CACHE_DIR=$cache nvstim run "/hil/tests/hil/$scen" --clock sim --frames "$FUSION_FRAMES" \
+        --output "v4l2:/dev/video10?channel=ii&format=GREY" --output "meta:$d/ii.jsonl?channel=ii" \
+        --output "y4m:$d/ii.y4m?channel=ii" \
+        --output "v4l2:/dev/video11?channel=lwir&format=GREY" \
+        --output "meta:$d/lwir.jsonl?channel=lwir" --output "y4m:$d/lwir.y4m?channel=lwir" \
+        --stats "$d/stats.json" > "$d/nvstim.out" 2> "$d/nvstim.log" &
+    nv=$!
+    ii=0 lwir=0 n=3000
+    while [ $((ii + lwir)) -lt 2 ] && kill -0 "$nv" 2> /dev/null && [ $n -gt 0 ]; do
+        if [ $ii = 0 ] && has_capture /dev/video10; then fusion_client "$d" ii /dev/video10; ii=1; fi
+        if [ $lwir = 0 ] && has_capture /dev/video11; then fusion_client "$d" lwir /dev/video11; lwir=1; fi
+        sleep 0.1; n=$((n - 1))
+    done
+    [ $((ii + lwir)) -lt 2 ] && say "fusion $name: a node never offered capture (ii $ii, lwir $lwir)"
+    wait "$nv"
+    echo $? > "$d/nvstim.rc"
+    t1=$(cut -d" " -f1 /proc/uptime)
+    echo "$t0 $t1" > "$d/vm_time_s"
+    took=$(awk -v a="$t0" -v b="$t1" 'BEGIN {printf "%.1f", b - a}')
+    heat=$(grep -h "heat balance" "$d/nvstim.log" | sed 's/.*thermal: //; s/, weather.*//')
+    say "fusion $name: nvstim exited with $(cat "$d/nvstim.rc") after $took s: $heat"
+    for ch in ii lwir; do
+        [ -f "$d/client_$ch.pid" ] || continue
+        c=$(cat "$d/client_$ch.pid")
+        n=50
+        while kill -0 "$c" 2> /dev/null && [ $n -gt 0 ]; do sleep 0.1; n=$((n - 1)); done
+        if kill -0 "$c" 2> /dev/null; then kill -9 "$c"; echo "client $ch stuck" >> "$d/stuck"; fi
+        wait "$c" 2> /dev/null
+    done
+    ls -l "$cache" > "$d/cache.txt" 2>&1
+}
+
 FRAME_BYTES_GREY=$((FRAME_W * FRAME_H))
 CLIENT="chrt -f 50 v4l2-ctl -d /dev/video10 --stream-mmap=8"
 # canplayer keeps the log's timing (a faster-than-real-time player, -t, overruns the socket's
@@ -230,6 +314,13 @@ CLIENT="chrt -f 50 v4l2-ctl -d /dev/video10 --stream-mmap=8"
 case " $CASES " in *" grey "*) run_case grey grey.toml GREY 1 ;; esac
 case " $CASES " in *" y16 "*) run_case y16 y16.toml Y16 0 ;; esac
 case " $CASES " in *" gpio "*) [ "$GPIO" = 1 ] && gpio_case ;; esac
+# Fusion: the rig without a fault, then with the thermal channel skewed and misregistered.
+case " $CASES " in *" fusion "*)
+    if [ "$FUSION" = 1 ]; then
+        fusion_run nofault fusion.toml
+        fusion_run faults fusion_faults.toml
+    fi ;;
+esac
 
 # A full-size shipped scenario (the RIT roof at 768 x 494 with the street lamp, the Moon and
 # mirror rays). This CPU has no AVX-512: Embree traces the renderer's 16-ray packets with its
