@@ -273,6 +273,12 @@ MetaJsonlSink::~MetaJsonlSink() {
 }
 
 namespace {
+// Adds a snprintf's count to len; false when it did not fit.
+bool took(int n, std::size_t size, std::size_t& len) noexcept {
+    if (n < 0 || len + static_cast<std::size_t>(n) >= size) return false;
+    len += static_cast<std::size_t>(n);
+    return true;
+}
 // `{…},{…}]` of the boxes at buf + len (the opening bracket already written); false when it does
 // not fit. The class is [A-Za-z0-9_-] (the scene's rule), so it needs no escaping.
 bool formatTruth(const msg::TruthBox* boxes, int count, char* buf, std::size_t size,
@@ -287,8 +293,7 @@ bool formatTruth(const msg::TruthBox* boxes, int count, char* buf, std::size_t s
             static_cast<double>(b.w_px), static_cast<double>(b.h_px),
             static_cast<double>(b.visible), b.truncated ? "true" : "false",
             static_cast<double>(b.range_m));
-        if (n < 0 || len + static_cast<std::size_t>(n) >= size) return false;
-        len += static_cast<std::size_t>(n);
+        if (!took(n, size, len)) return false;
     }
     if (len + 1 >= size) return false;
     buf[len++] = ']';
@@ -301,8 +306,7 @@ bool formatExposure(double t_sample_s, double exposure_s, const msg::CameraGeome
     int n =
         std::snprintf(buf + len, size - len, ",\"exposure_start_s\":%.9f,\"exposure_end_s\":%.9f",
                       t_sample_s - 0.5 * exposure_s, t_sample_s + 0.5 * exposure_s);
-    if (n < 0 || len + static_cast<std::size_t>(n) >= size) return false;
-    len += static_cast<std::size_t>(n);
+    if (!took(n, size, len)) return false;
     if (!g.valid) return true;
     n = std::snprintf(buf + len, size - len,
                       ",\"camera\":{\"width\":%d,\"height\":%d,\"fx_px\":%.6f,\"fy_px\":%.6f,"
@@ -310,15 +314,7 @@ bool formatExposure(double t_sample_s, double exposure_s, const msg::CameraGeome
                       "%.12f,%.12f,%.12f],\"t_m\":[%.9f,%.9f,%.9f]}",
                       g.width, g.height, g.fx_px, g.fy_px, g.cx_px, g.cy_px, g.R[0], g.R[1], g.R[2],
                       g.R[3], g.R[4], g.R[5], g.R[6], g.R[7], g.R[8], g.t_m[0], g.t_m[1], g.t_m[2]);
-    if (n < 0 || len + static_cast<std::size_t>(n) >= size) return false;
-    len += static_cast<std::size_t>(n);
-    return true;
-}
-// Adds a snprintf's count to len; false when it did not fit.
-bool took(int n, std::size_t size, std::size_t& len) noexcept {
-    if (n < 0 || len + static_cast<std::size_t>(n) >= size) return false;
-    len += static_cast<std::size_t>(n);
-    return true;
+    return took(n, size, len);
 }
 
 // A rig's channel (msg::RigMeta): `,"channel":…,"rig":{…},"faults":{…}` at buf + len.
@@ -390,16 +386,13 @@ std::size_t MetaJsonlSink::format(const msg::OutputFrame& frame, char* buf,
     if (m.rig.channel >= 0 && !formatRig(m.rig, buf, size, len)) return 0;
     // Interlaced: each field's own exposure (the frame-level keys describe field 1).
     if (m.fieldCount == msg::kMaxFields) {
-        n = std::snprintf(buf + len, size - len, ",\"fields\":[");
-        if (n < 0 || len + static_cast<std::size_t>(n) >= size) return 0;
-        len += static_cast<std::size_t>(n);
+        if (!took(std::snprintf(buf + len, size - len, ",\"fields\":["), size, len)) return 0;
         for (int f = 0; f < msg::kMaxFields; ++f) {
             const msg::FieldMeta& fm = m.field[f];
             n = std::snprintf(buf + len, size - len,
                               "%s{\"t_sample_s\":%.9f,\"gain_V\":%.6g,\"gate_s\":%.9g,\"truth\":[",
                               f > 0 ? "," : "", fm.t_sample_s + jitter_s, fm.gain_V, fm.gate_s);
-            if (n < 0 || len + static_cast<std::size_t>(n) >= size) return 0;
-            len += static_cast<std::size_t>(n);
+            if (!took(n, size, len)) return 0;
             if (!formatTruth(fm.truth, fm.truthCount, buf, size, len)) return 0;
             if (!formatExposure(fm.t_sample_s + jitter_s, m.exposure_s, fm.camera, buf, size, len))
                 return 0;

@@ -6,18 +6,6 @@ namespace nvs::rt {
 
 namespace {
 
-// The camera's axes as the renderer derives them from a pose: forward, right, image up.
-void poseAxes(const scene::CameraPose& p, Vec3& fwd, Vec3& right, Vec3& up) noexcept {
-    fwd = normalized(p.target_m - p.position_m);
-    Vec3 r = cross(fwd, p.up);
-    if (!(norm(r) > 1e-9)) r = {1, 0, 0};
-    r = normalized(r);
-    const Vec3 u = cross(r, fwd);
-    const double ct = std::cos(p.twist_rad), st = std::sin(p.twist_rad);
-    right = r * ct + u * st;
-    up = u * ct - r * st;
-}
-
 // 3×3 inverse by the adjugate; false when singular.
 bool invert3(const double a[9], double out[9]) noexcept {
     const double c0 = a[4] * a[8] - a[5] * a[7];
@@ -73,7 +61,7 @@ std::int64_t RigClock::count(int c, std::int64_t k) const noexcept {
 
 scene::CameraPose mountedPose(const scene::CameraPose& base, const Mount& m) noexcept {
     Vec3 fwd, right, up;
-    poseAxes(base, fwd, right, up);
+    scene::cameraAxes(base, &fwd, &right, &up);
     const Vec3 down = -up;
     // The mounted camera's axes in the platform camera's body frame, then in the scene's.
     const Mat3 bodyFromMount = nedFromBodyYpr(m.yaw_rad, m.pitch_rad, m.roll_rad);
@@ -90,7 +78,7 @@ scene::CameraPose mountedPose(const scene::CameraPose& base, const Mount& m) noe
 msg::CameraGeometry cameraGeometry(const scene::CameraPose& pose,
                                    const render::PinholeCamera& pin) noexcept {
     Vec3 fwd, right, up;
-    poseAxes(pose, fwd, right, up);
+    scene::cameraAxes(pose, &fwd, &right, &up);
     return cameraGeometry(pose.position_m, right, up, fwd, pin);
 }
 

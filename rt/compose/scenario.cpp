@@ -223,16 +223,9 @@ std::string hzText(double hz) {
 // [[channel]]), and the camera from `cam` ([camera], or the same [[channel]]). One set of
 // defaults: the camera preset's where there is one, else 320×240, 8 bits, 60 Hz progressive
 // (30 Hz interlaced).
-struct Format {
-    CameraSpec camera;
-    FrameRate rate;
-    ScanKind scan = ScanKind::Progressive;
-    int width = 320, height = 240, bits = 8;
-    double exposure_s = 0.0;
-};
-Format readFormat(const ConfigTable& s, const std::optional<ConfigTable>& cam, std::uint64_t seed,
-                  const std::filesystem::path& configDir) {
-    Format f;
+FrameFormat readFormat(const ConfigTable& s, const std::optional<ConfigTable>& cam,
+                       std::uint64_t seed, const std::filesystem::path& configDir) {
+    FrameFormat f;
     const std::optional<double> hzGiven = s.optional<double>("frame_rate_hz");
     const std::optional<int> widthGiven = s.optional<int>("width");
     const std::optional<int> heightGiven = s.optional<int>("height");
@@ -286,7 +279,7 @@ Format readFormat(const ConfigTable& s, const std::optional<ConfigTable>& cam, s
     return f;
 }
 
-void applyFormat(const Format& f, Scenario& sc) {
+void applyFormat(const FrameFormat& f, Scenario& sc) {
     sc.camera = f.camera;
     sc.rate = f.rate;
     sc.scan = f.scan;
@@ -338,14 +331,7 @@ void readChannels(const ConfigTable& root, const std::filesystem::path& configDi
         for (const ChannelSpec& o : sc.channels) {
             if (o.name == ch.name) c.fail("name", "two channels are named '" + ch.name + "'");
         }
-        const Format f = readFormat(c, c, sc.seed + sc.channels.size(), configDir);
-        ch.camera = f.camera;
-        ch.rate = f.rate;
-        ch.scan = f.scan;
-        ch.width = f.width;
-        ch.height = f.height;
-        ch.bits = f.bits;
-        ch.exposure_s = f.exposure_s;
+        ch.format = readFormat(c, c, sc.seed + sc.channels.size(), configDir);
         const auto arm = triple(c, "lever_arm_m", 100.0);
         const auto bore = triple(c, "boresight_deg", 90.0);
         ch.mount.leverArm_m = {arm[0], arm[1], arm[2]};
@@ -360,10 +346,7 @@ void readChannels(const ConfigTable& root, const std::filesystem::path& configDi
             ch.faults.misregistration_rad[i] = mis[static_cast<std::size_t>(i)] * kRadPerDeg;
         sc.channels.push_back(ch);
     }
-    applyFormat(Format{sc.channels[0].camera, sc.channels[0].rate, sc.channels[0].scan,
-                       sc.channels[0].width, sc.channels[0].height, sc.channels[0].bits,
-                       sc.channels[0].exposure_s},
-                sc);
+    applyFormat(sc.channels[0].format, sc);
     sc.channelIndex = 0;
 }
 
@@ -496,7 +479,7 @@ void readFrames(const ConfigTable& root, const std::string& file,
         // A rig: each channel's camera; otherwise [camera].
         std::vector<std::pair<const CameraSpec*, FileLoc>> cams;
         for (const ChannelSpec& ch : sc.channels)
-            cams.emplace_back(&ch.camera, ch.loc);
+            cams.emplace_back(&ch.format.camera, ch.loc);
         if (cams.empty()) cams.emplace_back(&sc.camera, root.location("camera"));
         bool anyThermal = false;
         for (const auto& [cam, loc] : cams) {
@@ -622,13 +605,7 @@ Scenario channelScenario(const Scenario& rig, std::size_t i) {
     Scenario sc = rig;
     if (rig.channels.empty()) return sc;
     const ChannelSpec& ch = rig.channels.at(i);
-    sc.camera = ch.camera;
-    sc.rate = ch.rate;
-    sc.scan = ch.scan;
-    sc.width = ch.width;
-    sc.height = ch.height;
-    sc.bits = ch.bits;
-    sc.exposure_s = ch.exposure_s;
+    applyFormat(ch.format, sc);
     sc.channelIndex = static_cast<int>(i);
     return sc;
 }

@@ -166,14 +166,19 @@ struct ChannelFaults {
                misregistration_rad[2] != 0.0;
     }
 };
-struct ChannelSpec {
-    std::string name;
-    FileLoc loc;
+// The frames a camera makes: its camera and the format the loop runs it at (a scenario's, or a
+// rig channel's).
+struct FrameFormat {
     CameraSpec camera;
     FrameRate rate;
     ScanKind scan = ScanKind::Progressive;
-    int width = 0, height = 0, bits = 8;
+    int width = 320, height = 240, bits = 8;
     double exposure_s = 0.0;
+};
+struct ChannelSpec {
+    std::string name;
+    FileLoc loc;
+    FrameFormat format;
     Mount mount;
     ChannelFaults faults;
 };

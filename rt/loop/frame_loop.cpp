@@ -9,6 +9,15 @@
 
 namespace nvs::rt {
 
+ExposureTiming exposureTiming(FrameRate rate, ScanKind scan, double exposure_s) noexcept {
+    ExposureTiming t;
+    t.fields = scan == ScanKind::Interlaced ? 2 : 1;
+    t.field_s = rate.period_s() / (scan == ScanKind::Interlaced ? 2.0 : 1.0);
+    t.exposure_s = exposure_s > 0.0 ? exposure_s : t.field_s;
+    t.firstLead_s = static_cast<double>(t.fields - 1) * t.field_s + 0.5 * t.exposure_s;
+    return t;
+}
+
 FrameLoop::FrameLoop(const LoopConfig& config, PlatformSource& platform, RenderStage& render,
                      CameraStage& camera, std::vector<FrameSink*> sinks)
     : config_(config),
@@ -18,13 +27,12 @@ FrameLoop::FrameLoop(const LoopConfig& config, PlatformSource& platform, RenderS
       sinks_(std::move(sinks)),
       wall_(config.rate),
       sim_(config.rate),
-      fields_(config.scan == ScanKind::Interlaced ? 2 : 1),
-      field_s_(config.rate.period_s() / (config.scan == ScanKind::Interlaced ? 2.0 : 1.0)),
       period_ns_(WallClock(config.rate).deadline_ns(1)) {
-    // Default exposure: one frame (progressive) or one field (interlaced).
-    exposure_s_ = config.exposure_s > 0.0 ? config.exposure_s : field_s_;
-    firstExposureLead_ns_ =
-        std::llround((static_cast<double>(fields_ - 1) * field_s_ + 0.5 * exposure_s_) * 1e9);
+    const ExposureTiming timing = exposureTiming(config.rate, config.scan, config.exposure_s);
+    fields_ = timing.fields;
+    field_s_ = timing.field_s;
+    exposure_s_ = timing.exposure_s;
+    firstExposureLead_ns_ = std::llround(timing.firstLead_s * 1e9);
     // Each slot holds the images the render stage fills, each in its own unit.
     const RenderStage::Outputs out = render.outputs();
     const auto image = [&](bool wanted) {
@@ -427,17 +435,24 @@ void FrameLoop::cameraThread(bool realtime) {
 
 // ---- output thread ---------------------------------------------------------------------------
 
+namespace {
+// Frame k's fault draws: word 0 decides a drop, word 1 the stamp jitter.
+void faultWords(std::uint64_t seed, std::int64_t k, std::uint32_t w[4]) noexcept {
+    PixelRng(seed, RngStream::Faults, static_cast<std::uint64_t>(k)).block(0, 0, 0, w);
+}
+}  // namespace
+
 bool FrameLoop::faultDrop(std::int64_t k) const noexcept {
     if (!(config_.dropProbability > 0.0)) return false;
     std::uint32_t w[4];
-    PixelRng(config_.faultSeed, RngStream::Faults, static_cast<std::uint64_t>(k)).block(0, 0, 0, w);
+    faultWords(config_.faultSeed, k, w);
     return uniformFromWord(w[0]) < config_.dropProbability;
 }
 
 double FrameLoop::faultJitter_s(std::int64_t k) const noexcept {
     if (!(config_.stampJitter_s > 0.0)) return 0.0;
     std::uint32_t w[4];
-    PixelRng(config_.faultSeed, RngStream::Faults, static_cast<std::uint64_t>(k)).block(0, 0, 0, w);
+    faultWords(config_.faultSeed, k, w);
     return config_.stampJitter_s * static_cast<double>(normalFromWord(w[1]));
 }
 

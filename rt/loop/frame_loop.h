@@ -122,6 +122,18 @@ struct LoopConfig {
     std::uint64_t faultSeed = 0;
 };
 
+// When a frame's exposures lie (the Timing and Scan paragraphs above): its exposures (fields),
+// the field period, the exposure (0 asked: one frame progressive, one field interlaced), and how
+// long before the frame's tick its first exposure starts: half the exposure, and a field more
+// when interlaced.
+struct ExposureTiming {
+    int fields = 1;
+    double field_s = 0.0;
+    double exposure_s = 0.0;
+    double firstLead_s = 0.0;
+};
+ExposureTiming exposureTiming(FrameRate rate, ScanKind scan, double exposure_s) noexcept;
+
 // Single-producer single-consumer ring of small integers (slot numbers).
 class SlotRing {
   public:

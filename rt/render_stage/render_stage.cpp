@@ -47,14 +47,11 @@ void SceneRenderStage::setUpRig(const Scenario& sc) {
         mounts_[i] = ch.mount;
         pins_[i] = sr_->renderer().camera();  // until setRigPinholes
         std::snprintf(m.name[i], sizeof m.name[i], "%s", ch.name.c_str());
-        // Its frames' first exposures: a field and half an exposure before the frame's
-        // mid-time when interlaced, half an exposure when progressive (rt/loop/frame_loop.h).
-        const bool interlaced = ch.scan == ScanKind::Interlaced;
-        const double period_s = ch.rate.period_s();
-        const double field_s = interlaced ? 0.5 * period_s : period_s;
-        const double exposure_s = ch.exposure_s > 0.0 ? ch.exposure_s : field_s;
-        rigClock_.period_s[i] = period_s;
-        rigClock_.first_s[i] = ch.faults.skew_s - (interlaced ? field_s : 0.0) - 0.5 * exposure_s;
+        // Its frames' first exposures start as the frame loop places them, moved by its skew.
+        rigClock_.period_s[i] = ch.format.rate.period_s();
+        rigClock_.first_s[i] =
+            ch.faults.skew_s -
+            exposureTiming(ch.format.rate, ch.format.scan, ch.format.exposure_s).firstLead_s;
     }
     rigClock_.channels = m.channels;
     const ChannelFaults& f = sc.channels[static_cast<std::size_t>(sc.channelIndex)].faults;
@@ -91,11 +88,10 @@ void SceneRenderStage::publishRig(std::int64_t frame, FrameMeta& meta) const noe
     meta.camera = cameraGeometry(published_, pins_[own]);
     meta.rig = rigMeta_;
     meta.rig.triggerCount = rigClock_.count(own, frame);
-    // The platform camera's pose, from which every channel is mounted.
-    const scene::CameraPose& base = base_;
+    // Every channel mounted on the platform camera's pose of this frame.
     for (int j = 0; j < rigMeta_.channels; ++j) {
         const msg::CameraGeometry peer =
-            j == own ? meta.camera : cameraGeometry(mountedPose(base, mounts_[j]), pins_[j]);
+            j == own ? meta.camera : cameraGeometry(mountedPose(base_, mounts_[j]), pins_[j]);
         meta.rig.valid[j] = groundHomography(meta.camera, peer, rigMeta_.groundZ_m, meta.rig.H[j]);
     }
 }

@@ -579,32 +579,23 @@ Expectations readExpectations(const fs::path& dir, const fs::path& exp) {
 bool compareStream(const Expectations& e, const fs::path& work, const fs::path& failDir,
                    std::ostringstream& rep) {
     const auto files = framesIn(work / "frames");
-    const int expectedFrames = e.frames;
-    const std::string& fingerprint = e.fingerprint;
-    const std::string& metaSha = e.metaSha;
-    const std::vector<std::string>& frameSha = e.frameSha;
-    const std::vector<Ref>& refs = e.refs;
-    const std::vector<ImageF>& refMean = e.refMean;
-    const std::vector<ImageF>& refMeanVar = e.refMeanVar;
-    const std::vector<ImageF>& refPixVar = e.refPixVar;
-    ReplayResult r;
-    r.passed = true;
+    bool passed = true;
     char line[512];
-    if (static_cast<int>(files.size()) != expectedFrames) {
-        r.passed = false;
-        std::snprintf(line, sizeof line, "  frames: %d expected, %zu replayed\n", expectedFrames,
+    if (static_cast<int>(files.size()) != e.frames) {
+        passed = false;
+        std::snprintf(line, sizeof line, "  frames: %d expected, %zu replayed\n", e.frames,
                       files.size());
         rep << line;
     }
     // 1. Bit-exact digests.
     const std::string thisBuild = buildFingerprint();
-    const bool sameBuild = fingerprint == thisBuild;
+    const bool sameBuild = e.fingerprint == thisBuild;
     std::vector<int> moved;
-    for (std::size_t k = 0; k < files.size() && k < frameSha.size(); ++k) {
-        if (sha256File(files[k]) != frameSha[k]) moved.push_back(static_cast<int>(k));
+    for (std::size_t k = 0; k < files.size() && k < e.frameSha.size(); ++k) {
+        if (sha256File(files[k]) != e.frameSha[k]) moved.push_back(static_cast<int>(k));
     }
-    const bool metaSame = sha256File(work / "meta.jsonl") == metaSha;
-    if (moved.empty() && metaSame && static_cast<int>(files.size()) == expectedFrames) {
+    const bool metaSame = sha256File(work / "meta.jsonl") == e.metaSha;
+    if (moved.empty() && metaSame && static_cast<int>(files.size()) == e.frames) {
         rep << "  bit-exact: all " << files.size() << " frames and the metadata are identical\n";
     } else {
         std::string list;
@@ -617,7 +608,7 @@ bool compareStream(const Expectations& e, const fs::path& work, const fs::path& 
                       files.size(), moved.empty() ? "" : " (", list.c_str(),
                       moved.empty() ? "" : ")", metaSame ? "identical" : "differs");
         rep << line;
-        if (sameBuild) r.passed = false;
+        if (sameBuild) passed = false;
     }
     // What decided: the digests hold only where the fingerprint is this run's. Across
     // instruction sets alone, the camera chain gives the same bits for the same radiance, but
@@ -625,43 +616,43 @@ bool compareStream(const Expectations& e, const fs::path& work, const fs::path& 
     // radiance (and through it the frames) differs within the tolerance of
     // docs/portability.md; the statistics decide there.
     const bool otherIsaOnly =
-        !sameBuild && fingerprintWithoutIsa(fingerprint) == fingerprintWithoutIsa(thisBuild);
+        !sameBuild && fingerprintWithoutIsa(e.fingerprint) == fingerprintWithoutIsa(thisBuild);
     if (sameBuild) {
         rep << "  checked: digests (bit-exact, same build and ISA \"" << isaFingerprint()
             << "\") and statistics\n";
     } else if (otherIsaOnly && moved.empty() && metaSame) {
-        rep << "  checked: statistics (blessed on \"" << fingerprint
+        rep << "  checked: statistics (blessed on \"" << e.fingerprint
             << "\"; this run is the same build on ISA \"" << isaFingerprint()
             << "\", where the digests need not hold, and they hold)\n";
     } else if (otherIsaOnly) {
-        rep << "  checked: statistics only (blessed on \"" << fingerprint
+        rep << "  checked: statistics only (blessed on \"" << e.fingerprint
             << "\"; this run is the same build on ISA \"" << isaFingerprint()
             << "\": the renderer's radiance differs across ISAs within the stated tolerance, so "
                "digests are not comparable)\n";
     } else {
-        rep << "  checked: statistics only (blessed on \"" << fingerprint << "\", this build is \""
-            << thisBuild << "\": digests are not comparable)\n";
+        rep << "  checked: statistics only (blessed on \"" << e.fingerprint
+            << "\", this build is \"" << thisBuild << "\": digests are not comparable)\n";
     }
     // 2. Statistics per window.
-    for (std::size_t i = 0; i < refs.size(); ++i) {
-        const Ref& ref = refs[i];
+    for (std::size_t i = 0; i < e.refs.size(); ++i) {
+        const Ref& ref = e.refs[i];
         if (static_cast<std::int64_t>(ref.first) + ref.count >
             static_cast<std::int64_t>(files.size())) {
             // The replay came out short: the window cannot be compared, which is a failure.
-            r.passed = false;
+            passed = false;
             rep << "  window " << i << " (frames " << ref.first << "-" << ref.first + ref.count - 1
                 << "): not in the replay's " << files.size() << " frames\n";
             continue;
         }
         const std::string stem = "w" + std::to_string(i);
-        const ImageF& rMean = refMean[i];
-        const ImageF& rMeanVar = refMeanVar[i];
-        const ImageF& rPixVar = refPixVar[i];
+        const ImageF& rMean = e.refMean[i];
+        const ImageF& rMeanVar = e.refMeanVar[i];
+        const ImageF& rPixVar = e.refPixVar[i];
         const WindowStats w = computeWindow(files, ref.first, ref.count);
         if (w.blocksX != rMean.width() || w.blocksY != rMean.height() ||
             rMeanVar.width() != rMean.width() || rMeanVar.height() != rMean.height() ||
             rPixVar.width() != rMean.width() || rPixVar.height() != rMean.height()) {
-            r.passed = false;
+            passed = false;
             rep << "  window " << i << ": image size changed\n";
             continue;
         }
@@ -711,7 +702,7 @@ bool compareStream(const Expectations& e, const fs::path& work, const fs::path& 
         const bool globalMoved =
             std::fabs(zGlobal) > kGlobalZLimit && std::fabs(dSum / nb) > kGlobalMeanFloor_counts;
         const bool globalVarMoved = std::fabs(varRatio - 1.0) > kGlobalVarianceTolerance;
-        if (globalMoved || globalVarMoved) r.passed = false;
+        if (globalMoved || globalVarMoved) passed = false;
         std::snprintf(
             line, sizeof line,
             "  window %zu whole image: mean shift %+.3f counts (z %.1f)%s; noise variance "
@@ -720,7 +711,7 @@ bool compareStream(const Expectations& e, const fs::path& work, const fs::path& 
             globalVarMoved ? " MOVED" : "");
         rep << line;
         if (meanMoved > 0 || varMoved > 0 || globalMoved || globalVarMoved) {
-            r.passed = false;
+            passed = false;
             fs::create_directories(failDir);
             writeZMap(failDir / (stem + "_z.pgm"), z);
             io::writePfm(failDir / (stem + "_meandiff.pfm"), diff.cview());
@@ -736,7 +727,7 @@ bool compareStream(const Expectations& e, const fs::path& work, const fs::path& 
         rep << line;
     }
     if (fs::exists(failDir)) rep << "  error images: " << failDir.string() << "/\n";
-    return r.passed;
+    return passed;
 }
 
 }  // namespace

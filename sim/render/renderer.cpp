@@ -88,15 +88,7 @@ void Renderer::setCamera(const scene::CameraPose& p) noexcept {
     Impl& im = *impl_;
     im.gValidRows = 0;
     im.camPos = p.position_m;
-    im.camFwd = normalized(p.target_m - p.position_m);
-    Vec3 right = cross(im.camFwd, p.up);
-    if (!(norm(right) > 1e-9)) right = {1, 0, 0};
-    right = normalized(right);
-    Vec3 up = cross(right, im.camFwd);
-    // Twist: rotation of the image about the line of sight.
-    const double ct = std::cos(p.twist_rad), st = std::sin(p.twist_rad);
-    im.camRight = right * ct + up * st;
-    im.camUp = up * ct - right * st;
+    scene::cameraAxes(p, &im.camFwd, &im.camRight, &im.camUp);
 }
 
 double Renderer::skyViewFactor(int object, int triangle, double u, double v, bool back) const {

@@ -473,4 +473,17 @@ Scene loadScene(const std::filesystem::path& path) {
     return s;
 }
 
+void cameraAxes(const CameraPose& p, Vec3* forward, Vec3* right, Vec3* up) noexcept {
+    const Vec3 fwd = normalized(p.target_m - p.position_m);
+    Vec3 r = cross(fwd, p.up);
+    if (!(norm(r) > 1e-9)) r = {1, 0, 0};
+    r = normalized(r);
+    const Vec3 u = cross(r, fwd);
+    // Twist: rotation of the image about the line of sight.
+    const double ct = std::cos(p.twist_rad), st = std::sin(p.twist_rad);
+    *forward = fwd;
+    *right = r * ct + u * st;
+    *up = u * ct - r * st;
+}
+
 }  // namespace nvs::scene

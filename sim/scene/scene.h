@@ -107,6 +107,11 @@ struct CameraPose {
     double twist_rad = 0.0;
 };
 
+// A pose's unit axes: forward (to the target), image right and image up, `up` made orthogonal
+// and the image turned by the twist about the line of sight (the renderer's camera, and the
+// geometry a rig publishes, rt/compose/rig.h).
+void cameraAxes(const CameraPose& p, Vec3* forward, Vec3* right, Vec3* up) noexcept;
+
 struct Scene {
     std::filesystem::path file;
     std::vector<Material> materials;

@@ -23,7 +23,6 @@ Exit: 0 pass, 1 fail (what failed, one line each), 77 skipped (numpy or OpenCV m
 import argparse
 import importlib.util
 import json
-import math
 import os
 import subprocess
 import sys
@@ -35,6 +34,10 @@ if _missing:
     print(f"SKIP: no module {', '.join(_missing)} (Debian: python3-numpy, python3-opencv)")
     sys.exit(77)
 import numpy as np  # noqa: E402 (after the check above)
+
+sys.dont_write_bytecode = True  # no __pycache__ in the source tree
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from fusion_geometry import predicted_offset_px, records  # noqa: E402
 
 CASES = {
     "reference_consumer": "rit-fusion",
@@ -50,45 +53,6 @@ def run(cmd, cwd, timeout_s):
     p = subprocess.run(cmd, cwd=cwd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
                        timeout=timeout_s)
     return p.returncode, p.stdout
-
-
-def records(path):
-    with open(path, encoding="utf-8") as f:
-        return [json.loads(line) for line in f if line.strip()]
-
-
-def K_of(cam):
-    return np.array([[cam["fx_px"], 0.0, cam["cx_px"]], [0.0, cam["fy_px"], cam["cy_px"]],
-                     [0.0, 0.0, 1.0]])
-
-
-def project(cam, X):
-    xc = np.array(cam["R"], float).reshape(3, 3) @ np.asarray(X, float) + np.array(cam["t_m"])
-    p = K_of(cam) @ (xc / xc[2])
-    return p[:2]
-
-
-def h_apply(H, p):
-    q = H @ np.array([p[0], p[1], 1.0])
-    return q[:2] / q[2]
-
-
-def misregistration_pixel_map(cam, ypr_deg):
-    """Where a point seen at pixel p by the published camera is seen by the true one.
-
-    The true camera is the published one turned by aerospace yaw, pitch, roll (Z-Y-X) in the
-    published camera's body axes (x forward, y right, z down): its axes are the columns of
-    M = Rz(yaw) Ry(pitch) Rx(roll) there. In OpenCV's camera axes (x right, y down, z forward),
-    C = [[0,1,0],[0,0,1],[1,0,0]] maps body to camera, so x_true = (C M C^T)^T x_published and
-    p_true ~ K (C M C^T)^T K^-1 p.
-    """
-    y, p, r = (math.radians(v) for v in ypr_deg)
-    Rz = np.array([[math.cos(y), -math.sin(y), 0], [math.sin(y), math.cos(y), 0], [0, 0, 1]])
-    Ry = np.array([[math.cos(p), 0, math.sin(p)], [0, 1, 0], [-math.sin(p), 0, math.cos(p)]])
-    Rx = np.array([[1, 0, 0], [0, math.cos(r), -math.sin(r)], [0, math.sin(r), math.cos(r)]])
-    C = np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]])
-    K = K_of(cam)
-    return K @ (C @ (Rz @ Ry @ Rx) @ C.T).T @ np.linalg.inv(K)
 
 
 def check(case, nvstim, src, work):
@@ -164,13 +128,8 @@ def check(case, nvstim, src, work):
     measured = [r for r in f.get("list", []) if r["status"] == "measured"]
     if not measured:
         failures.append("fiducials: none measured in both channels")
-    a0, b0 = ra[0], rb[0]
-    H = np.array(a0["rig"]["ground_homography"][B], float).reshape(3, 3)
-    Pmap = misregistration_pixel_map(a0["camera"], a0["faults"]["misregistration_deg"])
     for r in measured:
-        X = r["xyz_m"]
-        p_true = h_apply(Pmap, project(a0["camera"], X))
-        expected = project(b0["camera"], X) - h_apply(H, p_true)
+        expected = predicted_offset_px(ra[0], rb[0], r["xyz_m"])
         got = np.array(r["offset_px"])
         miss = float(np.hypot(*(got - expected)))
         print(f"check: fiducial {r['name']}: offset ({got[0]:+.2f}, {got[1]:+.2f}) px, expected "

@@ -33,7 +33,6 @@ Prints one line per check ("hil: ok" / "hil: FAIL") and exits 1 when any fails.
 """
 import argparse
 import json
-import math
 import os
 import re
 import subprocess
@@ -43,6 +42,9 @@ sys.dont_write_bytecode = True  # no __pycache__ in the source tree
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import check as hil  # noqa: E402  (check(), read_capture(), compare(): the GREY case's)
 
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "fusion"))
+from fusion_geometry import predicted_offset_px, records  # noqa: E402
+
 import numpy as np  # noqa: E402
 
 A, B = "lwir", "ii"            # A is warped into B
@@ -50,11 +52,6 @@ SKEW_TOLERANCE_S = 1e-4
 OFFSET_TOLERANCE_PX = 1.0
 MIN_MISREGISTRATION_SHIFT_PX = 2.0
 MIN_FIDUCIALS = 2
-
-
-def records(path):
-    with open(path, encoding="utf-8") as f:
-        return [json.loads(line) for line in f if line.strip()]
 
 
 def y4m_header(path):
@@ -81,37 +78,6 @@ def write_pgms(folder, frames, w, h):
         with open(os.path.join(folder, "%06d.pgm" % k), "wb") as f:
             f.write(b"P5\n%d %d\n255\n" % (w, h))
             f.write(fr)
-
-
-def K_of(cam):
-    return np.array([[cam["fx_px"], 0.0, cam["cx_px"]], [0.0, cam["fy_px"], cam["cy_px"]],
-                     [0.0, 0.0, 1.0]])
-
-
-def project(cam, X):
-    xc = np.array(cam["R"], float).reshape(3, 3) @ np.asarray(X, float) + np.array(cam["t_m"])
-    return (K_of(cam) @ (xc / xc[2]))[:2]
-
-
-def h_apply(H, p):
-    q = H @ np.array([p[0], p[1], 1.0])
-    return q[:2] / q[2]
-
-
-def misregistration_map(cam, ypr_deg):
-    """Pixel of the published camera -> pixel of the true one. The true camera is the published
-    one turned by yaw (right), pitch (up), roll (Z-Y-X, aerospace) in its body axes (x forward,
-    y right, z down); in OpenCV's camera axes (x right, y down, z forward) that rotation is
-    Q = C M C^T with C = [[0,1,0],[0,0,1],[1,0,0]], its columns the true axes, so a point's
-    camera coordinates are Q^T x in the true camera, and its pixel K Q^T K^-1 p."""
-    y, p, r = (math.radians(v) for v in ypr_deg)
-    Rz = np.array([[math.cos(y), -math.sin(y), 0], [math.sin(y), math.cos(y), 0], [0, 0, 1]])
-    Ry = np.array([[math.cos(p), 0, math.sin(p)], [0, 1, 0], [-math.sin(p), 0, math.cos(p)]])
-    Rx = np.array([[1, 0, 0], [0, math.cos(r), -math.sin(r)], [0, math.sin(r), math.cos(r)]])
-    C = np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]])
-    Q = C @ (Rz @ Ry @ Rx) @ C.T
-    K = K_of(cam)
-    return K @ Q.T @ np.linalg.inv(K)
 
 
 def run_tool(cmd, log_path, timeout_s=300):
@@ -248,14 +214,10 @@ def check_run(name, d, ref_d, src, n, isa_compare, fiducials):
     check(len(measured) >= MIN_FIDUCIALS,
           "fusion %s: %d fiducials measured in both channels (at least %d; skipped: %s)" % (
               name, len(measured), MIN_FIDUCIALS, ", ".join(skipped) or "none"))
-    a0, b0 = meta[A][0], meta[B][0]
-    H = np.array(a0["rig"]["ground_homography"][B], float).reshape(3, 3)
-    ypr = a0["faults"]["misregistration_deg"]
-    P = misregistration_map(a0["camera"], ypr)
+    ypr = meta[A][0]["faults"]["misregistration_deg"]
     faulted = any(abs(v) > 0 for v in ypr)
     for r in measured:
-        X = r["xyz_m"]
-        expected = project(b0["camera"], X) - h_apply(H, h_apply(P, project(a0["camera"], X)))
+        expected = predicted_offset_px(meta[A][0], meta[B][0], r["xyz_m"])
         got = np.array(r["offset_px"])
         miss = float(np.hypot(*(got - expected)))
         if faulted:

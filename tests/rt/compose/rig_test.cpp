@@ -266,7 +266,7 @@ skew_s = 0.001
     EXPECT_NEAR(ok.channels[1].mount.yaw_rad, kRadPerDeg, 1e-15);
     EXPECT_EQ(ok.channels[1].faults.skew_s, 0.001);
     EXPECT_EQ(channelScenario(ok, 1).channelIndex, 1);
-    EXPECT_NE(ok.channels[0].camera.seed, ok.channels[1].camera.seed);
+    EXPECT_NE(ok.channels[0].format.camera.seed, ok.channels[1].format.camera.seed);
     const struct {
         std::string text, says;
     } bad[] = {
