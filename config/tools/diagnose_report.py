@@ -54,11 +54,15 @@ def plot_curve(curve, out):
 
 
 def plot_map(name, rows, out):
-    flat = sorted(v for r in rows for v in r)
+    # A gain map (an unexplained smooth gain) is centred on 1, a residual map on 0.
+    gain = name == "unexplained_smooth_gain"
+    centre = 1.0 if gain else 0.0
+    flat = sorted(v - centre for r in rows for v in r)
     lim = max(abs(flat[int(0.01 * (len(flat) - 1))]), abs(flat[int(0.99 * (len(flat) - 1))]), 1e-6)
     fig, ax = plt.subplots(figsize=(6.4, 4.8), dpi=100)
-    im = ax.imshow(rows, cmap="RdBu_r", vmin=-lim, vmax=lim, interpolation="nearest")
-    fig.colorbar(im, ax=ax, label="measured - model [DC]")
+    im = ax.imshow(rows, cmap="RdBu_r", vmin=centre - lim, vmax=centre + lim,
+                   interpolation="nearest")
+    fig.colorbar(im, ax=ax, label="gain relative to the model" if gain else "measured - model [DC]")
     ax.set_title(name.replace("_", " "))
     fig.tight_layout()
     fig.savefig(out)
@@ -83,12 +87,18 @@ def main():
     if not res["findings"]:
         md += ["No finding: no effect of the catalog improved the held-out frames significantly.", ""]
     else:
-        md += ["| effect | cause | parameters | held-out RMS before | after | unit | confidence |",
-               "|---|---|---|---|---|---|---|"]
+        md += ["Status: `named`, a cause of the catalog; `unexplained`, structure no effect of the "
+               "catalog holds (its shape and character); `candidate`, a catalog effect that the "
+               "unexplained structure explains better.", "",
+               "| effect | status | cause | parameters | held-out RMS before | after | unit | confidence |",
+               "|---|---|---|---|---|---|---|---|"]
         for f in res["findings"]:
             params = ", ".join("%s = %s" % (k, fmt(v)) for k, v in f["parameters"].items())
-            md.append("| `%s` | %s | %s | %s | %s | %s | %.4f |" % (
-                f["effect"], f["cause"], params, fmt(f["heldout_rms_before"]),
+            name = f["effect"]
+            if name == "unexplained":
+                name = "unexplained: %s (%s)" % (f["structure"], f["character"])
+            md.append("| `%s` | %s | %s | %s | %s | %s | %s | %.4f |" % (
+                name, f.get("status", "named"), f["cause"], params, fmt(f["heldout_rms_before"]),
                 fmt(f["heldout_rms_after"]), f["unit"], f["confidence"]))
         md.append("")
     md += ["## Baseline (calibration half)", "", "| quantity | value |", "|---|---|"]

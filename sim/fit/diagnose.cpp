@@ -12,6 +12,7 @@
 #include "sim/fit/effects.h"
 #include "sim/fit/model.h"
 #include "sim/fit/scene_effects.h"
+#include "sim/fit/structure.h"
 
 namespace nvs::fit {
 
@@ -323,6 +324,53 @@ void assembleUnblurred(Work& w, const ModelRun& m) {
     }
 }
 
+// Catalog findings that the structures found explain better become candidates
+// (structure.h): a mean effect whose share of the held-out squared error is smaller than a
+// structure's left after it; a noise effect whose test no longer passes on the measured frames
+// with the structures taken out.
+void demoteExplained(Work& w, const Current& cur, const std::vector<StructureFit>& structures,
+                     std::size_t meanFound, const Progress& progress, Result& r) {
+    double top = 0.0;
+    std::string topName;
+    for (const StructureFit& s : structures)
+        if (s.finding.share > top) {
+            top = s.finding.share;
+            topName = s.finding.structure;
+        }
+    char b[200];
+    for (std::size_t i = 0; i < meanFound && i < r.findings.size(); ++i) {
+        Finding& f = r.findings[i];
+        const double before = f.heldoutRmsBefore, after = f.heldoutRmsAfter;
+        const double share = before > 0.0 ? 1.0 - (after * after) / (before * before) : 0.0;
+        if (share >= top) continue;
+        f.status = "candidate";
+        std::snprintf(b, sizeof b,
+                      " (candidate: the residual after it holds unexplained %s structure, "
+                      "%.1f %% of the held-out squared error against its %.1f %%)",
+                      topName.c_str(), 100.0 * top, 100.0 * share);
+        f.cause += b;
+    }
+    if (r.findings.size() <= meanFound) return;
+    if (progress) progress("noise effects again, on the frames without the structures found");
+    Dataset clean = w.d;
+    clean.frames = withoutStructure(w, cur, structures);
+    Work w2(clean, w.m, w.cam, w.opt, Progress{}, w.configDir);
+    Result scratch;
+    const std::vector<Candidate> again = tryNoiseEffects(w2, cur, scratch);
+    for (std::size_t i = meanFound; i < r.findings.size(); ++i) {
+        Finding& f = r.findings[i];
+        for (const Candidate& c : again) {
+            if (c.finding.effect != f.effect || significant(c, w.opt, i)) continue;
+            f.status = "candidate";
+            std::snprintf(b, sizeof b,
+                          " (candidate: with the unexplained structure taken out of the "
+                          "frames its test gives z %.1f)",
+                          c.finding.z);
+            f.cause += b;
+        }
+    }
+}
+
 // The camera's side on the dataset's stimulus: baseline, mean effects, noise effects.
 void diagnoseCamera(const Dataset& d, const std::filesystem::path& configDir, const Options& opt,
                     const Progress& progress, Result& r) {
@@ -360,6 +408,13 @@ void diagnoseCamera(const Dataset& d, const std::filesystem::path& configDir, co
         if (significant(c, opt, std::max(meanFound, r.findings.size())))
             r.findings.push_back(c.finding);
     }
+    if (progress) progress("what the catalog leaves: structure in the held-out residual");
+    const std::vector<StructureFit> structures = findStructure(w, cur, r);
+    if (!structures.empty()) {
+        demoteExplained(w, cur, structures, meanFound, progress, r);
+        for (const StructureFit& s : structures)
+            r.findings.push_back(s.finding);
+    }
     for (const char* e :
          {"lunar_sky_scatter", "refraction", "cloud_transmission", "aerosol_extinction"}) {
         if (d.scene) break;  // tried on the scenario (trySceneEffects)
@@ -369,8 +424,13 @@ void diagnoseCamera(const Dataset& d, const std::filesystem::path& configDir, co
         recordTrial(r, c, false);
     }
     signatures(w, base, cur, r);
-    std::stable_sort(r.findings.begin(), r.findings.end(),
-                     [](const Finding& a, const Finding& b) { return a.score > b.score; });
+    // Named causes first, then the structures the catalog does not explain, then candidates.
+    auto rank = [](const Finding& f) {
+        return f.status == "named" ? 0 : f.status == "unexplained" ? 1 : 2;
+    };
+    std::stable_sort(r.findings.begin(), r.findings.end(), [&](const Finding& a, const Finding& b) {
+        return rank(a) != rank(b) ? rank(a) < rank(b) : a.score > b.score;
+    });
 }
 
 // The scenario's side: the baseline on the stimulus as the scenario states it, then the
@@ -450,8 +510,11 @@ std::string toJson(const Result& r) {
         s += "},\"heldout_rms_before\":" + num(f.heldoutRmsBefore) +
              ",\"heldout_rms_after\":" + num(f.heldoutRmsAfter) +
              ",\"confidence\":" + num(f.confidence) + ",\"z\":" + num(f.z) +
-             ",\"score\":" + num(f.score) + ",\"unit\":\"" + f.unit + "\",\"observable\":\"" +
-             f.observable + "\",\"cause\":\"";
+             ",\"score\":" + num(f.score) + ",\"status\":" + quoted(f.status);
+        if (f.effect == "unexplained")
+            s += ",\"structure\":" + quoted(f.structure) + ",\"character\":" + quoted(f.character) +
+                 ",\"share_of_heldout_error\":" + num(f.share);
+        s += ",\"unit\":\"" + f.unit + "\",\"observable\":\"" + f.observable + "\",\"cause\":\"";
         for (char c : f.cause)
             s += c == '"' ? std::string("\\\"") : std::string(1, c);
         s += "\"}";
@@ -559,11 +622,16 @@ std::string presetWithFindings(const std::filesystem::path& presetFile, const Re
     std::string l;
     lines.push_back("# Written by nvstim diagnose from " + presetFile.filename().string() +
                     ": the effects it found switched on with their fitted parameters");
+    // Candidates and unexplained structure are named in the header only: the preset is the
+    // model with the causes found.
     for (const Finding& f : r.findings)
-        lines.push_back("#   " + f.effect + ": " + f.cause);
+        lines.push_back("#   " + f.effect +
+                        (f.status == "named" ? "" : " (" + f.status + ", not set)") + ": " +
+                        f.cause);
     while (std::getline(in, l))
         lines.push_back(l);
-    for (const Finding& f : r.findings)
+    for (const Finding& f : r.findings) {
+        if (f.status != "named") continue;
         for (const auto& [k, v] : f.presetKeys) {
             const std::size_t dot = k.find('.');
             if (dot == std::string::npos)
@@ -571,6 +639,7 @@ std::string presetWithFindings(const std::filesystem::path& presetFile, const Re
             else
                 setKey(lines, k.substr(0, dot), k.substr(dot + 1), v);
         }
+    }
     std::string out;
     for (const std::string& s : lines)
         out += s + "\n";

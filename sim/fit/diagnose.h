@@ -50,6 +50,13 @@ struct Finding {
     std::string unit;         // its unit (DC or DC2)
     // Preset keys that switch the effect on: "section.key" = TOML value text.
     std::vector<std::pair<std::string, std::string>> presetKeys;
+    // "named", or "candidate" where the residual after it holds a larger unexplained structure,
+    // or its noise test fails once the structures are taken out (structure.h).
+    std::string status = "named";
+    // effect "unexplained" only: the structure's shape, its character (spatial, temporal,
+    // level, geometric) and its share of the held-out squared error.
+    std::string structure, character;
+    double share = 0.0;
 };
 
 // Per-effect outcome, significant or not (the report lists every one).

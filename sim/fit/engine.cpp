@@ -219,6 +219,50 @@ Work::Work(const Dataset& ds, const ModelRun& mr, const sensor::CameraParams& c,
     }
     for (std::size_t t = 0; t < tileVar.size(); ++t)
         tileVar[t] = cnt[t] > 0 ? std::max(tileVar[t] / cnt[t], 0.25) : 1.0;
+    setHeadroom();
+}
+
+void Work::setHeadroom() {
+    // The model's noise variance as a line in its signal, e² = s0 + s1·S, by least squares on
+    // the held-out frames' noisy run where it is far from both ends of the ADC (shot noise
+    // through the MCP has a variance linear in the signal).
+    const double top = m.maxDc - 0.5;
+    double n = 0, sx = 0, sy = 0, sxx = 0, sxy = 0;
+    Plane S;
+    for (int k : ho) {
+        assembleFrame(m.signal, k, w, h, m.fieldScan, S);
+        const Plane& N = m.noisy[static_cast<std::size_t>(k)];
+        for (std::size_t q = 0; q < S.size(); ++q) {
+            const double mean = m.offset_dc + S[q];
+            if (!(N[q] > 0.5f) || mean > 0.6 * top || mean < 0.0) continue;
+            const double e = N[q] - mean;
+            n += 1;
+            sx += S[q];
+            sy += e * e;
+            sxx += static_cast<double>(S[q]) * S[q];
+            sxy += S[q] * e * e;
+        }
+    }
+    if (n < 100) return;
+    const double det = n * sxx - sx * sx;
+    const double s1 = det > 1e-9 * n * sxx ? std::max((n * sxy - sx * sy) / det, 0.0) : 0.0;
+    const double s0 = std::max((sy - s1 * sx) / n, 0.0);
+    auto edge = [&](double sig) { return 4.5 * std::sqrt(s0 + s1 * std::max(sig, 0.0)) + 0.5; };
+    // The largest signal whose mean + 4.5 σ stays under the top, and the smallest whose
+    // mean − 4.5 σ stays above 0 (bisection: both sides are monotonic in the signal).
+    double lo = -m.offset_dc, hi = m.maxDc;
+    for (int i = 0; i < 60; ++i) {
+        const double mid = 0.5 * (lo + hi);
+        (m.offset_dc + mid + edge(mid) < top ? lo : hi) = mid;
+    }
+    headroomTop_dc = static_cast<float>(lo);
+    lo = -m.offset_dc;
+    hi = m.maxDc;
+    for (int i = 0; i < 60; ++i) {
+        const double mid = 0.5 * (lo + hi);
+        (m.offset_dc + mid - edge(mid) > 0.5 ? hi : lo) = mid;
+    }
+    headroomBottom_dc = static_cast<float>(hi);
 }
 
 namespace {

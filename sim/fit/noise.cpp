@@ -50,15 +50,15 @@ Tiles temporal(const Work& w, int k0, int k1) {
         for (int y = 0; y < w.h; ++y)
             for (int x = 0; x < w.w; ++x) {
                 const std::size_t p = static_cast<std::size_t>(y) * w.w + x;
-                if (!w.valid(A[p], X[p]) || !w.valid(B[p], X[p])) continue;
+                if (!w.quiet(A[p], X[p]) || !w.quiet(B[p], X[p])) continue;
                 const std::size_t ti = static_cast<std::size_t>(w.tileOf(x, y));
                 const double d = A[p] - B[p], ds = SA[p] - SB[p];
                 t.v[ti] += d * d;
                 t.vSim[ti] += ds * ds;
                 t.mu[ti] += X[p];
                 t.n[ti] += 1.0;
-                if (x + 1 < w.w && w.tileOf(x + 1, y) == w.tileOf(x, y) && w.valid(A[p + 1]) &&
-                    w.valid(B[p + 1])) {
+                if (x + 1 < w.w && w.tileOf(x + 1, y) == w.tileOf(x, y) &&
+                    w.quiet(A[p + 1], X[p + 1]) && w.quiet(B[p + 1], X[p + 1])) {
                     t.c1[ti] += d * (A[p + 1] - B[p + 1]);
                     t.c1Sim[ti] += ds * (SA[p + 1] - SB[p + 1]);
                     t.n1[ti] += 1.0;
@@ -110,7 +110,7 @@ void fixedPattern(const Work& w, const Current& cur, std::size_t i0, std::size_t
         }
         const Plane& M = w.measured(w.sub[i]);
         for (std::size_t p = 0; p < np; ++p) {
-            if (!w.valid(M[p], cur.Y[i][p])) continue;
+            if (!w.quiet(M[p], cur.Y[i][p])) continue;
             A[g][p] += static_cast<float>(M[p] - (cur.fit.b + cur.fit.a * cur.Y[i][p]));
             Y[g][p] += cur.Y[i][p];
             cnt[g][p] += 1.0f;

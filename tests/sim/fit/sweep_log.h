@@ -19,7 +19,9 @@ inline void logSeed(const std::string& hidden, int seed, const std::map<std::str
         std::fprintf(stderr, " %s=%.4g", k.c_str(), v);
     std::fprintf(stderr, " ->");
     for (const auto& f : r.findings) {
-        std::fprintf(stderr, " [%s z=%.1f", f.effect.c_str(), f.z);
+        std::fprintf(stderr, " [%s%s%s z=%.1f", f.effect.c_str(),
+                     f.effect == "unexplained" ? (":" + f.structure).c_str() : "",
+                     f.status == "candidate" ? " (candidate)" : "", f.z);
         for (const auto& [k, v] : f.parameters)
             std::fprintf(stderr, " %s=%.4g", k.c_str(), v);
         std::fprintf(stderr, "]");

@@ -124,21 +124,25 @@ int run(int argc, char** argv) {
             if (effects.empty()) {
                 row.none += r.findings.empty() ? 1 : 0;
             } else {
-                const bool top = !r.findings.empty() && r.findings[0].effect == effects[0];
+                // Named only: a candidate (explained better by unexplained structure) or an
+                // unexplained structure does not name a cause.
+                auto named = [](const nvs::fit::Finding& f) { return f.status == "named"; };
+                const bool top = !r.findings.empty() && r.findings[0].effect == effects[0] &&
+                                 named(r.findings[0]);
                 bool all = true;
                 double err = 0.0;
                 for (const std::string& e : effects) {
                     bool found = false;
                     for (const auto& f : r.findings)
-                        if (f.effect == e) {
+                        if (f.effect == e && named(f)) {
                             found = true;
                             err = std::max(err, paramError(f, g.truth));
                         }
                     all = all && found;
                 }
-                const bool anyTop =
-                    !r.findings.empty() && std::find(effects.begin(), effects.end(),
-                                                     r.findings[0].effect) != effects.end();
+                const bool anyTop = !r.findings.empty() && named(r.findings[0]) &&
+                                    std::find(effects.begin(), effects.end(),
+                                              r.findings[0].effect) != effects.end();
                 row.named += (effects.size() == 1 ? top : anyTop) ? 1 : 0;
                 row.allNamed += all ? 1 : 0;
                 row.within += all && err <= 0.2 ? 1 : 0;
