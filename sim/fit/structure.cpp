@@ -1,14 +1,12 @@
 #include "sim/fit/structure.h"
 
-#include <gsl/gsl_linalg.h>
-#include <gsl/gsl_matrix.h>
-#include <gsl/gsl_vector.h>
-
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <limits>
 #include <string>
+
+#include "sim/fit/normal_eq.h"
 
 namespace nvs::fit {
 
@@ -57,57 +55,6 @@ constexpr double kMirrorBlur_px = 4.0;
 constexpr double kMinShare = 0.005;  // of the held-out squared error
 constexpr int kMaxStructures = 3;
 constexpr double kRivalZ = 3.0;  // a shape this close is checked against the one taken
-
-// Least squares by the normal equations, solved by GSL's SVD (a basis that the valid pixels
-// do not span, a level with no pixel, leaves a singular value that is dropped).
-class Normal {
-  public:
-    explicit Normal(int k) : k_(k), A_(static_cast<std::size_t>(k * k), 0.0), b_(k, 0.0) {}
-    void add(const double* x, double y) {
-        for (int i = 0; i < k_; ++i) {
-            if (x[i] == 0.0) continue;
-            b_[static_cast<std::size_t>(i)] += x[i] * y;
-            for (int j = 0; j < k_; ++j)
-                A_[static_cast<std::size_t>(i * k_ + j)] += x[i] * x[j];
-        }
-    }
-    std::vector<double> solve() const {
-        std::vector<double> out(static_cast<std::size_t>(k_), 0.0);
-        gsl_matrix* U =
-            gsl_matrix_alloc(static_cast<std::size_t>(k_), static_cast<std::size_t>(k_));
-        gsl_matrix* V =
-            gsl_matrix_alloc(static_cast<std::size_t>(k_), static_cast<std::size_t>(k_));
-        gsl_vector* S = gsl_vector_alloc(static_cast<std::size_t>(k_));
-        gsl_vector* work = gsl_vector_alloc(static_cast<std::size_t>(k_));
-        gsl_vector* rhs = gsl_vector_alloc(static_cast<std::size_t>(k_));
-        gsl_vector* x = gsl_vector_alloc(static_cast<std::size_t>(k_));
-        for (int i = 0; i < k_; ++i) {
-            gsl_vector_set(rhs, static_cast<std::size_t>(i), b_[static_cast<std::size_t>(i)]);
-            for (int j = 0; j < k_; ++j)
-                gsl_matrix_set(U, static_cast<std::size_t>(i), static_cast<std::size_t>(j),
-                               A_[static_cast<std::size_t>(i * k_ + j)]);
-        }
-        if (gsl_linalg_SV_decomp(U, V, S, work) == 0) {
-            const double top = gsl_vector_get(S, 0);
-            for (int i = 0; i < k_; ++i)
-                if (gsl_vector_get(S, static_cast<std::size_t>(i)) < 1e-10 * top)
-                    gsl_vector_set(S, static_cast<std::size_t>(i), 0.0);
-            if (top > 0.0 && gsl_linalg_SV_solve(U, V, S, rhs, x) == 0)
-                for (int i = 0; i < k_; ++i)
-                    out[static_cast<std::size_t>(i)] =
-                        gsl_vector_get(x, static_cast<std::size_t>(i));
-        }
-        for (gsl_vector* v : {S, work, rhs, x})
-            gsl_vector_free(v);
-        gsl_matrix_free(U);
-        gsl_matrix_free(V);
-        return out;
-    }
-
-  private:
-    int k_;
-    std::vector<double> A_, b_;
-};
 
 // Legendre polynomials P0..P_deg at t in [−1, 1].
 void legendre(double t, double* out) {
@@ -252,10 +199,33 @@ bool inFold(const Work& w, int x, int y, int fold) {
     return ((x / w.stile + y / w.stile) & 1) == fold;
 }
 
+// A fixed shape's prediction with coefficients coef on every frame of f.
+std::vector<Plane> predictFixed(const Work& w, Kind k, const Frames& f,
+                                const std::vector<double>& coef) {
+    std::vector<Plane> Q(f.R.size(), Plane(f.R[0].size(), 0.0f));
+    double x[16];
+    const int n = basisSize(k);
+    for (std::size_t i = 0; i < f.R.size(); ++i)
+        for (int y = 0; y < w.h; ++y)
+            for (int xx = 0; xx < w.w; ++xx) {
+                const std::size_t p = static_cast<std::size_t>(y) * w.w + xx;
+                double s = 0.0;
+                if (k == kFixedColumns || k == kFixedRows) {
+                    s = coef[static_cast<std::size_t>(k == kFixedColumns ? xx : y)];
+                } else {
+                    basis(k, f, i, xx, y, p, x);
+                    for (int j = 0; j < n; ++j)
+                        s += x[j] * coef[static_cast<std::size_t>(j)];
+                }
+                Q[i][p] = static_cast<float>(s);
+            }
+    return Q;
+}
+
 // Fixed shape with a small basis: fitted on frames [0, nFit), predicted everywhere.
 ShapeFit fitSmall(const Work& w, Kind k, const Frames& f, std::size_t nFit) {
     const int n = basisSize(k);
-    Normal ne(n);
+    NormalEquations ne(n);
     double x[16];
     for (std::size_t i = 0; i < nFit; ++i)
         for (int y = 0; y < w.h; ++y)
@@ -267,17 +237,7 @@ ShapeFit fitSmall(const Work& w, Kind k, const Frames& f, std::size_t nFit) {
             }
     ShapeFit t;
     t.coef = ne.solve();
-    t.Q.assign(f.R.size(), Plane(f.R[0].size(), 0.0f));
-    for (std::size_t i = 0; i < f.R.size(); ++i)
-        for (int y = 0; y < w.h; ++y)
-            for (int xx = 0; xx < w.w; ++xx) {
-                const std::size_t p = static_cast<std::size_t>(y) * w.w + xx;
-                basis(k, f, i, xx, y, p, x);
-                double s = 0.0;
-                for (int j = 0; j < n; ++j)
-                    s += x[j] * t.coef[static_cast<std::size_t>(j)];
-                t.Q[i][p] = static_cast<float>(s);
-            }
+    t.Q = predictFixed(w, k, f, t.coef);
     return t;
 }
 
@@ -298,12 +258,7 @@ ShapeFit fitLines(const Work& w, bool columns, const Frames& f, std::size_t nFit
     t.coef.resize(s.size());
     for (std::size_t j = 0; j < s.size(); ++j)
         t.coef[j] = c[j] > 0 ? s[j] / c[j] : 0.0;
-    t.Q.assign(f.R.size(), Plane(f.R[0].size(), 0.0f));
-    for (std::size_t i = 0; i < f.R.size(); ++i)
-        for (int y = 0; y < w.h; ++y)
-            for (int x = 0; x < w.w; ++x)
-                t.Q[i][static_cast<std::size_t>(y) * w.w + x] =
-                    static_cast<float>(t.coef[static_cast<std::size_t>(columns ? x : y)]);
+    t.Q = predictFixed(w, columns ? kFixedColumns : kFixedRows, f, t.coef);
     return t;
 }
 
@@ -333,7 +288,7 @@ std::vector<double> fitFrame(const Work& w, Kind k, const Plane& R, const Plane&
             s[j] = c[j] > 0 ? s[j] / c[j] : 0.0;
         return s;
     }
-    Normal ne(k == kFrameGain ? 2 : 3);
+    NormalEquations ne(k == kFrameGain ? 2 : 3);
     for (int y = 0; y < w.h; ++y)
         for (int x = 0; x < w.w; ++x) {
             const std::size_t p = static_cast<std::size_t>(y) * w.w + x;
@@ -784,25 +739,8 @@ std::vector<Plane> withoutStructure(const Work& w, const Current& cur,
                         t.Q[0][p] =
                             static_cast<float>(frameValue(w, kind, c, f.AY[0], f.G[0], p, x, y));
                     }
-            } else if (kind == kFixedColumns || kind == kFixedRows) {
-                t.Q.assign(1, Plane(M.size(), 0.0f));
-                for (int y = 0; y < w.h; ++y)
-                    for (int x = 0; x < w.w; ++x)
-                        t.Q[0][static_cast<std::size_t>(y) * w.w + x] = static_cast<float>(
-                            sf.coef[static_cast<std::size_t>(kind == kFixedColumns ? x : y)]);
             } else {
-                const int nb = basisSize(kind);
-                double x[16];
-                t.Q.assign(1, Plane(M.size(), 0.0f));
-                for (int y = 0; y < w.h; ++y)
-                    for (int xx = 0; xx < w.w; ++xx) {
-                        const std::size_t p = static_cast<std::size_t>(y) * w.w + xx;
-                        basis(kind, f, 0, xx, y, p, x);
-                        double s = 0.0;
-                        for (int j = 0; j < nb; ++j)
-                            s += x[j] * sf.coef[static_cast<std::size_t>(j)];
-                        t.Q[0][p] = static_cast<float>(s);
-                    }
+                t.Q = predictFixed(w, kind, f, sf.coef);
             }
             for (std::size_t p = 0; p < C.size(); ++p) {
                 if (!std::isfinite(f.R[0][p])) continue;
