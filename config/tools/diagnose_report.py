@@ -73,6 +73,43 @@ def fmt(v):
     return "%.4g" % v if isinstance(v, float) else str(v)
 
 
+def compare_section(c, d, png, title_a="A", title_b="B"):
+    """Markdown and a bar plot of one comparison (nvstim diagnose --compare)."""
+    a, b = c["a"], c["b"]
+    md = ["| | %s: `%s` | %s: `%s` |" % (title_a, a["preset"], title_b, b["preset"]),
+          "|---|---|---|",
+          "| held-out RMS [DC] | %s | %s |" % (fmt(a["heldout_rms_dc"]), fmt(b["heldout_rms_dc"])),
+          "| log-likelihood per pixel [nats] | %s | %s |" % (
+              fmt(a["log_likelihood_per_pixel"]), fmt(b["log_likelihood_per_pixel"])),
+          "| gain, offset [DC], extra blur [px] | %s, %s, %s | %s, %s, %s |" % (
+              fmt(a["gain_rel"]), fmt(a["offset_dc"]), fmt(a["mtf_extra_blur_px"]),
+              fmt(b["gain_rel"]), fmt(b["offset_dc"]), fmt(b["mtf_extra_blur_px"])),
+          "",
+          "Paired test over tiles of %s's squared error against %s's: z = %.1f (> 0: %s predicts "
+          "the held-out frames better); %d held-out pixels." % (
+              title_b, title_a, c["z"], title_b, int(c["heldout_pixels"])),
+          "", "| region | pixels | RMS %s [DC] | RMS %s [DC] | gain |" % (title_a, title_b),
+          "|---|---|---|---|---|"]
+    for r in c["regions"]:
+        md.append("| %s | %d | %s | %s | %+.1f %% |" % (
+            r["name"], int(r["pixels"]), fmt(r["rms_a_dc"]), fmt(r["rms_b_dc"]), r["gain_pct"]))
+    regs = [r for r in c["regions"] if r["pixels"] > 0]
+    fig, ax = plt.subplots(figsize=(8.0, 4.8), dpi=100)
+    xs = range(len(regs))
+    ax.bar([x - 0.2 for x in xs], [r["rms_a_dc"] for r in regs], 0.4, label="%s: %s" % (title_a, a["preset"]))
+    ax.bar([x + 0.2 for x in xs], [r["rms_b_dc"] for r in regs], 0.4, label="%s: %s" % (title_b, b["preset"]))
+    ax.set_xticks(list(xs))
+    ax.set_xticklabels([r["name"] for r in regs], rotation=45, ha="right")
+    ax.set_ylabel("held-out RMS [DC]")
+    ax.set_title("held-out RMS per region")
+    ax.legend()
+    fig.tight_layout()
+    fig.savefig(os.path.join(d, png))
+    plt.close(fig)
+    md += ["", "![%s](%s)" % (png, png), ""]
+    return md
+
+
 def main():
     if len(sys.argv) != 2:
         sys.stderr.write("usage: diagnose_report.py DIR\n")
@@ -80,6 +117,14 @@ def main():
     d = sys.argv[1]
     with open(os.path.join(d, "report.json")) as f:
         rep = json.load(f)
+    if "compare" in rep:
+        md = ["# nvstim diagnose --compare: %s" % rep["dataset"], "",
+              "Both presets fitted on the calibration half (extra MTF blur, gain, offset), scored "
+              "on the held-out half on the same pixels.", ""]
+        md += compare_section(rep["compare"], d, "compare_regions.png")
+        with open(os.path.join(d, "report.md"), "w") as f:
+            f.write("\n".join(md) + "\n")
+        return 0
     res = rep["result"]
     md = ["# nvstim diagnose: %s" % rep["dataset"], "",
           "Camera model `%s`, frames %d x %d." % (rep["camera"], rep["width"], rep["height"]), ""]
@@ -101,6 +146,12 @@ def main():
                 name, f.get("status", "named"), f["cause"], params, fmt(f["heldout_rms_before"]),
                 fmt(f["heldout_rms_after"]), f["unit"], f["confidence"]))
         md.append("")
+    if "gain_of_written_preset" in rep:
+        md += ["## The gain of the written preset", "",
+               "The dataset's preset (before) against the preset `--write-preset` wrote (after), "
+               "each fitted on the calibration half and scored on the held-out half.", ""]
+        md += compare_section(rep["gain_of_written_preset"]["compare"], d, "gain_regions.png",
+                              "before", "after")
     md += ["## Baseline (calibration half)", "", "| quantity | value |", "|---|---|"]
     for k, v in sorted(res["baseline"].items()):
         md.append("| %s | %s |" % (k, fmt(v)))

@@ -195,6 +195,12 @@ int runCli(int argc, const char* const* argv) {
                             "Write a report with plots to DIR (Markdown and PNG)");
     diagnoseCmd->add_option("--write-preset", diagnose.writePreset,
                             "Write the camera preset with the found effects on and fitted to FILE");
+    diagnoseCmd
+        ->add_option("--compare", diagnose.compare,
+                     "Fit two presets (names or paths) on the calibration half and compare them "
+                     "on the held-out half instead of diagnosing: RMS, likelihood, per region")
+        ->expected(2)
+        ->excludes("--write-preset");
     std::optional<std::string> diagnoseSeed;
     diagnoseCmd->add_option("--seed", diagnoseSeed,
                             "Seed of the model's noise, 0..18446744073709551615 (default 1)");

@@ -84,6 +84,7 @@ struct DiagnoseOptions {
     std::optional<std::string> report;
     std::optional<std::string> writePreset;  // the preset with the found effects on
     std::uint64_t seed = 1;                  // the model's noise
+    std::vector<std::string> compare;        // two presets: compare them instead of diagnosing
 };
 
 struct BenchOptions {

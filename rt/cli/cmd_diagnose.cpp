@@ -2,6 +2,10 @@
 // (docs/design.md §8, docs/contracts.md "diagnose", docs/diagnose.md).
 //
 //   nvstim diagnose DATASET_DIR [--json OUT] [--report DIR] [--write-preset FILE] [--seed S]
+//   nvstim diagnose DATASET_DIR --compare PRESET_A PRESET_B [--json OUT] [--report DIR]
+//
+// With --report and --write-preset the report also shows the gain of the written preset (the
+// dataset's preset against it, as --compare does).
 //
 // The dataset and every output path are checked before any work (sim/core/output_file.h): a bad
 // dataset or output is one line on stderr and exit 2 with nothing written. Progress goes to
@@ -10,6 +14,8 @@
 // previous report (marked by kReportMarker), never any other folder. The report's
 // plots are drawn by config/tools/diagnose_report.py with Matplotlib (Debian
 // python3-matplotlib).
+
+#include <unistd.h>
 
 #include <chrono>
 #include <cstdio>
@@ -23,6 +29,7 @@
 #include "sim/core/error.h"
 #include "sim/core/input_file.h"
 #include "sim/core/output_file.h"
+#include "sim/fit/compare.h"
 #include "sim/fit/diagnose.h"
 #include "sim/io/pnm.h"
 
@@ -43,11 +50,12 @@ int runPlotter(const fs::path& script, const fs::path& dir) {
     return runChild({python, script.string(), dir.string()});
 }
 
-void writeReport(const fit::Result& r, const fs::path& dir, const fs::path& script,
-                 const std::string& dataset, OutputFiles& outputs) {
+// `reportJson` is report.json's text; the maps of `r` are written beside it as PFM.
+void writeReport(const fit::Result& r, const std::string& reportJson, const fs::path& dir,
+                 const fs::path& script, OutputFiles& outputs) {
     outputs.writeWith(dir, [&](const fs::path& tmp) {
         std::ofstream out(tmp / "report.json");
-        out << fit::reportJson(r, dataset) << "\n";
+        out << reportJson << "\n";
         out.close();
         if (!out) throw std::runtime_error("cannot write report.json");
         for (const auto& [name, plane] : r.maps) {
@@ -63,6 +71,39 @@ void writeReport(const fit::Result& r, const fs::path& dir, const fs::path& scri
                                      "; it needs Debian's python3-matplotlib); no output written");
         }
     });
+}
+
+// The comparison's report.json: the dataset and the comparison (diagnose_report.py draws it).
+std::string compareReportJson(const fit::Comparison& c, const std::string& dataset) {
+    std::string q = "\"";
+    for (char ch : dataset)
+        q += ch == '"' || ch == '\\' ? std::string("\\") + ch : std::string(1, ch);
+    return "{\"dataset\":" + q + "\"," + fit::toJson(c).substr(1);
+}
+
+// The gain of the preset --write-preset writes, for the report: the dataset's preset against
+// it on the held-out frames (written to a temporary file, removed after).
+std::string gainOfWrittenPreset(const fit::Dataset& d, const fit::Result& r, const DataDirs& dirs,
+                                const fit::Options& o, const fit::Progress& progress) {
+    const fs::path tmp = fs::temp_directory_path() /
+                         ("nvstim-diagnose-" + std::to_string(::getpid()) + "-preset.toml");
+    {
+        std::ofstream out(tmp);
+        out << fit::presetWithFindings(d.presetFile, r);
+        if (!out) throw std::runtime_error(tmp.string() + ": cannot write the written preset");
+    }
+    progress("the gain of the written preset: " + d.presetFile.filename().string() + " against it");
+    std::string j;
+    try {
+        const sensor::Overrides settings = fit::settingsWithoutFindings(d, r);
+        j = fit::toJson(fit::compareModels(d, dirs.config, d.presetFile.string(), tmp.string(), o,
+                                           progress, &settings));
+    } catch (...) {
+        fs::remove(tmp);
+        throw;
+    }
+    fs::remove(tmp);
+    return j;
 }
 
 }  // namespace
@@ -98,7 +139,31 @@ int runDiagnose(const DiagnoseOptions& opts) {
              " distinct stimuli, camera " + d.camera.name);
     fit::Options o;
     o.seed = opts.seed;
+    if (!opts.compare.empty()) {
+        const fit::Comparison c =
+            fit::compareModels(d, dirs.config, opts.compare[0], opts.compare[1], o, progress);
+        const std::string json = fit::toJson(c);
+        outputs.holdSignals();
+        if (opts.json) outputs.writeText(*opts.json, json + "\n");
+        if (opts.report)
+            writeReport(fit::Result{}, compareReportJson(c, opts.datasetDir), *opts.report, script,
+                        outputs);
+        outputs.commit();
+        std::printf("%s\n", json.c_str());
+        return kExitOk;
+    }
     const fit::Result r = fit::diagnose(d, dirs.config, o, progress);
+    std::string report;
+    if (opts.report) {
+        report = fit::reportJson(r, opts.datasetDir);
+        bool named = false;
+        for (const fit::Finding& f : r.findings)
+            named = named || f.status == "named";
+        if (opts.writePreset && named)
+            report = report.substr(0, report.size() - 1) +
+                     ",\"gain_of_written_preset\":" + gainOfWrittenPreset(d, r, dirs, o, progress) +
+                     "}";
+    }
     const std::string json = fit::toJson(r);
     {
         // All outputs or none; a signal meanwhile leaves none and no temporary.
@@ -106,7 +171,7 @@ int runDiagnose(const DiagnoseOptions& opts) {
         if (opts.json) outputs.writeText(*opts.json, json + "\n");
         if (opts.writePreset)
             outputs.writeText(*opts.writePreset, fit::presetWithFindings(d.presetFile, r));
-        if (opts.report) writeReport(r, *opts.report, script, opts.datasetDir, outputs);
+        if (opts.report) writeReport(r, report, *opts.report, script, outputs);
         outputs.commit();
     }
     progress(r.findings.empty() ? "no finding"

@@ -16,6 +16,16 @@
 
 namespace nvs::fit {
 
+MeanModel modelExtras(const FitEffects& e, const ModelRun& m) {
+    MeanModel mm;
+    mm.haloF = e.haloFraction;
+    mm.haloR_um = e.haloRadius_um;
+    mm.glareG = e.glareFraction;
+    mm.glareS_um = e.glareScale_um;
+    mm.satQ_dc = e.satCharge_e * m.dcPerMcpElectron;
+    return mm;
+}
+
 namespace {
 
 std::string num(double v) {
@@ -300,16 +310,6 @@ void resimulateNoise(const Dataset& d, ModelRun& m, const Work& w, const MeanMod
     m.noisy = noisyRun(d, stim, cam, configDir, seed);
 }
 
-MeanModel modelExtras(const Dataset& d, const ModelRun& m) {
-    MeanModel mm;
-    const FitEffects& e = d.cameraExtra;
-    mm.haloF = e.haloFraction;
-    mm.haloR_um = e.haloRadius_um;
-    mm.glareG = e.glareFraction;
-    mm.glareS_um = e.glareScale_um;
-    mm.satQ_dc = e.satCharge_e * m.dcPerMcpElectron;
-    return mm;
-}
 
 }  // namespace
 
@@ -414,7 +414,7 @@ void diagnoseCamera(const Dataset& d, const std::filesystem::path& configDir, co
         progress("baseline: gain, offset, MTF on " + std::to_string(w.cal.size()) +
                  " calibration frames");
     Current cur;
-    cur.mm = modelExtras(d, m);
+    cur.mm = modelExtras(d.cameraExtra, m);
     fitBaseline(w, cur, r);
     linearity(w, cur, r);
     roiMeans(w, cur, r);
@@ -474,7 +474,7 @@ SceneFit diagnoseScene(const Dataset& d, const std::filesystem::path& configDir,
     Work w(d, m, d.camera, opt, progress, configDir);
     assembleUnblurred(w, m);
     Current cur;
-    cur.mm = modelExtras(d, m);
+    cur.mm = modelExtras(d.cameraExtra, m);
     Result scratch;
     fitBaseline(w, cur, scratch);
     return trySceneEffects(

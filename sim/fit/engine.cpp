@@ -247,6 +247,8 @@ void Work::setHeadroom() {
     const double det = n * sxx - sx * sx;
     const double s1 = det > 1e-9 * n * sxx ? std::max((n * sxy - sx * sy) / det, 0.0) : 0.0;
     const double s0 = std::max((sy - s1 * sx) / n, 0.0);
+    noiseS0_dc2 = s0;
+    noiseS1_dc = s1;
     auto edge = [&](double sig) { return 4.5 * std::sqrt(s0 + s1 * std::max(sig, 0.0)) + 0.5; };
     // The largest signal whose mean + 4.5 σ stays under the top, and the smallest whose
     // mean − 4.5 σ stays above 0 (bisection: both sides are monotonic in the signal).

@@ -128,7 +128,14 @@ struct Work {
     // The model's signal [DC above offset] whose mean lies 4.5 σ inside the ADC's range (σ the
     // model's noise at that signal, from its noisy run: Work's constructor).
     float headroomTop_dc = 3e38f, headroomBottom_dc = -3e38f;
+    // The model's noise variance at signal S [DC above offset]: noiseS0_dc2 + noiseS1_dc·S (the
+    // same fit; 0 and 0 when the noisy run has too few pixels away from the ADC's ends).
+    double noiseS0_dc2 = 0.0, noiseS1_dc = 0.0;
 };
+
+// The effects a preset switches on that diagnose models itself (halo, veiling glare, MCP
+// saturation: Dataset::cameraExtra), as a mean model with nothing else.
+MeanModel modelExtras(const FitEffects& e, const ModelRun& m);
 
 // The mean model's signal above offset [model DC] for the frames of w.sub.
 std::vector<Plane> predict(Work& w, const MeanModel& mm);

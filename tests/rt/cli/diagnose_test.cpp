@@ -13,6 +13,7 @@
 #include <string>
 
 #include "rt/cli/cli.h"
+#include "sim/fit/compare.h"
 #include "sim/fit/dataset.h"
 #include "sim/fit/generate.h"
 #include "tests/rt/cli/cli_run.h"
@@ -125,6 +126,57 @@ TEST(Diagnose, BadDatasetExitsTwoWithOneLineAndWritesNothing) {
         EXPECT_TRUE(r.out.empty());
         EXPECT_FALSE(fs::exists(out) || fs::exists(preset) || fs::exists(rep)) << c.to;
     }
+}
+
+// The gain of a fix, measured on held-out frames: the model with the hidden halo's true
+// parameters (the generator's truth, not a fit) against the model without it. The true model
+// must predict better (z > 5), most where the halo carries light (the bright level third), and a
+// model against itself must show no gain at all.
+TEST(Diagnose, CompareShowsTheGainOfTheTrueHaloModel) {
+    fit::GenSpec s;
+    s.effects = {"halo"};
+    s.seed = 1;
+    const fit::Generated g = fit::generate(s, NVS_SOURCE_DIR "/config");
+    sensor::Overrides truth = g.data.settings;
+    truth["halo.enabled"] = "true";
+    truth["halo.fraction"] = std::to_string(g.truth.at("halo.fraction"));
+    truth["halo.radius_um"] = std::to_string(g.truth.at("halo.radius_um"));
+    const fit::Comparison c = fit::compareModels(
+        g.data, NVS_SOURCE_DIR "/config", "pulnix-ag5745ef3", "pulnix-ag5745ef3", {}, {}, &truth);
+    EXPECT_GT(c.z, 5.0);
+    EXPECT_LT(c.b.heldoutRms_dc, c.a.heldoutRms_dc);
+    EXPECT_GT(c.b.logLikelihoodPerPixel, c.a.logLikelihoodPerPixel);
+    ASSERT_EQ(c.regions.size(), 12u);
+    EXPECT_EQ(c.regions[11], "level: bright third");
+    EXPECT_GT(c.regionGain_pct[11], c.regionGain_pct[9]) << "bright third against dark third";
+    const fit::Comparison same = fit::compareModels(g.data, NVS_SOURCE_DIR "/config",
+                                                    "pulnix-ag5745ef3", "pulnix-ag5745ef3");
+    EXPECT_EQ(same.z, 0.0);
+    EXPECT_EQ(same.a.heldoutRms_dc, same.b.heldoutRms_dc);
+}
+
+// The command line: --compare prints the comparison, --report draws it, and --compare with
+// --write-preset is refused (there is nothing to write).
+TEST(Diagnose, CompareOnTheCommandLine) {
+    const WorkDir work;
+    const fs::path ds = writeHalo(work.path);
+    const CliRun r =
+        nvstim("diagnose " + ds.string() + " --compare pulnix-ag5745ef3 pulnix-ag5745ef3 --json " +
+               (work.path / "c.json").string());
+    ASSERT_EQ(r.status, 0) << r.err;
+    for (const char* key : {"{\"compare\":{\"a\":{\"preset\":\"pulnix-ag5745ef3\"",
+                            "\"heldout_rms_dc\"", "\"log_likelihood_per_pixel\"",
+                            "\"regions\":[{\"name\":\"top left\"", "\"gain_pct\"", "\"z\":0"})
+        EXPECT_NE(r.out.find(key), std::string::npos) << key << " in " << r.out;
+    EXPECT_TRUE(fs::exists(work.path / "c.json"));
+    const CliRun bad = nvstim("diagnose " + ds.string() +
+                              " --compare pulnix-ag5745ef3 pulnix-ag5745ef3 --write-preset " +
+                              (work.path / "p.toml").string());
+    EXPECT_EQ(bad.status, 2) << bad.err;
+    EXPECT_FALSE(fs::exists(work.path / "p.toml"));
+    const CliRun missing =
+        nvstim("diagnose " + ds.string() + " --compare pulnix-ag5745ef3 no-such-preset");
+    EXPECT_EQ(missing.status, 2) << missing.err;
 }
 
 }  // namespace
