@@ -85,17 +85,25 @@ fuzz: .nvs-fuzz-deps
 	@$(MAKE) --no-print-directory .nvs-deps PACKAGES="$(PACKAGES) $(FUZZ_PACKAGES)"
 
 VALIDATE := $(BUILD)/validate
+# The open-world sweep (tests/diagnose_open, docs/validation.md): every effect of open_world.py,
+# OPEN_SEEDS seeds at OPEN_SIZE, 40 frames. At full size it is the longest part of validate
+# (about a minute a dataset on this 2-core machine); OPEN_SEEDS=3 OPEN_SIZE=256x160 runs in
+# about 7 minutes.
+OPEN_SEEDS ?= 20
+OPEN_SIZE ?= 768x494
 validate: .nvs-build
 	@mkdir -p $(VALIDATE)
 	$(BUILD)/tests/sim/fit/nvs_validate_diagnose --seeds 20 --out $(VALIDATE)/diagnose.md
 	$(BUILD)/tests/rt/compose/nvs_validate_scene --seeds 20 --out $(VALIDATE)/diagnose-scene.md
 	rm -rf $(VALIDATE)/thesis && python3 tests/data/diagnose/make_thesis_datasets.py tests/data/thesis $(VALIDATE)/thesis
 	$(BUILD)/tests/rt/thesis_scene/nvs_thesis_scene_datasets tests/data/thesis $(VALIDATE)/thesis
+	/usr/bin/python3 tests/diagnose_open/sweep.py --effects all --seeds $(OPEN_SEEDS) --size $(OPEN_SIZE) \
+	  --frames 40 --jobs 2 --nvstim $(NVSTIM) --out $(VALIDATE)/diagnose-open.md --json $(VALIDATE)/diagnose-open.json
 	@for d in $(VALIDATE)/thesis/*/; do \
 	  echo "nvstim: diagnose $$d"; \
 	  $(NVSTIM) diagnose $$d --json $${d%/}.json --report $${d%/}-report 2>/dev/null || exit 1; \
 	done
-	@echo "nvstim: sweep tables $(VALIDATE)/diagnose.md $(VALIDATE)/diagnose-scene.md; thesis findings $(VALIDATE)/thesis/*.json"
+	@echo "nvstim: sweep tables $(VALIDATE)/diagnose.md $(VALIDATE)/diagnose-scene.md $(VALIDATE)/diagnose-open.md; thesis findings $(VALIDATE)/thesis/*.json"
 
 .nvs-deps:
 	@missing=""; \

@@ -310,7 +310,6 @@ void resimulateNoise(const Dataset& d, ModelRun& m, const Work& w, const MeanMod
     m.noisy = noisyRun(d, stim, cam, configDir, seed);
 }
 
-
 }  // namespace
 
 namespace {
@@ -364,11 +363,13 @@ void demoteExplained(Work& w, const Current& cur, const std::vector<StructureFit
     const char* why = nullptr;
     for (const StructureFit& s : structures) {
         if (s.finding.character == "level")
-            why = " (candidate: the response bends with the level, unexplained level_transfer, "
-                  "and the noise's scale with it: a noise effect cannot be told from it)";
+            why =
+                " (candidate: the response bends with the level, unexplained level_transfer, "
+                "and the noise's scale with it: a noise effect cannot be told from it)";
         if (s.finding.character == "geometric" && why == nullptr)
-            why = " (candidate: the image moves between frames, unexplained frame_shift, and "
-                  "the frame differences the noise is measured from hold the motion)";
+            why =
+                " (candidate: the image moves between frames, unexplained frame_shift, and "
+                "the frame differences the noise is measured from hold the motion)";
     }
     if (why != nullptr) {
         for (std::size_t i = meanFound; i < r.findings.size(); ++i) {

@@ -7,54 +7,13 @@
 #include <string>
 
 #include "sim/fit/normal_eq.h"
+#include "sim/fit/structure_shapes.h"
 
 namespace nvs::fit {
 
+using namespace shapes;
+
 namespace {
-
-enum Kind {
-    kSmoothGain,
-    kFixedColumns,
-    kFixedRows,
-    kPointMirror,
-    kLevel,
-    kFrameGain,
-    kFrameRows,
-    kFrameShift,
-    kLag,
-    kKinds
-};
-
-struct Shape {
-    const char* name;
-    const char* character;
-    bool perFrame;
-    const char* what;
-};
-
-constexpr Shape kShapes[kKinds] = {
-    {"smooth_gain", "spatial", false,
-     "a gain that varies smoothly over the frame (vignetting, an uneven photocathode)"},
-    {"fixed_columns", "spatial", false, "an offset fixed to each column"},
-    {"fixed_rows", "spatial", false, "an offset fixed to each row"},
-    {"point_mirror", "spatial", false,
-     "a copy of the image rotated 180 deg about its centre (a ghost)"},
-    {"level_transfer", "level", false, "a response that bends with the level"},
-    {"frame_gain", "temporal", true, "a gain and an offset that change from frame to frame"},
-    {"frame_rows", "temporal", true, "row offsets that change from frame to frame"},
-    {"frame_shift", "geometric", true, "the image moving by part of a pixel from frame to frame"},
-    {"lag", "temporal", false, "part of the previous frame's light carried into the next"},
-};
-
-// smooth_gain: 15 terms. The constant is there too: the baseline's gain acts after the
-// model's saturation, a gain of the light before it (a vignetted frame's saturated spot keeps
-// its level while the panels lose theirs).
-constexpr int kLegendreDegree = 4;
-constexpr int kLevelKnots = 10;  // level_transfer: hat functions over the predicted range
-constexpr double kMirrorBlur_px = 4.0;
-constexpr double kMinShare = 0.005;  // of the held-out squared error
-constexpr int kMaxStructures = 3;
-constexpr double kRivalZ = 3.0;  // a shape this close is checked against the one taken
 
 // Legendre polynomials P0..P_deg at t in [−1, 1].
 void legendre(double t, double* out) {
@@ -63,24 +22,6 @@ void legendre(double t, double* out) {
     for (int n = 1; n < kLegendreDegree; ++n)
         out[n + 1] = ((2 * n + 1) * t * out[n] - n * out[n - 1]) / (n + 1);
 }
-
-// The frames the shapes work on: residual, prediction and the regressors that are images.
-struct Frames {
-    int w = 0, h = 0;
-    std::vector<Plane> R;   // measured − prediction [DC]; NaN where not valid
-    std::vector<Plane> P;   // prediction b + a·Y [DC]
-    std::vector<Plane> AY;  // a·Y [DC above offset]
-    // a·dY/d(ln L): how the prediction moves when the light L changes by a factor (a gain of
-    // the light, before the model's saturation and protection bend it); a·Y where the model
-    // is linear.
-    std::vector<Plane> G;
-    double gain = 1.0;          // a, the baseline's gain
-    std::vector<Plane> mirror;  // a·U rotated 180°, blurred by 1 px (and by 4 px: mirrorBlur)
-    std::vector<Plane> mirrorBlur;
-    std::vector<Plane> lag;      // S_{k−1} − S_k (then × a), S the model's per-call signal
-    std::vector<double> lx, ly;  // Legendre values per column and row, kLegendreDegree+1 each
-    double levelLo = 0.0, levelHi = 1.0;
-};
 
 // The image rotated 180° about its centre: pixel (x, y) from (w − 1 − x, h − 1 − y).
 Plane rotated(const Plane& Y) {
@@ -138,13 +79,6 @@ void addImages(const Work& w, const std::vector<int>& frames, Frames& f) {
     f.levelHi = lo < hi ? hi : 1.0;
 }
 
-// level_transfer's knots, evenly spaced over the predicted range. (Knots denser toward the dark
-// end, uniform in the square root of the level, followed a power law's slope there better but
-// gave the model's own output a level structure at z 8.2 from its top knot, 3.1 DC at 147 DC,
-// in 1 of 2 null datasets, and took a flicker for a level dependence.)
-double knotLevel(double lo, double hi, int j) {
-    return lo + (hi - lo) * static_cast<double>(j) / (kLevelKnots - 1);
-}
 // The segment j of level v and its position u in [0, 1] along it.
 void levelSegment(double lo, double hi, double v, int& j, double& u) {
     const double t = std::max(v - lo, 0.0) / (hi - lo) * (kLevelKnots - 1);
@@ -201,13 +135,6 @@ int basisSize(Kind k) {
             return 0;
     }
 }
-
-// A shape's prediction of the residual on every frame of the set.
-struct ShapeFit {
-    std::vector<Plane> Q;
-    std::vector<double> coef;                   // fixed shapes
-    std::vector<std::vector<double>> perFrame;  // per-frame shapes: each frame's parameters
-};
 
 bool inFold(const Work& w, int x, int y, int fold) {
     return ((x / w.stile + y / w.stile) & 1) == fold;
@@ -302,16 +229,37 @@ std::vector<double> fitFrame(const Work& w, Kind k, const Plane& R, const Plane&
             s[j] = c[j] > 0 ? s[j] / c[j] : 0.0;
         return s;
     }
-    NormalEquations ne(k == kFrameGain ? 2 : 3);
+    // frame_shift has no offset of its own: on frames without contrast (one level each) the
+    // shift is not defined and an offset would take the level's error (that is frame_gain's).
+    // frame_gain on a frame without contrast (one level): the gain cannot be told from the
+    // offset, and the two would come out large and opposite; the offset alone then.
+    bool flat = false;
+    if (k == kFrameGain) {
+        double n = 0.0, sg = 0.0, sgg = 0.0;
+        for (int y = 0; y < w.h; ++y)
+            for (int x = 0; x < w.w; ++x) {
+                const std::size_t p = static_cast<std::size_t>(y) * w.w + x;
+                if (!std::isfinite(R[p]) || !use(x, y)) continue;
+                n += 1.0;
+                sg += G[p];
+                sgg += static_cast<double>(G[p]) * G[p];
+            }
+        const double mean = n > 0.0 ? sg / n : 0.0;
+        flat = !(n > 0.0) || sgg / n - mean * mean <= 1e-4 * mean * mean;
+    }
+    NormalEquations ne(2);
     for (int y = 0; y < w.h; ++y)
         for (int x = 0; x < w.w; ++x) {
             const std::size_t p = static_cast<std::size_t>(y) * w.w + x;
             if (!std::isfinite(R[p]) || !use(x, y)) continue;
-            if (k == kFrameGain) {
+            if (k == kFrameGain && flat) {
+                const double v[2] = {0.0, 1.0};
+                ne.add(v, R[p]);
+            } else if (k == kFrameGain) {
                 const double v[2] = {G[p], 1.0};
                 ne.add(v, R[p]);
             } else {
-                double v[3] = {0.0, 0.0, 1.0};
+                double v[2] = {0.0, 0.0};
                 gradients(AY, w.w, w.h, p, x, y, v[0], v[1]);
                 ne.add(v, R[p]);
             }
@@ -325,7 +273,7 @@ double frameValue(const Work& w, Kind k, const std::vector<double>& c, const Pla
     if (k == kFrameGain) return c[0] * G[p] + c[1];
     double gx = 0.0, gy = 0.0;
     gradients(AY, w.w, w.h, p, x, y, gx, gy);
-    return c[0] * gx + c[1] * gy + c[2];
+    return c[0] * gx + c[1] * gy;
 }
 
 // A per-frame shape, cross-validated within each frame: fitted on one colour of the tiles'
@@ -354,7 +302,53 @@ ShapeFit fitPerFrame(const Work& w, Kind k, const Frames& f) {
     return t;
 }
 
+// A temporal shape must change between frames of one stimulus: its part common to the frames
+// of a stimulus (in the same half) taken out, prediction and parameters alike, it must still
+// explain the held-out frames (z ≥ 3, ShapeFit::within). On a stimulus of one level per frame
+// (Table 18-5's uniform frames) a gain and an offset per frame absorb any error of the
+// response's level, 65 % of the held-out error there, and would call it temporal; a flicker
+// makes frames of one stimulus differ, a level error does not. (Scoring the centred shape
+// alone lost flickers: the stimulus's mean flicker then looked like a level dependence.)
+void withinStimulus(const Work& w, ShapeFit& t) {
+    for (int half = 0; half < 2; ++half) {
+        const std::size_t i0 = half == 0 ? 0 : w.cal.size();
+        const std::size_t i1 = half == 0 ? w.cal.size() : w.sub.size();
+        for (std::size_t i = i0; i < i1; ++i) {
+            const int st = w.d.stimulusOfFrame[static_cast<std::size_t>(w.sub[i])];
+            bool first = true;
+            std::vector<std::size_t> group;
+            for (std::size_t j = i0; j < i1; ++j)
+                if (w.d.stimulusOfFrame[static_cast<std::size_t>(w.sub[j])] == st) {
+                    first = first && j >= i;
+                    group.push_back(j);
+                }
+            if (!first) continue;  // each group once, at its first frame
+            Plane mean(t.Q[i].size(), 0.0f);
+            std::vector<double> pm(t.perFrame[i].size(), 0.0);
+            for (std::size_t j : group) {
+                for (std::size_t p = 0; p < mean.size(); ++p)
+                    mean[p] += t.Q[j][p] / static_cast<float>(group.size());
+                for (std::size_t q = 0; q < pm.size(); ++q)
+                    pm[q] += t.perFrame[j][q] / static_cast<double>(group.size());
+            }
+            for (std::size_t j : group) {
+                for (std::size_t p = 0; p < mean.size(); ++p)
+                    t.Q[j][p] -= mean[p];
+                for (std::size_t q = 0; q < pm.size(); ++q)
+                    t.perFrame[j][q] -= pm[q];
+            }
+        }
+    }
+}
+
 ShapeFit fitShape(const Work& w, Kind k, const Frames& f, std::size_t nFit) {
+    if (k == kFrameGain || k == kFrameRows) {
+        ShapeFit t = fitPerFrame(w, k, f);
+        ShapeFit within = t;
+        withinStimulus(w, within);
+        t.within = std::move(within.Q);
+        return t;
+    }
     if (k == kFixedColumns || k == kFixedRows) return fitLines(w, k == kFixedColumns, f, nFit);
     if (kShapes[k].perFrame) return fitPerFrame(w, k, f);
     return fitSmall(w, k, f, nFit);
@@ -412,156 +406,6 @@ bool counts(const Work& w, const Scored& s) {
 // The z a finding reports: the test that passed (the tiles' when both did).
 double zOf(const Work& w, const Scored& s) {
     return s.s.z >= w.opt.zMin + 1.0 ? s.s.z : std::max(s.s.z, s.zFrames);
-}
-
-// A number with `digits` decimals.
-std::string fmt(int digits, double v) {
-    char b[64];
-    std::snprintf(b, sizeof b, "%.*f", digits, v);
-    return b;
-}
-
-double rmsOf(const std::vector<double>& v) {
-    double s = 0.0;
-    for (double x : v)
-        s += x * x;
-    return v.empty() ? 0.0 : std::sqrt(s / static_cast<double>(v.size()));
-}
-
-// The finding's summary parameters, its cause line, and its curve or map in the report.
-void describe(const Work& w, Kind k, const Frames& f, const ShapeFit& t, Finding& fd, Result& r) {
-    const std::string tag = std::string("unexplained_") + kShapes[k].name;
-    std::string shape;
-    switch (k) {
-        case kSmoothGain: {
-            Plane map(static_cast<std::size_t>(w.w) * w.h, 1.0f);
-            double lo = 1e300, hi = -1e300, corners = 0.0;
-            for (int y = 0; y < w.h; ++y)
-                for (int x = 0; x < w.w; ++x) {
-                    const double* lx = &f.lx[static_cast<std::size_t>(x) * (kLegendreDegree + 1)];
-                    const double* ly = &f.ly[static_cast<std::size_t>(y) * (kLegendreDegree + 1)];
-                    double g = 0.0;
-                    int n = 0;
-                    for (int dx = 0; dx <= kLegendreDegree; ++dx)
-                        for (int dy = 0; dx + dy <= kLegendreDegree; ++dy)
-                            g += t.coef[static_cast<std::size_t>(n++)] * lx[dx] * ly[dy];
-                    map[static_cast<std::size_t>(y) * w.w + x] = static_cast<float>(1.0 + g);
-                    lo = std::min(lo, 1.0 + g);
-                    hi = std::max(hi, 1.0 + g);
-                    if ((x == 0 || x == w.w - 1) && (y == 0 || y == w.h - 1))
-                        corners += 0.25 * (1.0 + g);
-                }
-            const float centre = map[static_cast<std::size_t>(w.h / 2) * w.w + w.w / 2];
-            fd.parameters = {{"gain_min_rel", lo},
-                             {"gain_max_rel", hi},
-                             {"corner_over_centre", corners / centre}};
-            shape = "the gain ranges " + fmt(3, lo) + "-" + fmt(3, hi) +
-                    " over the frame, corners " + fmt(3, corners / centre) + " of the centre";
-            r.maps.push_back({tag, std::move(map)});
-            break;
-        }
-        case kFixedColumns:
-        case kFixedRows: {
-            const bool cols = k == kFixedColumns;
-            fd.parameters = {{"rms_dc", rmsOf(t.coef)}};
-            shape = fmt(2, rmsOf(t.coef)) + " DC rms between " + (cols ? "columns" : "rows");
-            Curve c{tag, cols ? "column" : "row", "offset [DC]", {"fitted"}, {{}}, {{}}};
-            for (std::size_t j = 0; j < t.coef.size(); ++j) {
-                c.x[0].push_back(static_cast<double>(j));
-                c.y[0].push_back(t.coef[j]);
-            }
-            r.curves.push_back(std::move(c));
-            break;
-        }
-        case kPointMirror:
-            fd.parameters = {{"fraction_sharp", t.coef[0]}, {"fraction_blurred", t.coef[1]}};
-            shape = fmt(3, t.coef[0] + t.coef[1]) + " of the light as a point-mirrored copy";
-            break;
-        case kLevel: {
-            Curve c{tag, "predicted level [DC]", "measured - predicted [DC]", {"fitted"}, {{}},
-                    {{}}};
-            double worst = 0.0, at = 0.0;
-            for (int j = 0; j < kLevelKnots; ++j) {
-                const double lv = knotLevel(f.levelLo, f.levelHi, j);
-                c.x[0].push_back(lv);
-                c.y[0].push_back(t.coef[static_cast<std::size_t>(j)]);
-                if (std::fabs(t.coef[static_cast<std::size_t>(j)]) > std::fabs(worst)) {
-                    worst = t.coef[static_cast<std::size_t>(j)];
-                    at = lv;
-                }
-            }
-            fd.parameters = {{"largest_deviation_dc", worst}, {"at_level_dc", at}};
-            shape = "the response departs from the model's by up to " + fmt(1, worst) + " DC at " +
-                    fmt(0, at) + " DC";
-            r.curves.push_back(std::move(c));
-            break;
-        }
-        case kFrameGain:
-        case kFrameRows:
-        case kFrameShift: {
-            std::vector<double> g, o;
-            Curve c{tag, "held-out frame", k == kFrameShift ? "shift [px]" : "value", {}, {}, {}};
-            for (const auto& pf : t.perFrame) {
-                if (k == kFrameRows) {
-                    g.push_back(rmsOf(pf));
-                } else {
-                    g.push_back(pf[0]);
-                    o.push_back(pf[1]);
-                }
-            }
-            auto centred = [](std::vector<double> v) {
-                double m = 0.0;
-                for (double x : v)
-                    m += x;
-                m /= static_cast<double>(std::max<std::size_t>(v.size(), 1));
-                for (double& x : v)
-                    x -= m;
-                return v;
-            };
-            if (k == kFrameGain) {
-                fd.parameters = {{"gain_rms_rel", rmsOf(centred(g))},
-                                 {"offset_rms_dc", rmsOf(centred(o))}};
-                shape = "the gain varies " + fmt(3, rmsOf(centred(g))) +
-                        " rms between frames, the offset " + fmt(2, rmsOf(centred(o))) + " DC";
-                c.series = {"gain - 1", "offset [DC]"};
-                c.x = {{}, {}};
-                c.y = {g, o};
-            } else if (k == kFrameRows) {
-                fd.parameters = {{"rms_dc", rmsOf(g)}};
-                shape = fmt(2, rmsOf(g)) + " DC rms of row offsets in a frame";
-                c.series = {"row offsets rms [DC]"};
-                c.x = {{}};
-                c.y = {g};
-            } else {
-                // R = α·∂Y/∂x + β·∂Y/∂y: the image moved by (−α, −β) px.
-                std::vector<double> s;
-                for (std::size_t i = 0; i < g.size(); ++i)
-                    s.push_back(std::hypot(g[i], o[i]));
-                fd.parameters = {{"shift_rms_px", rmsOf(s)}};
-                shape = fmt(2, rmsOf(s)) + " px rms of frame-to-frame shift";
-                c.series = {"x", "y"};
-                c.x = {{}, {}};
-                c.y = {centred(g), centred(o)};
-                for (double& v : c.y[0])
-                    v = -v;
-                for (double& v : c.y[1])
-                    v = -v;
-            }
-            for (std::size_t s = 0; s < c.series.size(); ++s)
-                for (std::size_t i = 0; i < c.y[s].size(); ++i)
-                    c.x[s].push_back(static_cast<double>(w.sub[i]));
-            r.curves.push_back(std::move(c));
-            break;
-        }
-        case kLag:
-            fd.parameters = {{"fraction", t.coef[0]}};
-            shape = fmt(3, t.coef[0]) + " of the previous frame's change carried";
-            break;
-        default:
-            break;
-    }
-    fd.cause = std::string("not explained by the catalog: ") + kShapes[k].what + "; " + shape +
-               ", " + fmt(1, 100.0 * fd.share) + " % of the held-out squared error";
 }
 
 // Shape k fitted and scored on the residual with the prediction Q of another shape taken out.
@@ -668,7 +512,16 @@ std::vector<StructureFit> findStructure(Work& w, const Current& cur, Result& r) 
                     replaced = true;
                 }
             if (!replaced) r.trials.push_back(tr);
-            const bool sig = counts(w, s);
+            bool sig = counts(w, s);
+            if (sig && !t.within.empty()) {
+                const double zw = zOf(w, score(w, f, t.within));
+                if (zw < kRivalZ) {
+                    sig = false;
+                    tr.why += ", but not between frames of one stimulus (z " + fmt(1, zw) + ")";
+                    for (nvs::fit::Trial& old : r.trials)
+                        if (old.effect == tr.effect) old.why = tr.why;
+                }
+            }
             if (sig && (best < 0 || s.s.sum > bestS.s.sum)) {
                 if (best >= 0) rivals.push_back({best, std::move(bestT), bestS});
                 best = k;
