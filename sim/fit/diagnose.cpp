@@ -9,6 +9,7 @@
 #include <sstream>
 
 #include "sim/core/error.h"
+#include "sim/fit/effect_registry.h"
 #include "sim/fit/effects.h"
 #include "sim/fit/model.h"
 #include "sim/fit/scene_effects.h"
@@ -234,6 +235,25 @@ void meanEffects(Work& w, Current& cur, Result& r, const Options& opt, const Pro
             if (progress)
                 progress(std::string("round ") + std::to_string(round + 1) + ": " + e.name);
             Candidate c = e.fn(w, cur);
+            recordTrial(r, c, true);
+            if (significant(c, opt, r.findings.size()) && (!any || c.gainChi2 > best.gainChi2)) {
+                best = c;
+                any = true;
+            }
+        }
+        // The registered effects (effect_registry.h), the same way.
+        for (const RegisteredEffect* e : registeredEffects()) {
+            if (taken.count(e->name) != 0) continue;
+            if (e->present(w.cam)) {
+                Candidate c;
+                c.finding.effect = e->name;
+                c.why = "the model under test has it on";
+                recordTrial(r, c, false);
+                continue;
+            }
+            if (progress)
+                progress(std::string("round ") + std::to_string(round + 1) + ": " + e->name);
+            Candidate c = tryRegistered(w, cur, *e);
             recordTrial(r, c, true);
             if (significant(c, opt, r.findings.size()) && (!any || c.gainChi2 > best.gainChi2)) {
                 best = c;

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 
+#include "sim/fit/effect_registry.h"
 #include "sim/fit/text.h"
 
 namespace nvs::fit {
@@ -384,9 +385,17 @@ void refitEach(Work& w, Current& cur, std::vector<Finding>& found) {
         Current without;
         without.mm = cur.mm;
         Candidate (*fn)(Work&, const Current&) = nullptr;
-        if (!withoutEffect(f.effect, without.mm, fn)) continue;
+        const RegisteredEffect* reg = findRegistered(f.effect);
+        if (reg != nullptr) {
+            auto& added = without.mm.added;
+            added.erase(std::remove_if(added.begin(), added.end(),
+                                       [&](const AddedEffect& a) { return a.effect == reg; }),
+                        added.end());
+        } else if (!withoutEffect(f.effect, without.mm, fn)) {
+            continue;
+        }
         setCurrentModel(w, without);
-        Candidate c = fn(w, without);
+        Candidate c = reg != nullptr ? tryRegistered(w, without, *reg) : fn(w, without);
         if (!c.valid) continue;  // keep the selected values
         cur.mm = c.mm;
         f.parameters = c.finding.parameters;

@@ -20,6 +20,14 @@ class BlurStage;
 
 namespace nvs::fit {
 
+struct RegisteredEffect;
+
+// A registered effect taken (effect_registry.h) and its parameters.
+struct AddedEffect {
+    const RegisteredEffect* effect;
+    std::vector<double> parameters;
+};
+
 // The mean model: the chain's mean signal with the effects taken so far (0 = off).
 struct MeanModel {
     double sigma_px = 0.0;      // baseline: extra Gaussian blur (MTF)
@@ -31,6 +39,7 @@ struct MeanModel {
     double haloF = 0.0, haloR_um = 0.0;    // halo: fraction, ring radius at the cathode
     double glareG = 0.0, glareS_um = 0.0;  // veiling_glare: fraction, scale at the cathode
     double smear = 0.0;                    // vertical_smear: fraction of the column mean
+    std::vector<AddedEffect> added;        // registered effects, applied last (predict)
 };
 
 // Gain and offset (and one effect amplitude) by least squares on the calibration frames.
@@ -113,6 +122,19 @@ struct Work {
     // With the model's prediction there (model DC above offset): also inside the CCD's full
     // well.
     bool valid(float v, float model) const { return valid(v) && model < fullWell_dc; }
+    // Frame i of `sub`, pixel p: the model's mean (its own signal, every candidate alike) lies
+    // within 2.5 of its noise σ of the ADC's top, in a dataset that clips. There some frames
+    // clip and some do not, and the ones kept are the low ones: the kept mean comes out low
+    // (on the model's own output at full size, 9184 pixels clipped in its brightest frame, a
+    // fitted gain of 0.974 and, through it, a false excess noise of 1.72 for 1.6). The mean
+    // fits leave these out. Far above the top every frame clips (left out by its value); a
+    // saturation's measured peaks, under the top where the model without it predicts far
+    // above, keep their evidence. Decided on the model's signal, not each candidate's
+    // prediction, so that every candidate is scored on the same pixels.
+    bool inClipBand(std::size_t i, std::size_t p) const {
+        return !clipBand.empty() && clipBand[i][p] != 0;
+    }
+    std::vector<std::vector<unsigned char>> clipBand;  // per frame of `sub`; empty: none
     // valid, and the model's own mean at least 4.5 of its noise σ inside the ADC's range
     // (headroom): for the noise statistics and the residual's structure. Leaving out only the
     // pixels whose measured value is clipped keeps those that happened to fall below the top

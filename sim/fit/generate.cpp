@@ -7,6 +7,7 @@
 #include "sim/core/error.h"
 #include "sim/core/gamma_table.h"
 #include "sim/fit/conv.h"
+#include "sim/fit/effect_registry.h"
 #include "sim/fit/engine.h"
 #include "sim/fit/text.h"
 #include "sim/sensor/chain.h"
@@ -208,6 +209,18 @@ sensor::Overrides chainEffects(const GenSpec& s, const Dataset& d, std::mt19937_
         ov["mcp.noise_factor"] = tomlNumber(F);
         g.truth["excess_noise.noise_factor"] = F;
     }
+    // Registered effects (effect_registry.h): their parameters drawn in their hidden ranges,
+    // switched on in the chain by their own preset keys.
+    for (const RegisteredEffect* e : registeredEffects()) {
+        if (!has(s, e->name)) continue;
+        std::vector<double> p;
+        for (const EffectParameter& ep : e->parameters) {
+            p.push_back(std::uniform_real_distribution<double>(ep.hideLo, ep.hideHi)(rng));
+            g.truth[std::string(e->name) + "." + ep.name] = p.back();
+        }
+        for (const auto& [k, v] : e->presetKeys(p))
+            ov[k] = v;
+    }
     if (has(s, "bright_source_protection")) {
         std::vector<double> I;
         sensor::CameraParams c = d.camera;
@@ -247,12 +260,15 @@ Generated generate(const GenSpec& s, const std::filesystem::path& configDir) {
     for (const std::string& e : s.effects) {
         const auto& ranges = effectRanges();
         if (std::any_of(ranges.begin(), ranges.end(),
-                        [&](const EffectRange& r) { return e == r.effect; }))
+                        [&](const EffectRange& r) { return e == r.effect; }) ||
+            findRegistered(e) != nullptr)
             continue;
         std::string known;
         for (const EffectRange& r : ranges)
             if (known.find(r.effect) == std::string::npos)
                 known += (known.empty() ? "" : ", ") + std::string(r.effect);
+        for (const RegisteredEffect* r : registeredEffects())
+            known += std::string(", ") + r->name;
         throw SetupError("unknown effect '" + e + "' to hide (known: " + known + ")");
     }
     Generated g;

@@ -101,6 +101,7 @@ int run(int argc, char** argv) {
                                       "vertical_smear",
                                       "ebi_background",
                                       "excess_noise",
+                                      "frame_grabber_blur",
                                       "halo+phosphor_persistence",
                                       "halo+mcp_saturation",
                                       "vertical_smear+excess_noise"};
