@@ -7,6 +7,7 @@
 
 #include "sim/fit/engine.h"
 #include "sim/fit/model.h"
+#include "sim/fit/text.h"
 
 namespace nvs::fit {
 
@@ -174,9 +175,7 @@ sensor::Overrides settingsWithoutFindings(const Dataset& d, const Result& r) {
 namespace {
 
 std::string num(double v) {
-    char b[64];
-    std::snprintf(b, sizeof b, "%.6g", std::isfinite(v) ? v : 0.0);
-    return b;
+    return textf("%.6g", std::isfinite(v) ? v : 0.0);
 }
 
 std::string quote(const std::string& t) {

@@ -51,20 +51,8 @@ Candidate tryRegistered(Work& w, const Current& cur, const RegisteredEffect& e) 
     std::vector<Plane> Y = cur.Y;
     e.apply(w, p, Y);
     c.fit = fitLinear(w, Y, nullptr);
-    double rms = 0.0;
-    const std::vector<double> t = heldoutTileSse(w, Y, nullptr, c.fit, rms);
-    const Score s = pairedScore(cur.tileSse, t, cur.rms, rms, static_cast<int>(n));
+    scoreCandidate(w, cur, c, Y, nullptr, static_cast<int>(n));
     Finding& f = c.finding;
-    f.heldoutRmsBefore = s.rmsBefore;
-    f.heldoutRmsAfter = s.rmsAfter;
-    f.z = s.z;
-    f.score = s.score;
-    f.confidence = normalCdf(s.z);
-    f.observable = "held-out frames, per pixel";
-    f.unit = "DC";
-    const double pixels =
-        static_cast<double>(w.ho.size()) * static_cast<double>(w.w) * static_cast<double>(w.h);
-    c.gainChi2 = s.sum - static_cast<double>(n) * std::log(pixels);
     c.valid = c.fit.ok;
     for (std::size_t j = 0; j < n; ++j) {
         const EffectParameter& ep = e.parameters[j];

@@ -15,9 +15,22 @@ std::string num(double v) {
     return textf("%.6g", v);
 }
 
-// Scores a candidate b + a·Y + c·B against the current model on the held-out frames.
-void score(Work& w, const Current& cur, Candidate& cand, const std::vector<Plane>& Y,
-           const std::vector<Plane>* B, int k) {
+std::vector<Plane> minus(const std::vector<Plane>& a, const std::vector<Plane>& b) {
+    std::vector<Plane> d(a.size());
+    for (std::size_t i = 0; i < a.size(); ++i) {
+        d[i].resize(a[i].size());
+        for (std::size_t p = 0; p < a[i].size(); ++p)
+            d[i][p] = a[i][p] - b[i][p];
+    }
+    return d;
+}
+
+constexpr double kInf = 1e300;
+
+}  // namespace
+
+void scoreCandidate(Work& w, const Current& cur, Candidate& cand, const std::vector<Plane>& Y,
+                    const std::vector<Plane>* B, int k) {
     double rms = 0.0;
     const std::vector<double> t = heldoutTileSse(w, Y, B, cand.fit, rms);
     const Score s = pairedScore(cur.tileSse, t, cur.rms, rms, k);
@@ -33,20 +46,6 @@ void score(Work& w, const Current& cur, Candidate& cand, const std::vector<Plane
     f.observable = "held-out frames, per pixel";
     f.unit = "DC";
 }
-
-std::vector<Plane> minus(const std::vector<Plane>& a, const std::vector<Plane>& b) {
-    std::vector<Plane> d(a.size());
-    for (std::size_t i = 0; i < a.size(); ++i) {
-        d[i].resize(a[i].size());
-        for (std::size_t p = 0; p < a[i].size(); ++p)
-            d[i][p] = a[i][p] - b[i][p];
-    }
-    return d;
-}
-
-constexpr double kInf = 1e300;
-
-}  // namespace
 
 // The share of the held-out squared error a finding must explain (effects.h, material). z
 // measures how consistently a candidate helps over the tiles, not how much: on null datasets
@@ -107,7 +106,7 @@ Candidate trySpread(Work& w, const Current& cur, const char* name,
         lo_um, hi_um, 8);
     const std::vector<Plane> B = basis(best_um);
     cand.fit = fitLinear(w, Y0, &B);
-    score(w, cur, cand, Y0, &B, 2);
+    scoreCandidate(w, cur, cand, Y0, &B, 2);
     const double frac = cand.fit.a != 0.0 ? cand.fit.c / cand.fit.a : 0.0;
     // A scale at either end of its search range is no fit: the error still falls beyond it.
     const bool inside = best_um > 1.05 * lo_um && best_um < 0.95 * hi_um;
@@ -176,7 +175,7 @@ Candidate trySmear(Work& w, const Current& cur) {
     one.smear = cur.mm.smear + 1.0;
     const std::vector<Plane> B = minus(predict(w, one), cur.Y);
     c.fit = fitLinear(w, cur.Y, &B);
-    score(w, cur, c, cur.Y, &B, 1);
+    scoreCandidate(w, cur, c, cur.Y, &B, 1);
     const double s = c.fit.a != 0.0 ? c.fit.c / c.fit.a : 0.0;
     c.valid = c.fit.ok && s > 0.0;
     if (!c.valid) c.why = textf("smear %.3g is not > 0", s);
@@ -211,7 +210,7 @@ Candidate tryPersistence(Work& w, const Current& cur) {
         0.1 * T, 40.0 * T, 10);
     const std::vector<Plane> B = basis(tau);
     c.fit = fitLinear(w, cur.Y, &B);
-    score(w, cur, c, cur.Y, &B, 2);
+    scoreCandidate(w, cur, c, cur.Y, &B, 2);
     const double wgt = c.fit.a != 0.0 ? c.fit.c / c.fit.a : 0.0;
     c.valid = c.fit.ok && wgt > 0.0 && wgt < 1.0 && cur.mm.persistW == 0.0;
     if (!c.valid) c.why = textf("weight %.3g is not in (0, 1)", wgt);
@@ -265,7 +264,7 @@ Candidate tryBsp(Work& w, const Current& cur) {
     mm.bspKnee_A = knee;
     const std::vector<Plane> Y = predict(w, mm);
     c.fit = fitLinear(w, Y, nullptr);
-    score(w, cur, c, Y, nullptr, 1);
+    scoreCandidate(w, cur, c, Y, nullptr, 1);
     c.valid = c.fit.ok && knee < 0.9 * hi && w.cam.agc != sensor::AgcMode::Bsp;
     if (!c.valid)
         c.why = textf("knee %.3g A at the search's edge or the model already has it", knee);
@@ -325,7 +324,7 @@ Candidate trySaturation(Work& w, const Current& cur) {
     const double q = mm.satQ_dc;
     const std::vector<Plane> Y = predict(w, mm);
     c.fit = fitLinear(w, Y, nullptr);
-    score(w, cur, c, Y, nullptr, 1);
+    scoreCandidate(w, cur, c, Y, nullptr, 1);
     c.valid = c.fit.ok && q < 0.9 * hi && cur.mm.satQ_dc == 0.0;
     if (!c.valid) c.why = textf("charge %.3g DC at the search's edge", q);
     c.mm = mm;

@@ -48,6 +48,12 @@ struct Current {
 // mean effects and scenario effects alike.
 Candidate& material(Candidate& c);
 
+// Scores a candidate b + a·Y + c·B (its fit in cand.fit) against the current model on the
+// held-out frames: the paired test over tiles with k extra parameters, the held-out RMS before
+// and after, and the χ² it removes (Candidate::gainChi2).
+void scoreCandidate(Work& w, const Current& cur, Candidate& cand, const std::vector<Plane>& Y,
+                    const std::vector<Plane>* B, int k);
+
 Candidate tryPersistence(Work& w, const Current& cur);
 Candidate tryHalo(Work& w, const Current& cur);
 Candidate tryGlare(Work& w, const Current& cur);
