@@ -513,10 +513,12 @@ std::vector<StructureFit> findStructure(Work& w, const Current& cur, Result& r) 
                 }
             if (!replaced) r.trials.push_back(tr);
             bool sig = counts(w, s);
-            if (sig && !t.within.empty()) {
+            bool eligible = true;  // a temporal shape that changes within a stimulus
+            if (!t.within.empty()) {
                 const double zw = zOf(w, score(w, f, t.within));
                 if (zw < kRivalZ) {
                     sig = false;
+                    eligible = false;
                     tr.why += ", but not between frames of one stimulus (z " + fmt(1, zw) + ")";
                     for (nvs::fit::Trial& old : r.trials)
                         if (old.effect == tr.effect) old.why = tr.why;
@@ -527,7 +529,7 @@ std::vector<StructureFit> findStructure(Work& w, const Current& cur, Result& r) 
                 best = k;
                 bestT = std::move(t);
                 bestS = s;
-            } else if (zOf(w, s) >= kRivalZ && s.share >= 0.5 * kMinShare) {
+            } else if (eligible && zOf(w, s) >= kRivalZ && s.share >= 0.5 * kMinShare) {
                 rivals.push_back({k, std::move(t), s});
             }
         }
