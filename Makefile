@@ -2,7 +2,8 @@
 #   make run    install missing Debian packages, build, run the default scenario
 #   make test   the same set-up, then the whole test suite through ctest
 #   make fuzz   the fuzz targets (tests/fuzz) under ASan+UBSan, FUZZ_SECONDS each (clang)
-#   make validate  the hidden-effect sweep of `nvstim diagnose` (20 seeds per effect) and the
+#   make validate  the hidden-effect sweeps of `nvstim diagnose` (20 seeds per effect; the
+#               open-world sweep of tests/diagnose_open, OPEN_SEEDS at OPEN_SIZE) and the
 #               thesis datasets; writes $(BUILD)/validate/diagnose.md (docs/validation.md)
 # Everything else is CMake (CMakePresets.json): `cmake --preset debug-asan` etc.;
 # `cmake --install build/release --prefix PREFIX` installs nvstim with its config and scenarios.
