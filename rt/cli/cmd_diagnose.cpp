@@ -31,6 +31,7 @@
 #include "sim/core/output_file.h"
 #include "sim/fit/compare.h"
 #include "sim/fit/diagnose.h"
+#include "sim/fit/text.h"
 #include "sim/io/pnm.h"
 
 namespace nvs::cli {
@@ -75,10 +76,7 @@ void writeReport(const fit::Result& r, const std::string& reportJson, const fs::
 
 // The comparison's report.json: the dataset and the comparison (diagnose_report.py draws it).
 std::string compareReportJson(const fit::Comparison& c, const std::string& dataset) {
-    std::string q = "\"";
-    for (char ch : dataset)
-        q += ch == '"' || ch == '\\' ? std::string("\\") + ch : std::string(1, ch);
-    return "{\"dataset\":" + q + "\"," + fit::toJson(c).substr(1);
+    return "{\"dataset\":" + fit::jsonString(dataset) + "," + fit::toJson(c).substr(1);
 }
 
 // The gain of the preset --write-preset writes, for the report: the dataset's preset against

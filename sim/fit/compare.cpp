@@ -34,11 +34,7 @@ std::unique_ptr<Side> fitSide(const Dataset& d, const std::filesystem::path& con
     if (progress) progress(preset + ": the model's runs");
     s->m = simulate(d, s->cam, configDir, opt.seed, true, progress);
     s->w = std::make_unique<Work>(d, s->m, s->cam, opt, Progress{}, configDir);
-    for (int k : s->w->sub) {
-        Plane u;
-        assembleFrame(s->m.unblurred, k, d.width, d.height, s->m.fieldScan, u);
-        s->w->unblurred.push_back(std::move(u));
-    }
+    assembleUnblurred(*s->w, s->m);
     s->mm = modelExtras(s->extra, s->m);
     if (progress) progress(preset + ": MTF, gain and offset on the calibration frames");
     s->mm.sigma_px = fitBlur(*s->w, s->mm);
@@ -178,15 +174,8 @@ std::string num(double v) {
     return textf("%.6g", std::isfinite(v) ? v : 0.0);
 }
 
-std::string quote(const std::string& t) {
-    std::string s = "\"";
-    for (char ch : t)
-        s += ch == '"' || ch == '\\' ? std::string("\\") + ch : std::string(1, ch);
-    return s + "\"";
-}
-
 std::string modelJson(const ModelFit& m) {
-    return "{\"preset\":" + quote(m.preset) + ",\"gain_rel\":" + num(m.gain_rel) +
+    return "{\"preset\":" + jsonString(m.preset) + ",\"gain_rel\":" + num(m.gain_rel) +
            ",\"offset_dc\":" + num(m.offset_dc) + ",\"mtf_extra_blur_px\":" + num(m.blur_px) +
            ",\"heldout_rms_dc\":" + num(m.heldoutRms_dc) +
            ",\"log_likelihood_per_pixel\":" + num(m.logLikelihoodPerPixel) + "}";
@@ -198,7 +187,7 @@ std::string toJson(const Comparison& c) {
     std::string s =
         "{\"compare\":{\"a\":" + modelJson(c.a) + ",\"b\":" + modelJson(c.b) + ",\"regions\":[";
     for (std::size_t r = 0; r < c.regions.size(); ++r)
-        s += std::string(r ? "," : "") + "{\"name\":" + quote(c.regions[r]) +
+        s += std::string(r ? "," : "") + "{\"name\":" + jsonString(c.regions[r]) +
              ",\"pixels\":" + num(c.regionPixels[r]) + ",\"rms_a_dc\":" + num(c.a.regionRms_dc[r]) +
              ",\"rms_b_dc\":" + num(c.b.regionRms_dc[r]) +
              ",\"gain_pct\":" + num(c.regionGain_pct[r]) + "}";

@@ -14,8 +14,26 @@
 #include "sim/fit/model.h"
 #include "sim/fit/scene_effects.h"
 #include "sim/fit/structure.h"
+#include "sim/fit/text.h"
 
 namespace nvs::fit {
+
+void recordTrial(Result& r, const Trial& t) {
+    for (Trial& old : r.trials)
+        if (old.effect == t.effect) {
+            old = t;
+            return;
+        }
+    r.trials.push_back(t);
+}
+
+void assembleUnblurred(Work& w, const ModelRun& m) {
+    for (int k : w.sub) {
+        Plane u;
+        assembleFrame(m.unblurred, k, w.w, w.h, m.fieldScan, u);
+        w.unblurred.push_back(std::move(u));
+    }
+}
 
 MeanModel modelExtras(const FitEffects& e, const ModelRun& m) {
     MeanModel mm;
@@ -193,12 +211,7 @@ void recordTrial(Result& r, const Candidate& c, bool tried) {
     for (const auto& [k, v] : c.finding.parameters)
         params += (params.empty() ? "" : ", ") + k + " = " + num(v);
     t.why = c.why.empty() ? params : c.why + (params.empty() ? "" : " (" + params + ")");
-    for (Trial& old : r.trials)
-        if (old.effect == t.effect) {
-            old = t;
-            return;
-        }
-    r.trials.push_back(t);
+    recordTrial(r, t);
 }
 
 // Greedy forward selection of the mean effects: each round tries every effect not yet taken on
@@ -333,15 +346,6 @@ void resimulateNoise(const Dataset& d, ModelRun& m, const Work& w, const MeanMod
 }  // namespace
 
 namespace {
-
-// The unblurred frames of w.sub (mcp_saturation's forward model).
-void assembleUnblurred(Work& w, const ModelRun& m) {
-    for (int k : w.sub) {
-        Plane u;
-        assembleFrame(m.unblurred, k, w.w, w.h, m.fieldScan, u);
-        w.unblurred.push_back(std::move(u));
-    }
-}
 
 // Catalog findings that the structures found explain better become candidates
 // (structure.h): a mean effect whose share of the held-out squared error is smaller than a
@@ -529,25 +533,6 @@ Result diagnose(const Dataset& d, const std::filesystem::path& configDir, const 
     return r;
 }
 
-namespace {
-
-// A JSON string: quotes, backslashes and control characters escaped.
-std::string quoted(const std::string& t) {
-    std::string s = "\"";
-    for (char c : t) {
-        if (static_cast<unsigned char>(c) < 0x20) {
-            char b[8];
-            std::snprintf(b, sizeof b, "\\u%04x", static_cast<unsigned>(c));
-            s += b;
-        } else {
-            s += c == '"' || c == '\\' ? std::string("\\") + c : std::string(1, c);
-        }
-    }
-    return s + "\"";
-}
-
-}  // namespace
-
 std::string toJson(const Result& r) {
     std::string s = "{\"baseline\":{";
     bool first = true;
@@ -564,16 +549,17 @@ std::string toJson(const Result& r) {
         s += "},\"heldout_rms_before\":" + num(f.heldoutRmsBefore) +
              ",\"heldout_rms_after\":" + num(f.heldoutRmsAfter) +
              ",\"confidence\":" + num(f.confidence) + ",\"z\":" + num(f.z) +
-             ",\"score\":" + num(f.score) + ",\"status\":" + quoted(f.status);
+             ",\"score\":" + num(f.score) + ",\"status\":" + jsonString(f.status);
         if (f.effect == "unexplained")
-            s += ",\"structure\":" + quoted(f.structure) + ",\"character\":" + quoted(f.character) +
+            s += ",\"structure\":" + jsonString(f.structure) +
+                 ",\"character\":" + jsonString(f.character) +
                  ",\"share_of_heldout_error\":" + num(f.share);
         s += ",\"unit\":\"" + f.unit + "\",\"observable\":\"" + f.observable + "\",\"cause\":\"";
         for (char c : f.cause)
             s += c == '"' ? std::string("\\\"") : std::string(1, c);
         s += "\"}";
     }
-    s += "],\"camera\":" + quoted(r.camera) + "}";
+    s += "],\"camera\":" + jsonString(r.camera) + "}";
     return s;
 }
 
@@ -589,31 +575,31 @@ std::string numbers(const std::vector<double>& v) {
 }  // namespace
 
 std::string reportJson(const Result& r, const std::string& dataset) {
-    std::string s = "{\"dataset\":" + quoted(dataset) + ",\"camera\":" + quoted(r.camera) +
+    std::string s = "{\"dataset\":" + jsonString(dataset) + ",\"camera\":" + jsonString(r.camera) +
                     ",\"width\":" + std::to_string(r.width) +
                     ",\"height\":" + std::to_string(r.height) + ",\"result\":" + toJson(r);
     s += ",\"trials\":[";
     for (std::size_t i = 0; i < r.trials.size(); ++i) {
         const Trial& t = r.trials[i];
-        s += std::string(i ? "," : "") + "{\"effect\":" + quoted(t.effect) +
+        s += std::string(i ? "," : "") + "{\"effect\":" + jsonString(t.effect) +
              ",\"tried\":" + (t.tried ? "true" : "false") + ",\"z\":" + num(t.z) +
              ",\"score\":" + num(t.score) + ",\"before\":" + num(t.before) +
-             ",\"after\":" + num(t.after) + ",\"why\":" + quoted(t.why) + "}";
+             ",\"after\":" + num(t.after) + ",\"why\":" + jsonString(t.why) + "}";
     }
     s += "],\"curves\":[";
     for (std::size_t i = 0; i < r.curves.size(); ++i) {
         const Curve& c = r.curves[i];
-        s += std::string(i ? "," : "") + "{\"name\":" + quoted(c.name) +
-             ",\"x_label\":" + quoted(c.xLabel) + ",\"y_label\":" + quoted(c.yLabel) +
+        s += std::string(i ? "," : "") + "{\"name\":" + jsonString(c.name) +
+             ",\"x_label\":" + jsonString(c.xLabel) + ",\"y_label\":" + jsonString(c.yLabel) +
              ",\"series\":[";
         for (std::size_t j = 0; j < c.series.size(); ++j)
-            s += std::string(j ? "," : "") + "{\"name\":" + quoted(c.series[j]) +
+            s += std::string(j ? "," : "") + "{\"name\":" + jsonString(c.series[j]) +
                  ",\"x\":" + numbers(c.x[j]) + ",\"y\":" + numbers(c.y[j]) + "}";
         s += "]}";
     }
     s += "],\"maps\":[";
     for (std::size_t i = 0; i < r.maps.size(); ++i)
-        s += std::string(i ? "," : "") + quoted(r.maps[i].first);
+        s += std::string(i ? "," : "") + jsonString(r.maps[i].first);
     return s + "]}";
 }
 

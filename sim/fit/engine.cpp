@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <utility>
 
 #include "sim/fit/effect_registry.h"
 #include "sim/sensor/chain.h"
@@ -206,6 +207,11 @@ Work::Work(const Dataset& ds, const ModelRun& mr, const sensor::CameraParams& c,
     // weighed by it, so that a tile counts by how far it is from its noise, not by its level.
     tileVar.assign(static_cast<std::size_t>(scoreTiles()), 0.0);
     std::vector<double> cnt(tileVar.size(), 0.0);
+    // The same frames give the model's noise variance as a line in its signal, e² = s0 + s1·S,
+    // by least squares where the noisy run is far from both ends of the ADC (shot noise through
+    // the MCP has a variance linear in the signal): setHeadroom.
+    const double top = m.maxDc - 0.5;
+    double np = 0, sx = 0, sy = 0, sxx = 0, sxy = 0;
     Plane S;
     for (int k : ho) {
         assembleFrame(m.signal, k, w, h, m.fieldScan, S);
@@ -213,60 +219,56 @@ Work::Work(const Dataset& ds, const ModelRun& mr, const sensor::CameraParams& c,
         for (int y = 0; y < h; ++y)
             for (int x = 0; x < w; ++x) {
                 const std::size_t q = static_cast<std::size_t>(y) * w + x;
-                const double e = N[q] - (m.offset_dc + S[q]);
+                const double mean = m.offset_dc + S[q];
+                const double e = N[q] - mean;
                 tileVar[static_cast<std::size_t>(scoreTileOf(x, y))] += e * e;
                 cnt[static_cast<std::size_t>(scoreTileOf(x, y))] += 1.0;
+                if (!(N[q] > 0.5f) || mean > 0.6 * top || mean < 0.0) continue;
+                np += 1;
+                sx += S[q];
+                sy += e * e;
+                sxx += static_cast<double>(S[q]) * S[q];
+                sxy += S[q] * e * e;
             }
     }
     for (std::size_t t = 0; t < tileVar.size(); ++t)
         tileVar[t] = cnt[t] > 0 ? std::max(tileVar[t] / cnt[t], 0.25) : 1.0;
+    if (np < 100) return;
+    const double det = np * sxx - sx * sx;
+    noiseS1_dc = det > 1e-9 * np * sxx ? std::max((np * sxy - sx * sy) / det, 0.0) : 0.0;
+    noiseS0_dc2 = std::max((sy - noiseS1_dc * sx) / np, 0.0);
     setHeadroom();
 }
 
-void Work::setHeadroom() {
-    // The model's noise variance as a line in its signal, e² = s0 + s1·S, by least squares on
-    // the held-out frames' noisy run where it is far from both ends of the ADC (shot noise
-    // through the MCP has a variance linear in the signal).
-    const double top = m.maxDc - 0.5;
-    double n = 0, sx = 0, sy = 0, sxx = 0, sxy = 0;
-    Plane S;
-    for (int k : ho) {
-        assembleFrame(m.signal, k, w, h, m.fieldScan, S);
-        const Plane& N = m.noisy[static_cast<std::size_t>(k)];
-        for (std::size_t q = 0; q < S.size(); ++q) {
-            const double mean = m.offset_dc + S[q];
-            if (!(N[q] > 0.5f) || mean > 0.6 * top || mean < 0.0) continue;
-            const double e = N[q] - mean;
-            n += 1;
-            sx += S[q];
-            sy += e * e;
-            sxx += static_cast<double>(S[q]) * S[q];
-            sxy += S[q] * e * e;
-        }
+namespace {
+
+// The boundary between signals where `below` holds and where it does not, in [lo, hi], by
+// bisection (`below` holds at lo and fails at hi, monotonically): the last signal found where
+// it holds (first) and the first where it fails (second).
+template <class Pred>
+std::pair<double, double> boundary(double lo, double hi, Pred below) {
+    for (int i = 0; i < 60; ++i) {
+        const double mid = 0.5 * (lo + hi);
+        (below(mid) ? lo : hi) = mid;
     }
-    if (n < 100) return;
-    const double det = n * sxx - sx * sx;
-    const double s1 = det > 1e-9 * n * sxx ? std::max((n * sxy - sx * sy) / det, 0.0) : 0.0;
-    const double s0 = std::max((sy - s1 * sx) / n, 0.0);
-    noiseS0_dc2 = s0;
-    noiseS1_dc = s1;
+    return {lo, hi};
+}
+
+}  // namespace
+
+void Work::setHeadroom() {
+    const double top = m.maxDc - 0.5;
+    const double s0 = noiseS0_dc2, s1 = noiseS1_dc;
     auto sigma = [&](double sig) { return std::sqrt(s0 + s1 * std::max(sig, 0.0)); };
     auto edge = [&](double sig) { return 4.5 * sigma(sig) + 0.5; };
     // The largest signal whose mean + 4.5 σ stays under the top, and the smallest whose
     // mean − 4.5 σ stays above 0 (bisection: both sides are monotonic in the signal).
-    double lo = -m.offset_dc, hi = m.maxDc;
-    for (int i = 0; i < 60; ++i) {
-        const double mid = 0.5 * (lo + hi);
-        (m.offset_dc + mid + edge(mid) < top ? lo : hi) = mid;
-    }
-    headroomTop_dc = static_cast<float>(lo);
-    lo = -m.offset_dc;
-    hi = m.maxDc;
-    for (int i = 0; i < 60; ++i) {
-        const double mid = 0.5 * (lo + hi);
-        (m.offset_dc + mid - edge(mid) > 0.5 ? hi : lo) = mid;
-    }
-    headroomBottom_dc = static_cast<float>(hi);
+    headroomTop_dc = static_cast<float>(boundary(-m.offset_dc, m.maxDc, [&](double x) {
+                                            return m.offset_dc + x + edge(x) < top;
+                                        }).first);
+    headroomBottom_dc = static_cast<float>(boundary(-m.offset_dc, m.maxDc, [&](double x) {
+                                               return m.offset_dc + x - edge(x) <= 0.5;
+                                           }).second);
     // The mean fits' band around the top (Work::inClipBand): 2.5 σ either side. At 2.5 σ under the
     // top 0.6 % of the frames clip and the kept mean is low by 0.018 σ (0.5 DC at the PULNiX
     // preset's 30 DC of noise there); 4.5 σ would leave out 135 DC either side of the top on that
@@ -279,19 +281,13 @@ void Work::setHeadroom() {
         for (float v : M)
             clips = clips || v >= static_cast<float>(top);
     if (!clips) return;
-    lo = -m.offset_dc;
-    hi = m.maxDc;
-    for (int i = 0; i < 60; ++i) {
-        const double mid = 0.5 * (lo + hi);
-        (m.offset_dc + mid + 2.5 * sigma(mid) < top ? lo : hi) = mid;
-    }
-    const double bandLo = lo;
-    hi = 4.0 * m.maxDc;
-    for (int i = 0; i < 60; ++i) {
-        const double mid = 0.5 * (lo + hi);
-        (m.offset_dc + mid - 2.5 * sigma(mid) > top ? hi : lo) = mid;
-    }
-    const double bandHi = hi;
+    const double bandLo = boundary(-m.offset_dc, m.maxDc, [&](double x) {
+                              return m.offset_dc + x + 2.5 * sigma(x) < top;
+                          }).first;
+    const double bandHi = boundary(bandLo, 4.0 * m.maxDc, [&](double x) {
+                              return m.offset_dc + x - 2.5 * sigma(x) <= top;
+                          }).second;
+    Plane S;
     for (int k : sub) {
         assembleFrame(m.signal, k, w, h, m.fieldScan, S);
         std::vector<unsigned char> band(S.size());

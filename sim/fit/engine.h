@@ -106,7 +106,8 @@ struct Work {
 
     Work(const Dataset& ds, const ModelRun& mr, const sensor::CameraParams& c, Options o,
          Progress p, std::filesystem::path config);
-    void setHeadroom();  // headroomTop_dc, headroomBottom_dc from the model's noisy run
+    // headroomTop_dc, headroomBottom_dc and clipBand from the noise line (the constructor).
+    void setHeadroom();
     int tiles() const { return tilesX * tilesY; }
     int tileOf(int x, int y) const {
         return std::min(y / tile, tilesY - 1) * tilesX + std::min(x / tile, tilesX - 1);
@@ -140,9 +141,9 @@ struct Work {
     // pixels whose measured value is clipped keeps those that happened to fall below the top
     // and drops those above it, so near the top the kept values' variance and mean come out
     // low (on the model's own output, a false excess_noise at z 11.7, noise factor 1.47 for
-    // 1.6). A test on the model's mean selects no noise. The mean effects keep `valid`: the
-    // brightest points are the evidence of a saturation, and the model without it predicts
-    // them beyond the top.
+    // 1.6). A test on the model's mean selects no noise. The mean effects keep `valid` with
+    // the narrower inClipBand: the brightest points are the evidence of a saturation, and the
+    // model without it predicts them beyond the top.
     bool quiet(float v, float model) const {
         return valid(v, model) && model < headroomTop_dc && model > headroomBottom_dc;
     }
@@ -154,6 +155,12 @@ struct Work {
     // same fit; 0 and 0 when the noisy run has too few pixels away from the ADC's ends).
     double noiseS0_dc2 = 0.0, noiseS1_dc = 0.0;
 };
+
+// The unblurred frames of w.sub from the model's run m (mcp_saturation's forward model).
+void assembleUnblurred(Work& w, const ModelRun& m);
+
+// A trial of the report, replacing an earlier trial of the same effect.
+void recordTrial(Result& r, const Trial& t);
 
 // The effects a preset switches on that diagnose models itself (halo, veiling glare, MCP
 // saturation: Dataset::cameraExtra), as a mean model with nothing else.

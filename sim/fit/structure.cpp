@@ -31,11 +31,12 @@ Plane rotated(const Plane& Y) {
     return o;
 }
 
-// The images the shapes regress on, for frames `frames` of f. The mirrored copy is of the
-// light (a·U, the model's signal before the MTF and before diagnose's saturation): a ghost forms
-// in the lens, so a saturated spot's ghost has the spot's light, not its clipped level.
-void addImages(const Work& w, const std::vector<int>& frames, Frames& f) {
-    for (std::size_t i = 0; i < f.AY.size(); ++i) {
+// The images the shapes regress on, for frames `frames` of f (the mirrored ones only with
+// `mirror`). The mirrored copy is of the light (a·U, the model's signal before the MTF and
+// before diagnose's saturation): a ghost forms in the lens, so a saturated spot's ghost has the
+// spot's light, not its clipped level. The lag's regressor is a·(S_{k−1} − S_k).
+void addImages(const Work& w, const std::vector<int>& frames, Frames& f, bool mirror) {
+    for (std::size_t i = 0; i < f.AY.size() && mirror; ++i) {
         Plane U;
         if (w.m.unblurred.empty()) {
             U = f.AY[i];
@@ -50,13 +51,15 @@ void addImages(const Work& w, const std::vector<int>& frames, Frames& f) {
         Plane b = rotated(U);
         gaussianBlur(b, w.w, w.h, kMirrorBlur_px);
         f.mirrorBlur.push_back(std::move(b));
+    }
+    for (std::size_t i = 0; i < f.AY.size(); ++i) {
         const int k = frames[i];
         Plane d(f.AY[i].size(), 0.0f);
         if (k > 0) {
             const Plane& s0 = w.m.signal[static_cast<std::size_t>(k - 1)];
             const Plane& s1 = w.m.signal[static_cast<std::size_t>(k)];
             for (std::size_t p = 0; p < d.size(); ++p)
-                d[p] = s0[p] - s1[p];
+                d[p] = static_cast<float>(f.gain * (s0[p] - s1[p]));
         }
         f.lag.push_back(std::move(d));
     }
@@ -465,10 +468,7 @@ Frames residualFrames(Work& w, const Current& cur) {
         f.AY.push_back(std::move(AY));
     }
     f.G = lightGain(w, cur);
-    addImages(w, w.sub, f);
-    for (Plane& d : f.lag)
-        for (float& v : d)
-            v = static_cast<float>(v * cur.fit.a);
+    addImages(w, w.sub, f, true);
     return f;
 }
 
@@ -505,13 +505,6 @@ std::vector<StructureFit> findStructure(Work& w, const Current& cur, Result& r) 
             tr.after = s.s.rmsAfter;
             tr.why = kShapes[k].character + std::string(", ") + fmt(2, 100.0 * s.share) +
                      " % of the held-out squared error";
-            bool replaced = false;
-            for (nvs::fit::Trial& old : r.trials)
-                if (old.effect == tr.effect) {
-                    old = tr;
-                    replaced = true;
-                }
-            if (!replaced) r.trials.push_back(tr);
             bool sig = counts(w, s);
             bool eligible = true;  // a temporal shape that changes within a stimulus
             if (!t.within.empty()) {
@@ -520,10 +513,9 @@ std::vector<StructureFit> findStructure(Work& w, const Current& cur, Result& r) 
                     sig = false;
                     eligible = false;
                     tr.why += ", but not between frames of one stimulus (z " + fmt(1, zw) + ")";
-                    for (nvs::fit::Trial& old : r.trials)
-                        if (old.effect == tr.effect) old.why = tr.why;
                 }
             }
+            recordTrial(r, tr);
             if (sig && (best < 0 || s.s.sum > bestS.s.sum)) {
                 if (best >= 0) rivals.push_back({best, std::move(bestT), bestS});
                 best = k;
@@ -588,7 +580,11 @@ std::vector<Plane> withoutStructure(const Work& w, const Current& cur,
     const int n = static_cast<int>(w.d.frameCount());
     std::vector<Plane> out;
     out.reserve(static_cast<std::size_t>(n));
-    // One frame at a time (all frames of a long dataset would not fit as planes).
+    // The mirrored images (two blurs a frame) only where a ghost was found.
+    bool mirror = false;
+    for (const StructureFit& sf : found)
+        mirror = mirror || sf.kind == kPointMirror;
+    // One frame at a time: only the corrected frames are kept, not each frame's working planes.
     for (int k = 0; k < n; ++k) {
         Frames f;
         f.gain = cur.fit.a;
@@ -610,9 +606,7 @@ std::vector<Plane> withoutStructure(const Work& w, const Current& cur,
         f.P.push_back(std::move(P));
         f.G.push_back(AY);
         f.AY.push_back(std::move(AY));
-        addImages(w, std::vector<int>{k}, f);
-        for (float& v : f.lag[0])
-            v = static_cast<float>(v * cur.fit.a);
+        addImages(w, std::vector<int>{k}, f, mirror);
         Plane C = M;
         for (const StructureFit& sf : found) {
             const Kind kind = static_cast<Kind>(sf.kind);

@@ -68,7 +68,7 @@ struct Frames {
     double gain = 1.0;          // a, the baseline's gain
     std::vector<Plane> mirror;  // a·U rotated 180°, blurred by 1 px (and by 4 px: mirrorBlur)
     std::vector<Plane> mirrorBlur;
-    std::vector<Plane> lag;      // S_{k−1} − S_k (then × a), S the model's per-call signal
+    std::vector<Plane> lag;      // a·(S_{k−1} − S_k), S the model's per-call signal
     std::vector<double> lx, ly;  // Legendre values per column and row, kLegendreDegree+1 each
     double levelLo = 0.0, levelHi = 1.0;
 };
