@@ -474,8 +474,10 @@ Frames residualFrames(Work& w, const Current& cur) {
 
 }  // namespace
 
-std::vector<StructureFit> findStructure(Work& w, const Current& cur, Result& r) {
+std::vector<StructureFit> findStructure(Work& w, const Current& cur, Result& r,
+                                        double* frameGainShare) {
     std::vector<StructureFit> found;
+    if (frameGainShare != nullptr) *frameGainShare = 0.0;
     if (w.cal.empty() || w.ho.empty()) return found;
     Frames f = residualFrames(w, cur);
     bool taken[kKinds] = {};
@@ -516,6 +518,8 @@ std::vector<StructureFit> findStructure(Work& w, const Current& cur, Result& r) 
                 }
             }
             recordTrial(r, tr);
+            if (round == 0 && k == kFrameGain && frameGainShare != nullptr && counts(w, s))
+                *frameGainShare = s.share;
             if (sig && (best < 0 || s.s.sum > bestS.s.sum)) {
                 if (best >= 0) rivals.push_back({best, std::move(bestT), bestS});
                 best = k;

@@ -46,8 +46,12 @@ struct StructureFit {
 };
 
 // The structures found in the residual of `cur` (effect "unexplained", best first); curves and
-// maps of every structure found are added to r.
-std::vector<StructureFit> findStructure(Work& w, const Current& cur, Result& r);
+// maps of every structure found are added to r. frameGainShare, when given, receives the share
+// of the held-out squared error that a free gain and offset per frame explain in the residual
+// of `cur`, whether or not it changes between frames of one stimulus (a law of the frame's
+// light, bright-source protection, is weighed against it: diagnose.cpp, demoteExplained).
+std::vector<StructureFit> findStructure(Work& w, const Current& cur, Result& r,
+                                        double* frameGainShare = nullptr);
 
 // The measured frames (every frame of the dataset) with the structures found taken out, for
 // the noise effects' second test. Frames are predicted by the model's mean signal with cur's

@@ -137,6 +137,10 @@ Effects outside the catalog (family "outside"), with the character diagnose shou
       images the scene point-mirrored and slightly out of focus.
   row_noise (temporal)  S' = S + r_{k,y}, r ~ N(0, sigma^2) per row and frame, sigma 1-3 DC:
       a read-out's line-clamp noise. After detection.
+  light_loss  L' = t L, t 0.5-0.8 (family "null"): less light reached the photocathode than
+      the dataset's radiance says (a lens's transmission, a radiance calibration off by 1/t).
+      Not an effect of the camera: the baseline's gain absorbs it, and no cause may be named;
+      a noise effect that reads the gain as the electronics' may be reported as a candidate.
   null  nothing (family "null").
 Convolutions extend the frame by its mirror image at each edge (the scene continues past the
 frame), exactly as an infinite symmetric extension (the kernel is summed over its periods).
@@ -368,6 +372,7 @@ EFFECTS = {
     "frame_jitter": ("outside", "geometric"),
     "lens_ghost": ("outside", "spatial"),
     "row_noise": ("outside", "temporal"),
+    "light_loss": ("null", "none"),
     "null": ("null", "none"),
 }
 
@@ -423,6 +428,8 @@ def draw_parameters(effect, rng, ctx):
         return {"fraction": u(0.02, 0.05), "blur_sigma_px": s, "blur_sigma_um": s * pitch_x}
     if effect == "row_noise":
         return {"sigma_dc": u(1.0, 3.0)}
+    if effect == "light_loss":
+        return {"transmission": u(0.5, 0.8)}
     return {}
 
 
@@ -484,6 +491,8 @@ def light_seen(effect, p, clean, ctx, rng):
         return [L * v for L in clean]
     if effect == "flicker":
         return [L * g for L, g in zip(clean, p["gains"])]
+    if effect == "light_loss":
+        return [L * p["transmission"] for L in clean]
     if effect == "lens_ghost":
         return [L + p["fraction"] * sp.gaussian(L[::-1, ::-1], p["blur_sigma_um"]) for L in clean]
     return list(clean)

@@ -254,13 +254,13 @@ def table(a, recs, elapsed):
                 counts([c or "?" for s in sc for c in s["unexplained_characters"]])))
         L.append("")
     if nulls:
-        L += ["## Null", "", "| seeds | failed | clean | catalog effects named | "
-              "unexplained findings |", "|---|---|---|---|---|"]
+        L += ["## Null", "", "| effect | seeds | failed | clean | catalog effects named | "
+              "unexplained findings |", "|---|---|---|---|---|---|"]
         for e in nulls:
             rs = [r for r in by[e] if "error" not in r]
             sc = [r["scores"] for r in rs]
-            L.append("| %d | %d | %s | %s | %s |" % (
-                len(by[e]), len(by[e]) - len(rs), frac(sum(s["clean"] for s in sc), len(rs)),
+            L.append("| %s | %d | %d | %s | %s | %s |" % (
+                e, len(by[e]), len(by[e]) - len(rs), frac(sum(s["clean"] for s in sc), len(rs)),
                 counts([n for s in sc for n in s["named_catalog"]]),
                 counts([c or "?" for s in sc for c in s["unexplained_characters"]])))
         L.append("")
