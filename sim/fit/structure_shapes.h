@@ -79,6 +79,10 @@ struct ShapeFit {
     std::vector<double> coef;                   // fixed shapes
     std::vector<std::vector<double>> perFrame;  // per-frame shapes: each frame's parameters
     std::vector<Plane> within;  // temporal shapes: Q less its mean over frames of one stimulus
+    // Per-frame shapes: each frame's parameters fitted on each colour of the tiles' checkerboard
+    // alone, and (temporal shapes) the z of their agreement between frames of one stimulus.
+    std::vector<std::vector<double>> fold[2];
+    double zFold = 0.0;
 };
 
 // level_transfer's knots, evenly spaced over the predicted range. (Knots denser toward the dark
