@@ -8,9 +8,10 @@ namespace nvs::fit {
 
 // Each effect's file defines its accessor; this table is the only list of them.
 const RegisteredEffect& frameGrabberBlur();
+const RegisteredEffect& videoStreak();
 
 const std::vector<const RegisteredEffect*>& registeredEffects() {
-    static const std::vector<const RegisteredEffect*> table = {&frameGrabberBlur()};
+    static const std::vector<const RegisteredEffect*> table = {&frameGrabberBlur(), &videoStreak()};
     return table;
 }
 

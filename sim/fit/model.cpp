@@ -5,6 +5,7 @@
 
 #include "sim/core/gamma_table.h"
 #include "sim/sensor/chain.h"
+#include "sim/sensor/stages/video.h"
 
 namespace nvs::fit {
 
@@ -148,6 +149,14 @@ void meanRun(const Dataset& d, const std::vector<ImageF>& stimuli, const sensor:
             const double i_A = chain.process(s.cview()).cathode_current_A;
             if (current && cathode_A) cathode_A->push_back(i_A);
             copyPlane(chain.electrons().cview(), vg, out[k]);
+            // The video stage's droop acts on the line before the ADC (a linear filter of
+            // each row, so of the signal in DC as of the electrons).
+            if (c.streak_fraction > 0.0)
+                for (int y = 0; y < d.height; ++y) {
+                    float* row = out[k].data() + static_cast<std::size_t>(y) * d.width;
+                    sensor::VideoStage::droopRow(row, row, d.width, c.streak_fraction,
+                                                 c.streak_tau_px);
+                }
         }
     };
     run(mean, signal, true);

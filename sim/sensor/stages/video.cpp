@@ -18,6 +18,9 @@ void VideoParams::read(const PresetReader& root) {
     gamma = positive(video, "gamma", gamma);
     adc_bits = video.get<int>("adc_bits", adc_bits);
     require(adc_bits >= 1 && adc_bits <= 16, video, "adc_bits", "must be in 1..16");
+    streak_fraction = nonNegative(video, "streak_fraction", streak_fraction);
+    require(streak_fraction < 1.0, video, "streak_fraction", "must be below 1");
+    streak_tau_px = positive(video, "streak_tau_px", streak_tau_px);
     const std::string scanMode = video.get<std::string>("scan", "field");
     if (scanMode == "field")
         scan = ScanMode::Field;
@@ -145,9 +148,49 @@ bool VideoStage::readsRow(std::uint64_t field, int y) const noexcept {
     return cam_->scan != ScanMode::Field || (y & 1) == cam_->fieldRowParity(field);
 }
 
+void VideoStage::droopRow(const float* e, float* out, int w, double fraction,
+                          double tau_px) noexcept {
+    // A recursion along the line: the running mean is the state of the coupling's RC circuit,
+    // one multiply-add a pixel (a convolution with the exponential would cost τ of them).
+    const double r = std::exp(-1.0 / tau_px);
+    double m = 0.0;
+    for (int x = 0; x < w; ++x) {
+        const double in = e[x];
+        out[x] = static_cast<float>(in - fraction * m);
+        m = r * m + (1.0 - r) * in;
+    }
+}
+
+float VideoStage::countOf(float s) const noexcept {
+    const CameraParams& c = *cam_;
+    const float gain = static_cast<float>(c.video_gain_dc_per_e);
+    const float offset = static_cast<float>(c.video_offset_dc);
+    const float maxc = static_cast<float>(maxCount_);
+    const float sig = s * gain;
+    if (!gamma_ || !(sig > 0.0f)) return linearCount(s, gain, offset, maxc);
+    const float bottom = std::clamp(std::nearbyint(offset), 0.0f, maxc);
+    const int cells = static_cast<int>(lut_.size()) - 1;
+    const int cell = std::min(static_cast<int>(sig * lutScale_), cells);
+    std::size_t j = static_cast<std::size_t>(lut_[static_cast<std::size_t>(cell)]);
+    while (thr_[j] <= sig)
+        ++j;
+    return std::min(bottom + static_cast<float>(j), maxc);
+}
+
 std::int64_t VideoStage::applyRow(const float* s, float* o, std::uint16_t* v,
                                   int w) const noexcept {
     const CameraParams& c = *cam_;
+    if (c.streak_fraction > 0.0) {
+        // The droop first, into the counts row, then each pixel converted where it lies.
+        droopRow(s, o, w, c.streak_fraction, c.streak_tau_px);
+        std::int64_t sum = 0;
+        for (int x = 0; x < w; ++x) {
+            o[x] = countOf(o[x]);
+            v[x] = static_cast<std::uint16_t>(static_cast<std::int32_t>(o[x]));
+            sum += v[x];
+        }
+        return sum;
+    }
     const float gain = static_cast<float>(c.video_gain_dc_per_e);
     const float offset = static_cast<float>(c.video_offset_dc);
     const float maxc = static_cast<float>(maxCount_);

@@ -24,6 +24,14 @@ struct VideoParams {
     double video_noise_dc = 0.0;         // [DC rms] additive pre-amplifier noise
     double gamma = 1.0;                  // Table 11-2: gamma 1.0
     int adc_bits = 8;
+    // The line's droop through an AC-coupled video path (a coupling capacitor, the level
+    // clamped to black at each line's back porch): along each line the signal less the
+    // fraction streak_fraction of its running mean, a first-order low-pass of time constant
+    // streak_tau_px pixels started at 0 at the line's start. A bright object drags the level
+    // after it down (a dark streak to its right) and a flat line droops from left to right.
+    // At 768 active pixels in RS-170's 52.6 µs line, one pixel is 68.5 ns. 0 = off.
+    double streak_fraction = 0.0;
+    double streak_tau_px = 20.0;  // [px]
 
     // Reads [video] of the preset over the defaults above; errors name
     // file:line or the --set KEY.
@@ -43,8 +51,14 @@ class VideoStage {
     bool readsRow(std::uint64_t field, int y) const noexcept;
     std::int64_t applyRow(const float* e, float* counts, std::uint16_t* video,
                           int w) const noexcept;
+    // The droop alone (VideoParams::streak_fraction): out[x] = e[x] − f·m[x − 1],
+    // m[x] = r·m[x − 1] + (1 − r)·e[x], m[−1] = 0, r = exp(−1/τ). A flat line of level S
+    // gives S·(1 − f·(1 − exp(−x/τ))) exactly. out may be e.
+    static void droopRow(const float* e, float* out, int w, double fraction,
+                         double tau_px) noexcept;
 
   private:
+    float countOf(float s) const noexcept;  // one pixel's conversion (the droop's path)
     const CameraParams* cam_;
     int maxCount_;
     // Gamma ≠ 1: the output count for a signal is the number of thresholds at or below it,

@@ -213,5 +213,37 @@ TEST(HiddenRegistered, FrameGrabberBlurIsNamedWithItsLineMtf) {
     EXPECT_GE(good, 2) << log;
 }
 
+// The second effect added through the registry: the AC-coupled video line's droop, hidden by
+// the generator through the chain's video stage (video.streak_fraction, streak_tau_px;
+// VideoStage::droopRow), named first in at least two of three seeds. The fraction and the
+// time constant trade against each other where τ is long against the 128-pixel line; what is
+// checked is the droop itself, 1 − f·(1 − exp(−x/τ)) of a flat line, fitted against true at
+// 10, 40 and 120 px along it, within 0.01 (the true droop at 120 px is 3.5-20 %).
+TEST(HiddenRegistered, VideoStreakIsNamedWithItsDroop) {
+    int good = 0;
+    std::string log;
+    for (int seed = 1; seed <= kSeeds; ++seed) {
+        Generated g;
+        const Result r = run({"video_streak"}, seed, g);
+        log += describe(r, g) + "\n";
+        if (r.findings.empty() || r.findings[0].effect != "video_streak") continue;
+        const Finding& f = r.findings[0];
+        ASSERT_EQ(f.parameters.size(), 2u);
+        auto droop = [](double fraction, double tau, double x) {
+            return 1.0 - fraction * (1.0 - std::exp(-x / tau));
+        };
+        bool close = true;
+        for (double x : {10.0, 40.0, 120.0}) {
+            const double truth =
+                droop(g.truth.at("video_streak.fraction"), g.truth.at("video_streak.tau_px"), x);
+            close = close && std::fabs(droop(f.parameters[0].second, f.parameters[1].second, x) -
+                                       truth) < 0.01;
+        }
+        EXPECT_EQ(f.presetKeys.size(), 2u);
+        good += close ? 1 : 0;
+    }
+    EXPECT_GE(good, 2) << log;
+}
+
 }  // namespace
 }  // namespace nvs::fit

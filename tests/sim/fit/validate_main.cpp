@@ -102,6 +102,7 @@ int run(int argc, char** argv) {
                                       "ebi_background",
                                       "excess_noise",
                                       "frame_grabber_blur",
+                                      "video_streak",
                                       "halo+phosphor_persistence",
                                       "halo+mcp_saturation",
                                       "vertical_smear+excess_noise"};

@@ -537,6 +537,77 @@ TEST(Video, GammaTableEqualsTheFormula) {
     }
 }
 
+// The droop of an AC-coupled video line (video.streak_fraction, streak_tau_px): a flat field
+// through the whole chain comes out, along each line, as S·(1 − f·(1 − exp(−x/τ))), the step
+// response of a first-order high-pass of weight f started at the line's start (the RC law),
+// against the same chain without it. A bright bar then leaves the level after it below the
+// flat line's, recovering toward it (a dark streak to its right, none to its left).
+TEST(Video, StreakDroopsAFlatLineAsTheRcLaw) {
+    Overrides ov = noiseFree();
+    ov["width"] = "400";
+    ov["height"] = "8";
+    ov["video.scan"] = "frame";
+    ov["mtf.enabled"] = "false";
+    ov["agc"] = "off";
+    const CameraParams plain = preset("pulnix-ag5745ef3", ov);
+    ov["video.streak_fraction"] = "0.2";
+    ov["video.streak_tau_px"] = "30";
+    const CameraParams streak = preset("pulnix-ag5745ef3", ov);
+    // A level well inside the 16-bit ADC, far above its rounding.
+    const ImageF flat = test::uniform(400, 8, 1e13f);
+    auto run = [&](const CameraParams& cam, const ImageF& in) {
+        IiccdChain chain(cam, 1, test::configDir(), test::gammaTables());
+        for (int k = 0; k < 3; ++k)
+            chain.process(in.cview());
+        std::vector<double> row(400);
+        for (int x = 0; x < 400; ++x)
+            row[static_cast<std::size_t>(x)] =
+                static_cast<double>(chain.counts()(x, 4)) - cam.video_offset_dc;
+        return row;
+    };
+    double scale = 1.0;
+    {
+        const std::vector<double> probe = run(plain, flat);
+        scale = 1e13 * 20000.0 / probe[200];
+    }
+    const ImageF level = test::uniform(400, 8, static_cast<float>(scale));
+    const std::vector<double> s0 = run(plain, level), s1 = run(streak, level);
+    ASSERT_GT(s0[200], 10000.0);
+    for (int x : {0, 1, 10, 30, 60, 150, 380}) {
+        const double law = 1.0 - 0.2 * (1.0 - std::exp(-x / 30.0));
+        EXPECT_NEAR(s1[static_cast<std::size_t>(x)] / s0[static_cast<std::size_t>(x)], law, 2e-4)
+            << "x " << x;
+    }
+    ImageF bar = level;
+    for (int y = 0; y < 8; ++y)
+        for (int x = 200; x < 210; ++x)
+            bar(x, y) = static_cast<float>(5.0 * scale);
+    // With a bar the chain's own spreads (the tube's halo) make the line uneven: the droop
+    // of the line the chain makes without it, as the direct sum of the exponential's weights
+    // over the pixels before each one, within the ADC's rounding.
+    const std::vector<double> b0 = run(plain, bar), b1 = run(streak, bar);
+    const double r = std::exp(-1.0 / 30.0);
+    for (int x : {190, 199, 205, 215, 260, 380}) {
+        double m = 0.0;
+        for (int j = 0; j < x; ++j)
+            m += (1.0 - r) * std::pow(r, x - 1 - j) * b0[static_cast<std::size_t>(j)];
+        EXPECT_NEAR(b1[static_cast<std::size_t>(x)], b0[static_cast<std::size_t>(x)] - 0.2 * m, 1.0)
+            << "x " << x;
+    }
+    // What the droop takes off beyond the flat line's: nothing before the bar, most just after
+    // it, less further on.
+    auto extra = [&](int x) {
+        const std::size_t i = static_cast<std::size_t>(x);
+        return (b0[i] - b1[i]) - (s0[i] - s1[i]);
+    };
+    EXPECT_LT(std::fabs(extra(150)), 0.01 * (s0[150] - s1[150])) << "none well before it";
+    EXPECT_GT(extra(211), 0.2 * (s0[211] - s1[211])) << "a dark streak after the bar";
+    EXPECT_GT(extra(211), 3.0 * extra(260)) << "recovering";
+    EXPECT_GT(extra(260), 0.0);
+    EXPECT_THROW(test::calibrationTube({{"video.streak_fraction", "1"}}), SetupError);
+    EXPECT_THROW(test::calibrationTube({{"video.streak_tau_px", "0"}}), SetupError);
+}
+
 TEST(BadInput, ClearErrors) {
     EXPECT_THROW(test::calibrationTube({{"mcp.bogus", "1"}}), SetupError);
     try {
