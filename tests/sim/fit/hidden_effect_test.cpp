@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <functional>
 
 #include "sim/core/error.h"
 #include "sim/fit/diagnose.h"
@@ -178,6 +179,32 @@ TEST(HiddenEffectPair, HaloWithSaturationBothRecovered) {
     expectPairRecovered("halo", "mcp_saturation");
 }
 
+// A registered effect of two parameters named first, and its law, a function of its two
+// parameters at a few points, within `tol` of the truth's, in at least two of three seeds.
+void expectRegisteredLaw(
+    const std::string& name, const std::vector<double>& at, double tol,
+    const std::function<double(double, double, double, const Generated&)>& law) {
+    int good = 0;
+    std::string log;
+    for (int seed = 1; seed <= kSeeds; ++seed) {
+        Generated g;
+        const Result r = run({name}, seed, g);
+        log += describe(r, g) + "\n";
+        if (r.findings.empty() || r.findings[0].effect != name) continue;
+        const Finding& f = r.findings[0];
+        ASSERT_EQ(f.parameters.size(), 2u);
+        const double t0 = g.truth.at(name + "." + f.parameters[0].first);
+        const double t1 = g.truth.at(name + "." + f.parameters[1].first);
+        bool close = true;
+        for (double x : at)
+            close = close && std::fabs(law(f.parameters[0].second, f.parameters[1].second, x, g) -
+                                       law(t0, t1, x, g)) < tol;
+        EXPECT_EQ(f.presetKeys.size(), 2u);
+        good += close ? 1 : 0;
+    }
+    EXPECT_GE(good, 2) << log;
+}
+
 // An effect added through the registry (effect_registry.h, docs/diagnose.md "Adding an
 // effect"): the frame grabber's line blur, hidden by the generator through the chain's own
 // digitiser stage (sim/sensor/mtf.cpp), named first in at least two of three seeds. The law's
@@ -187,30 +214,13 @@ TEST(HiddenEffectPair, HaloWithSaturationBothRecovered) {
 // 0.1 (seeds 1-3 after the joint refit: 0.02, 0.07 and 0.10 at the Nyquist frequency, where the
 // true MTF is 0.08-0.39; the law's two parameters alone came back up to 27 % off).
 TEST(HiddenRegistered, FrameGrabberBlurIsNamedWithItsLineMtf) {
-    int good = 0;
-    std::string log;
-    for (int seed = 1; seed <= kSeeds; ++seed) {
-        Generated g;
-        const Result r = run({"frame_grabber_blur"}, seed, g);
-        log += describe(r, g) + "\n";
-        if (r.findings.empty() || r.findings[0].effect != "frame_grabber_blur") continue;
-        const Finding& f = r.findings[0];
-        ASSERT_EQ(f.parameters.size(), 2u);
-        const double pitch_mm = g.data.camera.pitch_x_um * 1e-3 * g.data.camera.taper_magnification;
-        const double nyquist = 0.5 / pitch_mm;
-        bool close = true;
-        for (double part : {0.25, 0.5, 1.0}) {
-            const double fq = part * nyquist;
-            const double truth = std::exp(-std::pow(fq / g.truth.at("frame_grabber_blur.fc_cyc_mm"),
-                                                    g.truth.at("frame_grabber_blur.index")));
-            const double fit =
-                std::exp(-std::pow(fq / f.parameters[0].second, f.parameters[1].second));
-            close = close && std::fabs(fit - truth) < 0.1;
-        }
-        EXPECT_EQ(f.presetKeys.size(), 2u);
-        good += close ? 1 : 0;
-    }
-    EXPECT_GE(good, 2) << log;
+    // x: the part of the Nyquist frequency at the cathode.
+    expectRegisteredLaw("frame_grabber_blur", {0.25, 0.5, 1.0}, 0.1,
+                        [](double fc, double index, double part, const Generated& g) {
+                            const double pitch_mm =
+                                g.data.camera.pitch_x_um * 1e-3 * g.data.camera.taper_magnification;
+                            return std::exp(-std::pow(part * 0.5 / pitch_mm / fc, index));
+                        });
 }
 
 // The second effect added through the registry: the AC-coupled video line's droop, hidden by
@@ -220,29 +230,11 @@ TEST(HiddenRegistered, FrameGrabberBlurIsNamedWithItsLineMtf) {
 // checked is the droop itself, 1 − f·(1 − exp(−x/τ)) of a flat line, fitted against true at
 // 10, 40 and 120 px along it, within 0.01 (the true droop at 120 px is 3.5-20 %).
 TEST(HiddenRegistered, VideoStreakIsNamedWithItsDroop) {
-    int good = 0;
-    std::string log;
-    for (int seed = 1; seed <= kSeeds; ++seed) {
-        Generated g;
-        const Result r = run({"video_streak"}, seed, g);
-        log += describe(r, g) + "\n";
-        if (r.findings.empty() || r.findings[0].effect != "video_streak") continue;
-        const Finding& f = r.findings[0];
-        ASSERT_EQ(f.parameters.size(), 2u);
-        auto droop = [](double fraction, double tau, double x) {
-            return 1.0 - fraction * (1.0 - std::exp(-x / tau));
-        };
-        bool close = true;
-        for (double x : {10.0, 40.0, 120.0}) {
-            const double truth =
-                droop(g.truth.at("video_streak.fraction"), g.truth.at("video_streak.tau_px"), x);
-            close = close && std::fabs(droop(f.parameters[0].second, f.parameters[1].second, x) -
-                                       truth) < 0.01;
-        }
-        EXPECT_EQ(f.presetKeys.size(), 2u);
-        good += close ? 1 : 0;
-    }
-    EXPECT_GE(good, 2) << log;
+    // x: pixels along the line.
+    expectRegisteredLaw("video_streak", {10.0, 40.0, 120.0}, 0.01,
+                        [](double fraction, double tau, double x, const Generated&) {
+                            return 1.0 - fraction * (1.0 - std::exp(-x / tau));
+                        });
 }
 
 }  // namespace
