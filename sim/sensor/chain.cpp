@@ -128,7 +128,9 @@ void IiccdChain::run(ImageView<const float> lpe, FieldContext& ctx) noexcept {
         return ctx.cathodeRate_pe_s * ctx.gate_s / ctx.period_s * kElectronCharge_C;
     };
     const double bspFactor = opticsFirst ? bsp_.factor(cathodeCurrent_A()) : 1.0;
-    ctx.mcpGain = cam_.mcpGain(ctx.gain_V) * bspFactor;
+    const bool onPe = cam_.bsp_on_photoelectrons;
+    ctx.mcpGain = cam_.mcpGain(ctx.gain_V) * (onPe ? 1.0 : bspFactor);
+    if (onPe && bspFactor != 1.0) cathode_.scaleExposure(bspFactor);
     FieldContext rowCtx = ctx;  // photocathode constants for the row-by-row case
     if (!opticsFirst) cathode_.begin(rowCtx, w, h);
     mcp_.begin(ctx);

@@ -15,6 +15,10 @@ Checked: the null in every seed; each effect in at least 2 of the 3 seeds (the s
   gain_compression  an `unexplained` finding of character level, no catalog effect named
                     (EBI, which the compression's slope at the dark end imitates, a candidate);
   row_noise         an `unexplained` finding of character temporal;
+  bright_source_protection  protection named, acting on the photoelectron count
+                    (parameter on_photoelectrons 1: open_world.py gates the light), and
+                    excess_noise not named (reading it as a gain made the noise per DC look
+                    1/factor too large);
   flicker           an `unexplained` finding of character temporal, no catalog effect named
                     (found by the agreement of the per-frame gains fitted on the two halves of
                     the tiles' checkerboard; seeds 1 and 2 of 3 at this size, docs/validation.md).
@@ -37,6 +41,7 @@ EXPECT = {
     "gain_compression": ("level", True),
     "row_noise": ("temporal", False),
     "flicker": ("temporal", True),
+    "bright_source_protection": ("member", None),
 }
 
 
@@ -69,6 +74,14 @@ def main():
             continue
         named = [f["effect"] for f in fs if f.get("status", "named") == "named"]
         chars = [f.get("character") for f in fs if f["effect"] == "unexplained"]
+        if want == "member":
+            bsp = [f for f in fs if f["effect"] == "bright_source_protection"
+                   and f.get("status", "named") == "named"]
+            if not bsp or bsp[0]["parameters"].get("on_photoelectrons") != 1:
+                misses[d["effect"]].append(tag + ": protection not named on the photoelectrons")
+            elif "excess_noise" in named:
+                misses[d["effect"]].append(tag + ": excess_noise named beside protection")
+            continue
         if want == "not named":
             if clean in named:
                 failures.append(tag + ": %s named" % clean)

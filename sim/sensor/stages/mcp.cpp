@@ -16,6 +16,10 @@ void McpParams::read(const PresetReader& root) {
     const PresetReader bsp = root.sub("bsp");
     bsp_knee_A = positive(bsp, "knee_A", bsp_knee_A);
     bsp_exponent = positive(bsp, "exponent", bsp_exponent);
+    const std::string actsOn = bsp.get<std::string>("acts_on", "gain");
+    if (actsOn != "gain" && actsOn != "photoelectrons")
+        bsp.fail("acts_on", "must be gain or photoelectrons");
+    bsp_on_photoelectrons = actsOn == "photoelectrons";
 
     const PresetReader mcp = root.sub("mcp");
     mcp_enabled = mcp.get<bool>("enabled", mcp_enabled);

@@ -21,6 +21,11 @@ struct McpParams {
     // --- 4. Bright-source protection (agc = "bsp") -------------------------------------------
     double bsp_knee_A = 2e-11;  // [A] cathode current at which gain halves
     double bsp_exponent = 1.0;
+    // Where the factor acts: on the MCP's gain (false: a cathode series resistor that lowers
+    // the voltage, each photoelectron amplified less) or on the photoelectron count (true, key
+    // acts_on = "photoelectrons": a gate whose duty cycle falls, fewer photoelectrons each
+    // amplified as before). The mean is the same; the shot noise per DC is not.
+    bool bsp_on_photoelectrons = false;
 
     // --- 5. MCP ---------------------------------------------------------------------------
     // Absolute gain: Vc directly, or (anchor) the tube's luminous gain at a control voltage,

@@ -43,6 +43,11 @@ class PhotocathodeStage {
     // exposure and noise key; applyRow() then draws row y.
     // `slot` (0 … kChainSlots − 1): whose row scratch; rows in different slots may run at once.
     void begin(FieldContext& ctx, int w, int h) noexcept;
+    // After begin(): this field's photoelectrons (and EBI) scaled by f, the exposure a gate
+    // of duty cycle f leaves (bright-source protection on the photoelectron count).
+    void scaleExposure(double f) noexcept {
+        t_s_ = static_cast<float>(static_cast<double>(t_s_) * f);
+    }
     void applyRow(const float* rate, float* pe, int w, int y, int slot = 0) noexcept;
 
   private:

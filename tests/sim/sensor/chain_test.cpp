@@ -325,6 +325,71 @@ TEST(Temporal, AbcBspAndAutogate) {
     EXPECT_NEAR(gate.info[59].gain_V, gate.info[9].gain_V, 1e-12);
 }
 
+// Bright-source protection on the photoelectron count (bsp.acts_on = "photoelectrons", a gate
+// whose duty cycle falls) against on the MCP's gain (the default): the same mean level; a shot
+// noise per DC larger by 1/factor (fewer photoelectrons, each amplified as before), equal to
+// that of the camera without protection given the light times the factor (a gate of duty
+// cycle f is that much less light), against which the gain member's is f times as large.
+TEST(Temporal, BspOnThePhotoelectronsIsLessLightNotLessGain) {
+    Overrides ov = {{"width", "64"},          {"height", "64"},
+                    {"video.scan", "frame"},  {"ccd.read_noise_e", "0"},
+                    {"video.noise_dc", "0"},  {"video.adc_bits", "16"},
+                    {"ccd.full_well_e", "0"}, {"photocathode.ebi_lm_cm2", "0"},
+                    {"ccd.prnu_rel", "0"},    {"agc", "bsp"}};
+    const float level = 2e13f;
+    auto stats = [&](const Overrides& o, float light, double& mean, double& var, double& f) {
+        const CameraParams cam = preset("pulnix-ag5745ef3", o);
+        IiccdChain chain(cam, 3, test::configDir(), test::gammaTables());
+        const ImageF in = test::uniform(64, 64, light);
+        std::vector<ImageF> frames;
+        for (int k = 0; k < 24; ++k) {
+            f = chain.process(in.cview()).bsp_factor;
+            frames.push_back(chain.counts());
+        }
+        double s = 0.0, d2 = 0.0, n = 0.0;
+        for (int k = 5; k < 24; ++k)
+            for (int y = 8; y < 56; ++y)
+                for (int x = 8; x < 56; ++x) {
+                    s += static_cast<double>(frames[k](x, y)) - cam.video_offset_dc;
+                    const double d = static_cast<double>(frames[k](x, y)) -
+                                     static_cast<double>(frames[k - 1](x, y));
+                    d2 += d * d;
+                    n += 1.0;
+                }
+        mean = s / n;
+        var = d2 / (2.0 * n);
+    };
+    // The knee where this light's cathode current halves the gain, found from a run without it.
+    double m0 = 0.0, v0 = 0.0, f0 = 0.0;
+    Overrides probe = ov;
+    probe["bsp.knee_A"] = "1";
+    stats(probe, level, m0, v0, f0);
+    const CameraParams cam = preset("pulnix-ag5745ef3", probe);
+    IiccdChain c(cam, 3, test::configDir(), test::gammaTables());
+    const double i_A = c.process(test::uniform(64, 64, level).cview()).cathode_current_A;
+    char knee[32];
+    std::snprintf(knee, sizeof knee, "%.9g", i_A / 1.5);  // factor 1/(1 + 1.5) = 0.4
+    ov["bsp.knee_A"] = knee;
+    double mg = 0.0, vg = 0.0, fg = 0.0, mp = 0.0, vp = 0.0, fp = 0.0;
+    stats(ov, level, mg, vg, fg);
+    Overrides pe = ov;
+    pe["bsp.acts_on"] = "photoelectrons";
+    stats(pe, level, mp, vp, fp);
+    double ml = 0.0, vl = 0.0, fl = 0.0;
+    stats(probe, static_cast<float>(static_cast<double>(level) * fg), ml, vl, fl);
+    std::printf(
+        "factor %.3f: mean %.2f (gain) %.2f (photoelectrons) %.2f (less light); "
+        "variance per DC %.3f, %.3f, %.3f\n",
+        fg, mg, mp, ml, vg / mg, vp / mp, vl / ml);
+    EXPECT_NEAR(fg, 0.4, 0.01);
+    EXPECT_NEAR(fp, fg, 1e-9);
+    EXPECT_NEAR(mp / mg, 1.0, 0.01);
+    EXPECT_NEAR(ml / mg, 1.0, 0.02);
+    EXPECT_NEAR((vp / mp) / (vl / ml), 1.0, 0.08);
+    EXPECT_NEAR((vg / mg) / (vl / ml), fg, 0.08 * fg);
+    EXPECT_THROW(test::calibrationTube({{"bsp.acts_on", "screen"}}), SetupError);
+}
+
 // Optics: the camera equation's off-axis fall-off cos⁴θ, cos θ = f/√(f² + r²) with r the
 // distance from the axis on the cathode, computed here in double; bad pixels count and give 0.
 TEST(Optics, Cos4FalloffEqualsTheCameraEquation) {
