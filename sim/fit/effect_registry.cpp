@@ -21,6 +21,14 @@ const RegisteredEffect* findRegistered(const std::string& name) {
     return nullptr;
 }
 
+std::vector<std::pair<std::string, std::string>> registeredPresetKeys(
+    const RegisteredEffect& e, const std::vector<double>& p) {
+    std::vector<std::pair<std::string, std::string>> keys;
+    for (std::size_t j = 0; j < e.parameters.size() && j < p.size(); ++j)
+        keys.push_back({e.parameters[j].key, textf("%.6g", p[j])});
+    return keys;
+}
+
 void applyRegistered(const Work& w, const MeanModel& mm, std::vector<Plane>& S) {
     for (const AddedEffect& a : mm.added)
         a.effect->apply(w, a.parameters, S);
@@ -65,7 +73,7 @@ Candidate tryRegistered(Work& w, const Current& cur, const RegisteredEffect& e) 
         }
     }
     f.cause = e.cause(p);
-    f.presetKeys = e.presetKeys(p);
+    f.presetKeys = registeredPresetKeys(e, p);
     c.mm = cur.mm;
     c.mm.added.push_back({&e, p});
     return material(c);

@@ -22,6 +22,7 @@ namespace nvs::fit {
 
 struct EffectParameter {
     const char* name;  // the finding's parameter and the truth key's suffix
+    const char* key;   // the chain's preset key ("section.key") that holds it
     const char* unit;
     double lo, hi;          // the fit's search range (log spaced); a fit at its edge is rejected
     double hideLo, hideHi;  // the hidden-effect generator's range (drawn uniformly)
@@ -35,8 +36,6 @@ struct RegisteredEffect {
     bool (*present)(const sensor::CameraParams& cam);
     // The forward model: the assembled frames S [model DC above offset] with parameters p.
     void (*apply)(const Work& w, const std::vector<double>& p, std::vector<Plane>& S);
-    // The preset keys ("section.key", TOML value) that switch it on with parameters p.
-    std::vector<std::pair<std::string, std::string>> (*presetKeys)(const std::vector<double>& p);
     // One line an engineer reads.
     std::string (*cause)(const std::vector<double>& p);
 };
@@ -44,6 +43,11 @@ struct RegisteredEffect {
 // The one table of registered effects.
 const std::vector<const RegisteredEffect*>& registeredEffects();
 const RegisteredEffect* findRegistered(const std::string& name);
+
+// The preset keys ("section.key", TOML value) that switch e on with parameters p: each
+// parameter's key with its value (a parameter different from 0 turns the chain's stage on).
+std::vector<std::pair<std::string, std::string>> registeredPresetKeys(const RegisteredEffect& e,
+                                                                      const std::vector<double>& p);
 
 // Fits effect e on top of cur (each parameter by a log search, the others held, two rounds),
 // gain and offset refitted with it on the calibration frames, scored on the held-out frames as

@@ -218,7 +218,7 @@ sensor::Overrides chainEffects(const GenSpec& s, const Dataset& d, std::mt19937_
             p.push_back(std::uniform_real_distribution<double>(ep.hideLo, ep.hideHi)(rng));
             g.truth[std::string(e->name) + "." + ep.name] = p.back();
         }
-        for (const auto& [k, v] : e->presetKeys(p))
+        for (const auto& [k, v] : registeredPresetKeys(*e, p))
             ov[k] = v;
     }
     if (has(s, "bright_source_protection")) {

@@ -82,11 +82,6 @@ bool present(const sensor::CameraParams& cam) {
     return cam.mtf_enabled && cam.digitiser_fc_cyc_mm > 0.0;
 }
 
-std::vector<std::pair<std::string, std::string>> presetKeys(const std::vector<double>& p) {
-    return {{"mtf.digitiser_fc_cyc_mm", textf("%.6g", p[0])},
-            {"mtf.digitiser_index", textf("%.6g", p[1])}};
-}
-
 std::string cause(const std::vector<double>& p) {
     return textf(
         "the frame grabber blurs each video line: exp(-(f/%.3g cycles/mm)^%.3g) "
@@ -101,10 +96,10 @@ const RegisteredEffect& frameGrabberBlur() {
         "frame_grabber_blur",
         "blur (stage 7), the digitiser's horizontal MTF: [mtf] digitiser_fc_cyc_mm, "
         "digitiser_index",
-        {{"fc_cyc_mm", "cycles/mm", 2.0, 300.0, 12.0, 30.0}, {"index", "1", 0.25, 4.0, 0.4, 1.2}},
+        {{"fc_cyc_mm", "mtf.digitiser_fc_cyc_mm", "cycles/mm", 2.0, 300.0, 12.0, 30.0},
+         {"index", "mtf.digitiser_index", "1", 0.25, 4.0, 0.4, 1.2}},
         present,
         apply,
-        presetKeys,
         cause};
     return e;
 }

@@ -37,11 +37,6 @@ bool present(const sensor::CameraParams& cam) {
     return cam.streak_fraction > 0.0;
 }
 
-std::vector<std::pair<std::string, std::string>> presetKeys(const std::vector<double>& p) {
-    return {{"video.streak_fraction", textf("%.6g", p[0])},
-            {"video.streak_tau_px", textf("%.6g", p[1])}};
-}
-
 std::string cause(const std::vector<double>& p) {
     return textf(
         "the video line droops after what it carried: %.3g of the line's running mean (time "
@@ -56,10 +51,10 @@ const RegisteredEffect& videoStreak() {
     static const RegisteredEffect e{
         "video_streak",
         "video (stage 9), the AC-coupled line's droop: [video] streak_fraction, streak_tau_px",
-        {{"fraction", "1", 0.003, 0.9, 0.05, 0.2}, {"tau_px", "px", 1.0, 3000.0, 10.0, 100.0}},
+        {{"fraction", "video.streak_fraction", "1", 0.003, 0.9, 0.05, 0.2},
+         {"tau_px", "video.streak_tau_px", "px", 1.0, 3000.0, 10.0, 100.0}},
         present,
         apply,
-        presetKeys,
         cause};
     return e;
 }

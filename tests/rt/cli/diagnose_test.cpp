@@ -169,7 +169,7 @@ TEST(Diagnose, CompareShowsTheGainOfEachRegisteredEffect) {
         for (const fit::EffectParameter& ep : e->parameters)
             p.push_back(g.truth.at(std::string(e->name) + "." + ep.name));
         sensor::Overrides truth = g.data.settings;
-        for (const auto& [key, value] : e->presetKeys(p))
+        for (const auto& [key, value] : fit::registeredPresetKeys(*e, p))
             truth[key] = value;
         const fit::Comparison c =
             fit::compareModels(g.data, NVS_SOURCE_DIR "/config", g.data.camera.name,
