@@ -466,7 +466,7 @@ void chooseBspMember(const Dataset& d, ModelRun& m, Work& w, const Current& cur,
     };
     if (progress) progress("protection on the gain or on the photoelectrons: the noise of each");
     const double zGain = excessZ();
-    std::vector<Plane> noisyGain = m.noisy;
+    std::vector<Plane> noisyGain = std::move(m.noisy);  // resimulateNoise does not read it
     bsp->presetKeys.push_back({"bsp.acts_on", "\"photoelectrons\""});
     resimulateNoise(d, m, w, cur.mm, r.findings, configDir, opt.seed);
     const double zPe = excessZ();

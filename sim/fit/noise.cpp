@@ -291,8 +291,9 @@ double modelCov(const Tiles& t, std::size_t i, const NoiseCtx& c) {
 // s0, φ, v_e; the others keep their values in `f`.
 NoiseFit fitNoise(const Tiles& t, const NoiseCtx& c, NoiseFit f, bool freePhi, bool freeVe) {
     // Unknown vector u = (s0, φ, v_e); rows (the electronics' reading, NoiseCtx):
-    // v − a²r = s0 + φ·a²(v_sim − r) + v_e, c1 − a²c0 = φ·a²(c1_sim − c0) + ρ·v_e. Fixed
-    // unknowns move to the left side.
+    // v − a²r = s0 + φ·a²(v_sim − r) + v_e, c1 = φ·a²·c1_sim + ρ·v_e; the light's reading
+    // scales by a the parts above v0 and c0 and leaves these. Fixed unknowns move to the left
+    // side.
     const bool freeU[3] = {true, freePhi, freeVe};
     double A[3][3] = {}, r[3] = {};
     auto row = [&](const double g[3], double y, double wgt) {
@@ -661,8 +662,9 @@ std::vector<Candidate> tryNoiseEffects(Work& w, const Current& cur, Result& r) {
     // Where the baseline's gain is far from 1, the same tests with the gain read as a scale of
     // the light (NoiseCtx): a noise effect that only the electronics' reading needs is a
     // candidate. Light lost before the photocathode (open_world.py's light_loss, 20-50 %)
-    // raised the shot noise per DC 1.3-2-fold against the electronics' reading, and named
-    // excess noise (z 7-17) and EBI (z 7, through the read noise's covariance scaled by a²).
+    // raised the shot noise per DC 1.3-2-fold against the electronics' reading and named
+    // excess noise at z 7-17, a candidate now in 3 of 3; EBI, named at z 7 in 2 of 3, stays
+    // named (the light reading's EBI test comes out high, NoiseCtx).
     if (std::fabs(c.a - 1.0) > kLightReadingGainOff) {
         NoiseCtx cl = c;
         cl.light = true;

@@ -306,13 +306,6 @@ ShapeFit fitPerFrame(const Work& w, Kind k, const Frames& f) {
     return t;
 }
 
-// A temporal shape must change between frames of one stimulus: its part common to the frames
-// of a stimulus (in the same half) taken out, prediction and parameters alike, it must still
-// explain the held-out frames (z ≥ 3, ShapeFit::within). On a stimulus of one level per frame
-// (Table 18-5's uniform frames) a gain and an offset per frame absorb any error of the
-// response's level, 65 % of the held-out error there, and would call it temporal; a flicker
-// makes frames of one stimulus differ, a level error does not. (Scoring the centred shape
-// alone lost flickers: the stimulus's mean flicker then looked like a level dependence.)
 // Calls f(group) for each set of frames of one stimulus in one half (indices into w.sub).
 template <typename F>
 void forEachStimulus(const Work& w, F f) {
@@ -332,6 +325,17 @@ void forEachStimulus(const Work& w, F f) {
             f(group);
         }
     }
+}
+
+// Each frame's parameters in `group` less their mean over the group.
+void centreParameters(std::vector<std::vector<double>>& c, const std::vector<std::size_t>& group) {
+    std::vector<double> mean(c[group[0]].size(), 0.0);
+    for (std::size_t j : group)
+        for (std::size_t q = 0; q < mean.size(); ++q)
+            mean[q] += c[j][q] / static_cast<double>(group.size());
+    for (std::size_t j : group)
+        for (std::size_t q = 0; q < mean.size(); ++q)
+            c[j][q] -= mean[q];
 }
 
 // Whether the two folds' parameters agree where they change between frames of one stimulus:
@@ -356,13 +360,7 @@ double foldAgreement(const Work& w, const ShapeFit& t) {
         }
         n += static_cast<double>((g.size() - 1) * np);
         for (auto& cf : c)
-            for (std::size_t q = 0; q < np; ++q) {
-                double m = 0.0;
-                for (std::size_t j : g)
-                    m += cf[j][q] / static_cast<double>(g.size());
-                for (std::size_t j : g)
-                    cf[j][q] -= m;
-            }
+            centreParameters(cf, g);
     });
     if (n < 4.0) return 0.0;
     double sab = 0.0, saa = 0.0, sbb = 0.0;
@@ -385,36 +383,24 @@ double foldAgreement(const Work& w, const ShapeFit& t) {
     return std::atanh(r) * std::sqrt(n - 3.0);
 }
 
+// A temporal shape must change between frames of one stimulus: its part common to the frames
+// of a stimulus (in the same half) taken out, prediction and parameters alike, it must still
+// explain the held-out frames (z ≥ 3, ShapeFit::within). On a stimulus of one level per frame
+// (Table 18-5's uniform frames) a gain and an offset per frame absorb any error of the
+// response's level, 65 % of the held-out error there, and would call it temporal; a flicker
+// makes frames of one stimulus differ, a level error does not. (Scoring the centred shape
+// alone lost flickers: the stimulus's mean flicker then looked like a level dependence.)
 void withinStimulus(const Work& w, ShapeFit& t) {
-    for (int half = 0; half < 2; ++half) {
-        const std::size_t i0 = half == 0 ? 0 : w.cal.size();
-        const std::size_t i1 = half == 0 ? w.cal.size() : w.sub.size();
-        for (std::size_t i = i0; i < i1; ++i) {
-            const int st = w.d.stimulusOfFrame[static_cast<std::size_t>(w.sub[i])];
-            bool first = true;
-            std::vector<std::size_t> group;
-            for (std::size_t j = i0; j < i1; ++j)
-                if (w.d.stimulusOfFrame[static_cast<std::size_t>(w.sub[j])] == st) {
-                    first = first && j >= i;
-                    group.push_back(j);
-                }
-            if (!first) continue;  // each group once, at its first frame
-            Plane mean(t.Q[i].size(), 0.0f);
-            std::vector<double> pm(t.perFrame[i].size(), 0.0);
-            for (std::size_t j : group) {
-                for (std::size_t p = 0; p < mean.size(); ++p)
-                    mean[p] += t.Q[j][p] / static_cast<float>(group.size());
-                for (std::size_t q = 0; q < pm.size(); ++q)
-                    pm[q] += t.perFrame[j][q] / static_cast<double>(group.size());
-            }
-            for (std::size_t j : group) {
-                for (std::size_t p = 0; p < mean.size(); ++p)
-                    t.Q[j][p] -= mean[p];
-                for (std::size_t q = 0; q < pm.size(); ++q)
-                    t.perFrame[j][q] -= pm[q];
-            }
-        }
-    }
+    forEachStimulus(w, [&](const std::vector<std::size_t>& group) {
+        Plane mean(t.Q[group[0]].size(), 0.0f);
+        for (std::size_t j : group)
+            for (std::size_t p = 0; p < mean.size(); ++p)
+                mean[p] += t.Q[j][p] / static_cast<float>(group.size());
+        for (std::size_t j : group)
+            for (std::size_t p = 0; p < mean.size(); ++p)
+                t.Q[j][p] -= mean[p];
+        centreParameters(t.perFrame, group);
+    });
 }
 
 ShapeFit fitShape(const Work& w, Kind k, const Frames& f, std::size_t nFit) {
@@ -473,6 +459,13 @@ Scored score(const Work& w, const Frames& f, const std::vector<Plane>& Q) {
     return out;
 }
 
+// A fitted shape's scores: score() of its prediction, with the folds' agreement it carries.
+Scored scoreFit(const Work& w, const Frames& f, const ShapeFit& t) {
+    Scored s = score(w, f, t.Q);
+    s.zFold = t.zFold;
+    return s;
+}
+
 // Whether a shape counts: the paired test over tiles at zMin + 1, or over the held-out frames at
 // zMin + 2 (few frames: a stricter bar), and 0.5 % of the held-out squared error. The tiles'
 // test counts an effect's unevenness over the frame against it: a ghost is in a few tiles only
@@ -497,8 +490,7 @@ Scored conditional(const Work& w, Frames& f, Kind k, const std::vector<Plane>& Q
     };
     shift(1.0f);
     const ShapeFit t = fitShape(w, k, f, w.cal.size());
-    Scored s = score(w, f, t.Q);
-    s.zFold = t.zFold;
+    const Scored s = scoreFit(w, f, t);
     shift(-1.0f);
     return s;
 }
@@ -575,8 +567,7 @@ std::vector<StructureFit> findStructure(Work& w, const Current& cur, Result& r,
                 w.progress(std::string("structure round ") + std::to_string(round + 1) + ": " +
                            kShapes[k].name);
             ShapeFit t = fitShape(w, static_cast<Kind>(k), f, w.cal.size());
-            Scored s = score(w, f, t.Q);
-            s.zFold = t.zFold;
+            const Scored s = scoreFit(w, f, t);
             nvs::fit::Trial tr;
             tr.effect = std::string("unexplained:") + kShapes[k].name;
             tr.tried = true;

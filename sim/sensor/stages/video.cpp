@@ -177,45 +177,33 @@ float VideoStage::countOf(float s) const noexcept {
     return std::min(bottom + static_cast<float>(j), maxc);
 }
 
+std::int64_t VideoStage::countRow(const float* s, float* o, std::uint16_t* v,
+                                  int w) const noexcept {
+    std::int64_t sum = 0;
+    for (int x = 0; x < w; ++x) {
+        o[x] = countOf(s[x]);
+        v[x] = static_cast<std::uint16_t>(static_cast<std::int32_t>(o[x]));
+        sum += v[x];
+    }
+    return sum;
+}
+
 std::int64_t VideoStage::applyRow(const float* s, float* o, std::uint16_t* v,
                                   int w) const noexcept {
     const CameraParams& c = *cam_;
     if (c.streak_fraction > 0.0) {
         // The droop first, into the counts row, then each pixel converted where it lies.
         droopRow(s, o, w, c.streak_fraction, c.streak_tau_px);
-        std::int64_t sum = 0;
-        for (int x = 0; x < w; ++x) {
-            o[x] = countOf(o[x]);
-            v[x] = static_cast<std::uint16_t>(static_cast<std::int32_t>(o[x]));
-            sum += v[x];
-        }
-        return sum;
+        return countRow(o, o, v, w);
     }
     const float gain = static_cast<float>(c.video_gain_dc_per_e);
     const float offset = static_cast<float>(c.video_offset_dc);
     const float maxc = static_cast<float>(maxCount_);
-    const float bottom = std::clamp(std::nearbyint(offset), 0.0f, maxc);
     if (!gamma_) return videoLinearKernel(s, o, v, w, gain, offset, maxc);
-    const int cells = static_cast<int>(lut_.size()) - 1;
-    if (oneStep_) {
-        return videoGammaKernel(s, o, v, w, gain, offset, maxc, lut_.data(), thr_.data(), lutScale_,
-                                static_cast<float>(cells), bottom);
-    }
-    videoLinearKernel(s, o, v, w, gain, offset, maxc);
-    std::int64_t sum = 0;
-    for (int x = 0; x < w; ++x) {
-        const float sig = s[x] * gain;
-        if (sig > 0.0f) {
-            const int cell = std::min(static_cast<int>(sig * lutScale_), cells);
-            std::size_t j = lut_[static_cast<std::size_t>(cell)];
-            while (thr_[j] <= sig)
-                ++j;
-            o[x] = std::min(bottom + static_cast<float>(j), maxc);
-            v[x] = static_cast<std::uint16_t>(static_cast<std::int32_t>(o[x]));
-        }
-        sum += v[x];
-    }
-    return sum;
+    if (!oneStep_) return countRow(s, o, v, w);  // a grid cell holds two steps: the search
+    const float bottom = std::clamp(std::nearbyint(offset), 0.0f, maxc);
+    return videoGammaKernel(s, o, v, w, gain, offset, maxc, lut_.data(), thr_.data(), lutScale_,
+                            static_cast<float>(lut_.size() - 1), bottom);
 }
 
 }  // namespace nvs::sensor

@@ -58,7 +58,9 @@ class VideoStage {
                          double tau_px) noexcept;
 
   private:
-    float countOf(float s) const noexcept;  // one pixel's conversion (the droop's path)
+    float countOf(float s) const noexcept;  // one pixel's conversion
+    // countOf over a row; s may be o (the droop's path converts its own output in place).
+    std::int64_t countRow(const float* s, float* o, std::uint16_t* v, int w) const noexcept;
     const CameraParams* cam_;
     int maxCount_;
     // Gamma ≠ 1: the output count for a signal is the number of thresholds at or below it,
