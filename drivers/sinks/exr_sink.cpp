@@ -50,9 +50,14 @@ int ExrSequenceSink::writeImage(const msg::OutputFrame& frame, ImageView<const f
     attributes_.doubles[0].second = frame.meta->t_sample_s;
     int rc = file_.open(path);
     if (rc == 0) rc = io::writeExr(file_.fd(), file_.tempPath(), img, attributes_);
+    const std::int64_t bytes = file_.size();  // OpenEXR wrote the descriptor itself
     if (rc == 0) rc = file_.commit(false);
-    if (rc != 0) file_.abort();
-    return rc;
+    if (rc != 0) {
+        file_.abort();
+        return rc;
+    }
+    counters_.bytes += bytes;
+    return 0;
 }
 
 int ExrSequenceSink::close() noexcept {

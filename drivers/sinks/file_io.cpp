@@ -116,4 +116,10 @@ void AtomicFile::abort() noexcept {
     if (!direct_) ::unlink(temp_);
 }
 
+std::int64_t AtomicFile::size() const noexcept {
+    struct stat st {};
+    if (fd_ < 0 || ::fstat(fd_, &st) != 0 || !S_ISREG(st.st_mode)) return 0;
+    return static_cast<std::int64_t>(st.st_size);
+}
+
 }  // namespace nvs::drivers

@@ -11,6 +11,7 @@
 
 #include <atomic>
 #include <cstddef>
+#include <cstdint>
 #include <string>
 
 #include "sim/io/image_file.h"
@@ -64,6 +65,9 @@ class AtomicFile {
     // Closes and removes the temporary, if one is open.
     void abort() noexcept;
     bool isOpen() const { return fd_ >= 0; }
+    // The bytes the open file holds (fstat's size; 0 for a device or a FIFO, or when closed):
+    // what an encoder that writes the descriptor itself (PNG, EXR) wrote.
+    std::int64_t size() const noexcept;
     int fd() const { return fd_; }
     const char* tempPath() const { return temp_; }
 

@@ -1,6 +1,7 @@
 #include "drivers/sinks/sinks.h"
 
 #include <fcntl.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -10,6 +11,7 @@
 #include <cstring>
 #include <filesystem>
 
+#include "drivers/sinks/glyphs.h"
 #include "sim/core/error.h"
 #include "sim/core/units.h"
 #include "sim/io/png.h"
@@ -243,6 +245,7 @@ int PngSequenceSink::write(const msg::OutputFrame& frame) noexcept {
     const ImageView<const std::uint16_t> img(buffer_.data(), width_, height_, width_);
     int rc = file_.open(path);
     if (rc == 0) rc = io::writePng(file_.fd(), img, bits_ > 8 ? 16 : 8, io::PngColour::Srgb);
+    const std::int64_t bytes = file_.size();  // libpng wrote the descriptor itself
     if (rc == 0) rc = file_.commit(false);
     if (rc != 0) {
         file_.abort();
@@ -251,6 +254,7 @@ int PngSequenceSink::write(const msg::OutputFrame& frame) noexcept {
         return rc;
     }
     ++counters_.frames;
+    counters_.bytes += bytes;
     return 0;
 }
 
@@ -472,8 +476,12 @@ ContactSheetSink::ContactSheetSink(const std::string& path, int width, int heigh
     }
     tileW_ = width / shrink;
     tileH_ = height / shrink;
+    // The label: one font pixel per 96 tile columns (1 to 4), in a strip of the glyphs' five
+    // rows with one above and one below.
+    labelScale_ = std::clamp(tileW_ / 96, 1, 4);
+    labelH_ = (kGlyphHeight_px + 2) * labelScale_;
     sheetW_ = cols * tileW_ + (cols + 1) * kSheetGap_px;
-    sheetH_ = rows * tileH_ + (rows + 1) * kSheetGap_px;
+    sheetH_ = rows * (tileH_ + labelH_) + (rows + 1) * kSheetGap_px;
     sheet_.assign(static_cast<std::size_t>(sheetW_) * static_cast<std::size_t>(sheetH_), 255);
     const auto parent = std::filesystem::path(path).parent_path();
     if (!parent.empty()) makeOutputDir(parent.string(), name_);
@@ -511,11 +519,19 @@ std::int64_t ContactSheetSink::tickOfTile(int i) const noexcept {
                      static_cast<double>(tiles - 1)));
 }
 
+int ContactSheetSink::tileX(int i) const noexcept {
+    return kSheetGap_px + (i % cols_) * (tileW_ + kSheetGap_px);
+}
+
+int ContactSheetSink::tileY(int i) const noexcept {
+    return kSheetGap_px + (i / cols_) * (tileH_ + labelH_ + kSheetGap_px);
+}
+
 int ContactSheetSink::write(const msg::OutputFrame& frame) noexcept {
     if (state_ == SinkState::Closed) return -EBADF;
     if (next_ >= cols_ * rows_ || frame.tick < tickOfTile(next_)) return 0;
-    const int tx = kSheetGap_px + (next_ % cols_) * (tileW_ + kSheetGap_px);
-    const int ty = kSheetGap_px + (next_ / cols_) * (tileH_ + kSheetGap_px);
+    const int tx = tileX(next_);
+    const int ty = tileY(next_);
     const int n = shrink_ * shrink_;
     for (int y = 0; y < tileH_; ++y) {
         std::uint16_t* dst =
@@ -531,6 +547,16 @@ int ContactSheetSink::write(const msg::OutputFrame& frame) noexcept {
             dst[x] = static_cast<std::uint16_t>((sum + n / 2) / n);
         }
     }
+    // The label: the frame shown and its time (the tick where there is no metadata).
+    char label[48];
+    if (frame.meta != nullptr) {
+        std::snprintf(label, sizeof label, "%lld %.3fs", static_cast<long long>(frame.meta->frame),
+                      frame.meta->t_sample_s);
+    } else {
+        std::snprintf(label, sizeof label, "%lld", static_cast<long long>(frame.tick));
+    }
+    drawText(sheet_.data(), sheetW_, sheetH_, tx, labelY(next_), tx + tileW_, label, labelScale_,
+             0);
     ++next_;
     ++counters_.frames;
     return 0;
@@ -544,6 +570,9 @@ int ContactSheetSink::close() noexcept {
     // Every step checked: encoded, on disk, closed; only then renamed into place.
     int rc = io::writePng(fileno(part_), img, 8, io::PngColour::Srgb);
     if (rc == 0 && ::fsync(fileno(part_)) != 0) rc = -errno;
+    struct stat st {};
+    const std::int64_t bytes =
+        ::fstat(fileno(part_), &st) == 0 ? static_cast<std::int64_t>(st.st_size) : 0;
     if (std::fclose(part_) != 0 && rc == 0) rc = errno != 0 ? -errno : -EIO;
     part_ = nullptr;
     if (rc == 0 && std::rename(temp.c_str(), path_.c_str()) != 0) rc = -errno;
@@ -554,7 +583,7 @@ int ContactSheetSink::close() noexcept {
         state_ = SinkState::Failed;
         return rc;
     }
-    counters_.bytes += static_cast<std::int64_t>(sheet_.size());
+    counters_.bytes += bytes;  // the PNG file's, not the samples'
     return 0;
 }
 

@@ -183,6 +183,9 @@ void makeOutputDir(const std::string& dir, const std::string& what);
 // A contact sheet: `cols × rows` frames spread evenly over a run of `frames` frames (or every
 // `every`-th frame when the length is not known), each shrunk by `shrink` (box filter), 8-bit,
 // on a white grid, written as one PNG when the run closes. A glance at a run's content.
+// Under each tile a white strip carries its label in black: the frame number and its time
+// (metadata `frame` and `t_sample_s`, "12 0.400s"), drawn with a built-in 3 × 5 pixel font
+// (drivers/sinks/glyphs.h) at labelScale() pixels per font pixel; the tile itself is untouched.
 // The sheet's file is created at setup (as FILE.part, renamed at close): an unwritable path
 // fails the setup, not the end of the run.
 class ContactSheetSink final : public msg::FrameSink {
@@ -198,11 +201,20 @@ class ContactSheetSink final : public msg::FrameSink {
     std::string status() const override { return describe(name_.c_str(), state_, counters_); }
     // The tick that fills tile i (exposed for tests).
     std::int64_t tickOfTile(int i) const noexcept;
+    // The layout (exposed for tests): tile i's top-left corner, the label's top-left corner
+    // below it, the label's font scale, the sheet's size.
+    int tileX(int i) const noexcept;
+    int tileY(int i) const noexcept;
+    int labelY(int i) const noexcept { return tileY(i) + tileH_ + labelScale_; }
+    int labelScale() const noexcept { return labelScale_; }
+    int sheetWidth() const noexcept { return sheetW_; }
+    int sheetHeight() const noexcept { return sheetH_; }
 
   private:
     std::string name_, path_;
     int width_, height_, bits_, cols_, rows_, shrink_;
     int tileW_, tileH_, sheetW_, sheetH_;
+    int labelScale_, labelH_;  // the font's scale; the strip's height (7 scaled font rows)
     std::int64_t frames_, every_;
     int next_ = 0;                      // next tile to fill
     std::vector<std::uint16_t> sheet_;  // 8-bit samples
