@@ -351,17 +351,31 @@ gboolean query(GstBaseSrc* src, GstQuery* q) {
     return GST_BASE_SRC_CLASS(parentClass)->query(src, q);
 }
 
+// The pipeline clock's time less CLOCK_MONOTONIC's [ns]: 0 for GStreamer's system clock on
+// CLOCK_MONOTONIC (the default), else the two read now, the pipeline clock between two reads of
+// CLOCK_MONOTONIC (their mean is when it was read).
+std::int64_t clockOffset_ns(GstClock* clock) {
+    if (GST_IS_SYSTEM_CLOCK(clock)) {
+        GstClockType type = GST_CLOCK_TYPE_REALTIME;
+        g_object_get(clock, "clock-type", &type, nullptr);
+        if (type == GST_CLOCK_TYPE_MONOTONIC) return 0;
+    }
+    const std::int64_t before_ns = nvs::rt::monotonicNow_ns();
+    const auto clock_ns = static_cast<std::int64_t>(gst_clock_get_time(clock));
+    const std::int64_t after_ns = nvs::rt::monotonicNow_ns();
+    return clock_ns - (before_ns + (after_ns - before_ns) / 2);
+}
+
 // The pipeline's running time [ns] of a frame's exposure mid-time under the wall clock: the
-// CLOCK_MONOTONIC instant, moved onto the pipeline clock by the two clocks read together now,
-// less the base time. Negative: exposed before the pipeline started playing.
+// CLOCK_MONOTONIC instant, moved onto the pipeline clock, less the base time. Negative: exposed
+// before the pipeline started playing.
 bool liveTimestamp(GstElement* el, const nvs::rt::PulledFrame& f, std::int64_t* running_ns) {
     GstClock* clock = gst_element_get_clock(el);
     if (clock == nullptr) return false;
-    const std::int64_t monotonic_ns = nvs::rt::monotonicNow_ns();
-    const auto clock_ns = static_cast<std::int64_t>(gst_clock_get_time(clock));
+    const std::int64_t offset_ns = clockOffset_ns(clock);
     gst_object_unref(clock);
     const auto base_ns = static_cast<std::int64_t>(gst_element_get_base_time(el));
-    *running_ns = nvs::gst::exposureMonotonic_ns(f) + (clock_ns - monotonic_ns) - base_ns;
+    *running_ns = nvs::gst::exposureMonotonic_ns(f) + offset_ns - base_ns;
     return true;
 }
 
