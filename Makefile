@@ -91,11 +91,19 @@ VALIDATE := $(BUILD)/validate
 # (about a minute a dataset on this 2-core machine); OPEN_SEEDS=3 OPEN_SIZE=256x160 runs in
 # about 7 minutes.
 OPEN_SEEDS ?= 20
+# The hidden-effect sweeps run one case a job through `nvstim sweep` (tests/sweep/validate-*.toml,
+# docs/sweep.md), VALIDATE_JOBS cases at once; each sweep's folder holds its results table.
+VALIDATE_JOBS ?= 2
 OPEN_SIZE ?= 768x494
 validate: .nvs-build
 	@mkdir -p $(VALIDATE)
-	$(BUILD)/tests/sim/fit/nvs_validate_diagnose --seeds 20 --out $(VALIDATE)/diagnose.md
-	$(BUILD)/tests/rt/compose/nvs_validate_scene --seeds 20 --out $(VALIDATE)/diagnose-scene.md
+	rm -rf $(VALIDATE)/sweep-diagnose $(VALIDATE)/sweep-scene
+	$(NVSTIM) sweep tests/sweep/validate-diagnose.toml --out $(VALIDATE)/sweep-diagnose \
+	  --jobs $(VALIDATE_JOBS) --var build=$(BUILD) --var seeds=20
+	cp $(VALIDATE)/sweep-diagnose/table.md $(VALIDATE)/diagnose.md
+	$(NVSTIM) sweep tests/sweep/validate-scene.toml --out $(VALIDATE)/sweep-scene \
+	  --jobs $(VALIDATE_JOBS) --var build=$(BUILD) --var seeds=20
+	cp $(VALIDATE)/sweep-scene/table.md $(VALIDATE)/diagnose-scene.md
 	rm -rf $(VALIDATE)/thesis && python3 tests/data/diagnose/make_thesis_datasets.py tests/data/thesis $(VALIDATE)/thesis
 	$(BUILD)/tests/rt/thesis_scene/nvs_thesis_scene_datasets tests/data/thesis $(VALIDATE)/thesis
 	/usr/bin/python3 tests/diagnose_open/sweep.py --effects all --seeds $(OPEN_SEEDS) --size $(OPEN_SIZE) \

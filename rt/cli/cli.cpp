@@ -184,6 +184,34 @@ int runCli(int argc, const char* const* argv) {
     replayCmd->add_flag("--bless", replay.bless, "Rewrite the stored expectations")
         ->excludes(checkFlag);
 
+    // sweep ----------------------------------------------------------------------------------
+    SweepOptions sweep;
+    auto* sweepCmd = app.add_subcommand(
+        "sweep", "Run a grid of scenarios, presets, settings and seeds; one table of results.");
+    sweepCmd->footer(
+        "Exit status: 0 every job succeeded; 1 a job failed or left no result (recorded in the\n"
+        "table), or sbatch failed; 2 usage or setup error (nothing written); 8 interrupted\n"
+        "(finished jobs kept: the same command resumes). See docs/sweep.md.");
+    sweepCmd->add_option("spec", sweep.spec, "Sweep spec (TOML): the grid and what a job runs");
+    sweepCmd->add_option("--out", sweep.out,
+                         "Output folder: new, empty, or a sweep of the same grid (resumed)");
+    sweepCmd
+        ->add_option("--jobs", sweep.jobs,
+                     "Worker processes here (default 1); with --slurm the array's tasks at once")
+        ->check(CLI::Range(1, 256));
+    sweepCmd->add_option("--var", sweep.vars,
+                         "Placeholder of a command spec, NAME=VALUE (repeatable)");
+    sweepCmd->add_flag("--slurm", sweep.slurm, "Submit the jobs as one Slurm job array");
+    sweepCmd->add_option("--sbatch-args", sweep.sbatchArgs,
+                         "More sbatch options, e.g. \"-p short\"");
+    sweepCmd->add_flag("--no-wait", sweep.noWait, "With --slurm: submit and return");
+    sweepCmd->add_flag("--dry-run", sweep.dryRun, "Print the manifest (JSON lines); run nothing");
+    std::optional<std::string> sweepTask;
+    sweepCmd->add_option("--task", sweepTask, "Run job I of --manifest (an array task)");
+    sweepCmd->add_option("--manifest", sweep.manifest, "The manifest of --task");
+    sweepCmd->add_option("--gather", sweep.gather,
+                         "Rebuild DIR's table and plots from its results");
+
     // diagnose -------------------------------------------------------------------------------
     DiagnoseOptions diagnose;
     auto* diagnoseCmd = app.add_subcommand(
@@ -245,6 +273,7 @@ int runCli(int argc, const char* const* argv) {
         std::optional<std::uint64_t> seed;
         parseInto(seed, "--seed", diagnoseSeed, 0, kU64Max);
         diagnose.seed = seed.value_or(diagnose.seed);
+        parseInto(sweep.task, "--task", sweepTask, 0, 999999);
         if (*runCmd) return runRun(run);
         if (*ephemCmd) return runEphem(ephem);
         if (*illumCmd) return runIllum(illum);
@@ -253,6 +282,7 @@ int runCli(int argc, const char* const* argv) {
         if (*replayCmd) return runReplay(replay);
         if (*diagnoseCmd) return runDiagnose(diagnose);
         if (*benchCmd) return runBench(bench);
+        if (*sweepCmd) return runSweep(sweep);
     } catch (const SetupError& e) {
         std::fprintf(stderr, "nvstim: %s\n", e.what());
         return kExitUsage;

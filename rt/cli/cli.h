@@ -78,6 +78,20 @@ struct ReplayOptions {
     bool bless = false;
 };
 
+struct SweepOptions {
+    std::optional<std::string> spec;  // the sweep's TOML file
+    std::optional<std::string> out;
+    std::optional<int> jobs;        // local workers (1..256); with --slurm the array's %N
+    std::vector<std::string> vars;  // NAME=VALUE
+    bool slurm = false;
+    std::optional<std::string> sbatchArgs;
+    bool noWait = false;
+    bool dryRun = false;
+    std::optional<long long> task;  // with manifest: run one job
+    std::optional<std::string> manifest;
+    std::optional<std::string> gather;  // the table again from DIR's results
+};
+
 struct DiagnoseOptions {
     std::string datasetDir;
     std::optional<std::string> json;

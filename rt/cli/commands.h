@@ -14,5 +14,6 @@ int runSensor(const SensorOptions& opts);
 int runReplay(const ReplayOptions& opts);
 int runDiagnose(const DiagnoseOptions& opts);
 int runBench(const BenchOptions& opts);
+int runSweep(const SweepOptions& opts);
 
 }  // namespace nvs::cli
