@@ -25,7 +25,7 @@
 
 #include "rt/cli/commands.h"
 #include "rt/cli/data_dirs.h"
-#include "rt/compose/scene_stimulus.h"
+#include "rt/diagnose/diagnose_dataset.h"
 #include "sim/core/error.h"
 #include "sim/core/input_file.h"
 #include "sim/core/output_file.h"
@@ -126,11 +126,7 @@ int runDiagnose(const DiagnoseOptions& opts) {
     };
     // No progress while reading radiance files: a bad dataset is one line on stderr. A
     // scenario stimulus is rendered while reading, which takes a while: that says so.
-    auto renderScenario = [&](const fs::path& scenario, const sensor::CameraParams& cam,
-                              const fs::path& presetFile, const sensor::Overrides& settings) {
-        return rt::makeSceneStimulus(scenario, cam, presetFile, settings, dirs);
-    };
-    const fit::Dataset d = fit::loadDataset(opts.datasetDir, dirs.config, progress, renderScenario);
+    const fit::Dataset d = rt::loadDiagnoseDataset(opts.datasetDir, dirs, progress);
     outputs.addInput(d.presetFile);
     progress("dataset: " + std::to_string(d.frameCount()) + " frames " + std::to_string(d.width) +
              "x" + std::to_string(d.height) + ", " + std::to_string(d.stimuli.size()) +
