@@ -46,17 +46,21 @@ FUZZ_TARGETS  := dbc candump nmea mavlink scenario camera csv obj image frame_pa
 FUZZ_BUILD    := build/fuzz
 
 .PHONY: run test fuzz validate
+# SCENARIO: a folder, a .toml file or the bare name of a shipped scenario (nvstim looks NAME up
+# in scenarios/ itself); the outputs are named after its last part (thesis-stlamp,
+# scenarios/thesis-stlamp/ and scenarios/thesis-stlamp/scenario.toml all give thesis-stlamp).
+run: RUN_NAME = $(basename $(notdir $(patsubst %/scenario.toml,%,$(patsubst %/,%,$(SCENARIO)))))
 run: .nvs-build
 	@mkdir -p $(OUT)
-	$(NVSTIM) run $(SCENARIO) --clock sim --output y4m:$(OUT)/$(notdir $(SCENARIO)).y4m \
-	  --output contact:$(OUT)/$(notdir $(SCENARIO))-contact.png \
-	  --output meta:$(OUT)/$(notdir $(SCENARIO)).jsonl
+	$(NVSTIM) run $(SCENARIO) --clock sim --output y4m:$(OUT)/$(RUN_NAME).y4m \
+	  --output contact:$(OUT)/$(RUN_NAME)-contact.png \
+	  --output meta:$(OUT)/$(RUN_NAME).jsonl
 	@if command -v ffmpeg >/dev/null; then \
-	  ffmpeg -y -loglevel error -i $(OUT)/$(notdir $(SCENARIO)).y4m -c:v libx264 -pix_fmt yuv420p \
-	    $(OUT)/$(notdir $(SCENARIO)).mp4 && echo "nvstim: video        $(OUT)/$(notdir $(SCENARIO)).mp4"; fi
-	@echo "nvstim: raw video    $(OUT)/$(notdir $(SCENARIO)).y4m   (play: ffplay $(OUT)/$(notdir $(SCENARIO)).y4m)"
-	@echo "nvstim: contact sheet $(OUT)/$(notdir $(SCENARIO))-contact.png"
-	@echo "nvstim: metadata     $(OUT)/$(notdir $(SCENARIO)).jsonl"
+	  ffmpeg -y -loglevel error -i $(OUT)/$(RUN_NAME).y4m -c:v libx264 -pix_fmt yuv420p \
+	    $(OUT)/$(RUN_NAME).mp4 && echo "nvstim: video        $(OUT)/$(RUN_NAME).mp4"; fi
+	@echo "nvstim: raw video    $(OUT)/$(RUN_NAME).y4m   (play: ffplay $(OUT)/$(RUN_NAME).y4m)"
+	@echo "nvstim: contact sheet $(OUT)/$(RUN_NAME)-contact.png"
+	@echo "nvstim: metadata     $(OUT)/$(RUN_NAME).jsonl"
 	@echo "nvstim: to send the same to a V4L2 device in real time instead (docs/hil.md):"
 	@echo "  $(NVSTIM) run $(SCENARIO) --clock wall --output v4l2:/dev/videoN"
 	@echo "nvstim: to install (binary, config, scenarios; runs from any directory):"

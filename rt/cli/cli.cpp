@@ -148,6 +148,12 @@ int runCli(int argc, const char* const* argv) {
     std::optional<std::string> renderFrame;
     renderCmd->add_option("--frame", renderFrame, "Frame index K (>= 0)")->required();
     renderCmd->add_option("--out", render.out, "Output FILE.exr")->required();
+    renderCmd->add_option("--camera", render.camera,
+                          "Camera preset (name or .toml path) in place of the scenario's [camera] "
+                          "preset");
+    renderCmd->add_option("--set", render.sets,
+                          "Override a camera preset key, KEY=VALUE (repeatable; wins over [camera] "
+                          "set)");
 
     // sensor ---------------------------------------------------------------------------------
     SensorOptions sensor;
@@ -169,6 +175,8 @@ int runCli(int argc, const char* const* argv) {
         ->check(CLI::IsMember({"W/m2/sr", "pe/s/m2/sr"}));
     sensorCmd->add_option("--spectrum", sensor.spectrum,
                           "Spectrum of a W/m2/sr input: flat, blackbody:T, moon, night_sky");
+    sensorCmd->add_flag("--any-camera", sensor.anyCamera,
+                        "Take a render whose header (nvstim.camera) names another camera preset");
     sensorCmd
         ->add_option("--out", sensor.out,
                      "Output file or pattern such as frames/{frame:06d}.pgm (PGM/PNG/EXR)")
@@ -181,8 +189,24 @@ int runCli(int argc, const char* const* argv) {
     replayCmd->add_option("scenario_dir", replay.scenarioDir, "Scenario folder")->required();
     auto* checkFlag =
         replayCmd->add_flag("--check", replay.check, "Compare with the stored expectations");
-    replayCmd->add_flag("--bless", replay.bless, "Rewrite the stored expectations")
-        ->excludes(checkFlag);
+    auto* blessFlag =
+        replayCmd->add_flag("--bless", replay.bless, "Rewrite the stored expectations")
+            ->excludes(checkFlag);
+    replayCmd
+        ->add_option("--out", replay.out,
+                     "Keep the frames (DIR/frames/) and metadata (DIR/meta.jsonl) in DIR, a new or "
+                     "empty folder (without it nothing is kept)")
+        ->excludes(checkFlag)
+        ->excludes(blessFlag);
+
+    // list -----------------------------------------------------------------------------------
+    ListOptions list;
+    auto* listCmd = app.add_subcommand(
+        "list", "List the camera presets or the scenarios this nvstim ships, one line each.");
+    listCmd->add_option("what", list.what, "presets (or cameras) | scenarios")
+        ->required()
+        ->check(CLI::IsMember({"presets", "cameras", "scenarios"}));
+    listCmd->add_flag("--json", list.json, "One JSON object per line instead of text");
 
     // sweep ----------------------------------------------------------------------------------
     SweepOptions sweep;
@@ -282,6 +306,7 @@ int runCli(int argc, const char* const* argv) {
         if (*replayCmd) return runReplay(replay);
         if (*diagnoseCmd) return runDiagnose(diagnose);
         if (*benchCmd) return runBench(bench);
+        if (*listCmd) return runList(list);
         if (*sweepCmd) return runSweep(sweep);
     } catch (const SetupError& e) {
         std::fprintf(stderr, "nvstim: %s\n", e.what());

@@ -59,6 +59,8 @@ struct RenderOptions {
     std::string scenario;
     long long frame = 0;
     std::string out;
+    std::optional<std::string> camera;  // [camera] preset replaced, as run's --camera
+    std::vector<std::string> sets;      // KEY=VALUE of the preset, as run's --set
 };
 
 struct SensorOptions {
@@ -70,12 +72,14 @@ struct SensorOptions {
     std::string out;
     std::optional<std::string> unit;      // W/m2/sr | pe/s/m2/sr
     std::optional<std::string> spectrum;  // flat | blackbody:T | moon | night_sky
+    bool anyCamera = false;               // take a render made for another camera
 };
 
 struct ReplayOptions {
     std::string scenarioDir;
     bool check = false;
     bool bless = false;
+    std::optional<std::string> out;  // plain replay: keep the frames and metadata in this folder
 };
 
 struct SweepOptions {
@@ -90,6 +94,11 @@ struct SweepOptions {
     std::optional<long long> task;  // with manifest: run one job
     std::optional<std::string> manifest;
     std::optional<std::string> gather;  // the table again from DIR's results
+};
+
+struct ListOptions {
+    std::string what;  // presets | cameras (the same) | scenarios
+    bool json = false;
 };
 
 struct DiagnoseOptions {

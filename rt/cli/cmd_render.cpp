@@ -7,6 +7,9 @@
 // sensor --camera PRESET` takes; its header names the preset and the band (nvstim.camera,
 // nvstim.band), and the radiance the run's camera faces for its start-up shutter correction
 // (nvstim.startup_W_m2_sr). No FILE.band.exr.
+// --camera PRESET and --set KEY=VALUE change the scenario's [camera] as `nvstim run`'s do
+// (rt::ScenarioOverrides): the render is made for that camera (its size, field of view and
+// band), and its header's nvstim.camera names it. A rig takes neither.
 
 #include <cmath>
 #include <cstdio>
@@ -23,6 +26,7 @@
 #include "sim/core/output_file.h"
 #include "sim/core/units.h"
 #include "sim/io/exr.h"
+#include "sim/sensor/camera.h"
 
 namespace nvs::cli {
 namespace {
@@ -90,10 +94,15 @@ int runRender(const RenderOptions& opts) {
     bandPath.replace_extension(".band.exr");
     // The outputs checked before any rendering, against each other and the scenario.
     OutputFiles outputs;
-    outputs.addInput(opts.scenario);
-    outputs.addFile("--out", out);
     const DataDirs dirs = resolveDataDirs();
-    auto sr = rt::ScenarioRenderer::create(opts.scenario, dirs);
+    const std::string scenario = resolveScenario(opts.scenario, scenariosDir(dirs));
+    outputs.addInput(scenario);
+    outputs.addFile("--out", out);
+    rt::ScenarioOverrides overrides;
+    overrides.cameraPreset = opts.camera;
+    overrides.cameraSets = sensor::parseOverrides(opts.sets);
+    auto sr =
+        rt::ScenarioRenderer::create(rt::loadScenario(scenario, dirs.config, overrides), dirs);
     outputs.addInput(sr->scenario().file);
     const bool thermal = sr->scenario().camera.thermal;
     if (!thermal) outputs.addFile("--out (band radiance)", bandPath);

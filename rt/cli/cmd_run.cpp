@@ -10,8 +10,16 @@ static_assert(rt::kRunFailed == kExitFailure && rt::kRunOutputFailed == kExitOut
               rt::kRunInterrupted == kExitInterrupted);
 
 int runRun(const RunOptions& opts) {
+    // A run that would write nothing is a mistake of the command line: --stats alone is a run
+    // measured (its statistics the output), anything else names an output.
+    if (opts.outputs.empty() && !opts.statsPath) {
+        throw SetupError(
+            "run: no --output: give at least one, e.g. --output y4m:FILE.y4m, png:DIR, pgm:DIR, "
+            "exr:DIR, meta:FILE.jsonl, contact:FILE.png or v4l2:/dev/videoN (see run --help)");
+    }
     rt::RunRequest req;
-    req.scenario = opts.scenario;
+    req.dirs = resolveDataDirs();
+    req.scenario = resolveScenario(opts.scenario, scenariosDir(req.dirs));
     req.outputs = opts.outputs;
     req.clock = opts.clock == "sim" ? rt::ClockKind::Sim : rt::ClockKind::Wall;
     req.frames = opts.frames;
@@ -26,7 +34,6 @@ int runRun(const RunOptions& opts) {
     }
     req.renderThreads = opts.renderThreads;
     req.cameraThreads = opts.cameraThreads;
-    req.dirs = resolveDataDirs();
     // 0, 1, or the bits 4 (an output failed) and 8 (interrupted): docs/contracts.md.
     return rt::runScenario(req, stderr);
 }

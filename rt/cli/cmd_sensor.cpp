@@ -19,8 +19,15 @@
 // shutter correction facing a uniform scene: the radiance the render's header names
 // (nvstim.startup_W_m2_sr, what `nvstim run` uses), else the first input's mean. A render made
 // for another camera (a visible render, another band, another size) is refused.
+//
+// A render of nvstim's own names the camera preset it was made for (header nvstim.camera): a
+// render for another preset than --camera is refused, naming both, unless --any-camera is given
+// (the same preset by name, or the same file by path, is the same camera).
+// Above a second of work a progress line goes to stderr once a second: frame N/TOTAL, the rate
+// and the time left.
 
 #include <algorithm>
+#include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -59,14 +66,44 @@ struct RenderHeader {
     std::optional<double> startup_W_m2_sr;  // nvstim.startup_W_m2_sr (thermal renders)
 };
 
-// Reads a radiance image (.exr with its header, or .pfm); a thermal render (nvstim.band
-// "LWIR ...") is refused unless `header` is given (the thermal camera's reader).
+// A preset as a file: a path as given, a name as config/cameras/NAME.toml or, failing that,
+// config/thermal_cameras/NAME.toml.
+std::filesystem::path presetFile(const std::filesystem::path& configDir,
+                                 const std::string& preset) {
+    if (preset.find('/') != std::string::npos || lowerExt(preset) == ".toml") return preset;
+    const std::filesystem::path visible = configDir / "cameras" / (preset + ".toml");
+    return nvs::pathExists(visible) ? visible : configDir / "thermal_cameras" / (preset + ".toml");
+}
+
+// Whether the preset a render names is --camera: the same name, or the same file.
+bool samePreset(const std::filesystem::path& configDir, const std::string& rendered,
+                const std::string& given) {
+    if (rendered == given) return true;
+    const std::filesystem::path a = presetFile(configDir, rendered),
+                                b = presetFile(configDir, given);
+    std::error_code ec;
+    if (std::filesystem::exists(a, ec) && std::filesystem::exists(b, ec))
+        return std::filesystem::equivalent(a, b, ec);
+    return a.stem() == b.stem();  // a path not found here: its name decides
+}
+
+// A render for another preset than --camera is refused unless --any-camera: checked after the
+// input's unit, band and size, which name the difference more closely where they differ.
+void requireSameCamera(const std::string& file, const RenderHeader& h, const SensorOptions& opts,
+                       const std::filesystem::path& configDir) {
+    if (opts.anyCamera || h.camera.empty() || samePreset(configDir, h.camera, opts.camera)) return;
+    throw SetupError(file + ": rendered for camera '" + h.camera + "', not --camera '" +
+                     opts.camera + "' (render it with --camera, or give --any-camera to use it)");
+}
+
+// Reads a radiance image (.exr with its header, or .pfm) and its header into `header`; a
+// thermal render (nvstim.band "LWIR ...") is refused unless `thermalCamera`.
 io::RadianceFile readWithHeader(const std::string& file, const io::ImageLimits& limits,
-                                RenderHeader* header) {
+                                RenderHeader& header, bool thermalCamera) {
     if (lowerExt(file) != ".exr") return io::readRadiance(file, limits);
     io::ExrImage exr = io::readExr(file, limits);
     RenderHeader h{exr.attribute("nvstim.camera"), exr.attribute("nvstim.band"), std::nullopt};
-    if (!header && h.band.rfind("LWIR", 0) == 0) {
+    if (!thermalCamera && h.band.rfind("LWIR", 0) == 0) {
         throw SetupError(file + ": a thermal render (camera '" + h.camera + "', band '" + h.band +
                          "'); an intensified camera takes visible radiance (give a thermal "
                          "preset as --camera)");
@@ -79,7 +116,7 @@ io::RadianceFile readWithHeader(const std::string& file, const io::ImageLimits& 
             throw SetupError(file + ": nvstim.startup_W_m2_sr '" + start + "' is not a radiance");
         h.startup_W_m2_sr = v;
     }
-    if (header) *header = h;
+    header = h;
     return io::RadianceFile{std::move(exr.image), exr.attribute(io::kExrUnit),
                             exr.attribute(io::kExrSpectrum)};
 }
@@ -108,7 +145,8 @@ ImageF loadInput(const std::string& file, const sensor::CameraParams& cam,
     io::ImageLimits limits;
     limits.maxWidth = std::max(cam.width, 4096);
     limits.maxHeight = std::max(cam.height, 4096);
-    io::RadianceFile r = readWithHeader(file, limits, nullptr);
+    RenderHeader header;
+    io::RadianceFile r = readWithHeader(file, limits, header, false);
     if (r.image.width() != cam.width || r.image.height() != cam.height) {
         throw SetupError(file + ": image is " + std::to_string(r.image.width()) + "x" +
                          std::to_string(r.image.height()) + ", camera '" + cam.name + "' expects " +
@@ -132,6 +170,7 @@ ImageF loadInput(const std::string& file, const sensor::CameraParams& cam,
     } else if (opts.spectrum) {
         throw SetupError("--spectrum applies only to --unit W/m2/sr inputs");
     }
+    requireSameCamera(file, header, opts, dirs.config);
     return std::move(r.image);
 }
 
@@ -151,6 +190,30 @@ void writeOutput(const std::string& file, const sensor::IiccdChain& chain, Outpu
 }
 
 // ---- Shared by both cameras.
+
+// The progress line: once a second after the first, on stderr, frame N/TOTAL with the rate of
+// the last second and the time left at that rate.
+class Progress {
+  public:
+    explicit Progress(long long total) : total_(total) {}
+    void frameDone(long long done) {
+        const auto now = std::chrono::steady_clock::now();
+        const double dt_s = std::chrono::duration<double>(now - last_).count();
+        if (dt_s < 1.0) return;
+        const double fps = static_cast<double>(done - lastDone_) / dt_s;
+        std::fprintf(stderr, "nvstim sensor: frame %lld/%lld  %.2f fps", done, total_, fps);
+        if (fps > 0.0) {
+            std::fprintf(stderr, "  %.0f s left", static_cast<double>(total_ - done) / fps);
+        }
+        std::fprintf(stderr, "\n");
+        last_ = now;
+        lastDone_ = done;
+    }
+
+  private:
+    long long total_, lastDone_ = 0;
+    std::chrono::steady_clock::time_point last_ = std::chrono::steady_clock::now();
+};
 
 // Inputs: a pattern's run of existing files from 0, or --frames of one held input.
 long long inputFrames(const SensorOptions& opts) {
@@ -182,13 +245,14 @@ void addPaths(OutputFiles& outputs, const SensorOptions& opts, long long frames,
 
 // One input of the thermal camera: band radiance at the aperture [W m⁻² sr⁻¹] in its band.
 ImageF loadThermalInput(const std::string& file, const bolometer::ThermalCameraParams& cam,
-                        RenderHeader& header) {
+                        RenderHeader& header, const SensorOptions& opts,
+                        const std::filesystem::path& configDir) {
     // Read up to a few thousand pixels a side, so that a render for another camera is named as
     // such (its header) rather than by its size alone.
     io::ImageLimits limits;
     limits.maxWidth = std::max(cam.width, 4096);
     limits.maxHeight = std::max(cam.height, 4096);
-    io::RadianceFile r = readWithHeader(file, limits, &header);
+    io::RadianceFile r = readWithHeader(file, limits, header, true);
     const std::string made =
         header.camera.empty() ? "" : " (rendered for camera '" + header.camera + "')";
     if (!r.unit.empty() && r.unit != "W/m2/sr") {
@@ -206,6 +270,7 @@ ImageF loadThermalInput(const std::string& file, const bolometer::ThermalCameraP
                          std::to_string(cam.height));
     }
     requireValidRadiance(file, r.image);
+    requireSameCamera(file, header, opts, configDir);
     return std::move(r.image);
 }
 
@@ -259,11 +324,11 @@ int runThermalSensor(const SensorOptions& opts, const DataDirs& dirs,
     if (inPattern) {
         for (long long k = 0; k < frames; ++k) {
             RenderHeader h;
-            (void)loadThermalInput(io::expandFramePattern(opts.in, k), cam, h);
+            (void)loadThermalInput(io::expandFramePattern(opts.in, k), cam, h, opts, dirs.config);
             if (k == 0) header = h;
         }
     } else {
-        held = loadThermalInput(opts.in, cam, header);
+        held = loadThermalInput(opts.in, cam, header, opts, dirs.config);
     }
     OutputFiles outputs;
     const std::filesystem::path preset =
@@ -278,8 +343,9 @@ int runThermalSensor(const SensorOptions& opts, const DataDirs& dirs,
     if (header.startup_W_m2_sr) {
         start = *header.startup_W_m2_sr;
     } else {
-        const ImageF first =
-            inPattern ? loadThermalInput(io::expandFramePattern(opts.in, 0), cam, header) : held;
+        const ImageF first = inPattern ? loadThermalInput(io::expandFramePattern(opts.in, 0), cam,
+                                                          header, opts, dirs.config)
+                                       : held;
         for (int y = 0; y < first.height(); ++y)
             for (int x = 0; x < first.width(); ++x)
                 start += static_cast<double>(first(x, y));
@@ -293,12 +359,14 @@ int runThermalSensor(const SensorOptions& opts, const DataDirs& dirs,
     }
     outputs.holdSignals();
     const bool outPattern = io::hasFramePattern(opts.out);
+    Progress progress(frames);
     std::string json = "{\"camera\":\"" + cam.name + "\",\"band\":\"" + bolometer::bandName(cam) +
                        "\",\"frames\":" + std::to_string(frames) + ",\"frame_info\":[";
     for (long long k = 0; k < frames; ++k) {
         RenderHeader h;
-        const ImageF in =
-            inPattern ? loadThermalInput(io::expandFramePattern(opts.in, k), cam, h) : ImageF();
+        const ImageF in = inPattern ? loadThermalInput(io::expandFramePattern(opts.in, k), cam, h,
+                                                       opts, dirs.config)
+                                    : ImageF();
         const bolometer::FrameInfo& info = chain.process(inPattern ? in.cview() : held.cview());
         if (SignalHold::pending()) break;
         if (outPattern)
@@ -306,6 +374,7 @@ int runThermalSensor(const SensorOptions& opts, const DataDirs& dirs,
         else if (k == frames - 1)
             writeThermalOutput(opts.out, chain, outputs);
         json += thermalJson(info, k == 0);
+        progress.frameDone(k + 1);
     }
     json += "]}";
     outputs.commit();
@@ -349,6 +418,7 @@ int runSensor(const SensorOptions& opts) {
 
     // ---- Run.
     outputs.holdSignals();  // a signal stops the run with no output and no temporary left
+    Progress progress(frames);
     std::string json =
         "{\"camera\":\"" + cam.name + "\",\"frames\":" + std::to_string(frames) + ",\"fields\":[";
     for (long long k = 0; k < frames; ++k) {
@@ -369,6 +439,7 @@ int runSensor(const SensorOptions& opts) {
                       info.t_sample_s, info.gain_V, info.mcp_gain, info.gate_s, info.level_dc,
                       info.mean_pe, static_cast<long long>(info.saturated_px));
         json += buf;
+        progress.frameDone(k + 1);
     }
     json += "]}";
     outputs.commit();

@@ -14,6 +14,7 @@ int runSensor(const SensorOptions& opts);
 int runReplay(const ReplayOptions& opts);
 int runDiagnose(const DiagnoseOptions& opts);
 int runBench(const BenchOptions& opts);
+int runList(const ListOptions& opts);
 int runSweep(const SweepOptions& opts);
 
 }  // namespace nvs::cli

@@ -341,21 +341,33 @@ std::int64_t printLiveStatus(std::FILE* status, const FrameLoop& loop, double dt
                       static_cast<long long>(l.triggerExtra.load()),
                       l.triggerStalled.load() ? "  TRIGGER STALLED" : "");
     }
+    // The run's length where it is known: frame N/TOTAL, and the time left at the last
+    // second's rate (ticks that missed count as done: they pass like the others).
+    const double fps = static_cast<double>(e - lastEmitted) / dt_s;
+    char total[32] = "", left[32] = "";
+    if (const std::int64_t n = loop.config().frames; n > 0) {
+        const std::int64_t done = e + l.misses.load();
+        std::snprintf(total, sizeof total, "/%lld", static_cast<long long>(n));
+        if (fps > 0.0) {
+            std::snprintf(left, sizeof left, "  %.0f s left",
+                          static_cast<double>(done < n ? n - done : 0) / fps);
+        }
+    }
     // A miss is repeated or sends nothing; late and skipped say what became of the frames that
     // missed; queue drops are frames a stalled output could not take.
-    std::fprintf(
-        status,
-        "nvstim run: %s%sframe %lld  %.2f fps  misses %lld (repeated %lld, nothing "
-        "sent %lld)  late %lld  skipped %lld  sink errors %lld  queue drops %lld"
-        "%s  latency %s%.2f ms%s%s\n",
-        label.c_str(), label.empty() ? "" : ": ", static_cast<long long>(e),
-        static_cast<double>(e - lastEmitted) / dt_s, static_cast<long long>(l.misses.load()),
-        static_cast<long long>(l.repeats.load()), static_cast<long long>(l.dropped.load()),
-        static_cast<long long>(l.late.load()), static_cast<long long>(l.skipped.load()),
-        static_cast<long long>(l.sinkErrors.load()), static_cast<long long>(l.queueDrops.load()),
-        l.outputsFailed.load() > 0 ? "  OUTPUT FAILED" : "", lat < 0 ? "n/a " : "",
-        lat < 0 ? 0.0 : static_cast<double>(lat) * 1e-6, l.stale.load() ? "  TELEMETRY STALE" : "",
-        trig);
+    std::fprintf(status,
+                 "nvstim run: %s%sframe %lld%s  %.2f fps%s  misses %lld (repeated %lld, nothing "
+                 "sent %lld)  late %lld  skipped %lld  sink errors %lld  queue drops %lld"
+                 "%s  latency %s%.2f ms%s%s\n",
+                 label.c_str(), label.empty() ? "" : ": ", static_cast<long long>(e), total, fps,
+                 left, static_cast<long long>(l.misses.load()),
+                 static_cast<long long>(l.repeats.load()), static_cast<long long>(l.dropped.load()),
+                 static_cast<long long>(l.late.load()), static_cast<long long>(l.skipped.load()),
+                 static_cast<long long>(l.sinkErrors.load()),
+                 static_cast<long long>(l.queueDrops.load()),
+                 l.outputsFailed.load() > 0 ? "  OUTPUT FAILED" : "", lat < 0 ? "n/a " : "",
+                 lat < 0 ? 0.0 : static_cast<double>(lat) * 1e-6,
+                 l.stale.load() ? "  TELEMETRY STALE" : "", trig);
     std::fflush(status);
     return e;
 }

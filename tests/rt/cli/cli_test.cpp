@@ -34,7 +34,7 @@ TEST(Cli, HelpListsEverySubcommand) {
     const Result r = runNvstim("--help");
     EXPECT_EQ(r.status, 0);
     for (const char* cmd :
-         {"run", "ephem", "illum", "render", "sensor", "replay", "diagnose", "bench"}) {
+         {"run", "ephem", "illum", "render", "sensor", "replay", "list", "diagnose", "bench"}) {
         EXPECT_NE(r.out.find(std::string("  ") + cmd), std::string::npos) << cmd << "\n" << r.out;
     }
 }

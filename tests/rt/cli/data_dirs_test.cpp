@@ -52,5 +52,19 @@ TEST(DataDirs, InstalledTreeBesideTheExecutableThenTheSourceTree) {
     fs::remove_all(prefix);
 }
 
+// The shipped scenarios lie beside the config folder: PREFIX/share/nvstim/scenarios installed,
+// the source tree's scenarios/, NVS_CONFIG_DIR's sibling.
+TEST(DataDirs, ScenariosLieBesideTheConfigFolder) {
+    const fs::path prefix = fs::temp_directory_path() / "nvs_data_dirs_scenarios_test";
+    fs::remove_all(prefix);
+    fs::create_directories(prefix / "bin");
+    EXPECT_EQ(scenariosDir(resolve({}, prefix / "bin")), fs::path(NVS_SOURCE_DIR) / "scenarios");
+    fs::create_directories(prefix / "share" / "nvstim" / "config");
+    EXPECT_EQ(scenariosDir(resolve({}, prefix / "bin")), prefix / "share" / "nvstim" / "scenarios");
+    EXPECT_EQ(scenariosDir(resolve({{"NVS_CONFIG_DIR", "/opt/x/config/"}}, "")),
+              fs::path("/opt/x/scenarios"));
+    fs::remove_all(prefix);
+}
+
 }  // namespace
 }  // namespace nvs::cli

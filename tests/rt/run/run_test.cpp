@@ -402,7 +402,7 @@ TEST_F(RunTest, BadArgumentsAreOneLineSetupErrors) {
     std::ofstream(dir_ / "bad.toml") << "[scenario]\nname = \"x\"\nframe_rate = 60\n[[source]]\n"
                                         "kind = \"test_pattern\"\n";
     r = sh(std::string(NVSTIM_EXE) + " run " + (dir_ / "bad.toml").string() +
-           " --clock sim --frames 2 2>&1");
+           " --clock sim --frames 2 --output y4m:/dev/null 2>&1");
     EXPECT_EQ(r.status, 2);
     EXPECT_NE(r.out.find("bad.toml:3"), std::string::npos) << r.out;
 }
@@ -410,7 +410,9 @@ TEST_F(RunTest, BadArgumentsAreOneLineSetupErrors) {
 // Telemetry and the sim clock: CAN steps in lockstep with its time signal (so it is accepted and
 // opens the bus), serial carries no time of its own (refused), idle_s belongs to the lockstep.
 TEST_F(RunTest, SimClockTakesCanInLockstepButNotSerial) {
-    const std::string run = std::string(NVSTIM_EXE) + " run " + (dir_ / "scenario.toml").string();
+    // An output given: a run without one is refused before its telemetry is looked at.
+    const std::string run = std::string(NVSTIM_EXE) + " run " + (dir_ / "scenario.toml").string() +
+                            " --output y4m:/dev/null";
     Result r = sh(run + " --clock sim --frames 2 --telemetry can:nvsnosuch0 2>&1");
     EXPECT_EQ(r.status, 2);
     EXPECT_NE(r.out.find("can:nvsnosuch0: cannot open"), std::string::npos) << r.out;
@@ -455,7 +457,7 @@ TEST_F(RunTest, TriggerIsAWallClockDevice) {
                                        "[runtime]\ntrigger = \"gpio:nvs-no-such-chip:4\"\n"
                                        "[[source]]\nkind = \"test_pattern\"\n";
     Result r = sh(std::string(NVSTIM_EXE) + " run " + (dir_ / "tr.toml").string() +
-                  " --clock wall --frames 3 2>&1");
+                  " --clock wall --frames 3 --output y4m:/dev/null 2>&1");
     EXPECT_EQ(r.status, 2) << r.out;
     EXPECT_NE(r.out.find("gpio:nvs-no-such-chip:4"), std::string::npos) << r.out;
     r = sh(std::string(NVSTIM_EXE) + " run " + (dir_ / "tr.toml").string() +
