@@ -2,6 +2,9 @@
 #   make run    install missing Debian packages, build, run the default scenario
 #   make test   the same set-up, then the whole test suite through ctest
 #   make fuzz   the fuzz targets (tests/fuzz) under ASan+UBSan, FUZZ_SECONDS each (clang)
+#   make deb   the same set-up, then the Debian package build/release/package/nvstim_*.deb
+#              (CPack: binary, config and scenarios under /usr/share/nvstim, the manual page,
+#              the bash completion, the GStreamer plugin and the Python module; docs/install.md)
 #   make validate  the hidden-effect sweeps of `nvstim diagnose` (20 seeds per effect; the
 #               open-world sweep of tests/diagnose_open, OPEN_SEEDS at OPEN_SIZE) and the
 #               thesis datasets; writes $(BUILD)/validate/diagnose.md (docs/validation.md)
@@ -17,7 +20,9 @@ PACKAGES := build-essential cmake ninja-build pkg-config \
             python3-numpy python3-opencv \
             libegl-dev libgl-dev libegl-mesa0 libgl1-mesa-dri libosmesa6-dev \
             qemu-system-x86 busybox-static can-utils v4l-utils kmod cpio gpiod \
-            qemu-user valgrind
+            qemu-user valgrind \
+            libgstreamer1.0-dev gstreamer1.0-tools pybind11-dev python3-dev python3-pytest \
+            slurm-wlm munge dpkg-dev file
 # libegl-dev, libgl-dev: headers of the OpenGL primary-visibility pass (sim/render/gl_*); Mesa's
 # EGL (libegl-mesa0), its llvmpipe driver (libgl1-mesa-dri) and OSMesa (libosmesa6-dev) run it
 # without a GPU. They are loaded at run time, so nvstim builds and runs without them.
@@ -27,8 +32,13 @@ PACKAGES := build-essential cmake ninja-build pkg-config \
 # kernel, busybox, can-utils, v4l2-ctl and libgpiod's tools (gpiod: gpiodetect, gpioinfo,
 # gpiomon); the kernel packages themselves (and linux-source-6.1 for gpio-sim) are fetched by
 # the test.
-# The last: qemu-user runs the isa.* tests as CPUs without AVX-512 (tests/isa), valgrind the
-# memcheck.* tests (tests/memcheck).
+# qemu-user runs the isa.* tests as CPUs without AVX-512 (tests/isa), valgrind the memcheck.*
+# tests (tests/memcheck).
+# The last line: the GStreamer source element (rt/gst; gst-launch-1.0 and gst-inspect-1.0 from
+# gstreamer1.0-tools test it), the Python module (python/; pybind11, tested with pytest), the
+# Slurm job array of `nvstim sweep` (tests/sweep starts munge, slurmctld and slurmd from
+# slurm-wlm on this machine) and the Debian package (`make deb`: CPack's DEB generator computes
+# its dependencies with dpkg-shlibdeps from dpkg-dev; `file` is what CPack runs on binaries).
 
 PRESET   ?= release
 BUILD    := build/$(PRESET)
@@ -45,7 +55,7 @@ FUZZ_SECONDS  ?= 60
 FUZZ_TARGETS  := dbc candump nmea mavlink scenario camera csv obj image frame_pattern
 FUZZ_BUILD    := build/fuzz
 
-.PHONY: run test fuzz validate
+.PHONY: run test fuzz validate deb
 # SCENARIO: a folder, a .toml file or the bare name of a shipped scenario (nvstim looks NAME up
 # in scenarios/ itself); the outputs are named after its last part (thesis-stlamp,
 # scenarios/thesis-stlamp/ and scenarios/thesis-stlamp/scenario.toml all give thesis-stlamp).
@@ -65,6 +75,12 @@ run: .nvs-build
 	@echo "  $(NVSTIM) run $(SCENARIO) --clock wall --output v4l2:/dev/videoN"
 	@echo "nvstim: to install (binary, config, scenarios; runs from any directory):"
 	@echo "  cmake --install $(BUILD) --prefix PREFIX"
+
+# The package's dependencies come from the binaries (dpkg-shlibdeps); install it with
+# `sudo dpkg -i build/release/package/nvstim_*.deb` (or `sudo apt install ./build/...deb`).
+deb: .nvs-build
+	cd $(BUILD) && cpack --config CPackConfig.cmake
+	@ls -1 $(BUILD)/package/nvstim_*.deb | sed 's/^/nvstim: package /'
 
 # A skipped test says why in its output; those reasons are printed after the summary.
 test: .nvs-build

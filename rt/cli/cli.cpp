@@ -85,6 +85,12 @@ int runCli(int argc, const char* const* argv) {
         "Telemetry source: can:IFACE[?dbc=FILE], serial:DEV?baud=N&proto=nmea|mavlink, "
         "replay:FILE");
     runCmd->add_option("--stats", run.statsPath, "Write final statistics as JSON to FILE");
+    runCmd->add_option(
+        "--camera", run.camera,
+        "Camera preset (name or .toml path) in place of the scenario's [camera] preset");
+    runCmd->add_option(
+        "--set", run.sets,
+        "Override a camera preset key, KEY=VALUE (repeatable; wins over [camera] set)");
     runCmd
         ->add_option("--primary-visibility", run.primaryVisibility,
                      "Override [runtime] primary_visibility: embree, gl (OpenGL: a GPU through "

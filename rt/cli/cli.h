@@ -34,6 +34,8 @@ struct RunOptions {
     std::optional<std::string> primaryVisibility;  // embree | gl | auto: [runtime] overridden
     std::optional<int> renderThreads;              // 1..16: [runtime] render_threads overridden
     std::optional<int> cameraThreads;              // 1..16: [runtime] camera_threads overridden
+    std::optional<std::string> camera;             // [camera] preset replaced
+    std::vector<std::string> sets;                 // KEY=VALUE of the preset, over [camera] set
 };
 
 struct EphemOptions {

@@ -3,6 +3,7 @@
 #include "rt/run/run.h"
 #include "sim/core/error.h"
 #include "sim/render/renderer.h"
+#include "sim/sensor/camera.h"
 
 namespace nvs::cli {
 
@@ -34,6 +35,8 @@ int runRun(const RunOptions& opts) {
     }
     req.renderThreads = opts.renderThreads;
     req.cameraThreads = opts.cameraThreads;
+    req.overrides.cameraPreset = opts.camera;
+    req.overrides.cameraSets = sensor::parseOverrides(opts.sets);
     // 0, 1, or the bits 4 (an output failed) and 8 (interrupted): docs/contracts.md.
     return rt::runScenario(req, stderr);
 }

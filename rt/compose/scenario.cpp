@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <ctime>
@@ -72,16 +73,22 @@ void readThermalCamera(const ConfigTable& t, std::optional<int> width, std::opti
 
 // [camera]: the preset with its overrides; the scenario's explicit size and ADC depth are
 // applied as overrides so that the preset's own validation sees them.
+// The command line's overrides (ScenarioOverrides) replace the preset and win over its set.
 void readCamera(const ConfigTable& t, std::optional<int> width, std::optional<int> height,
                 std::optional<int> bits, std::uint64_t defaultSeed,
-                const std::filesystem::path& configDir, CameraSpec& out) {
+                const std::filesystem::path& configDir, const ScenarioOverrides& given,
+                CameraSpec& out) {
     out.preset = t.require<std::string>("preset");
+    if (given.cameraPreset) out.preset = *given.cameraPreset;
     sensor::Overrides ov;
     try {
         ov = sensor::parseOverrides(t.get<std::vector<std::string>>("set", {}));
     } catch (const SetupError& e) {
         t.fail("set", e.what());
     }
+    // width, height and video.adc_bits of the command line come as the format's (readFormat).
+    for (const auto& [key, value] : given.cameraSets)
+        if (key != "width" && key != "height" && key != "video.adc_bits") ov[key] = value;
     out.presetOverrides = ov;
     if (bolometer::isThermalPreset(configDir, out.preset)) {
         readThermalCamera(t, width, height, bits, configDir, ov, out);
@@ -224,13 +231,30 @@ std::string hzText(double hz) {
 // defaults: the camera preset's where there is one, else 320×240, 8 bits, 60 Hz progressive
 // (30 Hz interlaced).
 FrameFormat readFormat(const ConfigTable& s, const std::optional<ConfigTable>& cam,
-                       std::uint64_t seed, const std::filesystem::path& configDir) {
+                       std::uint64_t seed, const std::filesystem::path& configDir,
+                       const ScenarioOverrides& given = {}) {
     FrameFormat f;
     const std::optional<double> hzGiven = s.optional<double>("frame_rate_hz");
-    const std::optional<int> widthGiven = s.optional<int>("width");
-    const std::optional<int> heightGiven = s.optional<int>("height");
-    const std::optional<int> bitsGiven = s.optional<int>("bits");
-    if (cam) readCamera(*cam, widthGiven, heightGiven, bitsGiven, seed, configDir, f.camera);
+    std::optional<int> widthGiven = s.optional<int>("width");
+    std::optional<int> heightGiven = s.optional<int>("height");
+    std::optional<int> bitsGiven = s.optional<int>("bits");
+    // The command line's --set width, height and video.adc_bits win over [scenario]'s: a user
+    // shrinks a shipped scenario without copying it.
+    const auto fromCommandLine = [&](const char* key, std::optional<int>& v) {
+        const auto it = given.cameraSets.find(key);
+        if (it == given.cameraSets.end()) return;
+        char* end = nullptr;
+        errno = 0;
+        const long n = std::strtol(it->second.c_str(), &end, 10);
+        if (end == it->second.c_str() || *end != '\0' || errno == ERANGE || n < 1 || n > 65536) {
+            throw SetupError("--set " + it->first + "=" + it->second + ": not a positive integer");
+        }
+        v = static_cast<int>(n);
+    };
+    fromCommandLine("width", widthGiven);
+    fromCommandLine("height", heightGiven);
+    fromCommandLine("video.adc_bits", bitsGiven);
+    if (cam) readCamera(*cam, widthGiven, heightGiven, bitsGiven, seed, configDir, given, f.camera);
     const sensor::CameraParams& cp = f.camera.params;
     // Scan follows the camera: a field-scan camera (RS-170, CCIR) delivers interlaced frames,
     // two fields each, every field exposed at its own time; a frame-scan camera, progressive.
@@ -352,7 +376,7 @@ void readChannels(const ConfigTable& root, const std::filesystem::path& configDi
 
 // [scenario] and [camera] (or [[channel]]): names, seed, the format, start and duration.
 void readScenarioTable(const ConfigTable& root, const std::filesystem::path& configDir,
-                       Scenario& sc) {
+                       const ScenarioOverrides& given, Scenario& sc) {
     const ConfigTable s = root.table("scenario");
     sc.name = s.require<std::string>("name");
     sc.description = s.get<std::string>("description", "");
@@ -361,9 +385,20 @@ void readScenarioTable(const ConfigTable& root, const std::filesystem::path& con
     if (scenarioSeed < 0) s.fail("seed", "must not be negative");
     sc.seed = static_cast<std::uint64_t>(scenarioSeed);
     if (root.contains("channel")) {
+        if (!given.empty()) {
+            throw SetupError(root.location("channel"),
+                             "a rig names each channel's camera in its [[channel]]: --camera and "
+                             "--set are for a scenario with one [camera]");
+        }
         readChannels(root, configDir, sc);
     } else {
-        applyFormat(readFormat(s, root.optionalTable("camera"), sc.seed, configDir), sc);
+        const std::optional<ConfigTable> cam = root.optionalTable("camera");
+        if (!cam && !given.empty()) {
+            throw SetupError(sc.name +
+                             ": --camera and --set need a [camera] table in the "
+                             "scenario (a test pattern has no camera)");
+        }
+        applyFormat(readFormat(s, cam, sc.seed, configDir, given), sc);
     }
     sc.utcStart = s.get<std::string>("utc_start", sc.utcStart);
     if (!parseIso8601Utc(sc.utcStart, &sc.utcStart_unix_s)) {
@@ -584,12 +619,12 @@ void readEvents(const ConfigTable& root, Scenario& sc) {
 }
 
 Scenario fromDocument(const ConfigDocument& doc, const std::string& file,
-                      const std::filesystem::path& configDir) {
+                      const std::filesystem::path& configDir, const ScenarioOverrides& given) {
     Scenario sc;
     sc.file = file;
     const ConfigTable root = doc.root();
     sc.rendered = root.contains("scene");
-    readScenarioTable(root, configDir, sc);
+    readScenarioTable(root, configDir, given, sc);
     readPlatform(root, sc);
     readRuntime(root, sc);
     readFrames(root, file, configDir, sc);
@@ -610,20 +645,21 @@ Scenario channelScenario(const Scenario& rig, std::size_t i) {
     return sc;
 }
 
-Scenario loadScenario(const std::filesystem::path& path, const std::filesystem::path& configDir) {
+Scenario loadScenario(const std::filesystem::path& path, const std::filesystem::path& configDir,
+                      const ScenarioOverrides& overrides) {
     std::filesystem::path file = path;
     if (isDirectory(path)) file = path / "scenario.toml";
     if (!pathExists(file)) {
         throw SetupError("scenario '" + path.string() + "': no such file");
     }
     const ConfigDocument doc = ConfigDocument::parseFile(file);
-    return fromDocument(doc, file.string(), configDir);
+    return fromDocument(doc, file.string(), configDir, overrides);
 }
 
 Scenario parseScenario(const std::string& text, const std::string& name,
-                       const std::filesystem::path& configDir) {
+                       const std::filesystem::path& configDir, const ScenarioOverrides& overrides) {
     const ConfigDocument doc = ConfigDocument::parseString(text, name);
-    return fromDocument(doc, name, configDir);
+    return fromDocument(doc, name, configDir, overrides);
 }
 
 }  // namespace nvs::rt

@@ -253,11 +253,23 @@ struct Scenario {
 // and seed (channelIndex = i; the channels kept, for the peers' mountings).
 Scenario channelScenario(const Scenario& rig, std::size_t i);
 
+// The command line's changes to a scenario's camera (nvstim run/render --camera, --set; the
+// GStreamer source's and the Python module's the same): another preset in place of [camera]
+// preset, and KEY=VALUE settings of the preset that win over [camera] set. A rig's channels
+// each name their own camera, so a rig takes neither.
+struct ScenarioOverrides {
+    std::optional<std::string> cameraPreset;
+    sensor::Overrides cameraSets;
+    bool empty() const { return !cameraPreset && cameraSets.empty(); }
+};
+
 // Reads a scenario TOML file (or SCENARIO/scenario.toml for a folder); camera presets and
 // spectra from configDir. Throws SetupError.
-Scenario loadScenario(const std::filesystem::path& path, const std::filesystem::path& configDir);
+Scenario loadScenario(const std::filesystem::path& path, const std::filesystem::path& configDir,
+                      const ScenarioOverrides& overrides = {});
 Scenario parseScenario(const std::string& text, const std::string& name,
-                       const std::filesystem::path& configDir);
+                       const std::filesystem::path& configDir,
+                       const ScenarioOverrides& overrides = {});
 
 // "2024-01-25T17:54:00Z" (fractional seconds and a +hh:mm offset accepted) → Unix seconds.
 // Returns false when malformed.

@@ -148,11 +148,11 @@ std::unique_ptr<FrameSink> makeSink(const std::string& text, const Scenario& sc,
 
 std::unique_ptr<PlatformSource> makePlatformSource(const std::optional<std::string>& text,
                                                    const Scenario& sc, ClockKind clock,
-                                                   const DataDirs& dirs) {
+                                                   const DataDirs& dirs, std::atomic<bool>* stop) {
     if (!text) return std::make_unique<HeldPlatform>(sc.platform);
     Spec s = parseSpec(*text, "--telemetry");
-    auto src =
-        makeTelemetrySource(s, sc, clock, "--telemetry " + *text, dirs.config, &stopRequested());
+    auto src = makeTelemetrySource(s, sc, clock, "--telemetry " + *text, dirs.config,
+                                   stop != nullptr ? stop : &stopRequested());
     s.finish("--telemetry " + *text);
     return src;
 }
@@ -382,6 +382,7 @@ struct Pipeline {
     Scenario sc;
     std::string label;  // the channel's name ("" without a rig)
     std::vector<std::unique_ptr<FrameSink>> sinks;
+    std::vector<FrameSink*> callerSinks;  // RunRequest::callerSinks of this channel
     std::unique_ptr<SceneRenderStage> sceneStage;
     std::unique_ptr<TestPatternRender> testPattern;
     std::unique_ptr<PlatformSource> platform;
@@ -448,8 +449,8 @@ void buildPipeline(Pipeline& p, const RunRequest& req, const std::vector<std::st
         sc.platform.lampMask = p.sceneStage->initialLampMask();
         sc.camera.spectrum = "pe";
     }
-    p.platform =
-        makePlatformSource(req.telemetry ? req.telemetry : sc.telemetry, sc, req.clock, req.dirs);
+    p.platform = makePlatformSource(req.telemetry ? req.telemetry : sc.telemetry, sc, req.clock,
+                                    req.dirs, req.stop);
     if (!sc.events.empty()) {
         SceneRenderStage* stage = p.sceneStage.get();
         p.platform = std::make_unique<TimelineSource>(
@@ -484,6 +485,8 @@ void buildPipeline(Pipeline& p, const RunRequest& req, const std::vector<std::st
     std::vector<FrameSink*> raw;
     for (auto& s : p.sinks)
         raw.push_back(s.get());
+    for (FrameSink* s : p.callerSinks)
+        raw.push_back(s);
     p.loop = std::make_unique<FrameLoop>(cfg, *p.platform, *render, *p.camera, raw);
 }
 
@@ -526,7 +529,7 @@ std::vector<std::vector<std::string>> routeOutputs(const std::vector<std::string
 
 // The scenario with the command line's overrides of [runtime].
 Scenario scenarioFor(const RunRequest& req) {
-    Scenario sc = loadScenario(req.scenario, req.dirs.config);
+    Scenario sc = loadScenario(req.scenario, req.dirs.config, req.overrides);
     if (req.primaryVisibility) sc.primaryVisibility = *req.primaryVisibility;
     if (req.renderThreads) {
         if (*req.renderThreads < 1 || *req.renderThreads > 16) {
@@ -564,11 +567,22 @@ std::vector<std::unique_ptr<Pipeline>> buildPipelines(const RunRequest& req, con
     for (const std::string& o : req.outputs)
         if (o.size() > 2 && o.compare(o.size() - 2, 2, ":-") == 0) ++toStdout;
     if (toStdout > 1) throw SetupError("--output: only one output can go to stdout");
+    for (const RunRequest::CallerSink& c : req.callerSinks) {
+        bool known = c.channel.empty() && sc.channels.empty();
+        for (const ChannelSpec& ch : sc.channels)
+            known = known || ch.name == c.channel;
+        if (!known) {
+            throw SetupError(c.channel.empty() ? "the scenario is a rig: name a channel"
+                                               : "no channel '" + c.channel + "' in the scenario");
+        }
+    }
     std::vector<std::unique_ptr<Pipeline>> pipes;
     for (std::size_t i = 0; i < routed.size(); ++i) {
         auto p = std::make_unique<Pipeline>();
         p->sc = channelScenario(sc, i);
         if (!sc.channels.empty()) p->label = sc.channels[i].name;
+        for (const RunRequest::CallerSink& c : req.callerSinks)
+            if (c.channel == p->label) p->callerSinks.push_back(c.sink);
         buildPipeline(*p, req, routed[i], status);
         pipes.push_back(std::move(p));
     }
@@ -618,13 +632,14 @@ int writeStats(const RunRequest& req, const std::vector<std::unique_ptr<Pipeline
 
 // Starts every loop on one origin: the rig's time line (frame 0's tick of each channel, its
 // skew added), far enough ahead for the slowest to make its first frame.
-void startAll(const std::vector<std::unique_ptr<Pipeline>>& pipes, std::FILE* status) {
+void startAll(const std::vector<std::unique_ptr<Pipeline>>& pipes, std::atomic<bool>& stop,
+              std::FILE* status) {
     std::string mainMsg;
     applyThreadSpec(kThreadMain, false, mainMsg);
     std::int64_t lead_ns = 0;
     for (const auto& p : pipes) {
         std::vector<std::string> messages = p->notes;
-        if (stopRequested().load(std::memory_order_relaxed)) p->loop->requestStop();
+        if (stop.load(std::memory_order_relaxed)) p->loop->requestStop();
         p->loop->prepare(messages);
         for (const auto& m : messages)
             std::fprintf(status, "nvstim run: %s%s\n", p->prefix().c_str(), m.c_str());
@@ -637,17 +652,57 @@ void startAll(const std::vector<std::unique_ptr<Pipeline>>& pipes, std::FILE* st
 
 }  // namespace
 
-int runScenario(const RunRequest& req, std::FILE* status) {
+struct ScenarioRun::Impl {
+    RunRequest req;
+    std::FILE* status = nullptr;
+    std::FILE* devNull = nullptr;  // status lines when the caller wants none
+    std::atomic<bool>* stop = nullptr;
+    Scenario sc;
+    std::vector<std::unique_ptr<Pipeline>> pipes;
+    ~Impl() {
+        if (devNull != nullptr) std::fclose(devNull);
+    }
+};
+
+ScenarioRun::ScenarioRun(const RunRequest& req, std::FILE* status) : impl_(new Impl) {
+    Impl& r = *impl_;
+    r.req = req;
+    r.stop = req.stop != nullptr ? req.stop : &stopRequested();
     // SIGINT and SIGTERM stop the run from the start, setup included. A shell without job
     // control starts background commands with SIGINT ignored; sigaction replaces that inherited
     // SIG_IGN on purpose: a stimulator asked to stop must stop, whoever started it. A signal
     // that arrives during setup (camera FFT plans, telemetry files) is kept and honoured as
-    // soon as the loop exists.
-    installStopSignals();
+    // soon as the loop exists. A library caller (req.stop given) keeps its own handlers.
+    if (req.stop == nullptr) installStopSignals();
+    if (status == nullptr) {
+        r.devNull = std::fopen("/dev/null", "w");
+        if (r.devNull == nullptr) throw SetupError("/dev/null: cannot open");
+        status = r.devNull;
+    }
+    r.status = status;
     // Setup: everything that can fail fails here, before the first frame.
-    const Scenario sc = scenarioFor(req);
-    std::vector<std::unique_ptr<Pipeline>> pipes = buildPipelines(req, sc, status);
-    startAll(pipes, status);
+    r.sc = scenarioFor(req);
+    r.pipes = buildPipelines(req, r.sc, status);
+}
+
+ScenarioRun::~ScenarioRun() = default;
+
+const Scenario& ScenarioRun::scenario() const {
+    return impl_->sc;
+}
+
+int runScenario(const RunRequest& req, std::FILE* status) {
+    ScenarioRun run(req, status);
+    return run.execute();
+}
+
+int ScenarioRun::execute() {
+    const RunRequest& req = impl_->req;
+    std::FILE* status = impl_->status;
+    std::atomic<bool>& stop = *impl_->stop;
+    const Scenario& sc = impl_->sc;
+    std::vector<std::unique_ptr<Pipeline>>& pipes = impl_->pipes;
+    startAll(pipes, stop, status);
 
     // Live status at most once a second, from the loops' atomic counters.
     auto lastPrint = std::chrono::steady_clock::now();
@@ -659,7 +714,7 @@ int runScenario(const RunRequest& req, std::FILE* status) {
         if (finished) break;
         std::this_thread::sleep_for(std::chrono::milliseconds(50));
         for (const auto& p : pipes) {
-            if (stopRequested().load(std::memory_order_relaxed) || p->platform->failed()) {
+            if (stop.load(std::memory_order_relaxed) || p->platform->failed()) {
                 for (const auto& q : pipes)
                     q->loop->requestStop();
             }
@@ -676,12 +731,14 @@ int runScenario(const RunRequest& req, std::FILE* status) {
     }
     for (const auto& p : pipes)
         p->loop->join();
-    const bool interrupted = stopRequested().load(std::memory_order_relaxed);
+    const bool interrupted = stop.load(std::memory_order_relaxed);
     // Shutdown: close every device and file (renames temporaries into place).
     int closeFailures = 0;
     bool failed = false, outputFailed = false;
     for (const auto& p : pipes) {
         for (auto& s : p->sinks)
+            closeFailures += s->close() != 0 ? 1 : 0;
+        for (FrameSink* s : p->callerSinks)
             closeFailures += s->close() != 0 ? 1 : 0;
         printSummary(status, p->label.empty() ? sc.name : sc.name + ": " + p->label, *p->loop,
                      *p->platform, p->sinks);

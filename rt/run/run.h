@@ -29,6 +29,19 @@ struct RunRequest {
     std::optional<render::PrimaryVisibility> primaryVisibility;
     std::optional<int> renderThreads;  // 1..16
     std::optional<int> cameraThreads;  // 1..16
+    // --camera and --set (a scenario with one [camera]).
+    ScenarioOverrides overrides;
+    // Outputs made by the caller rather than by --output (the GStreamer source, the Python
+    // module: rt/session): each is given the frames of its channel ("" without a rig) and is
+    // closed, not destroyed, by the run.
+    struct CallerSink {
+        std::string channel;
+        FrameSink* sink = nullptr;
+    };
+    std::vector<CallerSink> callerSinks;
+    // The flag that stops the run (null: the process's, set by SIGINT and SIGTERM, which the
+    // run then installs handlers for; a library caller gives its own and no handler is set).
+    std::atomic<bool>* stop = nullptr;
 };
 
 // A parsed "scheme:target?key=value&key=value" (--output and --telemetry).
@@ -48,9 +61,11 @@ Spec parseSpec(const std::string& text, const std::string& what);
 std::unique_ptr<FrameSink> makeSink(const std::string& spec, const Scenario& sc,
                                     std::int64_t frames);
 // Telemetry spec → platform source; none → the scenario's held pose.
+// `stop`: the flag a blocking source watches (null: stopRequested()).
 std::unique_ptr<PlatformSource> makePlatformSource(const std::optional<std::string>& spec,
                                                    const Scenario& sc, ClockKind clock,
-                                                   const DataDirs& dirs);
+                                                   const DataDirs& dirs,
+                                                   std::atomic<bool>* stop = nullptr);
 
 // Statistics as one JSON object; `interrupted`: stopped by SIGINT/SIGTERM.
 std::string statsJson(const FrameLoop& loop, const PlatformSource& platform,
@@ -65,6 +80,24 @@ inline constexpr int kRunInterrupted = 8;   // stopped by SIGINT or SIGTERM (cle
 // Runs to the end (frames, duration, SIGINT/SIGTERM or a fatal error). Live status lines go
 // to `status` at most once a second.
 int runScenario(const RunRequest& req, std::FILE* status);
+
+// The same in two steps, for a caller that must see setup errors before the frames start
+// (rt/session): the constructor sets everything up (throws SetupError); execute() runs to the
+// end and returns what runScenario returns. `status` may be null (no lines).
+class ScenarioRun {
+  public:
+    ScenarioRun(const RunRequest& req, std::FILE* status);
+    ~ScenarioRun();
+    ScenarioRun(const ScenarioRun&) = delete;
+    ScenarioRun& operator=(const ScenarioRun&) = delete;
+    // The scenario as run (a rig's channel i: channelScenario(scenario(), i)).
+    const Scenario& scenario() const;
+    int execute();
+
+  private:
+    struct Impl;
+    std::unique_ptr<Impl> impl_;
+};
 
 // Text as a JSON string body (quotes and control characters escaped): the stats JSON's, and
 // `nvstim bench`'s.
