@@ -109,7 +109,8 @@ FolderState prepareFolder(const fs::path& dir, const SweepInfo& info, const std:
             if (slurp(dir / "manifest.jsonl") != manifest) {
                 throw SetupError(where + ": a sweep of another grid (\"" + old.name + "\", " +
                                  old.spec +
-                                 ": its manifest differs); nothing written: give another --out");
+                                 ": its manifest differs: another spec, --var or working "
+                                 "folder); nothing written: give another --out");
             }
             return FolderState::Resumed;
         }

@@ -64,7 +64,11 @@ void Progress::update(std::int64_t doneNow, std::int64_t failed, bool force) {
     if (out_ == nullptr) return;
     const double t = nowSeconds();
     if (!force && last_s_ >= 0.0 && t - last_s_ < 1.0) return;
+    // Into a file or a pipe (a log, Slurm's output), a line when a job has finished, else
+    // every 30 s; on a terminal, the line rewritten every second.
+    if (!force && !tty_ && last_s_ >= 0.0 && doneNow == lastDone_ && t - last_s_ < 30.0) return;
     last_s_ = t;
+    lastDone_ = doneNow;
     const double elapsed = t - start_s_;
     const double rate = elapsed > 0.0 ? static_cast<double>(doneNow) / elapsed : 0.0;
     const std::int64_t done = before_ + doneNow;

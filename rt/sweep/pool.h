@@ -1,6 +1,7 @@
 #pragma once
 // Running a sweep's jobs here: N worker processes at a time, each `nvstim sweep --task I
-// --manifest FILE` (the same binary), and a progress line on `progress` at most once a second:
+// --manifest FILE` (the same binary), and a progress line on `progress` at most once a second
+// (into a file or pipe only when a job has finished, or after 30 s):
 //   nvstim sweep: 12/24 done (1 failed), 0.85 jobs/s, 14 s left
 // A worker that ends without writing its job's result (killed, crashed) is recorded as a
 // failed job with its exit status and the tail of its log (jobs/NNNNNN/task.log).
@@ -26,6 +27,7 @@ class Progress {
     std::FILE* out_;
     std::int64_t total_, before_;
     double start_s_, last_s_ = -1.0;
+    std::int64_t lastDone_ = -1;
     bool tty_;
 };
 

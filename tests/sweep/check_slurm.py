@@ -12,6 +12,7 @@ failure. Where the daemons cannot start (a program missing, munged or slurmd ref
 root), it prints "SKIPPED: <why>" with the daemon's log tail and exits 0.
 """
 import atexit
+import ctypes
 import getpass
 import json
 import os
@@ -88,9 +89,16 @@ def free_ports(n):
     return ports
 
 
+def die_with_parent():
+    """In the daemon before exec: SIGTERM when this script dies, even by SIGKILL (prctl
+    PR_SET_PDEATHSIG), so that no daemon outlives a test that was killed."""
+    ctypes.CDLL("libc.so.6", use_errno=True).prctl(1, signal.SIGTERM)
+
+
 def start(name, argv, log):
     out = open(log + ".out", "w")
-    p = subprocess.Popen(argv, env=env, stdout=out, stderr=subprocess.STDOUT)
+    p = subprocess.Popen(argv, env=env, stdout=out, stderr=subprocess.STDOUT,
+                         preexec_fn=die_with_parent)
     daemons.append((name, p, log))
     return p
 
@@ -136,6 +144,7 @@ def main():
     conf = f"""ClusterName=nvstest
 SlurmctldHost={host}
 SlurmUser={user}
+SlurmdUser={user}
 SlurmctldPort={ctld_port}
 SlurmdPort={d_port}
 AuthType=auth/munge
