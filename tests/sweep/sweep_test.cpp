@@ -150,5 +150,40 @@ TEST(SweepSeededScenario, LoadsFromElsewhereWithTheSeed) {
     EXPECT_EQ(b.events.size(), a.events.size());
 }
 
+// "replay:PATH" with PATH lexically normal (the copy writes it so, the loader keeps "dir/../").
+std::optional<std::string> normalReplay(const std::optional<std::string>& spec) {
+    if (!spec || spec->rfind("replay:", 0) != 0) return spec;
+    return "replay:" + fs::path(spec->substr(7)).lexically_normal().string();
+}
+
+// Every shipped scenario's seeded copy loads from another folder and reads the same files
+// (the paths rt/sweep/seeded_scenario.h makes absolute are all the relative ones there are).
+TEST(SweepSeededScenario, EveryShippedScenarioLoadsFromElsewhere) {
+    const fs::path d = tempDir("seeded-all");
+    const fs::path config = fs::path(NVS_SOURCE_DIR) / "config";
+    int n = 0;
+    for (const auto& e : fs::directory_iterator(fs::path(NVS_SOURCE_DIR) / "scenarios")) {
+        if (!fs::is_regular_file(e.path() / "scenario.toml")) continue;
+        SCOPED_TRACE(e.path().string());
+        const fs::path copy = d / (e.path().filename().string() + ".toml");
+        writeSeededScenario(e.path(), 77, copy);
+        const Scenario a = loadScenario(e.path(), config);
+        const Scenario b = loadScenario(copy, config);
+        EXPECT_EQ(b.seed, 77u);
+        EXPECT_EQ(b.scene.sceneFile.lexically_normal(), a.scene.sceneFile.lexically_normal());
+        EXPECT_EQ(normalReplay(b.telemetry), normalReplay(a.telemetry));
+        EXPECT_EQ(b.scene.thermal.has_value(), a.scene.thermal.has_value());
+        if (a.scene.thermal && b.scene.thermal) {
+            EXPECT_EQ(b.scene.thermal->weatherFile.lexically_normal(),
+                      a.scene.thermal->weatherFile.lexically_normal());
+            EXPECT_EQ(b.scene.thermal->materialsFile.lexically_normal(),
+                      a.scene.thermal->materialsFile.lexically_normal());
+        }
+        EXPECT_EQ(b.channels.size(), a.channels.size());
+        ++n;
+    }
+    EXPECT_GE(n, 15);
+}
+
 }  // namespace
 }  // namespace nvs::rt::sweep
