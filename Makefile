@@ -79,7 +79,7 @@ run: .nvs-build
 # The package's dependencies come from the binaries (dpkg-shlibdeps); install it with
 # `sudo dpkg -i build/release/package/nvstim_*.deb` (or `sudo apt install ./build/...deb`).
 deb: .nvs-build
-	cd $(BUILD) && cpack --config CPackConfig.cmake
+	cd $(BUILD) && cpack --config CPackConfig.cmake -B package
 	@ls -1 $(BUILD)/package/nvstim_*.deb | sed 's/^/nvstim: package /'
 
 # A skipped test says why in its output; those reasons are printed after the summary.

@@ -43,10 +43,11 @@ set(CPACK_PACKAGING_INSTALL_PREFIX /usr)
 set(CPACK_DEBIAN_FILE_NAME DEB-DEFAULT)
 set(CPACK_DEBIAN_PACKAGE_SECTION science)
 set(CPACK_DEBIAN_PACKAGE_SHLIBDEPS ON)
-# The scenarios' generators and the sweep's plots are Python; gstreamer1.0-tools is suggested
-# for gst-launch-1.0.
+# The scenarios' generators are Python. The Python module hands frames over as numpy arrays and
+# `nvstim sweep` draws its plots with Matplotlib (the table is written without it), so both are
+# recommended; gst-launch-1.0 (gstreamer1.0-tools) is suggested for the source element.
 set(CPACK_DEBIAN_PACKAGE_DEPENDS "python3")
-set(CPACK_DEBIAN_PACKAGE_SUGGESTS "gstreamer1.0-tools, python3-numpy")
+set(CPACK_DEBIAN_PACKAGE_RECOMMENDS "python3-numpy, python3-matplotlib")
+set(CPACK_DEBIAN_PACKAGE_SUGGESTS "gstreamer1.0-tools")
 set(CPACK_STRIP_FILES ON)
-set(CPACK_OUTPUT_FILE_PREFIX ${PROJECT_BINARY_DIR}/package)
 include(CPack)

@@ -232,7 +232,7 @@ std::string hzText(double hz) {
 // (30 Hz interlaced).
 FrameFormat readFormat(const ConfigTable& s, const std::optional<ConfigTable>& cam,
                        std::uint64_t seed, const std::filesystem::path& configDir,
-                       const ScenarioOverrides& given = {}) {
+                       const ScenarioOverrides& given) {
     FrameFormat f;
     const std::optional<double> hzGiven = s.optional<double>("frame_rate_hz");
     std::optional<int> widthGiven = s.optional<int>("width");
@@ -355,7 +355,7 @@ void readChannels(const ConfigTable& root, const std::filesystem::path& configDi
         for (const ChannelSpec& o : sc.channels) {
             if (o.name == ch.name) c.fail("name", "two channels are named '" + ch.name + "'");
         }
-        ch.format = readFormat(c, c, sc.seed + sc.channels.size(), configDir);
+        ch.format = readFormat(c, c, sc.seed + sc.channels.size(), configDir, ScenarioOverrides{});
         const auto arm = triple(c, "lever_arm_m", 100.0);
         const auto bore = triple(c, "boresight_deg", 90.0);
         ch.mount.leverArm_m = {arm[0], arm[1], arm[2]};

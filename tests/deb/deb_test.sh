@@ -8,7 +8,8 @@
 #         cmake/Packaging.cmake.
 # Step 2: dpkg -i. The package's files are then where the system looks: /usr/bin/nvstim on
 #         PATH, the manual page for man -w, the completion where bash-completion loads it, the
-#         GStreamer plugin for gst-inspect-1.0, the Python module for python3.
+#         GStreamer plugin for gst-inspect-1.0, the Python module for Debian's /usr/bin/python3
+#         (a python3 earlier on PATH, from pyenv or a venv, has its own search path).
 # Step 3: from an empty directory, with no NVS_* variable, /usr/bin/nvstim runs the default
 #         scenario (thesis-nolight, as `make run` does) for 3 frames to a y4m file of exactly
 #         3 frames, reading /usr/share/nvstim/config.
@@ -84,7 +85,7 @@ else
   echo "deb_test: the package has no GStreamer plugin" >&2; exit 1
 fi
 if grep -q '^/usr/lib/python3/dist-packages/nvstim' "$tmp/contents"; then
-  (cd "$tmp" && env -u PYTHONPATH python3 -c 'import nvstim, sys; assert nvstim.__file__.startswith("/usr/lib/python3/dist-packages"), nvstim.__file__') \
+  (cd "$tmp" && env -u PYTHONPATH /usr/bin/python3 -c 'import nvstim, sys; assert nvstim.__file__.startswith("/usr/lib/python3/dist-packages"), nvstim.__file__') \
     || { echo "deb_test: python3 does not import the installed nvstim module" >&2; exit 1; }
 else
   echo "deb_test: the package has no Python module" >&2; exit 1
