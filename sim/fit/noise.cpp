@@ -20,6 +20,7 @@
 #include <cstdio>
 
 #include "sim/fit/effects.h"
+#include "sim/fit/fpn_blotch.h"
 
 namespace nvs::fit {
 
@@ -84,38 +85,10 @@ Tiles temporal(const Work& w, int k0, int k1) {
 void fixedPattern(const Work& w, const Current& cur, std::size_t i0, std::size_t i1,
                   std::vector<double>& C, std::vector<double>& q, std::vector<double>& n,
                   std::vector<double>& scale2, Plane* map) {
-    const std::size_t np = static_cast<std::size_t>(w.w) * w.h;
-    Plane A[2] = {Plane(np, 0.0f), Plane(np, 0.0f)}, Y[2] = {Plane(np, 0.0f), Plane(np, 0.0f)};
-    std::vector<float> cnt[2] = {std::vector<float>(np, 0.0f), std::vector<float>(np, 0.0f)};
-    // Two groups with no field in common (in field scan frame k holds fields k and k − 1, so
-    // only even frames are used) and, where the split saw more than one stimulus, from
-    // different stimuli: a pattern fixed to the sensor is in both, an error of the mean model
-    // tied to the scene is not.
-    std::vector<int> stimRank;
-    for (std::size_t i = i0; i < i1; ++i) {
-        const int st = w.d.stimulusOfFrame[static_cast<std::size_t>(w.sub[i])];
-        if (std::find(stimRank.begin(), stimRank.end(), st) == stimRank.end())
-            stimRank.push_back(st);
-    }
-    int alt = 0;
-    for (std::size_t i = i0; i < i1; ++i) {
-        const int k = w.sub[i];
-        if (w.m.fieldScan && (k & 1)) continue;
-        int g = alt++ & 1;
-        if (stimRank.size() >= 2) {
-            const int st = w.d.stimulusOfFrame[static_cast<std::size_t>(k)];
-            g = static_cast<int>(std::find(stimRank.begin(), stimRank.end(), st) -
-                                 stimRank.begin()) &
-                1;
-        }
-        const Plane& M = w.measured(w.sub[i]);
-        for (std::size_t p = 0; p < np; ++p) {
-            if (!w.quiet(M[p], cur.Y[i][p])) continue;
-            A[g][p] += static_cast<float>(M[p] - (cur.fit.b + cur.fit.a * cur.Y[i][p]));
-            Y[g][p] += cur.Y[i][p];
-            cnt[g][p] += 1.0f;
-        }
-    }
+    const PatternGroups pg = patternGroups(w, cur, i0, i1);
+    const Plane* A = pg.A;
+    const Plane* Y = pg.Y;
+    const std::vector<float>* cnt = pg.count;
     const int T = w.tiles();
     std::vector<double> s1(static_cast<std::size_t>(T), 0.0), s2 = s1, s12 = s1, s11 = s1, s22 = s1;
     C.assign(static_cast<std::size_t>(T), 0.0);
@@ -554,7 +527,7 @@ Candidate fpn(const Work& w, const Current& cur, Result& res) {
     c.valid = P > 0.0 && prnu < 0.5;
     if (!c.valid) c.why = "no fixed pattern that grows with signal";
     c.finding.parameters = {{"prnu_rel", prnu}};
-    char buf[256];
+    char buf[400];
     std::snprintf(
         buf, sizeof buf,
         "a pattern fixed to the sensor: pixel gains differ by %.2f %% rms (PRNU), the "
@@ -563,6 +536,28 @@ Candidate fpn(const Work& w, const Current& cur, Result& res) {
         levels ? "" : " (one signal level: an offset pattern, DSNU, would look the same)");
     c.finding.cause = buf;
     c.finding.presetKeys = {{"ccd.prnu_rel", num(prnu)}};
+    // The blotchy member, where it beats the cell-by-cell one on held-out frames.
+    const BlotchMember bm = fitBlotchMember(w, cur);
+    if (bm.valid && bm.vsWhite.z >= w.opt.zMin && bm.vsModel.z > c.finding.z) {
+        fill(c, bm.vsModel,
+             "covariance of two independent residual gain maps at lags 0-12 px, held-out "
+             "frames");
+        c.valid = true;
+        c.why = "";
+        c.finding.parameters = {{"prnu_rel", bm.white_rel},
+                                {"prnu_blotch_rel", bm.blotch_rel},
+                                {"prnu_blotch_sigma_px", bm.blotch_sigma_px}};
+        std::snprintf(buf, sizeof buf,
+                      "a pattern fixed to the sensor that varies in blotches: gains differ by "
+                      "%.2f %% rms over blotches of sigma %.3g px (z %.1f over a cell-by-cell "
+                      "pattern), and %.2f %% cell by cell; the model has %.2f %%",
+                      100.0 * bm.blotch_rel, bm.blotch_sigma_px, bm.vsWhite.z, 100.0 * bm.white_rel,
+                      100.0 * w.cam.prnu_rel);
+        c.finding.cause = buf;
+        c.finding.presetKeys = {{"ccd.prnu_rel", num(bm.white_rel)},
+                                {"ccd.prnu_blotch_rel", num(bm.blotch_rel)},
+                                {"ccd.prnu_blotch_sigma_px", num(bm.blotch_sigma_px)}};
+    }
     return c;
 }
 

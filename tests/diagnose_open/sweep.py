@@ -22,7 +22,8 @@ a missing "z" counts as 0):
                    halo                 fraction   (share of the light moved to the ring)
                    veiling_glare        fraction   (share of the light moved to the wing)
                    vertical_smear       smear_rel  (column mean's share added)
-                   fixed_pattern_noise  prnu_rel   (rms relative gain of the pattern)
+                   fixed_pattern_noise  prnu_blotch_rel (the blotchy member's rms), else
+                                        prnu_rel, against the injected pattern's rms
                    excess_noise         noise_factor / the preset's [mcp] noise_factor against
                                         the injected variance factor of the shot noise (both
                                         ratios of the shot part of the temporal variance)
@@ -63,7 +64,7 @@ COMPARED = {
     "halo": ("fraction", "fraction", None),
     "veiling_glare": ("fraction", "fraction", None),
     "vertical_smear": ("smear_rel", "smear_rel", None),
-    "fixed_pattern_noise": ("prnu_rel", "prnu_rel", None),
+    "fixed_pattern_noise": (("prnu_blotch_rel", "prnu_rel"), "prnu_rel", None),
     "excess_noise": ("noise_factor", "variance_factor", "model_noise_factor"),
 }
 
@@ -110,7 +111,12 @@ def score(truth, findings):
         s["candidate"] = any(f.get("effect") == cat and status(f) == "candidate" for f in findings)
         if cat in COMPARED and mine:
             dk, tk, div = COMPARED[cat]
-            v = param(mine[0], dk)
+            # The first of diagnose's names the finding has (a member's own parameter first).
+            v = None
+            for k in (dk if isinstance(dk, tuple) else (dk,)):
+                v = param(mine[0], k)
+                if v is not None:
+                    break
             t = truth["parameters"].get(tk)
             if v is not None and t:
                 if div:
@@ -226,6 +232,8 @@ def table(a, recs, elapsed):
             sc = [r["scores"] for r in rs]
             ratios = [s["param_ratio"] for s in sc if "param_ratio" in s]
             comp = COMPARED[e][0] if e in COMPARED else "-"
+            if isinstance(comp, tuple):
+                comp = " or ".join(comp)
             if e == "excess_noise":
                 comp = "noise_factor / F_model"
             L.append("| %s | %d | %d | %s | %s | %s | %s | %s | %s | %s |" % (

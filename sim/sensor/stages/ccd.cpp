@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <vector>
 
 #include "sim/core/rng.h"
 #include "sim/core/simd.h"
@@ -55,6 +56,12 @@ void CcdParams::read(const PresetReader& root) {
     read_noise_e = nonNegative(ccd, "read_noise_e", read_noise_e);
     prnu_rel = nonNegative(ccd, "prnu_rel", prnu_rel);
     require(prnu_rel < 0.5, ccd, "prnu_rel", "must be < 0.5");
+    prnu_blotch_rel = nonNegative(ccd, "prnu_blotch_rel", prnu_blotch_rel);
+    require(prnu_blotch_rel < 0.5, ccd, "prnu_blotch_rel", "must be < 0.5");
+    prnu_blotch_sigma_px = nonNegative(ccd, "prnu_blotch_sigma_px", prnu_blotch_sigma_px);
+    require(
+        prnu_blotch_rel == 0.0 || (prnu_blotch_sigma_px >= 0.5 && prnu_blotch_sigma_px <= 200.0),
+        ccd, "prnu_blotch_sigma_px", "must be in [0.5, 200] px where prnu_blotch_rel > 0");
 }
 
 namespace {
@@ -135,7 +142,7 @@ CcdStage::CcdStage(const CameraParams& c, std::uint64_t seed)
       row_(new float[paddedRow(c.width)]) {
     if (c.full_well_e > 0.0 && c.bloom == BloomDirection::Vertical)
         upCarry_ = ImageF(c.width, c.height);
-    if (c.prnu_rel > 0.0) {
+    if (c.prnu_rel > 0.0 || c.prnu_blotch_rel > 0.0) {
         // Fixed pattern: one draw per cell, keyed by field 0 so it is the same every field.
         prnu_ = ImageF(c.width, c.height);
         const PixelRng rng(seed, RngStream::FixedPattern, 0);
@@ -146,9 +153,63 @@ CcdStage::CcdStage(const CameraParams& c, std::uint64_t seed)
             for (int x = 0; x < c.width; ++x)
                 p[x] = static_cast<float>(1.0 + c.prnu_rel * static_cast<double>(z_[x]));
         }
+        if (c.prnu_blotch_rel > 0.0) multiplyBlotches(c, rng);
     }
     const double video_e = c.video_noise_dc / c.video_gain_dc_per_e;
     noiseSigma_e_ = std::sqrt(c.read_noise_e * c.read_noise_e + video_e * video_e);
+}
+
+// The blotch pattern (CcdParams::prnu_blotch_rel): a second plane of the fixed-pattern stream,
+// blurred by a separable Gaussian (edges mirrored) and scaled to zero mean and unit rms over the
+// frame, multiplies the cell pattern. Setup only; a direct convolution, as the kernel is short
+// against the frame and runs once.
+void CcdStage::multiplyBlotches(const CameraParams& c, const PixelRng& rng) {
+    const int w = c.width, h = c.height;
+    const double sigma = c.prnu_blotch_sigma_px;
+    const int r = static_cast<int>(std::ceil(4.0 * sigma));
+    std::vector<double> k(static_cast<std::size_t>(2 * r + 1));
+    for (int i = -r; i <= r; ++i)
+        k[static_cast<std::size_t>(i + r)] = std::exp(-0.5 * i * i / (sigma * sigma));
+    std::vector<double> z(static_cast<std::size_t>(w) * h), t(z.size());
+    for (int y = 0; y < h; ++y) {
+        rng.rowWords(static_cast<std::uint32_t>(y), 1, 0, blocksFor(w), words_.get());
+        normalsFromWords(words_.get(), z_.get(), w);
+        for (int x = 0; x < w; ++x)
+            z[static_cast<std::size_t>(y) * w + x] = z_[x];
+    }
+    const auto mirror = [](int i, int n) {
+        while (i < 0 || i >= n)
+            i = i < 0 ? -i - 1 : 2 * n - i - 1;
+        return i;
+    };
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) {
+            double s = 0.0;
+            for (int i = -r; i <= r; ++i)
+                s += k[static_cast<std::size_t>(i + r)] *
+                     z[static_cast<std::size_t>(y) * w + mirror(x + i, w)];
+            t[static_cast<std::size_t>(y) * w + x] = s;
+        }
+    double sum = 0.0, sum2 = 0.0;
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) {
+            double s = 0.0;
+            for (int i = -r; i <= r; ++i)
+                s += k[static_cast<std::size_t>(i + r)] *
+                     t[static_cast<std::size_t>(mirror(y + i, h)) * w + x];
+            z[static_cast<std::size_t>(y) * w + x] = s;
+            sum += s;
+            sum2 += s * s;
+        }
+    const double n = static_cast<double>(w) * h;
+    const double mean = sum / n, rms = std::sqrt(std::max(sum2 / n - mean * mean, 1e-300));
+    for (int y = 0; y < h; ++y) {
+        float* p = prnu_.row(y);
+        for (int x = 0; x < w; ++x) {
+            const double b = (z[static_cast<std::size_t>(y) * w + x] - mean) / rms;
+            p[x] = static_cast<float>(static_cast<double>(p[x]) * (1.0 + c.prnu_blotch_rel * b));
+        }
+    }
 }
 
 namespace {

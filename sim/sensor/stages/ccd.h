@@ -8,6 +8,7 @@
 #include <memory>
 
 #include "sim/core/image.h"
+#include "sim/core/rng.h"
 #include "sim/sensor/stages/stage.h"
 
 namespace nvs::sensor {
@@ -40,6 +41,12 @@ struct CcdParams {
     double dark_e_s = 0.0;      // [e/s] CCD dark current
     double read_noise_e = 0.0;  // [e rms]
     double prnu_rel = 0.0;      // fixed-pattern gain non-uniformity, rms fraction
+    // A second fixed gain pattern that varies in blotches rather than cell by cell (uneven
+    // activation of a photocathode, a fibre-optic bundle's multifibres): white noise low-passed
+    // by a Gaussian of prnu_blotch_sigma_px, scaled to zero mean and prnu_blotch_rel rms. Its
+    // autocorrelation is exp(−r²/4σ²) (docs/sensor.md, stage 8).
+    double prnu_blotch_rel = 0.0;       // rms fraction
+    double prnu_blotch_sigma_px = 0.0;  // [px] the low-pass Gaussian's σ, in CCD cells
 
     // Reads [ccd] of the preset over the defaults above; errors name
     // file:line or the --set KEY.
@@ -73,6 +80,8 @@ class CcdStage {
                                   float* carryBuf) noexcept;
 
   private:
+    // Setup: the blotch pattern (CcdParams::prnu_blotch_rel) multiplied into prnu_.
+    void multiplyBlotches(const CameraParams& cam, const PixelRng& rng);
     // Interline: the overflow drain on one loaded row (charge above full well leaves, up to
     // the overload capacity).
     void drainRow(float* v) const noexcept;

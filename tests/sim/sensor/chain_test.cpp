@@ -694,5 +694,69 @@ TEST(BadInput, ClearErrors) {
     EXPECT_THROW(test::calibrationTube({{"agc", "sometimes"}}), SetupError);
 }
 
+// The blotchy fixed pattern (ccd.prnu_blotch_rel, prnu_blotch_sigma_px): white noise low-passed
+// by a Gaussian of σ has the autocorrelation exp(−r²/4σ²) (the Gaussian convolved with itself);
+// a uniform charge through the CCD with no read noise shows the pattern alone: its rms is the
+// key's, its autocorrelation at lags 2-16 px follows that law within sampling error, and a
+// cell-by-cell PRNU on top adds only at lag 0.
+TEST(Ccd, BlotchyPatternHasTheGaussianLowPassAutocorrelation) {
+    constexpr int w = 384, h = 288;
+    const double sigma = 4.0, blotch = 0.05, white = 0.02;
+    CameraParams cam = test::calibrationTube({{"width", std::to_string(w)},
+                                              {"height", std::to_string(h)},
+                                              {"ccd.read_noise_e", "0.0"},
+                                              {"ccd.smear_rel", "0.0"},
+                                              {"ccd.prnu_rel", std::to_string(white)},
+                                              {"ccd.prnu_blotch_rel", std::to_string(blotch)},
+                                              {"ccd.prnu_blotch_sigma_px", std::to_string(sigma)}});
+    cam.full_well_e = 0.0;
+    CcdStage ccd(cam, 7);
+    ImageF img = test::uniform(w, h, 1000.0f);
+    FieldContext ctx;
+    ctx.period_s = 1.0 / 59.94;
+    (void)ccd.apply(img.view(), ctx);
+    std::vector<double> g(static_cast<std::size_t>(w) * h);
+    double mean = 0.0;
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x)
+            mean += g[static_cast<std::size_t>(y) * w + x] =
+                static_cast<double>(img(x, y)) / 1000.0 - 1.0;
+    mean /= static_cast<double>(g.size());
+    const auto cov = [&](int r) {
+        double s = 0.0, n = 0.0;
+        for (int y = 0; y < h; ++y)
+            for (int x = 0; x + r < w; ++x) {
+                s += (g[static_cast<std::size_t>(y) * w + x] - mean) *
+                     (g[static_cast<std::size_t>(y) * w + x + r] - mean);
+                n += 1.0;
+            }
+        return s / n;
+    };
+    // (1 + w)(1 + b) − 1 = w + b + wb: variance w² + b² + w²b².
+    const double var0 = white * white + blotch * blotch + white * white * blotch * blotch;
+    EXPECT_NEAR(cov(0), var0, 0.05 * var0);
+    // Beyond lag 0 the cell pattern is uncorrelated; the blotches' correlation is the law's.
+    // The sampling error of a lag covariance over a 384 × 288 frame of blotches of σ 4 px
+    // (about 1700 independent blotches) is ~3 % of b².
+    for (const int r : {2, 4, 6, 8, 12, 16}) {
+        const double law = blotch * blotch * std::exp(-0.25 * r * r / (sigma * sigma));
+        EXPECT_NEAR(cov(r), law, 0.08 * blotch * blotch) << "lag " << r;
+    }
+    // Without the blotch key the pattern is the cell's alone: no correlation at lag 2.
+    CameraParams plain = cam;
+    plain.prnu_blotch_rel = 0.0;
+    CcdStage ccd2(plain, 7);
+    ImageF img2 = test::uniform(w, h, 1000.0f);
+    (void)ccd2.apply(img2.view(), ctx);
+    double s = 0.0, n = 0.0;
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x + 2 < w; ++x) {
+            s += (static_cast<double>(img2(x, y)) / 1000.0 - 1.0) *
+                 (static_cast<double>(img2(x + 2, y)) / 1000.0 - 1.0);
+            n += 1.0;
+        }
+    EXPECT_NEAR(s / n, 0.0, 0.05 * white * white);
+}
+
 }  // namespace
 }  // namespace nvs::sensor
