@@ -236,6 +236,17 @@ void meanEffects(Work& w, Current& cur, Result& r, const Options& opt, const Pro
     for (int round = 0; round < opt.maxRounds; ++round) {
         Candidate best;
         bool any = false;
+        // The round's effects to try, for the progress lines ("k/N").
+        int toTry = 0, tried = 0;
+        for (const Entry& e : catalog)
+            toTry += taken.count(e.name) == 0 && !e.present ? 1 : 0;
+        for (const RegisteredEffect* e : registeredEffects())
+            toTry += taken.count(e->name) == 0 && !e->present(w.cam) ? 1 : 0;
+        const auto say = [&](const std::string& name) {
+            if (progress)
+                progress("round " + std::to_string(round + 1) + ": " + name + " (" +
+                         std::to_string(++tried) + "/" + std::to_string(toTry) + ")");
+        };
         for (const Entry& e : catalog) {
             if (taken.count(e.name) != 0) continue;
             if (e.present) {
@@ -245,8 +256,7 @@ void meanEffects(Work& w, Current& cur, Result& r, const Options& opt, const Pro
                 recordTrial(r, c, false);
                 continue;
             }
-            if (progress)
-                progress(std::string("round ") + std::to_string(round + 1) + ": " + e.name);
+            say(e.name);
             Candidate c = e.fn(w, cur);
             recordTrial(r, c, true);
             if (significant(c, opt, r.findings.size()) && (!any || c.gainChi2 > best.gainChi2)) {
@@ -264,8 +274,7 @@ void meanEffects(Work& w, Current& cur, Result& r, const Options& opt, const Pro
                 recordTrial(r, c, false);
                 continue;
             }
-            if (progress)
-                progress(std::string("round ") + std::to_string(round + 1) + ": " + e->name);
+            say(e->name);
             Candidate c = tryRegistered(w, cur, *e);
             recordTrial(r, c, true);
             if (significant(c, opt, r.findings.size()) && (!any || c.gainChi2 > best.gainChi2)) {

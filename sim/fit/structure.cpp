@@ -561,11 +561,14 @@ std::vector<StructureFit> findStructure(Work& w, const Current& cur, Result& r,
             Scored s;
         };
         std::vector<Rival> rivals;
+        int toTry = 0, tried = 0;
+        for (int k = 0; k < kKinds; ++k)
+            toTry += taken[k] ? 0 : 1;
         for (int k = 0; k < kKinds; ++k) {
             if (taken[k]) continue;
             if (w.progress)
-                w.progress(std::string("structure round ") + std::to_string(round + 1) + ": " +
-                           kShapes[k].name);
+                w.progress("structure round " + std::to_string(round + 1) + ": " + kShapes[k].name +
+                           " (" + std::to_string(++tried) + "/" + std::to_string(toTry) + ")");
             ShapeFit t = fitShape(w, static_cast<Kind>(k), f, w.cal.size());
             const Scored s = scoreFit(w, f, t);
             nvs::fit::Trial tr;

@@ -10,6 +10,8 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <regex>
+#include <sstream>
 #include <string>
 
 #include "rt/cli/cli.h"
@@ -61,6 +63,28 @@ TEST(Diagnose, NamesAHiddenHaloAndItsPresetLeavesNothingToFind) {
                             "\"confidence\"", "\"radius_um\"", "\"fraction\""})
         EXPECT_NE(r.out.find(key), std::string::npos) << key;
     EXPECT_NE(r.err.find("nvstim diagnose:"), std::string::npos) << "progress on stderr";
+    // Each round's progress lines count its effects: "(k/N)", k = 1 … N in order, the same N.
+    {
+        const std::regex line(R"(\] (structure )?round (\d+): \w+ \((\d+)/(\d+)\))");
+        std::istringstream lines(r.err);
+        std::string l, lastRound;
+        long expectK = 1, n = 0, rounds = 0;
+        for (std::smatch m; std::getline(lines, l);) {
+            if (!std::regex_search(l, m, line)) continue;
+            const std::string round = m[1].str() + m[2].str();
+            if (round != lastRound) {
+                EXPECT_TRUE(lastRound.empty() || expectK == n + 1) << "round " << lastRound;
+                lastRound = round;
+                expectK = 1;
+                n = std::stol(m[4]);
+                ++rounds;
+            }
+            EXPECT_EQ(std::stol(m[3]), expectK++) << l;
+            EXPECT_EQ(std::stol(m[4]), n) << l;
+        }
+        EXPECT_EQ(expectK, n + 1) << "the last round ends at N";
+        EXPECT_GE(rounds, 2) << r.err;
+    }
     std::ifstream json(dir / "out.json");
     std::string line;
     std::getline(json, line);

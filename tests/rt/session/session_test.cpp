@@ -73,6 +73,17 @@ class SessionTest : public ::testing::Test {
         fs::create_directories(dir_);
     }
     void TearDown() override { fs::remove_all(dir_); }
+    // A 32 × 16 test pattern (no camera) of n frames, as the options of a session.
+    SessionOptions pattern(std::int64_t frames) const {
+        std::ofstream(dir_ / "scenario.toml")
+            << "[scenario]\nname = \"pattern\"\nwidth = 32\n"
+               "height = 16\n[[source]]\nkind = \"test_pattern\"\n";
+        SessionOptions o;
+        o.scenario = (dir_ / "scenario.toml").string();
+        o.frames = frames;
+        o.dirs = dirs();
+        return o;
+    }
     fs::path dir_;
 };
 
@@ -122,13 +133,8 @@ TEST_F(SessionTest, PulledFramesAreTheCommandLinesY4mFrames) {
 // loop waits for a stalled output at the end of a run) before it takes any: all 12 arrive, in
 // order, and the run ends with status 0.
 TEST_F(SessionTest, ASlowCallerGetsEveryFrame) {
-    std::ofstream(dir_ / "scenario.toml") << "[scenario]\nname = \"pattern\"\nwidth = 32\n"
-                                             "height = 16\n[[source]]\nkind = \"test_pattern\"\n";
-    SessionOptions o;
-    o.scenario = (dir_ / "scenario.toml").string();
-    o.frames = 12;
+    SessionOptions o = pattern(12);
     o.depth = 2;
-    o.dirs = dirs();
     Session s(o);
     std::this_thread::sleep_for(std::chrono::milliseconds(1500));
     PulledFrame f;
@@ -142,12 +148,7 @@ TEST_F(SessionTest, ASlowCallerGetsEveryFrame) {
 // stop() ends a run of a million frames: next() drains and returns false, the status says
 // interrupted (8), as SIGINT would for `nvstim run`.
 TEST_F(SessionTest, StopEndsALongRun) {
-    std::ofstream(dir_ / "scenario.toml") << "[scenario]\nname = \"pattern\"\nwidth = 32\n"
-                                             "height = 16\n[[source]]\nkind = \"test_pattern\"\n";
-    SessionOptions o;
-    o.scenario = (dir_ / "scenario.toml").string();
-    o.frames = 1'000'000;
-    o.dirs = dirs();
+    const SessionOptions o = pattern(1'000'000);
     Session s(o);
     PulledFrame f;
     for (int i = 0; i < 3; ++i)
