@@ -192,7 +192,8 @@ void getProperty(GObject* object, guint id, GValue* value, GParamSpec* pspec) {
 }
 
 // The run's format as fixed caps: GRAY8 up to 8 bits, else GRAY16_LE; the frame rate as the
-// exact fraction the run ticks at; interleaved with its field order for an interlaced run.
+// exact fraction the run ticks at; the pixels' aspect as the y4m output's A tag; interleaved
+// with its field order for an interlaced run.
 GstCaps* runCaps(const nvs::rt::Session& s) {
     const nvs::msg::FrameRate rate = nvs::msg::FrameRate::fromHz(s.frameRate_hz());
     const nvs::msg::FieldOrder order = s.fieldOrder();
@@ -200,7 +201,8 @@ GstCaps* runCaps(const nvs::rt::Session& s) {
     GstCaps* caps = gst_caps_new_simple(
         "video/x-raw", "format", G_TYPE_STRING, s.bits() <= 8 ? "GRAY8" : "GRAY16_LE", "width",
         G_TYPE_INT, s.width(), "height", G_TYPE_INT, s.height(), "framerate", GST_TYPE_FRACTION,
-        static_cast<gint>(rate.num), static_cast<gint>(rate.den), "interlace-mode", G_TYPE_STRING,
+        static_cast<gint>(rate.num), static_cast<gint>(rate.den), "pixel-aspect-ratio",
+        GST_TYPE_FRACTION, s.pixelAspectNum(), s.pixelAspectDen(), "interlace-mode", G_TYPE_STRING,
         interlaced ? "interleaved" : "progressive", nullptr);
     if (interlaced) {
         gst_caps_set_simple(

@@ -69,12 +69,10 @@ Spec parseSpec(const std::string& text, const std::string& what) {
     return s;
 }
 
-namespace {
-
 // The pixels' aspect (width over height) as the y4m header gives it: the camera's cells as the
 // renderer sees them (rt/compose/scene_setup.cpp: the preset's pitch, another image size keeping
 // the sensor's field of view), as the nearest ratio of integers up to 10⁴ (continued fractions).
-drivers::PixelAspect pixelAspect(const Scenario& sc) {
+drivers::PixelAspect pixelAspectOf(const Scenario& sc) {
     if (!sc.rendered || !sc.camera.enabled) return {};
     double x = 0.0;
     if (sc.camera.thermal) {
@@ -102,8 +100,6 @@ drivers::PixelAspect pixelAspect(const Scenario& sc) {
     return {static_cast<int>(h1), static_cast<int>(k1)};
 }
 
-}  // namespace
-
 std::unique_ptr<FrameSink> makeSink(const std::string& text, const Scenario& sc,
                                     std::int64_t frames) {
     Spec s = parseSpec(text, "--output");
@@ -111,7 +107,7 @@ std::unique_ptr<FrameSink> makeSink(const std::string& text, const Scenario& sc,
     std::unique_ptr<FrameSink> sink;
     if (s.scheme == "y4m") {
         sink = std::make_unique<drivers::Y4mSink>(s.target, sc.width, sc.height, sc.bits, sc.rate,
-                                                  sc.fieldOrder(), pixelAspect(sc));
+                                                  sc.fieldOrder(), pixelAspectOf(sc));
     } else if (s.scheme == "pgm") {
         sink = std::make_unique<drivers::PgmSequenceSink>(s.target, sc.width, sc.height, sc.bits);
     } else if (s.scheme == "png") {

@@ -15,7 +15,17 @@
 #include "rt/loop/stages.h"
 #include "sim/core/paths.h"
 
+namespace nvs::drivers {
+struct PixelAspect;
+}
+
 namespace nvs::rt {
+
+// The pixels' aspect, width over height, of a scenario's frames: the camera's cells as the
+// renderer sees them (the preset's pitch; another image size keeps the sensor's field of view),
+// as the nearest ratio of integers up to 10⁴; 1:1 for a test pattern. The y4m output's A tag,
+// the GStreamer source's pixel-aspect-ratio.
+drivers::PixelAspect pixelAspectOf(const Scenario& sc);
 
 struct RunRequest {
     std::string scenario;

@@ -139,6 +139,9 @@ Session::Session(const SessionOptions& opts) {
     bits_ = sc.bits;
     rate_hz_ = sc.rate.hz();
     fieldOrder_ = sc.fieldOrder();
+    const drivers::PixelAspect aspect = pixelAspectOf(sc);
+    aspectNum_ = aspect.num;
+    aspectDen_ = aspect.den;
     name_ = sc.name;
     if (opts.frames) {
         frames_ = *opts.frames;

@@ -67,6 +67,9 @@ class Session {
     int bits() const { return bits_; }
     double frameRate_hz() const { return rate_hz_; }
     msg::FieldOrder fieldOrder() const { return fieldOrder_; }
+    // The pixels' width over their height (rt/run pixelAspectOf: the y4m output's A tag).
+    int pixelAspectNum() const { return aspectNum_; }
+    int pixelAspectDen() const { return aspectDen_; }
     // The frames the run will emit (-1: until stopped).
     std::int64_t frames() const { return frames_; }
     const std::string& name() const { return name_; }
@@ -89,6 +92,7 @@ class Session {
     int width_ = 0, height_ = 0, bits_ = 8;
     double rate_hz_ = 0.0;
     msg::FieldOrder fieldOrder_ = msg::FieldOrder::Progressive;
+    int aspectNum_ = 1, aspectDen_ = 1;
     std::int64_t frames_ = -1;
     std::string name_;
 };

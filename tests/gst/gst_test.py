@@ -152,6 +152,9 @@ def expected_caps(tags):
                                 Fraction(int(rate[0]), int(rate[1])).denominator),
         "interlace-mode": "progressive" if inter == "Ip" else "interleaved",
     }
+    aspect = next((t for t in tags if t.startswith("A")), "A1:1")[1:].split(":")
+    par = Fraction(int(aspect[0]), int(aspect[1]))
+    exp["pixel-aspect-ratio"] = "%d/%d" % (par.numerator, par.denominator)
     if inter != "Ip":
         exp["field-order"] = "top-field-first" if inter == "It" else "bottom-field-first"
     return exp, Fraction(int(rate[1]), int(rate[0]))
