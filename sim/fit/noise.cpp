@@ -410,6 +410,8 @@ Tiles bothHalves(const Tiles& a, const Tiles& b) {
     add(t.mu, b.mu);
     add(t.n, b.n);
     add(t.n1, b.n1);
+    add(t.measured, b.measured);
+    add(t.gain, b.gain);
     return t;
 }
 
