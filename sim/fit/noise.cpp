@@ -29,7 +29,7 @@ namespace {
 struct Tiles {
     std::vector<double> v, c1, vSim, c1Sim, mu, n, n1;
     std::vector<double> measured;  // the measured frames' mean [DC, offset included]
-    std::vector<double> gain;      // measured over model signal, the offset out (localGains)
+    std::vector<double> gain;      // measured over model signal, the offset out (tryNoiseEffects)
 };
 
 // Temporal statistics of frames [k0, k1) per tile.
