@@ -443,7 +443,8 @@ void demoteExplained(Work& w, const Current& cur, const std::vector<StructureFit
             if (c.finding.effect != f.effect || f.status != "named") continue;
             if (progress)
                 progress(f.effect + " without the structures: z " + std::to_string(c.finding.z));
-            if (significant(c, w.opt, i)) continue;
+            // Beside the structures already found, at the bar of a second finding.
+            if (significant(c, w.opt, std::max<std::size_t>(i, 1))) continue;
             f.status = "candidate";
             std::snprintf(b, sizeof b,
                           " (candidate: with the unexplained structure taken out of the "

@@ -128,14 +128,15 @@ ModelRun simulate(const Dataset& d, const sensor::CameraParams& cam,
     m.ebiC1_dc2_per_lm_cm2 = ebiC1(cam, configDir, tables);
     if (progress) progress("simulating " + std::to_string(m.calls) + " frames with the model");
     meanRun(d, d.stimuli, cam, configDir, seed, m.signal, unblurred ? &m.unblurred : nullptr,
-            &m.cathode_A);
+            &m.cathode_A, &m.bspFactor);
     m.noisy = noisyRun(d, d.stimuli, cam, configDir, seed);
     return m;
 }
 
 void meanRun(const Dataset& d, const std::vector<ImageF>& stimuli, const sensor::CameraParams& cam,
              const std::filesystem::path& configDir, std::uint64_t seed, std::vector<Plane>& signal,
-             std::vector<Plane>* unblurred, std::vector<double>* cathode_A) {
+             std::vector<Plane>* unblurred, std::vector<double>* cathode_A,
+             std::vector<double>* bspFactor) {
     GammaTableCache tables;
     const sensor::CameraParams mean = meanCamera(cam);
     const double vg = cam.video_gain_dc_per_e;
@@ -144,10 +145,12 @@ void meanRun(const Dataset& d, const std::vector<ImageF>& stimuli, const sensor:
         sensor::IiccdChain chain(c, seed, configDir, tables);
         out.resize(calls);
         if (current && cathode_A) cathode_A->clear();
+        if (current && bspFactor) bspFactor->clear();
         for (std::size_t k = 0; k < calls; ++k) {
             const ImageF& s = stimuli[static_cast<std::size_t>(d.stimulusOfFrame[k])];
-            const double i_A = chain.process(s.cview()).cathode_current_A;
-            if (current && cathode_A) cathode_A->push_back(i_A);
+            const sensor::FieldInfo& info = chain.process(s.cview());
+            if (current && cathode_A) cathode_A->push_back(info.cathode_current_A);
+            if (current && bspFactor) bspFactor->push_back(info.bsp_factor);
             copyPlane(chain.electrons().cview(), vg, out[k]);
             // The video stage's droop acts on the line before the ADC (a linear filter of
             // each row, so of the signal in DC as of the electrons).

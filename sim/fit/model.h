@@ -26,6 +26,7 @@ struct ModelRun {
     std::vector<Plane> unblurred;   // per call: the same without the MTF (mcp_saturation)
     std::vector<Plane> noisy;       // per call: the model's noisy output frame [DC]
     std::vector<double> cathode_A;  // per call: cathode current (bright-source protection)
+    std::vector<double> bspFactor;  // per call: the mean run's bright-source protection factor
     double offset_dc = 0.0;         // video offset
     double maxDc = 255.0;           // ADC full scale
     double gamma = 1.0;
@@ -44,10 +45,12 @@ ModelRun simulate(const Dataset& d, const sensor::CameraParams& cam,
 
 // The mean run alone for a stimulus sequence (one image per distinct stimulus, indexed by
 // d.stimulusOfFrame): signal per call [DC] as ModelRun::signal, without the MTF into
-// `unblurred` and the cathode current into `cathode_A` where given.
+// `unblurred`, the cathode current into `cathode_A` and the protection's gain factor into
+// `bspFactor` where given.
 void meanRun(const Dataset& d, const std::vector<ImageF>& stimuli, const sensor::CameraParams& cam,
              const std::filesystem::path& configDir, std::uint64_t seed, std::vector<Plane>& signal,
-             std::vector<Plane>* unblurred, std::vector<double>* cathode_A = nullptr);
+             std::vector<Plane>* unblurred, std::vector<double>* cathode_A = nullptr,
+             std::vector<double>* bspFactor = nullptr);
 
 // The model's noisy output frames for the dataset's sequence of stimuli (one per distinct
 // stimulus, indexed by d.stimulusOfFrame).

@@ -30,13 +30,19 @@ struct Tiles {
     std::vector<double> v, c1, vSim, c1Sim, mu, n, n1;
     std::vector<double> measured;  // the measured frames' mean [DC, offset included]
     std::vector<double> gain;      // measured over model signal, the offset out (tryNoiseEffects)
+    std::vector<double> ebiMu;     // the model's EBI dark signal in mu [DC]
+    // The share of the model's shot noise in tile i that its EBI makes: EBI and scene
+    // photoelectrons pass the same gain, so their shot variances stand as their mean signals.
+    double ebiShare(std::size_t i) const {
+        return mu[i] > 0.0 ? std::clamp(ebiMu[i] / mu[i], 0.0, 1.0) : 1.0;
+    }
 };
 
 // Temporal statistics of frames [k0, k1) per tile.
 Tiles temporal(const Work& w, int k0, int k1) {
     const int T = w.tiles();
     Tiles t;
-    for (auto* v : {&t.v, &t.c1, &t.vSim, &t.c1Sim, &t.mu, &t.n, &t.n1, &t.measured})
+    for (auto* v : {&t.v, &t.c1, &t.vSim, &t.c1Sim, &t.mu, &t.n, &t.n1, &t.measured, &t.ebiMu})
         v->assign(static_cast<std::size_t>(T), 0.0);
     const int lag = w.m.fieldScan ? 2 : 1;
     const auto& so = w.d.stimulusOfFrame;
@@ -45,6 +51,9 @@ Tiles temporal(const Work& w, int k0, int k1) {
         for (int j = k - lag - 1; j < k; ++j)
             steady = steady && so[static_cast<std::size_t>(j)] == so[static_cast<std::size_t>(k)];
         if (!steady) continue;
+        // The preset's EBI as dark signal, lowered by the protection as the scene's light.
+        const double ebiDc = w.m.ebiLevel_dc_per_lm_cm2 * w.cam.ebi_lm_cm2 *
+                             (w.m.bspFactor.empty() ? 1.0 : w.m.bspFactor[std::size_t(k)]);
         const Plane& A = w.measured(k);
         const Plane& B = w.measured(k - lag);
         const Plane& SA = w.m.noisy[static_cast<std::size_t>(k)];
@@ -59,6 +68,7 @@ Tiles temporal(const Work& w, int k0, int k1) {
                 t.v[ti] += d * d;
                 t.vSim[ti] += ds * ds;
                 t.mu[ti] += X[p];
+                t.ebiMu[ti] += ebiDc;
                 t.measured[ti] += 0.5 * (A[p] + B[p]);
                 t.n[ti] += 1.0;
                 if (x + 1 < w.w && w.tileOf(x + 1, y) == w.tileOf(x, y) &&
@@ -74,6 +84,7 @@ Tiles temporal(const Work& w, int k0, int k1) {
             t.v[i] /= 2.0 * t.n[i];
             t.vSim[i] /= 2.0 * t.n[i];
             t.mu[i] /= t.n[i];
+            t.ebiMu[i] /= t.n[i];
             t.measured[i] /= t.n[i];
         }
         if (t.n1[i] > 0) {
@@ -228,54 +239,54 @@ struct NoiseFit {
 
 // The baseline's gain a read two ways. As the electronics' (the default): every variance of the
 // model scales by a², and φ scales all but the read variance rr. As a scale of the light
-// (`light`: the dataset's radiance off by a, a lens losing light): only the part of the model's
-// variance and covariance that grows with the signal scales, by a, and φ with it; their values
-// at zero signal (v0, c0: the read noise and the preset's own EBI, emitted behind the lens) do
-// not scale at all. The lines are fitted over every tile (smoothModel) and fall under the model's
-// statistics at the dark end (on a 256 x 160 dataset v0 2.9 DC² against a read variance of 4.1,
-// c0 −0.8): the light reading then leaves part of the dark tiles' variance and covariance to
-// v_e, and its EBI test comes out high. It can only keep EBI named where the electronics'
-// reading names it, never name it on its own.
+// (`light`: the dataset's radiance off by a, a lens losing light): the scene's photoelectrons
+// scale by a, and their shot noise with them; the read noise and the shot noise of the preset's
+// own EBI (emitted behind the lens) do not. A tile's shot variance splits between the two as
+// their mean signals (Tiles::ebiShare). An earlier version took the EBI's part from the model's
+// noise lines at zero signal (smoothModel), which under the preset's bright-source protection
+// (a gain per frame) fall under the dark tiles' statistics: 2.9 DC² for a read variance of 4.1
+// and an EBI's 3.6 on a 256 x 160 dataset, and the EBI test under the light reading found the
+// difference (light_loss named ebi_background at z 6.8 in 2 of 3 seeds).
 constexpr double kLightReadingGainOff = 0.1;  // |a − 1| from which both readings are tested
 
 struct NoiseCtx {
     double a = 1.0, rr = 0.0, rho = 0.0;
-    double v0 = 0.0, c0 = 0.0;  // the model's variance and covariance lines at zero signal
     bool light = false;
     // The light's reading per region: each tile's own gain (Tiles::gain) in place of a, for a
     // light that varies over the frame (vignetting, a blotchy photocathode).
     bool perTile = false;
+    // The factor on the model's shot variance and covariance of tile i (φ = 1).
     double shotScale(const Tiles& t, std::size_t i) const {
-        return light ? (perTile ? t.gain[i] : a) : a * a;
+        if (!light) return a * a;
+        const double e = t.ebiShare(i);
+        return e + (perTile ? t.gain[i] : a) * (1.0 - e);
     }
+    // The factor on the read variance and on an added EBI's.
     double darkScale() const { return light ? 1.0 : a * a; }
-    double darkVar() const { return light ? v0 : rr; }
-    double darkCov() const { return light ? c0 : 0.0; }
 };
 
+// v = D·rr + φ·S·(v_sim − rr) + s0 + v_e, c1 = φ·S·c1_sim + ρ·v_e (S shotScale, D darkScale).
 void predictTile(const Tiles& t, std::size_t i, const NoiseCtx& c, const NoiseFit& f, double& v,
                  double& c1) {
-    v = c.shotScale(t, i) * f.phi * (t.vSim[i] - c.darkVar()) + c.darkScale() * c.darkVar() + f.s0 +
-        f.ve;
-    c1 = c.shotScale(t, i) * f.phi * (t.c1Sim[i] - c.darkCov()) + c.darkScale() * c.darkCov() +
-         c.rho * f.ve;
+    const double S = c.shotScale(t, i);
+    v = S * f.phi * (t.vSim[i] - c.rr) + c.darkScale() * c.rr + f.s0 + f.ve;
+    c1 = S * f.phi * t.c1Sim[i] + c.rho * f.ve;
 }
 
 // The model's variance and covariance of tile i under c's reading of the gain (φ = 1).
 double modelVar(const Tiles& t, std::size_t i, const NoiseCtx& c) {
-    return c.shotScale(t, i) * (t.vSim[i] - c.darkVar()) + c.darkScale() * c.darkVar();
+    return c.shotScale(t, i) * (t.vSim[i] - c.rr) + c.darkScale() * c.rr;
 }
 double modelCov(const Tiles& t, std::size_t i, const NoiseCtx& c) {
-    return c.shotScale(t, i) * (t.c1Sim[i] - c.darkCov()) + c.darkScale() * c.darkCov();
+    return c.shotScale(t, i) * t.c1Sim[i];
 }
 
 // Least squares of the stacked tile equations (v and c1 of every tile) for the free ones of
 // s0, φ, v_e; the others keep their values in `f`.
 NoiseFit fitNoise(const Tiles& t, const NoiseCtx& c, NoiseFit f, bool freePhi, bool freeVe) {
     // Unknown vector u = (s0, φ, v_e); rows (the electronics' reading, NoiseCtx):
-    // v − a²r = s0 + φ·a²(v_sim − r) + v_e, c1 = φ·a²·c1_sim + ρ·v_e; the light's reading
-    // scales by a the parts above v0 and c0 and leaves these. Fixed unknowns move to the left
-    // side.
+    // v − D·r = s0 + φ·S(v_sim − r) + v_e, c1 = φ·S·c1_sim + ρ·v_e (predictTile). Fixed
+    // unknowns move to the left side.
     const bool freeU[3] = {true, freePhi, freeVe};
     double A[3][3] = {}, r[3] = {};
     auto row = [&](const double g[3], double y, double wgt) {
@@ -298,11 +309,11 @@ NoiseFit fitNoise(const Tiles& t, const NoiseCtx& c, NoiseFit f, bool freePhi, b
         // parameter; the ones that act at zero signal (v_e, s0) are seen best in the dim ones.
         const double gs = c.shotScale(t, i);
         const double sv = modelVar(t, i, c) + 1.0, sc = modelCov(t, i, c);
-        const double gv[3] = {1.0, gs * (t.vSim[i] - c.darkVar()), 1.0};
-        row(gv, t.v[i] - gd * c.darkVar(), t.n[i] / (2.0 * sv * sv));
+        const double gv[3] = {1.0, gs * (t.vSim[i] - c.rr), 1.0};
+        row(gv, t.v[i] - gd * c.rr, t.n[i] / (2.0 * sv * sv));
         if (t.n1[i] > 0) {
-            const double gc[3] = {0.0, gs * (t.c1Sim[i] - c.darkCov()), c.rho};
-            row(gc, t.c1[i] - gd * c.darkCov(), t.n1[i] / (sv * sv + sc * sc));
+            const double gc[3] = {0.0, gs * t.c1Sim[i], c.rho};
+            row(gc, t.c1[i], t.n1[i] / (sv * sv + sc * sc));
         }
     }
     // Solve the free block (Cramer on at most 3 unknowns via elimination).
@@ -412,6 +423,7 @@ Tiles bothHalves(const Tiles& a, const Tiles& b) {
     add(t.n1, b.n1);
     add(t.measured, b.measured);
     add(t.gain, b.gain);
+    add(t.ebiMu, b.ebiMu);
     return t;
 }
 
@@ -580,8 +592,7 @@ Candidate fpn(const Work& w, const Current& cur, Result& res) {
 // its mean signal. Used per tile, the noisy run's sampling scatter is an error in the fits'
 // regressors: it flattens the fitted slope φ and moves the difference into the intercept v_e
 // (errors in variables; the EBI came back 10-45 % high with φ 0.84-0.95 where the truth was 1).
-// v0 and c0 receive the lines' values at zero signal.
-void smoothModel(Tiles& a, Tiles& b, double& v0, double& c0) {
+void smoothModel(Tiles& a, Tiles& b) {
     std::vector<double> mu, v, c1, n, n1;
     for (const Tiles* t : {&a, &b})
         for (std::size_t i = 0; i < t->v.size(); ++i) {
@@ -597,7 +608,7 @@ void smoothModel(Tiles& a, Tiles& b, double& v0, double& c0) {
     // (iterated from equal weights per difference): weights from the tiles' own noisy variances
     // would give the tiles that happened to come out low the most weight and pull the line down
     // (on null datasets the fitted excess noise factor came out 4–16 % high).
-    double v1 = 0.0, c1s = 0.0;
+    double v0 = 0.0, v1 = 0.0, c0 = 0.0, c1s = 0.0;
     std::vector<double> wv = n, wc = n1;
     for (int pass = 0; pass < 3; ++pass) {
         line(mu, v, wv, v0, v1, false);
@@ -621,7 +632,7 @@ std::vector<Candidate> tryNoiseEffects(Work& w, const Current& cur, Result& r) {
     const int n = static_cast<int>(w.d.frameCount());
     Tiles tc = temporal(w, 0, n / 2), th = temporal(w, n / 2, n);
     NoiseCtx c;
-    smoothModel(tc, th, c.v0, c.c0);
+    smoothModel(tc, th);
     c.a = cur.fit.a;
     c.rr = w.m.readVar_dc2 + 1.0 / 12.0;
     std::vector<Candidate> out;
