@@ -172,12 +172,13 @@ void meanRun(const Dataset& d, const std::vector<ImageF>& stimuli, const sensor:
 
 std::vector<Plane> noisyRun(const Dataset& d, const std::vector<ImageF>& stimuli,
                             const sensor::CameraParams& cam, const std::filesystem::path& configDir,
-                            std::uint64_t seed) {
+                            std::uint64_t seed, const std::vector<int>* stimulusOfFrame) {
     GammaTableCache tables;
     sensor::IiccdChain noisy(cam, seed ^ 0x5eedf17ull, configDir, tables);
     std::vector<Plane> out(d.frameCount());
+    const std::vector<int>& of = stimulusOfFrame ? *stimulusOfFrame : d.stimulusOfFrame;
     for (std::size_t k = 0; k < out.size(); ++k) {
-        const ImageF& s = stimuli[static_cast<std::size_t>(d.stimulusOfFrame[k])];
+        const ImageF& s = stimuli[static_cast<std::size_t>(of[k])];
         noisy.process(s.cview());
         copyPlane(noisy.counts().cview(), 1.0, out[k]);
     }

@@ -53,10 +53,10 @@ void meanRun(const Dataset& d, const std::vector<ImageF>& stimuli, const sensor:
              std::vector<double>* bspFactor = nullptr);
 
 // The model's noisy output frames for the dataset's sequence of stimuli (one per distinct
-// stimulus, indexed by d.stimulusOfFrame).
+// stimulus, indexed by d.stimulusOfFrame, or by `stimulusOfFrame` where given).
 std::vector<Plane> noisyRun(const Dataset& d, const std::vector<ImageF>& stimuli,
                             const sensor::CameraParams& cam, const std::filesystem::path& configDir,
-                            std::uint64_t seed);
+                            std::uint64_t seed, const std::vector<int>* stimulusOfFrame = nullptr);
 
 // Output frame k from per-call images: in field scan the rows read in call k come from call k,
 // the others from call k − 1 (call 0: from call 0).
