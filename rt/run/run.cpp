@@ -565,12 +565,17 @@ std::vector<std::unique_ptr<Pipeline>> buildPipelines(const RunRequest& req, con
     if (toStdout > 1) throw SetupError("--output: only one output can go to stdout");
     for (const RunRequest::CallerSink& c : req.callerSinks) {
         bool known = c.channel.empty() && sc.channels.empty();
-        for (const ChannelSpec& ch : sc.channels)
+        std::string names;
+        for (const ChannelSpec& ch : sc.channels) {
             known = known || ch.name == c.channel;
-        if (!known) {
-            throw SetupError(c.channel.empty() ? "the scenario is a rig: name a channel"
-                                               : "no channel '" + c.channel + "' in the scenario");
+            names += (names.empty() ? "" : ", ") + ch.name;
         }
+        if (known) continue;
+        if (sc.channels.empty())
+            throw SetupError(sc.file + ": channel '" + c.channel +
+                             "': the scenario has one camera");
+        throw SetupError(sc.file + ": the scenario is a rig; name a channel (" + names +
+                         (c.channel.empty() ? ")" : "; not '" + c.channel + "')"));
     }
     std::vector<std::unique_ptr<Pipeline>> pipes;
     for (std::size_t i = 0; i < routed.size(); ++i) {

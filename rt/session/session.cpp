@@ -12,7 +12,9 @@ namespace nvs::rt {
 // sink_channel.h) waits for a free slot; the caller's next() waits for a full one.
 class Session::Ring final : public msg::FrameSink {
   public:
-    Ring(int width, int height, int depth) {
+    // The slots are sized once the run has read its scenario (Session's constructor), before
+    // the run starts.
+    void size(int width, int height, int depth) {
         slots_.resize(static_cast<std::size_t>(depth));
         for (PulledFrame& f : slots_) {
             f.counts.assign(static_cast<std::size_t>(width) * static_cast<std::size_t>(height), 0);
@@ -116,23 +118,24 @@ Session::Session(const SessionOptions& opts) {
     if (opts.depth < 1 || opts.depth > SinkChannel::kMaxDepth) {
         throw SetupError("depth must be in [1, " + std::to_string(SinkChannel::kMaxDepth) + "]");
     }
-    // The format of the channel the caller pulls, from the scenario as the run will read it.
-    const Scenario whole = loadScenario(opts.scenario, opts.dirs.config, opts.overrides);
+    ring_ = std::make_unique<Ring>();
+    RunRequest req;
+    req.scenario = opts.scenario;
+    req.outputs = opts.outputs;
+    req.clock = opts.clock;
+    req.frames = opts.frames;
+    req.telemetry = opts.telemetry;
+    req.dirs = opts.dirs;
+    req.overrides = opts.overrides;
+    req.callerSinks.push_back({opts.channel, ring_.get()});
+    req.stop = &stop_;
+    // The run's setup checks the channel (a rig's name, none for one camera).
+    run_ = std::make_unique<ScenarioRun>(req, opts.statusLines ? stderr : nullptr);
+    // The format of the channel the caller pulls, from the scenario as the run read it.
+    const Scenario& whole = run_->scenario();
     std::size_t index = 0;
-    if (!whole.channels.empty()) {
-        std::string names;
-        while (index < whole.channels.size() && whole.channels[index].name != opts.channel) {
-            names += (names.empty() ? "" : ", ") + whole.channels[index].name;
-            ++index;
-        }
-        if (index == whole.channels.size()) {
-            throw SetupError(whole.file + ": the scenario is a rig; name a channel (" + names +
-                             (opts.channel.empty() ? ")" : "; not '" + opts.channel + "')"));
-        }
-    } else if (!opts.channel.empty()) {
-        throw SetupError(whole.file + ": channel '" + opts.channel +
-                         "': the scenario has one camera");
-    }
+    while (index < whole.channels.size() && whole.channels[index].name != opts.channel)
+        ++index;
     const Scenario sc = channelScenario(whole, index);
     width_ = sc.width;
     height_ = sc.height;
@@ -148,19 +151,7 @@ Session::Session(const SessionOptions& opts) {
     } else if (sc.duration_s) {
         frames_ = static_cast<std::int64_t>(std::ceil(*sc.duration_s * rate_hz_ - 1e-9));
     }
-    ring_ = std::make_unique<Ring>(width_, height_, opts.depth);
-
-    RunRequest req;
-    req.scenario = opts.scenario;
-    req.outputs = opts.outputs;
-    req.clock = opts.clock;
-    req.frames = opts.frames;
-    req.telemetry = opts.telemetry;
-    req.dirs = opts.dirs;
-    req.overrides = opts.overrides;
-    req.callerSinks.push_back({opts.channel, ring_.get()});
-    req.stop = &stop_;
-    run_ = std::make_unique<ScenarioRun>(req, opts.statusLines ? stderr : nullptr);
+    ring_->size(width_, height_, opts.depth);
     thread_ = std::thread([this] {
         int rc = kRunFailed;
         try {

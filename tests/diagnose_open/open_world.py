@@ -157,6 +157,9 @@ import zlib
 
 import numpy as np
 
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "pylib"))
+import netpbm  # noqa: E402
+
 REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 PRESET = "pulnix-ag5745ef3"
 
@@ -211,24 +214,7 @@ def write_pgm(path, a):
 
 
 def read_pgm(path):
-    with open(path, "rb") as f:
-        data = f.read()
-    fields, pos = [], 0
-    while len(fields) < 4:
-        while data[pos:pos + 1].isspace():
-            pos += 1
-        if data[pos:pos + 1] == b"#":
-            pos = data.index(b"\n", pos)
-            continue
-        end = pos
-        while not data[end:end + 1].isspace():
-            end += 1
-        fields.append(data[pos:end])
-        pos = end
-    pos += 1
-    w, h, top = int(fields[1]), int(fields[2]), int(fields[3])
-    dtype = np.uint8 if top < 256 else np.dtype(">u2")
-    return np.frombuffer(data, dtype=dtype, count=w * h, offset=pos).reshape(h, w).astype(float)
+    return netpbm.read_pgm(path)[0].astype(float)
 
 
 # ---------------------------------------------------------------------------- convolution

@@ -20,11 +20,15 @@ import gc
 import json
 import os
 import subprocess
+import sys
 
 import numpy as np
 import pytest
 
 import nvstim
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "pylib"))
+from netpbm import read_pgm  # noqa: E402
 
 NVSTIM = os.environ["NVSTIM"]
 SOURCE = os.environ["NVS_SOURCE_DIR"]
@@ -66,24 +70,6 @@ def read_y4m(path):
         frames.append(data[pos:pos + size])
         pos += size
     return header, frames
-
-
-def read_pgm(path):
-    """The samples of a binary PGM (P5), 16-bit big-endian above maxval 255 (netpbm pgm(5))."""
-    data = open(path, "rb").read()
-    fields, pos = [], 0
-    while len(fields) < 4:
-        while data[pos:pos + 1].isspace():
-            pos += 1
-        start = pos
-        while not data[pos:pos + 1].isspace():
-            pos += 1
-        fields.append(data[start:pos])
-    pos += 1  # the one whitespace after maxval
-    assert fields[0] == b"P5"
-    w, h, maxval = int(fields[1]), int(fields[2]), int(fields[3])
-    dtype = np.dtype(">u2") if maxval > 255 else np.dtype("u1")
-    return np.frombuffer(data, dtype=dtype, count=w * h, offset=pos).reshape(h, w), maxval
 
 
 def write_pfm(path, image):

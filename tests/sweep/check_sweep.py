@@ -24,6 +24,9 @@ import shutil
 import subprocess
 import sys
 
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "pylib"))
+from netpbm import read_pgm  # noqa: E402
+
 NVSTIM, SOURCE, WORK, CASE = sys.argv[1:5]
 TESTS = os.path.join(SOURCE, "tests", "sweep")
 
@@ -53,32 +56,12 @@ def read_table(d):
         return json.load(f)
 
 
-def read_pgm(path):
-    with open(path, "rb") as f:
-        data = f.read()
-    fields, pos = [], 0
-    while len(fields) < 4:
-        while data[pos:pos + 1].isspace():
-            pos += 1
-        start = pos
-        while not data[pos:pos + 1].isspace():
-            pos += 1
-        fields.append(data[start:pos])
-    pos += 1  # exactly one whitespace byte before the samples
-    assert fields[0] == b"P5"
-    w, h, maxval = int(fields[1]), int(fields[2]), int(fields[3])
-    if maxval < 256:
-        samples = list(data[pos:pos + w * h])
-    else:
-        samples = [data[pos + 2 * i] << 8 | data[pos + 2 * i + 1] for i in range(w * h)]
-    return samples, maxval
-
-
 def measure(frames_dir):
     """The metrics of docs/sweep.md, computed here from the PGM files."""
     samples, top, fnv = [], None, 0xcbf29ce484222325
     for name in sorted(os.listdir(frames_dir)):
-        s, maxval = read_pgm(os.path.join(frames_dir, name))
+        a, maxval = read_pgm(os.path.join(frames_dir, name))
+        s = [int(v) for v in a.ravel()]
         top = maxval
         for v in s:
             for byte in (v & 0xff, v >> 8):
