@@ -491,71 +491,78 @@ double excessNoiseZ(Work& w, const Current& cur) {
     return 0.0;
 }
 
+// A named mean effect's second member, with the same mean and another noise: the model's noise
+// is simulated again with it (the findings' preset keys as they stand, `lagInLight` as
+// resimulateNoise), and it is kept where its excess-noise test is quieter by 2 in z. Otherwise
+// the first member's noisy run is put back. zFirst and zSecond receive the two tests' z.
+bool secondMemberQuieter(const Dataset& d, ModelRun& m, Work& w, const Current& cur,
+                         const std::filesystem::path& configDir, const Options& opt,
+                         const std::vector<Finding>& found, bool lagInLight, double& zFirst,
+                         double& zSecond) {
+    zFirst = excessNoiseZ(w, cur);
+    std::vector<Plane> noisyFirst = std::move(m.noisy);  // resimulateNoise does not read it
+    resimulateNoise(d, m, w, cur.mm, found, configDir, opt.seed, lagInLight);
+    zSecond = excessNoiseZ(w, cur);
+    if (zSecond < zFirst - 2.0) return true;
+    m.noisy = std::move(noisyFirst);
+    return false;
+}
+
+// The named finding of `effect`, or null.
+Finding* namedFinding(Result& r, const char* effect) {
+    Finding* out = nullptr;
+    for (Finding& f : r.findings)
+        if (f.effect == effect && f.status == "named") out = &f;
+    return out;
+}
+
 // Persistence's two members: in the phosphor (the finding's default, the preset's keys: the
 // screen's light of one frame carries the shot noise of the frames before, which the lag
 // averages) or in the light before the photocathode (a lagging display or source: each frame's
-// photoelectrons are drawn anew, the noise stays white). The mean is the same. With a named
-// persistence the noise is simulated again with the lag in the light, and the member whose
-// excess-noise test is quieter by 2 in z is kept. The open world's afterglow on the light
-// (weight 0.15-0.4, power law) read as a phosphor's made the noise look 1.7-1.9 times the
-// model's, and excess noise was named beside it in 3 of 3 (z 10-16).
+// photoelectrons are drawn anew, the noise stays white). The mean is the same. The open world's
+// afterglow on the light (weight 0.15-0.4, power law) read as a phosphor's made the noise look
+// 1.7-1.9 times the model's, and excess noise was named beside it in 3 of 3 (z 10-16).
 void choosePersistenceMember(const Dataset& d, ModelRun& m, Work& w, const Current& cur,
                              const std::filesystem::path& configDir, const Options& opt,
                              const Progress& progress, Result& r) {
-    Finding* lag = nullptr;
-    for (Finding& f : r.findings)
-        if (f.effect == "phosphor_persistence" && f.status == "named") lag = &f;
+    Finding* lag = namedFinding(r, "phosphor_persistence");
     if (lag == nullptr || cur.mm.persistW == 0.0) return;
     if (progress) progress("persistence in the phosphor or in the light: the noise of each");
-    const double zPhosphor = excessNoiseZ(w, cur);
-    std::vector<Plane> noisyPhosphor = std::move(m.noisy);  // resimulateNoise does not read it
-    resimulateNoise(d, m, w, cur.mm, r.findings, configDir, opt.seed, true);
-    const double zLight = excessNoiseZ(w, cur);
-    if (zLight < zPhosphor - 2.0) {
+    double zPhosphor = 0.0, zLight = 0.0;
+    const bool light =
+        secondMemberQuieter(d, m, w, cur, configDir, opt, r.findings, true, zPhosphor, zLight);
+    lag->parameters.push_back({"in_light", light ? 1.0 : 0.0});
+    if (light)
         lag->cause += textf(
             "; the lag is in the light before the photocathode (a lagging display or source), "
             "not in the tube's phosphor: the excess-noise test gives z %.1f so, %.1f with the "
             "phosphor (the preset's phosphor keys reproduce the mean, not the noise)",
             zLight, zPhosphor);
-        lag->parameters.push_back({"in_light", 1.0});
-        return;
-    }
-    m.noisy = std::move(noisyPhosphor);
-    lag->parameters.push_back({"in_light", 0.0});
 }
 
 // Bright-source protection's two members (sim/sensor/stages/mcp.h): on the MCP's gain (the
 // finding's default) or on the photoelectron count (a gate). The mean is the same, the shot
-// noise per DC is not: with a named protection the noise is simulated again with the other
-// member, and the member whose excess-noise test is quieter by 2 in z is kept. A protection
-// that gates the light read as one that lowers the gain made the noise look 1/factor too large
-// (the open-world protection datasets at full size: excess noise named beside it in 3 of 3).
+// noise per DC is not. A protection that gates the light read as one that lowers the gain made
+// the noise look 1/factor too large (the open-world protection datasets at full size: excess
+// noise named beside it in 3 of 3).
 void chooseBspMember(const Dataset& d, ModelRun& m, Work& w, const Current& cur,
                      const std::filesystem::path& configDir, const Options& opt,
                      const Progress& progress, Result& r) {
-    Finding* bsp = nullptr;
-    for (Finding& f : r.findings)
-        if (f.effect == "bright_source_protection" && f.status == "named") bsp = &f;
+    Finding* bsp = namedFinding(r, "bright_source_protection");
     if (bsp == nullptr) return;
     if (progress) progress("protection on the gain or on the photoelectrons: the noise of each");
-    const double zGain = excessNoiseZ(w, cur);
-    std::vector<Plane> noisyGain = std::move(m.noisy);  // resimulateNoise does not read it
     bsp->presetKeys.push_back({"bsp.acts_on", "\"photoelectrons\""});
-    resimulateNoise(d, m, w, cur.mm, r.findings, configDir, opt.seed);
-    const double zPe = excessNoiseZ(w, cur);
-    char b[240];
-    if (zPe < zGain - 2.0) {
-        std::snprintf(b, sizeof b,
-                      "; it acts on the photoelectron count (a gate's duty cycle), not on the "
-                      "MCP's gain: the excess-noise test gives z %.1f so, %.1f with the gain",
-                      zPe, zGain);
-        bsp->cause += b;
-        bsp->parameters.push_back({"on_photoelectrons", 1.0});
-        return;
-    }
-    bsp->presetKeys.pop_back();
-    m.noisy = std::move(noisyGain);
-    bsp->parameters.push_back({"on_photoelectrons", 0.0});
+    double zGain = 0.0, zPe = 0.0;
+    const bool pe =
+        secondMemberQuieter(d, m, w, cur, configDir, opt, r.findings, false, zGain, zPe);
+    bsp->parameters.push_back({"on_photoelectrons", pe ? 1.0 : 0.0});
+    if (pe)
+        bsp->cause += textf(
+            "; it acts on the photoelectron count (a gate's duty cycle), not on the MCP's gain: "
+            "the excess-noise test gives z %.1f so, %.1f with the gain",
+            zPe, zGain);
+    else
+        bsp->presetKeys.pop_back();
 }
 
 // The camera's side on the dataset's stimulus: baseline, mean effects, noise effects.
