@@ -21,6 +21,7 @@
 
 #include "sim/fit/effects.h"
 #include "sim/fit/fpn_blotch.h"
+#include "sim/fit/text.h"
 
 namespace nvs::fit {
 
@@ -626,6 +627,23 @@ void smoothModel(Tiles& a, Tiles& b) {
         }
 }
 
+// The noise tests again under another reading of the gain (NoiseCtx): a noise effect named
+// under the electronics' reading whose test gives z < zMin under `reading` is a candidate, with
+// why(that z) added to its cause. A noise effect only the electronics' reading needs is not a
+// cause of the camera's.
+template <class Why>
+void demoteUnderReading(const Work& w, const Tiles& tc, const Tiles& th, const NoiseCtx& reading,
+                        Candidate& ex, Candidate& eb, Why why) {
+    const Candidate exR = excessNoise(w, tc, th, reading), ebR = ebi(w, tc, th, reading);
+    for (auto [cand, other] : {std::pair{&ex, &exR}, std::pair{&eb, &ebR}}) {
+        if (cand->finding.status == "candidate" || cand->finding.z < w.opt.zMin ||
+            other->finding.z >= w.opt.zMin)
+            continue;
+        cand->finding.status = "candidate";
+        cand->finding.cause += why(other->finding.z);
+    }
+}
+
 }  // namespace
 
 std::vector<Candidate> tryNoiseEffects(Work& w, const Current& cur, Result& r) {
@@ -687,49 +705,33 @@ std::vector<Candidate> tryNoiseEffects(Work& w, const Current& cur, Result& r) {
     Candidate ex = excessNoise(w, tc, th, c);
     Candidate eb = ebi(w, tc, th, c);
     // Where the baseline's gain is far from 1, the same tests with the gain read as a scale of
-    // the light (NoiseCtx): a noise effect that only the electronics' reading needs is a
-    // candidate. Light lost before the photocathode (open_world.py's light_loss, 20-50 %)
-    // raised the shot noise per DC 1.3-2-fold against the electronics' reading and named
-    // excess noise at z 7-17, a candidate now in 3 of 3; EBI, named at z 7 in 2 of 3, stays
-    // named (the light reading's EBI test comes out high, NoiseCtx).
+    // the light (NoiseCtx). Light lost before the photocathode (open_world.py's light_loss,
+    // 20-50 %) raised the shot noise per DC 1.3-2-fold against the electronics' reading and
+    // named excess noise at z 7-17, a candidate now in 3 of 3.
     if (std::fabs(c.a - 1.0) > kLightReadingGainOff) {
         NoiseCtx cl = c;
         cl.light = true;
-        const Candidate exL = excessNoise(w, tc, th, cl), ebL = ebi(w, tc, th, cl);
-        for (auto [cand, other] : {std::pair{&ex, &exL}, std::pair{&eb, &ebL}}) {
-            if (other->finding.z >= w.opt.zMin) continue;
-            char b[240];
-            std::snprintf(b, sizeof b,
-                          " (candidate: with the baseline's gain %.3g read as a scale of the "
-                          "light, not of the electronics, its test gives z %.1f: the radiance "
-                          "calibration is as likely)",
-                          c.a, other->finding.z);
-            cand->finding.status = "candidate";
-            cand->finding.cause += b;
-        }
+        demoteUnderReading(w, tc, th, cl, ex, eb, [&](double z) {
+            return textf(
+                " (candidate: with the baseline's gain %.3g read as a scale of the light, "
+                "not of the electronics, its test gives z %.1f: the radiance "
+                "calibration is as likely)",
+                c.a, z);
+        });
     }
     // A light that varies over the frame (vignetting, blotches of the photocathode's response)
     // raises the shot noise per DC where more light arrives than the baseline's one gain says:
     // the same tests with each tile's own gain read as a scale of the light. At 768 x 494 the
     // open world's vignetting (20-27 % lost at the corners) named excess noise at z 5.8 and 8.6.
-    {
-        NoiseCtx cp = c;
-        cp.light = true;
-        cp.perTile = true;
-        const Candidate exP = excessNoise(w, tc, th, cp), ebP = ebi(w, tc, th, cp);
-        for (auto [cand, other] : {std::pair{&ex, &exP}, std::pair{&eb, &ebP}}) {
-            if (cand->finding.status == "candidate" || cand->finding.z < w.opt.zMin ||
-                other->finding.z >= w.opt.zMin)
-                continue;
-            char b[240];
-            std::snprintf(b, sizeof b,
-                          " (candidate: with each region's own gain read as a scale of the light, "
-                          "a light that varies over the frame, its test gives z %.1f)",
-                          other->finding.z);
-            cand->finding.status = "candidate";
-            cand->finding.cause += b;
-        }
-    }
+    NoiseCtx cp = c;
+    cp.light = true;
+    cp.perTile = true;
+    demoteUnderReading(w, tc, th, cp, ex, eb, [](double z) {
+        return textf(
+            " (candidate: with each region's own gain read as a scale of the light, a "
+            "light that varies over the frame, its test gives z %.1f)",
+            z);
+    });
     out.push_back(ex);
     out.push_back(eb);
     const NoiseFit all = fitNoise(tc, c, NoiseFit{}, true, true);
