@@ -356,24 +356,21 @@ void resimulateNoise(const Dataset& d, ModelRun& m, const Work& w, const MeanMod
         m.noisy = noisyRun(d, stim, cam, configDir, seed);
         return;
     }
-    // The light of each call with the added exponential component integrated over the call's
-    // period, as the mean model has it (engine.cpp, perCall).
-    const double fin =
-        sensor::PhosphorStage::inPeriodFraction(mm.persistTau_s, m.gate_s, m.period_s);
-    const double dc = std::exp(-m.period_s / mm.persistTau_s), W = mm.persistW;
+    // The light of each call with the added component, as the mean model has it (LagFilter).
+    LagFilter lag(mm, m.period_s, m.gate_s, static_cast<std::size_t>(w.w) * w.h);
     std::vector<ImageF> perFrame;
     std::vector<int> index;
-    ImageF state(w.w, w.h);
+    Plane q(static_cast<std::size_t>(w.w) * w.h);
     for (std::size_t k = 0; k < d.frameCount(); ++k) {
         const ImageF& L = stim[static_cast<std::size_t>(d.stimulusOfFrame[k])];
+        for (int y = 0; y < w.h; ++y)
+            for (int x = 0; x < w.w; ++x)
+                q[static_cast<std::size_t>(y) * w.w + x] = L(x, y);
+        lag.step(q.data(), q.data());
         ImageF out(w.w, w.h);
         for (int y = 0; y < w.h; ++y)
-            for (int x = 0; x < w.w; ++x) {
-                const double l = L(x, y);
-                out(x, y) =
-                    static_cast<float>((1.0 - W) * l + W * (fin * l + (1.0 - dc) * state(x, y)));
-                state(x, y) = static_cast<float>(dc * state(x, y) + (1.0 - fin) * l);
-            }
+            for (int x = 0; x < w.w; ++x)
+                out(x, y) = q[static_cast<std::size_t>(y) * w.w + x];
         perFrame.push_back(std::move(out));
         index.push_back(static_cast<int>(k));
     }

@@ -32,6 +32,70 @@ std::function<double(double)> ringKernel(double r_um, double pitch_um) {
     };
 }
 
+LagFilter::LagFilter(const MeanModel& mm, double period_s, double gate_s, std::size_t pixels)
+    : W_(static_cast<float>(mm.persistW)), n_(pixels) {
+    if (W_ == 0.0f) return;
+    if (mm.persistPower > 0.0) {
+        h_ = hyperbolicShares(mm.persistPower);
+        history_.assign(h_.size(), std::vector<float>(pixels, 0.0f));
+        return;
+    }
+    fin_ = static_cast<float>(
+        sensor::PhosphorStage::inPeriodFraction(mm.persistTau_s, gate_s, period_s));
+    dc_ = static_cast<float>(std::exp(-period_s / mm.persistTau_s));
+    st_.assign(pixels, 0.0f);
+}
+
+std::vector<double> LagFilter::hyperbolicShares(double power) {
+    std::vector<double> h(kHyperbolicCalls);
+    double sum = 0.0;
+    for (int j = 1; j <= kHyperbolicCalls; ++j) {
+        // ∫_j^{j+1} t^−n dt, n > 1 (n = 1: the logarithm's difference).
+        const double v =
+            std::fabs(power - 1.0) < 1e-9
+                ? std::log1p(1.0 / j)
+                : (std::pow(j, 1.0 - power) - std::pow(j + 1.0, 1.0 - power)) / (power - 1.0);
+        h[static_cast<std::size_t>(j - 1)] = v;
+        sum += v;
+    }
+    for (double& v : h)
+        v /= sum;
+    return h;
+}
+
+void LagFilter::step(const float* x, float* out) {
+    if (W_ == 0.0f) {
+        if (out != x) std::copy_n(x, n_, out);
+        return;
+    }
+    if (h_.empty()) {
+        for (std::size_t p = 0; p < n_; ++p) {
+            const float v = (1.0f - W_) * x[p] + W_ * (fin_ * x[p] + (1.0f - dc_) * st_[p]);
+            st_[p] = dc_ * st_[p] + (1.0f - fin_) * x[p];
+            out[p] = v;
+        }
+        return;
+    }
+    const std::size_t J = history_.size();
+    if (!started_) {
+        for (auto& h : history_)
+            std::copy_n(x, n_, h.data());
+        started_ = true;
+    }
+    // newest_ holds call c − 1; call c − j is (newest_ + j − 1) mod J.
+    acc_.assign(n_, 0.0f);
+    for (std::size_t j = 0; j < J; ++j) {
+        const float hj = static_cast<float>(h_[j]);
+        const float* q = history_[(newest_ + j) % J].data();
+        for (std::size_t p = 0; p < n_; ++p)
+            acc_[p] += hj * q[p];
+    }
+    newest_ = (newest_ + J - 1) % J;  // the oldest (call c − J) becomes call c
+    std::copy_n(x, n_, history_[newest_].data());
+    for (std::size_t p = 0; p < n_; ++p)
+        out[p] = (1.0f - W_) * history_[newest_][p] + W_ * acc_[p];
+}
+
 std::function<double(double)> expKernel(double s_um) {
     return [s_um](double r) { return std::exp(-r / s_um); };
 }
@@ -63,30 +127,17 @@ std::vector<Plane> perCall(const Work& w, const MeanModel& mm, const std::vector
     const ModelRun& m = w.m;
     const std::size_t n = static_cast<std::size_t>(w.w) * w.h;
     std::vector<Plane> out(needed.size());
-    Plane st(mm.persistW != 0.0 ? n : 0, 0.0f);
-    double fin = 1.0, dc = 0.0;
-    if (mm.persistW != 0.0) {
-        fin = sensor::PhosphorStage::inPeriodFraction(mm.persistTau_s, m.gate_s, m.period_s);
-        dc = std::exp(-m.period_s / mm.persistTau_s);
-    }
-    const float W = static_cast<float>(mm.persistW);
+    LagFilter lag(mm, m.period_s, m.gate_s, n);
+    Plane x(n);
     for (std::size_t c = 0; c < needed.size(); ++c) {
         double f = 1.0;
         if (mm.bspKnee_A > 0.0)
             f = 1.0 / (1.0 + std::pow(m.cathode_A[c] / mm.bspKnee_A, mm.bspExponent));
         const Plane& X = from ? from->planes[static_cast<std::size_t>(from->of[c])] : w.signal()[c];
-        Plane o(needed[c] ? n : 0);
-        for (std::size_t p = 0; p < n; ++p) {
-            const float x = static_cast<float>(X[p] * f);
-            float v = x;
-            if (W != 0.0f) {
-                v = (1.0f - W) * x +
-                    W * (static_cast<float>(fin) * x + static_cast<float>(1.0 - dc) * st[p]);
-                st[p] = static_cast<float>(dc) * st[p] + static_cast<float>(1.0 - fin) * x;
-            }
-            if (needed[c]) o[p] = v;
-        }
-        out[c] = std::move(o);
+        for (std::size_t p = 0; p < n; ++p)
+            x[p] = static_cast<float>(X[p] * f);
+        lag.step(x.data(), x.data());
+        if (needed[c]) out[c] = x;
     }
     return out;
 }

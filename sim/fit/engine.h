@@ -32,7 +32,8 @@ struct AddedEffect {
 struct MeanModel {
     double sigma_px = 0.0;      // baseline: extra Gaussian blur (MTF)
     double persistW = 0.0;      // phosphor_persistence: weight of the added component
-    double persistTau_s = 0.0;  //   and its decay time
+    double persistTau_s = 0.0;  //   and its decay time (the exponential member)
+    double persistPower = 0.0;  //   > 0: the hyperbolic member's power n (LagFilter)
     double bspKnee_A = 0.0;     // bright_source_protection: knee current
     double bspExponent = 1.0;
     double satQ_dc = 0.0;                  // mcp_saturation: charge per pixel [model DC]
@@ -40,6 +41,33 @@ struct MeanModel {
     double glareG = 0.0, glareS_um = 0.0;  // veiling_glare: fraction, scale at the cathode
     double smear = 0.0;                    // vertical_smear: fraction of the column mean
     std::vector<AddedEffect> added;        // registered effects, applied last (predict)
+};
+
+// The added phosphor component of a MeanModel as a filter over calls, pixel by pixel:
+// out = (1 − W)·x + W·lag. Exponential member (persistTau_s): the component's light integrated
+// over each call's period, as the chain's phosphor (PhosphorStage::inPeriodFraction), from a
+// dark start. Hyperbolic member (persistPower n): an afterglow I(t) ∝ t^−n, whose light falls
+// on the kHyperbolicCalls calls after the one excited, call j ≥ 1 taking ∝ j^(1−n) − (j+1)^(1−n)
+// (∫ from jT to (j+1)T); the calls before the first are the first's (the scene was there
+// before the recording: a tail of many calls is not settled from a dark start).
+class LagFilter {
+  public:
+    static constexpr int kHyperbolicCalls = 32;
+    LagFilter(const MeanModel& mm, double period_s, double gate_s, std::size_t pixels);
+    bool enabled() const { return W_ != 0.0f; }
+    // The next call's input x → out (both `pixels` long; out may be x).
+    void step(const float* x, float* out);
+    // The hyperbolic member's shares of calls 1..kHyperbolicCalls (summing to 1).
+    static std::vector<double> hyperbolicShares(double power);
+
+  private:
+    float W_ = 0.0f, fin_ = 1.0f, dc_ = 0.0f;
+    std::vector<float> st_;                    // exponential: the stored light
+    std::vector<double> h_;                    // hyperbolic: shares of calls 1..J
+    std::vector<std::vector<float>> history_;  // hyperbolic: the last J inputs, newest first
+    std::vector<float> acc_;                   // hyperbolic: the lag of the call
+    std::size_t n_ = 0, newest_ = 0;
+    bool started_ = false;
 };
 
 // Gain and offset (and one effect amplitude) by least squares on the calibration frames.
