@@ -27,8 +27,11 @@ a missing "z" counts as 0):
                    excess_noise         noise_factor / the preset's [mcp] noise_factor against
                                         the injected variance factor of the shot noise (both
                                         ratios of the shot part of the temporal variance)
-                 nothing is compared for phosphor_persistence (power law against an added
-                 exponential), mcp_saturation (hyperbola against the exponential charge
+                   phosphor_persistence weight (share of the light that comes late) where
+                                        the finding is the hyperbolic member's (it has
+                                        "power"; the exponential member's weight also
+                                        holds light of the same frame)
+                 nothing is compared for mcp_saturation (hyperbola against the exponential charge
                  limit), bright_source_protection (logistic against a power law) and
                  ebi_background (DC-equivalent light against lm/cm^2 of EBI);
   effects outside the catalog (family "outside")
@@ -60,7 +63,10 @@ import open_world  # noqa: E402
 
 CATALOG = open_world.CATALOG
 # effect: (diagnose's parameter, truth's parameter, truth's divisor key or None)
+# The parameter a finding must have for the comparison to mean the same (its member).
+COMPARED_MEMBER = {"phosphor_persistence": "power"}
 COMPARED = {
+    "phosphor_persistence": ("weight", "weight", None),
     "halo": ("fraction", "fraction", None),
     "veiling_glare": ("fraction", "fraction", None),
     "vertical_smear": ("smear_rel", "smear_rel", None),
@@ -109,7 +115,8 @@ def score(truth, findings):
         s["top"] = bool(findings) and findings[0].get("effect") == cat and \
             status(findings[0]) != "candidate"
         s["candidate"] = any(f.get("effect") == cat and status(f) == "candidate" for f in findings)
-        if cat in COMPARED and mine:
+        member = COMPARED_MEMBER.get(cat)
+        if cat in COMPARED and mine and (member is None or param(mine[0], member) is not None):
             dk, tk, div = COMPARED[cat]
             # The first of diagnose's names the finding has (a member's own parameter first).
             v = None
