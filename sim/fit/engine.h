@@ -54,7 +54,6 @@ class LagFilter {
   public:
     static constexpr int kHyperbolicCalls = 32;
     LagFilter(const MeanModel& mm, double period_s, double gate_s, std::size_t pixels);
-    bool enabled() const { return W_ != 0.0f; }
     // The next call's input x → out (both `pixels` long; out may be x).
     void step(const float* x, float* out);
     // The hyperbolic member's shares of calls 1..kHyperbolicCalls (summing to 1).

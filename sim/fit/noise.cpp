@@ -114,7 +114,7 @@ Tiles temporal(const Work& w, int k0, int k1) {
         for (int y = 0; y < w.h; ++y)
             for (int x = 0; x < w.w; ++x) {
                 const std::size_t p = static_cast<std::size_t>(y) * w.w + x;
-                if (!w.quiet(A[p], X[p]) || !w.quiet(B[p], X[p])) continue;
+                if (!use(p)) continue;
                 const std::size_t ti = static_cast<std::size_t>(w.tileOf(x, y));
                 const double d = A[p] - B[p] - dm.at(p, y), ds = SA[p] - SB[p] - dsim.at(p, y);
                 t.v[ti] += d * d;
@@ -123,8 +123,7 @@ Tiles temporal(const Work& w, int k0, int k1) {
                 t.ebiMu[ti] += ebiDc;
                 t.measured[ti] += 0.5 * (A[p] + B[p]);
                 t.n[ti] += 1.0;
-                if (x + 1 < w.w && w.tileOf(x + 1, y) == w.tileOf(x, y) &&
-                    w.quiet(A[p + 1], X[p + 1]) && w.quiet(B[p + 1], X[p + 1])) {
+                if (x + 1 < w.w && w.tileOf(x + 1, y) == w.tileOf(x, y) && use(p + 1)) {
                     t.c1[ti] += d * (A[p + 1] - B[p + 1] - dm.at(p + 1, y));
                     t.c1Sim[ti] += ds * (SA[p + 1] - SB[p + 1] - dsim.at(p + 1, y));
                     t.n1[ti] += 1.0;
