@@ -284,8 +284,10 @@ double median(std::vector<double> v) {
 }
 
 // The noise model of a tile (header comment): parameters and which of them are fitted.
+// white: the share of the shot variance's excess that neighbours do not share (excess noise's
+// white member, docs/diagnose.md): a variance ∝ the shot variance with no covariance.
 struct NoiseFit {
-    double s0 = 0.0, phi = 1.0, ve = 0.0;
+    double s0 = 0.0, phi = 1.0, ve = 0.0, white = 0.0;
 };
 
 // The baseline's gain a read two ways. As the electronics' (the default): every variance of the
@@ -316,11 +318,12 @@ struct NoiseCtx {
     double darkScale() const { return light ? 1.0 : a * a; }
 };
 
-// v = D·rr + φ·S·(v_sim − rr) + s0 + v_e, c1 = φ·S·c1_sim + ρ·v_e (S shotScale, D darkScale).
+// v = D·rr + (φ + ω)·S·(v_sim − rr) + s0 + v_e, c1 = φ·S·c1_sim + ρ·v_e (S shotScale,
+// D darkScale, ω the white member's share).
 void predictTile(const Tiles& t, std::size_t i, const NoiseCtx& c, const NoiseFit& f, double& v,
                  double& c1) {
     const double S = c.shotScale(t, i);
-    v = S * f.phi * (t.vSim[i] - c.rr) + c.darkScale() * c.rr + f.s0 + f.ve;
+    v = S * (f.phi + f.white) * (t.vSim[i] - c.rr) + c.darkScale() * c.rr + f.s0 + f.ve;
     c1 = S * f.phi * t.c1Sim[i] + c.rho * f.ve;
 }
 
@@ -332,22 +335,26 @@ double modelCov(const Tiles& t, std::size_t i, const NoiseCtx& c) {
     return c.shotScale(t, i) * t.c1Sim[i];
 }
 
-// Least squares of the stacked tile equations (v and c1 of every tile) for the free ones of
-// s0, φ, v_e; the others keep their values in `f`.
-NoiseFit fitNoise(const Tiles& t, const NoiseCtx& c, NoiseFit f, bool freePhi, bool freeVe) {
-    // Unknown vector u = (s0, φ, v_e); rows (the electronics' reading, NoiseCtx):
-    // v − D·r = s0 + φ·S(v_sim − r) + v_e, c1 = φ·S·c1_sim + ρ·v_e (predictTile). Fixed
-    // unknowns move to the left side.
-    const bool freeU[3] = {true, freePhi, freeVe};
-    double A[3][3] = {}, r[3] = {};
-    auto row = [&](const double g[3], double y, double wgt) {
+// Which of NoiseFit's parameters a fit frees (s0 always is).
+enum NoiseFree : unsigned { kPhi = 1u, kVe = 2u, kWhite = 4u };
+
+// Least squares of the stacked tile equations (v and c1 of every tile) for s0 and the freed ones
+// of φ, v_e, ω; the others keep their values in `f`.
+NoiseFit fitNoiseOnce(const Tiles& t, const NoiseCtx& c, NoiseFit f, unsigned freed) {
+    // Unknown vector u = (s0, φ, v_e, ω); rows (predictTile): v − D·r = s0 + φ·S(v_sim − r) +
+    // v_e + ω·S(v_sim − r), c1 = φ·S·c1_sim + ρ·v_e. Fixed unknowns move to the left side.
+    constexpr int kN = 4;
+    const bool freeU[kN] = {true, (freed & kPhi) != 0, (freed & kVe) != 0, (freed & kWhite) != 0};
+    double u[kN] = {f.s0, f.phi, f.ve, f.white};
+    double A[kN][kN] = {}, r[kN] = {};
+    auto row = [&](const double g[kN], double y, double wgt) {
         double yy = y;
-        for (int k = 0; k < 3; ++k)
-            if (!freeU[k]) yy -= g[k] * (k == 0 ? f.s0 : k == 1 ? f.phi : f.ve);
-        for (int i = 0; i < 3; ++i) {
+        for (int k = 0; k < kN; ++k)
+            if (!freeU[k]) yy -= g[k] * u[k];
+        for (int i = 0; i < kN; ++i) {
             if (!freeU[i]) continue;
             r[i] += wgt * g[i] * yy;
-            for (int j = 0; j < 3; ++j)
+            for (int j = 0; j < kN; ++j)
                 if (freeU[j]) A[i][j] += wgt * g[i] * g[j];
         }
     };
@@ -360,18 +367,19 @@ NoiseFit fitNoise(const Tiles& t, const NoiseCtx& c, NoiseFit f, bool freePhi, b
         // parameter; the ones that act at zero signal (v_e, s0) are seen best in the dim ones.
         const double gs = c.shotScale(t, i);
         const double sv = modelVar(t, i, c) + 1.0, sc = modelCov(t, i, c);
-        const double gv[3] = {1.0, gs * (t.vSim[i] - c.rr), 1.0};
+        const double shot = gs * (t.vSim[i] - c.rr);
+        const double gv[kN] = {1.0, shot, 1.0, shot};
         row(gv, t.v[i] - gd * c.rr, t.n[i] / (2.0 * sv * sv));
         if (t.n1[i] > 0) {
-            const double gc[3] = {0.0, gs * t.c1Sim[i], c.rho};
+            const double gc[kN] = {0.0, gs * t.c1Sim[i], c.rho, 0.0};
             row(gc, t.c1[i], t.n1[i] / (sv * sv + sc * sc));
         }
     }
-    // Solve the free block (Cramer on at most 3 unknowns via elimination).
-    int idx[3], n = 0;
-    for (int k = 0; k < 3; ++k)
+    // Solve the free block by Gauss-Jordan elimination with partial pivoting.
+    int idx[kN], n = 0;
+    for (int k = 0; k < kN; ++k)
         if (freeU[k]) idx[n++] = k;
-    double M[3][4] = {};
+    double M[kN][kN + 1] = {};
     for (int i = 0; i < n; ++i) {
         for (int j = 0; j < n; ++j)
             M[i][j] = A[idx[i]][idx[j]];
@@ -390,10 +398,21 @@ NoiseFit fitNoise(const Tiles& t, const NoiseCtx& c, NoiseFit f, bool freePhi, b
                 M[j][k] -= q * M[i][k];
         }
     }
-    double u[3] = {f.s0, f.phi, f.ve};
     for (int i = 0; i < n; ++i)
         u[idx[i]] = M[i][n] / M[i][i];
-    return NoiseFit{u[0], u[1], u[2]};
+    return NoiseFit{u[0], u[1], u[2], u[3]};
+}
+
+// fitNoiseOnce with ω ≥ 0: white noise only adds variance. A negative ω would read a
+// covariance above the model's (a wider blur, frame jitter) as excess noise; where it comes out
+// negative ω is held at 0 and the rest fitted again.
+NoiseFit fitNoise(const Tiles& t, const NoiseCtx& c, NoiseFit f, unsigned freed) {
+    NoiseFit g = fitNoiseOnce(t, c, f, freed);
+    if ((freed & kWhite) && g.white < 0.0) {
+        f.white = 0.0;
+        g = fitNoiseOnce(t, c, f, freed & ~kWhite);
+    }
+    return g;
 }
 
 // Held-out squared residual of v and c1 per tile, each over its sampling variance; the raw
@@ -432,8 +451,9 @@ struct Fold {
 
 void foldErrors(const Tiles& fitOn, const Tiles& testOn, const NoiseCtx& c, bool phiTested,
                 Fold& out) {
-    const NoiseFit before = fitNoise(fitOn, c, NoiseFit{}, !phiTested, phiTested);
-    const NoiseFit after = fitNoise(fitOn, c, NoiseFit{}, true, true);
+    // Excess noise (φ with its white member ω) against v_e, or v_e against φ and ω.
+    const NoiseFit before = fitNoise(fitOn, c, NoiseFit{}, phiTested ? kVe : kPhi | kWhite);
+    const NoiseFit after = fitNoise(fitOn, c, NoiseFit{}, kPhi | kVe | kWhite);
     double cnt = 0.0;
     const std::vector<double> eb = noiseSse(testOn, c, before, out.sumBefore, cnt);
     const std::vector<double> ea = noiseSse(testOn, c, after, out.sumAfter, out.count);
@@ -488,7 +508,7 @@ Score nested(const Tiles& tc, const Tiles& th, const NoiseCtx& c, bool phiTested
     Fold f;
     foldErrors(tc, th, c, phiTested, f);
     foldErrors(th, tc, c, phiTested, f);
-    after = fitNoise(bothHalves(tc, th), c, NoiseFit{}, true, true);
+    after = fitNoise(bothHalves(tc, th), c, NoiseFit{}, kPhi | kVe | kWhite);
     const double n = std::max(f.count, 1.0);
     return pairedScore(f.before, f.after, std::sqrt(f.sumBefore / n), std::sqrt(f.sumAfter / n), 1);
 }
@@ -499,22 +519,36 @@ Candidate excessNoise(const Work& w, const Tiles& tc, const Tiles& th, const Noi
     NoiseFit f;
     fill(cand, nested(tc, th, c, true, f), "temporal variance and neighbour covariance per tile");
     const double F0 = w.cam.mcp_noise && w.cam.mcp_enabled ? w.cam.mcp_noise_factor : 1.0;
-    const double F = f.phi * F0;
+    // The shot variance's factor on the model's, of both members: φ (blurred as the model's
+    // shot noise, the MCP's) and ω (white).
+    const double ratio = f.phi + f.white;
+    const double F = ratio * F0;
+    const double whiteShare = ratio > 0.0 ? f.white / ratio : 0.0;
     double lo = 1e300, hi = -1e300;
     for (std::size_t i = 0; i < tc.v.size(); ++i)
         if (tc.n[i] > 0) {
             lo = std::min(lo, tc.vSim[i]);
             hi = std::max(hi, tc.vSim[i]);
         }
-    cand.valid = f.phi > 0.0 && hi - lo > 2.0 * c.rr;
+    cand.valid = ratio > 0.0 && hi - lo > 2.0 * c.rr;
     if (!cand.valid) cand.why = "no range of signal in the steady frames";
-    cand.finding.parameters = {{"noise_factor", F}, {"variance_ratio_to_model", f.phi}};
-    char buf[400];
+    cand.finding.parameters = {
+        {"noise_factor", F}, {"variance_ratio_to_model", ratio}, {"white_share", whiteShare}};
+    // A white share worth naming: above the scatter the null datasets leave (docs/diagnose.md).
+    constexpr double kWhiteNamed = 0.05;
+    char white[240] = "";
+    if (whiteShare >= kWhiteNamed)
+        std::snprintf(white, sizeof white,
+                      "; %.0f %% of the shot variance is white (neighbours do not share it): "
+                      "noise made at or after the CCD, which the phosphor and the fibre do not "
+                      "blur; the preset can put it only in the MCP",
+                      100.0 * whiteShare);
+    char buf[640];
     if (F >= 1.0) {
         std::snprintf(buf, sizeof buf,
                       "temporal noise grows with signal %.3g times as fast as the model's: the "
-                      "MCP's excess noise factor is %.3g, not %.3g",
-                      f.phi, F, F0);
+                      "MCP's excess noise factor is %.3g, not %.3g%s",
+                      ratio, F, F0, white);
         cand.finding.presetKeys = {{"mcp.noise_factor", num(F)}, {"mcp.noise", "true"}};
     } else {
         // F < 1 is impossible for an MCP: the model's gain per photoelectron is too high (its
@@ -522,8 +556,8 @@ Candidate excessNoise(const Work& w, const Tiles& tc, const Tiles& th, const Noi
         std::snprintf(buf, sizeof buf,
                       "temporal noise grows with signal only %.3g times as fast as the model's: "
                       "a noise factor of %.3g (below 1, impossible for an MCP) means the camera "
-                      "makes more photoelectrons with less gain each than the model",
-                      f.phi, F);
+                      "makes more photoelectrons with less gain each than the model%s",
+                      ratio, F, white);
     }
     cand.finding.cause = buf;
     return cand;
@@ -748,7 +782,7 @@ std::vector<Candidate> tryNoiseEffects(Work& w, const Current& cur, Result& r) {
             if (t->n[i] > 0 && t->mu[i] > kGainSignal_dc)
                 t->gain[i] = std::max((t->measured[i] - cur.fit.b) / t->mu[i], 0.0);
     }
-    const NoiseFit base = fitNoise(tc, c, NoiseFit{}, false, false);
+    const NoiseFit base = fitNoise(tc, c, NoiseFit{}, 0u);
     r.baseline["noise_extra_var_dc2"] = base.s0;
     r.baseline["dark_noise_dc"] = std::sqrt(std::max(c.a * c.a * c.rr + base.s0, 0.0));
     r.baseline["shot_noise_neighbour_correlation"] = c.rho;
@@ -784,8 +818,8 @@ std::vector<Candidate> tryNoiseEffects(Work& w, const Current& cur, Result& r) {
     });
     out.push_back(ex);
     out.push_back(eb);
-    const NoiseFit all = fitNoise(tc, c, NoiseFit{}, true, true);
-    addPtcCurve(th, c.a, base.s0, all.phi, c.rr, r);
+    const NoiseFit all = fitNoise(tc, c, NoiseFit{}, kPhi | kVe | kWhite);
+    addPtcCurve(th, c.a, base.s0, all.phi + all.white, c.rr, r);
     return out;
 }
 

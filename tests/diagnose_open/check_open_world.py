@@ -19,6 +19,11 @@ Checked: the null in every seed; each effect in at least 2 of the 3 seeds (the s
                     (parameter on_photoelectrons 1: open_world.py gates the light), and
                     excess_noise not named (reading it as a gain made the noise per DC look
                     1/factor too large);
+  excess_noise      excess_noise named, nothing else of the catalog named, its white share
+                    (docs/diagnose.md §3) within 0.1 of the truth's (r - 1) / r: open_world.py's
+                    excess noise is a gain noise per pixel after detection, white, where the
+                    model's is blurred with the shot noise (without the white member the
+                    covariance it lacks was read as a negative EBI, z 28 at 768 x 494);
   flicker           an `unexplained` finding of character temporal, no catalog effect named
                     (found by the agreement of the per-frame gains fitted on the two halves of
                     the tiles' checkerboard; seeds 1 and 2 of 3 at this size, docs/validation.md).
@@ -42,7 +47,9 @@ EXPECT = {
     "row_noise": ("temporal", False),
     "flicker": ("temporal", True),
     "bright_source_protection": ("member", None),
+    "excess_noise": ("white", None),
 }
+WHITE_SHARE_TOLERANCE = 0.1
 
 
 def main():
@@ -81,6 +88,19 @@ def main():
                 misses[d["effect"]].append(tag + ": protection not named on the photoelectrons")
             elif "excess_noise" in named:
                 misses[d["effect"]].append(tag + ": excess_noise named beside protection")
+            continue
+        if want == "white":
+            r = d["truth_parameters"]["variance_factor"]
+            ex = [f for f in fs if f["effect"] == "excess_noise"
+                  and f.get("status", "named") == "named"]
+            share = ex[0]["parameters"].get("white_share", -1.0) if ex else None
+            if share is None:
+                misses[d["effect"]].append(tag + ": excess_noise not named")
+            elif abs(share - (r - 1.0) / r) > WHITE_SHARE_TOLERANCE:
+                misses[d["effect"]].append(tag + ": white share %.3f, truth %.3f"
+                                           % (share, (r - 1.0) / r))
+            elif len(named) > 1:
+                misses[d["effect"]].append(tag + ": catalog effects named: %s" % named)
             continue
         if want == "not named":
             if clean in named:
