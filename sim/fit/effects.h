@@ -13,8 +13,8 @@
 //   bright_source_protection  Y/(1 + (I/I_knee)^p): gain lowered by the cathode current I
 //   mcp_saturation        Y + MTF ⊛ (Q(1 − e^(−U/Q)) − U): each pixel's MCP charge limited to
 //                         Q per field, U the unblurred signal
-// Noise effects change the predicted statistics (noise.cpp): fixed_pattern_noise,
-// excess_noise, ebi_background.
+// Noise effects change the predicted statistics: excess_noise, ebi_background (noise.cpp),
+// fixed_pattern_noise (fpn_blotch.cpp).
 
 #include <optional>
 
@@ -68,6 +68,10 @@ Candidate trySaturation(Work& w, const Current& cur);
 // held-out errors stay as scored; parameters, cause and preset keys are replaced. `cur` ends
 // with the refitted model, its gain and offset refitted on the calibration half.
 void refitJointly(Work& w, Current& cur, std::vector<Finding>& found);
+
+// A noise candidate's score (held-out RMS before and after, z, confidence) from a paired test of
+// a tile statistic in DC².
+void fillNoiseScore(Candidate& c, const Score& s, const char* observable);
 
 // The noise effects, on the final mean model.
 std::vector<Candidate> tryNoiseEffects(Work& w, const Current& cur, Result& r);

@@ -2,6 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+
+#include "sim/fit/normal_eq.h"
+#include "sim/fit/text.h"
 
 namespace nvs::fit {
 
@@ -45,6 +49,68 @@ PatternGroups patternGroups(const Work& w, const Current& cur, std::size_t i0, s
 }
 
 namespace {
+
+// Residual maps of the split's subset frames, averaged over two interleaved halves, and the
+// tiles' covariance of the two and mean product of the two averaged signals.
+void fixedPattern(const Work& w, const Current& cur, std::size_t i0, std::size_t i1,
+                  std::vector<double>& C, std::vector<double>& q, std::vector<double>& n,
+                  std::vector<double>& scale2, Plane* map) {
+    const PatternGroups pg = patternGroups(w, cur, i0, i1);
+    const Plane* A = pg.A;
+    const Plane* Y = pg.Y;
+    const std::vector<float>* cnt = pg.count;
+    const int T = w.tiles();
+    std::vector<double> s1(static_cast<std::size_t>(T), 0.0), s2 = s1, s12 = s1, s11 = s1, s22 = s1;
+    C.assign(static_cast<std::size_t>(T), 0.0);
+    q = C;
+    n = C;
+    scale2.assign(C.size(), 1.0);
+    for (int y = 0; y < w.h; ++y)
+        for (int x = 0; x < w.w; ++x) {
+            const std::size_t p = static_cast<std::size_t>(y) * w.w + x;
+            if (cnt[0][p] == 0.0f || cnt[1][p] == 0.0f) continue;
+            const double a1 = A[0][p] / cnt[0][p], a2 = A[1][p] / cnt[1][p];
+            if (map) (*map)[p] = static_cast<float>(0.5 * (a1 + a2));
+            const std::size_t t = static_cast<std::size_t>(w.tileOf(x, y));
+            s1[t] += a1;
+            s2[t] += a2;
+            s12[t] += a1 * a2;
+            s11[t] += a1 * a1;
+            s22[t] += a2 * a2;
+            q[t] += cur.fit.a * cur.fit.a * (Y[0][p] / cnt[0][p]) * (Y[1][p] / cnt[1][p]);
+            n[t] += 1.0;
+        }
+    for (int t = 0; t < T; ++t) {
+        const std::size_t i = static_cast<std::size_t>(t);
+        if (n[i] < 2) continue;
+        C[i] = (s12[i] - s1[i] * s2[i] / n[i]) / (n[i] - 1.0);
+        q[i] /= n[i];
+        // Sampling variance of a covariance of n pairs: (σ₁²σ₂² + C²)/n.
+        const double v1 = (s11[i] - s1[i] * s1[i] / n[i]) / (n[i] - 1.0);
+        const double v2 = (s22[i] - s2[i] * s2[i] / n[i]) / (n[i] - 1.0);
+        scale2[i] = std::max((v1 * v2 + C[i] * C[i]) / n[i], 1e-12);
+    }
+}
+
+// Held-out comparison of two predictions of a tile observable.
+// Each tile's squared error is divided by scale2 (its sampling variance up to a common factor).
+Score compare(const std::vector<double>& obs, const std::vector<double>& before,
+              const std::vector<double>& after, const std::vector<double>& n,
+              const std::vector<double>& scale2, int k) {
+    std::vector<double> eb, ea;
+    double sb = 0, sa = 0, sn = 0;
+    for (std::size_t i = 0; i < obs.size(); ++i) {
+        if (!(n[i] > 0)) continue;
+        const double b = (obs[i] - before[i]) * (obs[i] - before[i]);
+        const double a = (obs[i] - after[i]) * (obs[i] - after[i]);
+        eb.push_back(b / scale2[i]);
+        ea.push_back(a / scale2[i]);
+        sb += b;
+        sa += a;
+        sn += 1;
+    }
+    return pairedScore(eb, ea, sn > 0 ? std::sqrt(sb / sn) : 0, sn > 0 ? std::sqrt(sa / sn) : 0, k);
+}
 
 constexpr int kLags[] = {0, 1, 2, 3, 5, 8, 12};
 constexpr double kSigmas_px[] = {1.0, 1.5, 2.0, 3.0, 4.0, 6.0, 8.0, 11.0, 16.0, 22.0, 32.0};
@@ -293,6 +359,88 @@ BlotchMember fitBlotchMember(const Work& w, const Current& cur) {
     m.valid = pb2 > 0.0 && m.blotch_rel < 0.5;
     if (!m.valid) m.why = "no blotches: the pattern's covariance is a cell's alone";
     return m;
+}
+
+// fixed_pattern_noise (header): the cell-by-cell PRNU against the model's, and the blotchy
+// member where it beats it.
+Candidate fixedPatternNoise(const Work& w, const Current& cur, Result& res) {
+    Candidate c;
+    c.finding.effect = "fixed_pattern_noise";
+    const std::size_t nc = w.cal.size(), nh = w.ho.size();
+    if (nc < 2 || nh < 2) {
+        c.why = "fewer than 2 frames per split";
+        return c;
+    }
+    std::vector<double> Cc, qc, ncnt, Ch, qh, nhcnt, scc, sch;
+    Plane map(static_cast<std::size_t>(w.w) * w.h, 0.0f);
+    fixedPattern(w, cur, 0, nc, Cc, qc, ncnt, scc, &map);
+    fixedPattern(w, cur, nc, nc + nh, Ch, qh, nhcnt, sch, nullptr);
+    res.maps.push_back({"residual_calibration_mean", map});
+    // The model has no offset pattern (the chain has no DSNU) and its own PRNU: before. After:
+    // the PRNU fitted (the preset's one parameter). DSNU and PRNU apart (EMVA 1288) need more
+    // than one signal level; the baseline reports that two-parameter split where it exists.
+    const double p0model = w.cam.prnu_rel * w.cam.prnu_rel;
+    double P = p0model;
+    {
+        double zero = 0.0;
+        weightedLine(qc, Cc, ncnt, zero, P, true);
+    }
+    double dsnu2 = 0.0, prnu2 = 0.0;
+    weightedLine(qc, Cc, ncnt, dsnu2, prnu2, false);
+    double qlo = 1e300, qhi = 0.0;
+    for (std::size_t i = 0; i < qc.size(); ++i)
+        if (ncnt[i] > 0) {
+            qlo = std::min(qlo, qc[i]);
+            qhi = std::max(qhi, qc[i]);
+        }
+    const bool levels = qhi > 2.0 * qlo + 1.0;
+    if (levels) {
+        res.baseline["dsnu_dc"] = std::sqrt(std::max(dsnu2, 0.0));
+        res.baseline["prnu_rel"] = std::sqrt(std::max(prnu2, 0.0));
+    }
+    std::vector<double> before(Ch.size()), after(Ch.size());
+    for (std::size_t i = 0; i < Ch.size(); ++i) {
+        before[i] = p0model * qh[i];
+        after[i] = P * qh[i];
+    }
+    fillNoiseScore(c, compare(Ch, before, after, nhcnt, sch, 1),
+                   "covariance of two independent residual averages per tile, held-out frames");
+    const double prnu = std::sqrt(std::max(P, 0.0));
+    c.valid = P > 0.0 && prnu < 0.5;
+    if (!c.valid) c.why = "no fixed pattern that grows with signal";
+    c.finding.parameters = {{"prnu_rel", prnu}};
+    char buf[400];
+    std::snprintf(
+        buf, sizeof buf,
+        "a pattern fixed to the sensor: pixel gains differ by %.2f %% rms (PRNU), the "
+        "model has %.2f %%%s",
+        100.0 * prnu, 100.0 * w.cam.prnu_rel,
+        levels ? "" : " (one signal level: an offset pattern, DSNU, would look the same)");
+    c.finding.cause = buf;
+    c.finding.presetKeys = {{"ccd.prnu_rel", textf("%.6g", prnu)}};
+    // The blotchy member, where it beats the cell-by-cell one on held-out frames.
+    const BlotchMember bm = fitBlotchMember(w, cur);
+    if (bm.valid && bm.vsWhite.z >= w.opt.zMin && bm.vsModel.z > c.finding.z) {
+        fillNoiseScore(c, bm.vsModel,
+                       "covariance of two independent residual gain maps at lags 0-12 px, held-out "
+                       "frames");
+        c.valid = true;
+        c.why = "";
+        c.finding.parameters = {{"prnu_rel", bm.white_rel},
+                                {"prnu_blotch_rel", bm.blotch_rel},
+                                {"prnu_blotch_sigma_px", bm.blotch_sigma_px}};
+        std::snprintf(buf, sizeof buf,
+                      "a pattern fixed to the sensor that varies in blotches: gains differ by "
+                      "%.2f %% rms over blotches of sigma %.3g px (z %.1f over a cell-by-cell "
+                      "pattern), and %.2f %% cell by cell; the model has %.2f %%",
+                      100.0 * bm.blotch_rel, bm.blotch_sigma_px, bm.vsWhite.z, 100.0 * bm.white_rel,
+                      100.0 * w.cam.prnu_rel);
+        c.finding.cause = buf;
+        c.finding.presetKeys = {{"ccd.prnu_rel", textf("%.6g", bm.white_rel)},
+                                {"ccd.prnu_blotch_rel", textf("%.6g", bm.blotch_rel)},
+                                {"ccd.prnu_blotch_sigma_px", textf("%.6g", bm.blotch_sigma_px)}};
+    }
+    return c;
 }
 
 }  // namespace nvs::fit

@@ -1,10 +1,10 @@
 #pragma once
-// The fixed pattern's second member (fixed_pattern_noise): gains that vary in blotches of a
-// correlation length, not cell by cell. noise.cpp's tile covariance takes each tile's mean out,
-// so a pattern whose blotches are as large as a tile (8-16 px) falls mostly in the tile means
-// and is not seen: the open world's blotchy PRNU (σ 5-20 px, 3-8 % rms) came back as
-// unexplained smooth gain or not at all, 0 of 3. Here the pattern is measured by its
-// covariance at several lags.
+// The effect fixed_pattern_noise: a pattern of pixel gains fixed to the sensor, as two members.
+// Cell by cell (the first): the covariance per tile of two residual averages. In blotches of a
+// correlation length (the second): that tile covariance takes each tile's mean out, so a pattern
+// whose blotches are as large as a tile (8-16 px) falls mostly in the tile means and is not
+// seen: the open world's blotchy PRNU (σ 5-20 px, 3-8 % rms) came back as unexplained smooth
+// gain or not at all, 0 of 3. The second member is measured by its covariance at several lags.
 
 #include <vector>
 
@@ -14,8 +14,8 @@
 namespace nvs::fit {
 
 // The residual of the frames [i0, i1) of w.sub against the current model, summed in two
-// groups with no field and, where there are two or more, no stimulus in common (noise.cpp,
-// fixedPattern): a pattern fixed to the sensor is in both groups, the temporal noise is not.
+// groups with no field and, where there are two or more, no stimulus in common
+// (fixedPattern): a pattern fixed to the sensor is in both groups, the temporal noise is not.
 struct PatternGroups {
     Plane A[2], Y[2];             // Σ residual [DC], Σ model signal [model DC] per pixel
     std::vector<float> count[2];  // frames summed per pixel
@@ -34,5 +34,12 @@ struct BlotchMember {
     Score vsWhite;                 // held-out: cell by cell only (refitted) → the member
 };
 BlotchMember fitBlotchMember(const Work& w, const Current& cur);
+
+// The effect fixed_pattern_noise: the covariance per tile of two residual averages that share no
+// field is the pattern fixed to the sensor (EMVA 1288's DSNU and PRNU); the PRNU fitted on the
+// calibration frames against the model's, scored on the held-out ones, and the blotchy member
+// where it beats it. Adds the calibration residual map to res and the DSNU/PRNU split to its
+// baseline.
+Candidate fixedPatternNoise(const Work& w, const Current& cur, Result& res);
 
 }  // namespace nvs::fit

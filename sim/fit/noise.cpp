@@ -1,19 +1,18 @@
-// The noise effects (effects.h): statistics of the measured frames against the model's own
-// noisy run, tile by tile, calibration half against held-out half.
+// The noise effects excess_noise and ebi_background (effects.h): statistics of the measured
+// frames against the model's own noisy run, tile by tile, calibration half against held-out half.
+// fixed_pattern_noise is fpn_blotch.cpp's.
 //
 // Temporal noise: differences of frames that saw the same stimulus (and the one before, so the
 // phosphor has settled), lag 2 in field scan (frame k and k − 2 share no field), as EMVA 1288
 // (Release 4.0, Linear) estimates the temporal variance from the difference of two frames:
 // σ²_y = ½·mean((y_A − y_B)²). Per tile: v (variance) and c1 (covariance of horizontal
 // neighbours). The model's noisy run gives v_sim, c1_sim the same way.
-//   v_pred  = a²·(φ·(v_sim − r) + r) + s0 + v_e      r: the model's read noise + 1/12 DC²
-//   c1_pred = a²·φ·c1_sim + ρ·v_e                     ρ: neighbour correlation of shot noise
-// s0 (extra white noise) is the baseline's; excess_noise fits φ (F = φ·F_model); ebi_background
-// fits v_e: shot noise present at zero signal is blurred by the MTF like signal shot noise
-// (c1 > 0), read noise is not, so the neighbour covariance tells EBI from read noise.
-// Fixed pattern: the split's residual maps averaged over two sets of frames that share no field;
-// their covariance in a tile is the fixed pattern only (the temporal noise is independent):
-//   C = dsnu² + prnu²·a²·mean(Ȳ₁·Ȳ₂)   (EMVA 1288 DSNU and PRNU, in DC and relative).
+//   v_pred  = a²·((φ + ω)·(v_sim − r) + r) + s0 + v_e   r: the model's read noise + 1/12 DC²
+//   c1_pred = a²·φ·c1_sim + ρ·v_e                        ρ: neighbour correlation of shot noise
+// s0 (extra white noise) is the baseline's; excess_noise fits φ and ω ≥ 0, its blurred and white
+// members (F = (φ + ω)·F_model); ebi_background fits v_e: shot noise present at zero signal is
+// blurred by the MTF like signal shot noise (c1 > 0), read noise is not, so the neighbour
+// covariance tells EBI from read noise.
 
 #include <algorithm>
 #include <cmath>
@@ -21,6 +20,7 @@
 
 #include "sim/fit/effects.h"
 #include "sim/fit/fpn_blotch.h"
+#include "sim/fit/normal_eq.h"
 #include "sim/fit/text.h"
 
 namespace nvs::fit {
@@ -146,104 +146,6 @@ Tiles temporal(const Work& w, int k0, int k1) {
     return t;
 }
 
-// Residual maps of the split's subset frames, averaged over two interleaved halves, and the
-// tiles' covariance of the two and mean product of the two averaged signals.
-void fixedPattern(const Work& w, const Current& cur, std::size_t i0, std::size_t i1,
-                  std::vector<double>& C, std::vector<double>& q, std::vector<double>& n,
-                  std::vector<double>& scale2, Plane* map) {
-    const PatternGroups pg = patternGroups(w, cur, i0, i1);
-    const Plane* A = pg.A;
-    const Plane* Y = pg.Y;
-    const std::vector<float>* cnt = pg.count;
-    const int T = w.tiles();
-    std::vector<double> s1(static_cast<std::size_t>(T), 0.0), s2 = s1, s12 = s1, s11 = s1, s22 = s1;
-    C.assign(static_cast<std::size_t>(T), 0.0);
-    q = C;
-    n = C;
-    scale2.assign(C.size(), 1.0);
-    for (int y = 0; y < w.h; ++y)
-        for (int x = 0; x < w.w; ++x) {
-            const std::size_t p = static_cast<std::size_t>(y) * w.w + x;
-            if (cnt[0][p] == 0.0f || cnt[1][p] == 0.0f) continue;
-            const double a1 = A[0][p] / cnt[0][p], a2 = A[1][p] / cnt[1][p];
-            if (map) (*map)[p] = static_cast<float>(0.5 * (a1 + a2));
-            const std::size_t t = static_cast<std::size_t>(w.tileOf(x, y));
-            s1[t] += a1;
-            s2[t] += a2;
-            s12[t] += a1 * a2;
-            s11[t] += a1 * a1;
-            s22[t] += a2 * a2;
-            q[t] += cur.fit.a * cur.fit.a * (Y[0][p] / cnt[0][p]) * (Y[1][p] / cnt[1][p]);
-            n[t] += 1.0;
-        }
-    for (int t = 0; t < T; ++t) {
-        const std::size_t i = static_cast<std::size_t>(t);
-        if (n[i] < 2) continue;
-        C[i] = (s12[i] - s1[i] * s2[i] / n[i]) / (n[i] - 1.0);
-        q[i] /= n[i];
-        // Sampling variance of a covariance of n pairs: (σ₁²σ₂² + C²)/n.
-        const double v1 = (s11[i] - s1[i] * s1[i] / n[i]) / (n[i] - 1.0);
-        const double v2 = (s22[i] - s2[i] * s2[i] / n[i]) / (n[i] - 1.0);
-        scale2[i] = std::max((v1 * v2 + C[i] * C[i]) / n[i], 1e-12);
-    }
-}
-
-// Weighted least squares y = p0 + p1·x (p0 fixed when fix0 is set).
-void line(const std::vector<double>& x, const std::vector<double>& y, const std::vector<double>& wt,
-          double& p0, double& p1, bool fix0) {
-    double sw = 0, sx = 0, sy = 0, sxx = 0, sxy = 0;
-    for (std::size_t i = 0; i < x.size(); ++i) {
-        if (!(wt[i] > 0)) continue;
-        sw += wt[i];
-        sx += wt[i] * x[i];
-        sy += wt[i] * y[i];
-        sxx += wt[i] * x[i] * x[i];
-        sxy += wt[i] * x[i] * y[i];
-    }
-    if (fix0) {
-        p1 = sxx > 0 ? (sxy - p0 * sx) / sxx : 0.0;
-        return;
-    }
-    const double det = sw * sxx - sx * sx;
-    if (!(std::fabs(det) > 0)) {
-        p0 = sw > 0 ? sy / sw : 0.0;
-        p1 = 0.0;
-        return;
-    }
-    p0 = (sxx * sy - sx * sxy) / det;
-    p1 = (sw * sxy - sx * sy) / det;
-}
-
-// Held-out comparison of two predictions of a tile observable.
-// Each tile's squared error is divided by scale2 (its sampling variance up to a common factor).
-Score compare(const std::vector<double>& obs, const std::vector<double>& before,
-              const std::vector<double>& after, const std::vector<double>& n,
-              const std::vector<double>& scale2, int k) {
-    std::vector<double> eb, ea;
-    double sb = 0, sa = 0, sn = 0;
-    for (std::size_t i = 0; i < obs.size(); ++i) {
-        if (!(n[i] > 0)) continue;
-        const double b = (obs[i] - before[i]) * (obs[i] - before[i]);
-        const double a = (obs[i] - after[i]) * (obs[i] - after[i]);
-        eb.push_back(b / scale2[i]);
-        ea.push_back(a / scale2[i]);
-        sb += b;
-        sa += a;
-        sn += 1;
-    }
-    return pairedScore(eb, ea, sn > 0 ? std::sqrt(sb / sn) : 0, sn > 0 ? std::sqrt(sa / sn) : 0, k);
-}
-
-void fill(Candidate& c, const Score& s, const char* observable) {
-    c.finding.heldoutRmsBefore = s.rmsBefore;
-    c.finding.heldoutRmsAfter = s.rmsAfter;
-    c.finding.z = s.z;
-    c.finding.score = s.score;
-    c.finding.confidence = normalCdf(s.z);
-    c.finding.observable = observable;
-    c.finding.unit = "DC2";
-}
-
 std::string num(double v) {
     char b[64];
     std::snprintf(b, sizeof b, "%.6g", v);
@@ -346,17 +248,19 @@ NoiseFit fitNoiseOnce(const Tiles& t, const NoiseCtx& c, NoiseFit f, unsigned fr
     constexpr int kN = 4;
     const bool freeU[kN] = {true, (freed & kPhi) != 0, (freed & kVe) != 0, (freed & kWhite) != 0};
     double u[kN] = {f.s0, f.phi, f.ve, f.white};
-    double A[kN][kN] = {}, r[kN] = {};
+    int idx[kN], n = 0;
+    for (int k = 0; k < kN; ++k)
+        if (freeU[k]) idx[n++] = k;
+    NormalEquations ne(n);
+    // One weighted row: the free unknowns' coefficients and y less the fixed ones, both by √wgt.
     auto row = [&](const double g[kN], double y, double wgt) {
-        double yy = y;
+        const double sw = std::sqrt(wgt);
+        double x[kN];
         for (int k = 0; k < kN; ++k)
-            if (!freeU[k]) yy -= g[k] * u[k];
-        for (int i = 0; i < kN; ++i) {
-            if (!freeU[i]) continue;
-            r[i] += wgt * g[i] * yy;
-            for (int j = 0; j < kN; ++j)
-                if (freeU[j]) A[i][j] += wgt * g[i] * g[j];
-        }
+            if (!freeU[k]) y -= g[k] * u[k];
+        for (int i = 0; i < n; ++i)
+            x[i] = sw * g[idx[i]];
+        ne.add(x, sw * y);
     };
     const double gd = c.darkScale();
     for (std::size_t i = 0; i < t.v.size(); ++i) {
@@ -375,31 +279,9 @@ NoiseFit fitNoiseOnce(const Tiles& t, const NoiseCtx& c, NoiseFit f, unsigned fr
             row(gc, t.c1[i], t.n1[i] / (sv * sv + sc * sc));
         }
     }
-    // Solve the free block by Gauss-Jordan elimination with partial pivoting.
-    int idx[kN], n = 0;
-    for (int k = 0; k < kN; ++k)
-        if (freeU[k]) idx[n++] = k;
-    double M[kN][kN + 1] = {};
-    for (int i = 0; i < n; ++i) {
-        for (int j = 0; j < n; ++j)
-            M[i][j] = A[idx[i]][idx[j]];
-        M[i][n] = r[idx[i]];
-    }
-    for (int i = 0; i < n; ++i) {
-        int piv = i;
-        for (int j = i + 1; j < n; ++j)
-            if (std::fabs(M[j][i]) > std::fabs(M[piv][i])) piv = j;
-        std::swap(M[i], M[piv]);
-        if (!(std::fabs(M[i][i]) > 1e-300)) return f;
-        for (int j = 0; j < n; ++j) {
-            if (j == i) continue;
-            const double q = M[j][i] / M[i][i];
-            for (int k = i; k <= n; ++k)
-                M[j][k] -= q * M[i][k];
-        }
-    }
+    const std::vector<double> sol = ne.solve();
     for (int i = 0; i < n; ++i)
-        u[idx[i]] = M[i][n] / M[i][i];
+        u[idx[i]] = sol[static_cast<std::size_t>(i)];
     return NoiseFit{u[0], u[1], u[2], u[3]};
 }
 
@@ -517,7 +399,8 @@ Candidate excessNoise(const Work& w, const Tiles& tc, const Tiles& th, const Noi
     Candidate cand;
     cand.finding.effect = "excess_noise";
     NoiseFit f;
-    fill(cand, nested(tc, th, c, true, f), "temporal variance and neighbour covariance per tile");
+    fillNoiseScore(cand, nested(tc, th, c, true, f),
+                   "temporal variance and neighbour covariance per tile");
     const double F0 = w.cam.mcp_noise && w.cam.mcp_enabled ? w.cam.mcp_noise_factor : 1.0;
     // The shot variance's factor on the model's, of both members: φ (blurred as the model's
     // shot noise, the MCP's) and ω (white).
@@ -567,7 +450,8 @@ Candidate ebi(const Work& w, const Tiles& tc, const Tiles& th, const NoiseCtx& c
     Candidate cand;
     cand.finding.effect = "ebi_background";
     NoiseFit f;
-    fill(cand, nested(tc, th, c, false, f), "temporal variance and neighbour covariance per tile");
+    fillNoiseScore(cand, nested(tc, th, c, false, f),
+                   "temporal variance and neighbour covariance per tile");
     // EBI from its blurred shot noise: the neighbour covariance it adds (ρ·v_e) against what
     // the model's own chain gives per unit EBI on a dark frame (ModelRun::ebiC1), scaled by
     // the gain a² as every variance.
@@ -588,86 +472,6 @@ Candidate ebi(const Work& w, const Tiles& tc, const Tiles& th, const NoiseCtx& c
     cand.finding.cause = buf;
     cand.finding.presetKeys = {{"photocathode.ebi_lm_cm2", num(total)}};
     return cand;
-}
-
-Candidate fpn(const Work& w, const Current& cur, Result& res) {
-    Candidate c;
-    c.finding.effect = "fixed_pattern_noise";
-    const std::size_t nc = w.cal.size(), nh = w.ho.size();
-    if (nc < 2 || nh < 2) {
-        c.why = "fewer than 2 frames per split";
-        return c;
-    }
-    std::vector<double> Cc, qc, ncnt, Ch, qh, nhcnt, scc, sch;
-    Plane map(static_cast<std::size_t>(w.w) * w.h, 0.0f);
-    fixedPattern(w, cur, 0, nc, Cc, qc, ncnt, scc, &map);
-    fixedPattern(w, cur, nc, nc + nh, Ch, qh, nhcnt, sch, nullptr);
-    res.maps.push_back({"residual_calibration_mean", map});
-    // The model has no offset pattern (the chain has no DSNU) and its own PRNU: before. After:
-    // the PRNU fitted (the preset's one parameter). DSNU and PRNU apart (EMVA 1288) need more
-    // than one signal level; the baseline reports that two-parameter split where it exists.
-    const double p0model = w.cam.prnu_rel * w.cam.prnu_rel;
-    double P = p0model;
-    {
-        double zero = 0.0;
-        line(qc, Cc, ncnt, zero, P, true);
-    }
-    double dsnu2 = 0.0, prnu2 = 0.0;
-    line(qc, Cc, ncnt, dsnu2, prnu2, false);
-    double qlo = 1e300, qhi = 0.0;
-    for (std::size_t i = 0; i < qc.size(); ++i)
-        if (ncnt[i] > 0) {
-            qlo = std::min(qlo, qc[i]);
-            qhi = std::max(qhi, qc[i]);
-        }
-    const bool levels = qhi > 2.0 * qlo + 1.0;
-    if (levels) {
-        res.baseline["dsnu_dc"] = std::sqrt(std::max(dsnu2, 0.0));
-        res.baseline["prnu_rel"] = std::sqrt(std::max(prnu2, 0.0));
-    }
-    std::vector<double> before(Ch.size()), after(Ch.size());
-    for (std::size_t i = 0; i < Ch.size(); ++i) {
-        before[i] = p0model * qh[i];
-        after[i] = P * qh[i];
-    }
-    fill(c, compare(Ch, before, after, nhcnt, sch, 1),
-         "covariance of two independent residual averages per tile, held-out frames");
-    const double prnu = std::sqrt(std::max(P, 0.0));
-    c.valid = P > 0.0 && prnu < 0.5;
-    if (!c.valid) c.why = "no fixed pattern that grows with signal";
-    c.finding.parameters = {{"prnu_rel", prnu}};
-    char buf[400];
-    std::snprintf(
-        buf, sizeof buf,
-        "a pattern fixed to the sensor: pixel gains differ by %.2f %% rms (PRNU), the "
-        "model has %.2f %%%s",
-        100.0 * prnu, 100.0 * w.cam.prnu_rel,
-        levels ? "" : " (one signal level: an offset pattern, DSNU, would look the same)");
-    c.finding.cause = buf;
-    c.finding.presetKeys = {{"ccd.prnu_rel", num(prnu)}};
-    // The blotchy member, where it beats the cell-by-cell one on held-out frames.
-    const BlotchMember bm = fitBlotchMember(w, cur);
-    if (bm.valid && bm.vsWhite.z >= w.opt.zMin && bm.vsModel.z > c.finding.z) {
-        fill(c, bm.vsModel,
-             "covariance of two independent residual gain maps at lags 0-12 px, held-out "
-             "frames");
-        c.valid = true;
-        c.why = "";
-        c.finding.parameters = {{"prnu_rel", bm.white_rel},
-                                {"prnu_blotch_rel", bm.blotch_rel},
-                                {"prnu_blotch_sigma_px", bm.blotch_sigma_px}};
-        std::snprintf(buf, sizeof buf,
-                      "a pattern fixed to the sensor that varies in blotches: gains differ by "
-                      "%.2f %% rms over blotches of sigma %.3g px (z %.1f over a cell-by-cell "
-                      "pattern), and %.2f %% cell by cell; the model has %.2f %%",
-                      100.0 * bm.blotch_rel, bm.blotch_sigma_px, bm.vsWhite.z, 100.0 * bm.white_rel,
-                      100.0 * w.cam.prnu_rel);
-        c.finding.cause = buf;
-        c.finding.presetKeys = {{"ccd.prnu_rel", num(bm.white_rel)},
-                                {"ccd.prnu_blotch_rel", num(bm.blotch_rel)},
-                                {"ccd.prnu_blotch_sigma_px", num(bm.blotch_sigma_px)}};
-    }
-    return c;
 }
 
 // The model's own temporal variance and neighbour covariance as straight lines in the tile's
@@ -696,8 +500,8 @@ void smoothModel(Tiles& a, Tiles& b) {
     double v0 = 0.0, v1 = 0.0, c0 = 0.0, c1s = 0.0;
     std::vector<double> wv = n, wc = n1;
     for (int pass = 0; pass < 3; ++pass) {
-        line(mu, v, wv, v0, v1, false);
-        line(mu, c1, wc, c0, c1s, false);
+        weightedLine(mu, v, wv, v0, v1, false);
+        weightedLine(mu, c1, wc, c0, c1s, false);
         for (std::size_t i = 0; i < mu.size(); ++i) {
             const double s = std::max(v0 + v1 * mu[i], 0.0) + 1.0;
             wv[i] = n[i] / (s * s);
@@ -730,6 +534,16 @@ void demoteUnderReading(const Work& w, const Tiles& tc, const Tiles& th, const N
 
 }  // namespace
 
+void fillNoiseScore(Candidate& c, const Score& s, const char* observable) {
+    c.finding.heldoutRmsBefore = s.rmsBefore;
+    c.finding.heldoutRmsAfter = s.rmsAfter;
+    c.finding.z = s.z;
+    c.finding.score = s.score;
+    c.finding.confidence = normalCdf(s.z);
+    c.finding.observable = observable;
+    c.finding.unit = "DC2";
+}
+
 std::vector<Candidate> tryNoiseEffects(Work& w, const Current& cur, Result& r) {
     const int n = static_cast<int>(w.d.frameCount());
     Tiles tc = temporal(w, 0, n / 2), th = temporal(w, n / 2, n);
@@ -738,7 +552,7 @@ std::vector<Candidate> tryNoiseEffects(Work& w, const Current& cur, Result& r) {
     c.a = cur.fit.a;
     c.rr = w.m.readVar_dc2 + 1.0 / 12.0;
     std::vector<Candidate> out;
-    out.push_back(fpn(w, cur, r));
+    out.push_back(fixedPatternNoise(w, cur, r));
     double sn = 0.0, shotMax = 0.0;
     std::vector<double> rho;
     const double shotMin = 4.0 * c.rr + 1.0;  // shot variance that the covariance can resolve

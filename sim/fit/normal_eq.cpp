@@ -4,6 +4,8 @@
 #include <gsl/gsl_matrix.h>
 #include <gsl/gsl_vector.h>
 
+#include <cmath>
+
 namespace nvs::fit {
 
 NormalEquations::NormalEquations(int k)
@@ -45,6 +47,31 @@ std::vector<double> NormalEquations::solve() const {
     gsl_matrix_free(U);
     gsl_matrix_free(V);
     return out;
+}
+
+void weightedLine(const std::vector<double>& x, const std::vector<double>& y,
+                  const std::vector<double>& wt, double& p0, double& p1, bool fix0) {
+    double sw = 0, sx = 0, sy = 0, sxx = 0, sxy = 0;
+    for (std::size_t i = 0; i < x.size(); ++i) {
+        if (!(wt[i] > 0)) continue;
+        sw += wt[i];
+        sx += wt[i] * x[i];
+        sy += wt[i] * y[i];
+        sxx += wt[i] * x[i] * x[i];
+        sxy += wt[i] * x[i] * y[i];
+    }
+    if (fix0) {
+        p1 = sxx > 0 ? (sxy - p0 * sx) / sxx : 0.0;
+        return;
+    }
+    const double det = sw * sxx - sx * sx;
+    if (!(std::fabs(det) > 0)) {
+        p0 = sw > 0 ? sy / sw : 0.0;
+        p1 = 0.0;
+        return;
+    }
+    p0 = (sxx * sy - sx * sxy) / det;
+    p1 = (sw * sxy - sx * sy) / det;
 }
 
 }  // namespace nvs::fit

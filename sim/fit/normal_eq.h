@@ -21,4 +21,9 @@ class NormalEquations {
     std::vector<double> A_, b_;
 };
 
+// Weighted least squares y = p0 + p1·x over the points with a positive weight (p0 kept as given
+// when fix0 is set).
+void weightedLine(const std::vector<double>& x, const std::vector<double>& y,
+                  const std::vector<double>& wt, double& p0, double& p1, bool fix0);
+
 }  // namespace nvs::fit
