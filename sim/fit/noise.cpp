@@ -515,6 +515,37 @@ void smoothModel(Tiles& a, Tiles& b) {
         }
 }
 
+// Per noise tile, the share of the current mean model's signal that the found effects acting
+// after detection add, over the light's own part: Σ added / Σ (Y − added) over the frames of
+// w.sub. The vertical smear (Y = S + s·column mean of S) is the catalog's one: charge picked up
+// in the vertical registers, with no shot noise of the photocathode. The per-region reading of
+// the light takes it out of each tile's measured mean; counted as light, the model's own smear
+// with excess noise (nvs_validate_diagnose, vertical_smear+excess_noise, 20 seeds) had the
+// excess noise demoted to a candidate in 3 (its test z 3.5 under that reading).
+std::vector<double> afterDetectionShare(const Work& w, const Current& cur) {
+    std::vector<double> added(static_cast<std::size_t>(w.tiles()), 0.0), light = added;
+    const double s = cur.mm.smear;
+    if (s == 0.0) return added;
+    std::vector<double> col(static_cast<std::size_t>(w.w));
+    for (const Plane& Y : cur.Y) {
+        std::fill(col.begin(), col.end(), 0.0);
+        for (int y = 0; y < w.h; ++y)
+            for (int x = 0; x < w.w; ++x)
+                col[static_cast<std::size_t>(x)] += Y[static_cast<std::size_t>(y) * w.w + x];
+        for (int y = 0; y < w.h; ++y)
+            for (int x = 0; x < w.w; ++x) {
+                // The column mean of Y is (1 + s) times S's, so the smear is s/(1 + s) of it.
+                const double a = s / (1.0 + s) * col[static_cast<std::size_t>(x)] / w.h;
+                const std::size_t t = static_cast<std::size_t>(w.tileOf(x, y));
+                added[t] += a;
+                light[t] += Y[static_cast<std::size_t>(y) * w.w + x] - a;
+            }
+    }
+    for (std::size_t t = 0; t < added.size(); ++t)
+        added[t] = light[t] > 0.0 ? added[t] / light[t] : 0.0;
+    return added;
+}
+
 // The noise tests again under another reading of the gain (NoiseCtx): a noise effect named
 // under the electronics' reading whose test gives z < zMin under `reading` is a candidate, with
 // why(that z) added to its cause. A noise effect only the electronics' reading needs is not a
@@ -588,13 +619,16 @@ std::vector<Candidate> tryNoiseEffects(Work& w, const Current& cur, Result& r) {
     }
     c.rho = median(rho);
     // Each tile's own gain of the light (NoiseCtx::perTile): its measured mean less the offset
-    // over the model's signal; where the model's signal is under kGainSignal_dc, the baseline's.
+    // and less what the found effects add after detection (afterDetectionShare), over the
+    // model's signal; where the model's signal is under kGainSignal_dc, the baseline's.
     constexpr double kGainSignal_dc = 5.0;
+    const std::vector<double> after = afterDetectionShare(w, cur);
     for (Tiles* t : {&tc, &th}) {
         t->gain.assign(t->v.size(), c.a);
         for (std::size_t i = 0; i < t->v.size(); ++i)
             if (t->n[i] > 0 && t->mu[i] > kGainSignal_dc)
-                t->gain[i] = std::max((t->measured[i] - cur.fit.b) / t->mu[i], 0.0);
+                t->gain[i] =
+                    std::max((t->measured[i] - cur.fit.b) / ((1.0 + after[i]) * t->mu[i]), 0.0);
     }
     const NoiseFit base = fitNoise(tc, c, NoiseFit{}, 0u);
     r.baseline["noise_extra_var_dc2"] = base.s0;
