@@ -144,6 +144,10 @@ struct Work {
         return std::min(y / stile, stilesY - 1) * stilesX + std::min(x / stile, stilesX - 1);
     }
     const Plane& measured(int frame) const { return d.frames[static_cast<std::size_t>(frame)]; }
+    // The noise's re-test beside unexplained structure (diagnose.cpp): the mean signal [DC] of
+    // the structures found that are light (a ghost, a gain over the frame), per frame; light
+    // the model's noisy run lacks, with its shot noise (noise.cpp). Null: none.
+    const std::vector<Plane>* structureLight = nullptr;
     // A measured value inside the ADC's range, where the model is linear: not clipped, and
     // not at the CCD's full well (blooming), where the effects' linear forward models fail.
     bool valid(float v) const { return v > 0.5f && v < static_cast<float>(m.maxDc) - 0.5f; }

@@ -32,6 +32,9 @@ struct Tiles {
     std::vector<double> measured;  // the measured frames' mean [DC, offset included]
     std::vector<double> gain;      // measured over model signal, the offset out (tryNoiseEffects)
     std::vector<double> ebiMu;     // the model's EBI dark signal in mu [DC]
+    // The light of the unexplained structure (Work::structureLight; 0 without), in the model's
+    // signal units once tryNoiseEffects has divided it by the baseline's gain.
+    std::vector<double> structure;
     // The share of the model's shot noise in tile i that its EBI makes: EBI and scene
     // photoelectrons pass the same gain, so their shot variances stand as their mean signals.
     double ebiShare(std::size_t i) const {
@@ -90,7 +93,8 @@ class PairDrift {
 Tiles temporal(const Work& w, int k0, int k1) {
     const int T = w.tiles();
     Tiles t;
-    for (auto* v : {&t.v, &t.c1, &t.vSim, &t.c1Sim, &t.mu, &t.n, &t.n1, &t.measured, &t.ebiMu})
+    for (auto* v :
+         {&t.v, &t.c1, &t.vSim, &t.c1Sim, &t.mu, &t.n, &t.n1, &t.measured, &t.ebiMu, &t.structure})
         v->assign(static_cast<std::size_t>(T), 0.0);
     const int lag = w.m.fieldScan ? 2 : 1;
     const auto& so = w.d.stimulusOfFrame;
@@ -122,6 +126,9 @@ Tiles temporal(const Work& w, int k0, int k1) {
                 t.mu[ti] += X[p];
                 t.ebiMu[ti] += ebiDc;
                 t.measured[ti] += 0.5 * (A[p] + B[p]);
+                if (w.structureLight)
+                    t.structure[ti] += 0.5 * ((*w.structureLight)[std::size_t(k)][p] +
+                                              (*w.structureLight)[std::size_t(k - lag)][p]);
                 t.n[ti] += 1.0;
                 if (x + 1 < w.w && w.tileOf(x + 1, y) == w.tileOf(x, y) && use(p + 1)) {
                     t.c1[ti] += d * (A[p + 1] - B[p + 1] - dm.at(p + 1, y));
@@ -137,6 +144,7 @@ Tiles temporal(const Work& w, int k0, int k1) {
             t.mu[i] /= t.n[i];
             t.ebiMu[i] /= t.n[i];
             t.measured[i] /= t.n[i];
+            t.structure[i] /= t.n[i];
         }
         if (t.n1[i] > 0) {
             t.c1[i] /= 2.0 * t.n1[i];
@@ -377,6 +385,7 @@ Tiles bothHalves(const Tiles& a, const Tiles& b) {
     add(t.measured, b.measured);
     add(t.gain, b.gain);
     add(t.ebiMu, b.ebiMu);
+    add(t.structure, b.structure);
     return t;
 }
 
@@ -508,10 +517,14 @@ void smoothModel(Tiles& a, Tiles& b) {
             wc[i] = n1[i] / (s * s);
         }
     }
+    // The unexplained structure's light (Tiles::structure) is light the noisy run lacks: a
+    // ghost's photons reach regions where the model has almost none, and their shot noise
+    // follows the same lines.
     for (Tiles* t : {&a, &b})
         for (std::size_t i = 0; i < t->v.size(); ++i) {
-            t->vSim[i] = v0 + v1 * t->mu[i];
-            t->c1Sim[i] = c0 + c1s * t->mu[i];
+            const double s = std::max(t->mu[i] + t->structure[i], 0.0);
+            t->vSim[i] = v0 + v1 * s;
+            t->c1Sim[i] = c0 + c1s * s;
         }
 }
 
@@ -579,6 +592,9 @@ std::vector<Candidate> tryNoiseEffects(Work& w, const Current& cur, Result& r) {
     const int n = static_cast<int>(w.d.frameCount());
     Tiles tc = temporal(w, 0, n / 2), th = temporal(w, n / 2, n);
     NoiseCtx c;
+    for (Tiles* t : {&tc, &th})
+        for (double& s : t->structure)
+            s /= cur.fit.a;  // measured DC to the model's
     smoothModel(tc, th);
     c.a = cur.fit.a;
     c.rr = w.m.readVar_dc2 + 1.0 / 12.0;
