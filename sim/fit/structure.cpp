@@ -740,4 +740,8 @@ std::vector<Plane> withoutStructure(const Work& w, const Current& cur,
     return out;
 }
 
+bool isLight(const StructureFit& s) {
+    return s.kind >= 0 && s.kind < kKinds && kShapes[s.kind].light;
+}
+
 }  // namespace nvs::fit

@@ -59,4 +59,8 @@ std::vector<StructureFit> findStructure(Work& w, const Current& cur, Result& r,
 std::vector<Plane> withoutStructure(const Work& w, const Current& cur,
                                     const std::vector<StructureFit>& found);
 
+// Whether a structure found is light before the photocathode, with its shot noise (the shape
+// table's `light`, structure_shapes.h).
+bool isLight(const StructureFit& s);
+
 }  // namespace nvs::fit

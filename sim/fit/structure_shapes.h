@@ -28,21 +28,26 @@ struct Shape {
     const char* name;
     const char* character;
     bool perFrame;
+    // Light before the photocathode, with its shot noise (a ghost, a gain over the frame), not
+    // signal added after detection or a change between frames: the noise's re-test beside the
+    // structure counts its mean signal in the model's (diagnose.cpp, demoteExplained).
+    bool light;
     const char* what;
 };
 
 inline constexpr Shape kShapes[kKinds] = {
-    {"smooth_gain", "spatial", false,
+    {"smooth_gain", "spatial", false, true,
      "a gain that varies smoothly over the frame (vignetting, an uneven photocathode)"},
-    {"fixed_columns", "spatial", false, "an offset fixed to each column"},
-    {"fixed_rows", "spatial", false, "an offset fixed to each row"},
-    {"point_mirror", "spatial", false,
+    {"fixed_columns", "spatial", false, false, "an offset fixed to each column"},
+    {"fixed_rows", "spatial", false, false, "an offset fixed to each row"},
+    {"point_mirror", "spatial", false, true,
      "a copy of the image rotated 180 deg about its centre (a ghost)"},
-    {"level_transfer", "level", false, "a response that bends with the level"},
-    {"frame_gain", "temporal", true, "a gain and an offset that change from frame to frame"},
-    {"frame_rows", "temporal", true, "row offsets that change from frame to frame"},
-    {"frame_shift", "geometric", true, "the image moving by part of a pixel from frame to frame"},
-    {"lag", "temporal", false, "part of the previous frame's light carried into the next"},
+    {"level_transfer", "level", false, false, "a response that bends with the level"},
+    {"frame_gain", "temporal", true, false, "a gain and an offset that change from frame to frame"},
+    {"frame_rows", "temporal", true, false, "row offsets that change from frame to frame"},
+    {"frame_shift", "geometric", true, false,
+     "the image moving by part of a pixel from frame to frame"},
+    {"lag", "temporal", false, false, "part of the previous frame's light carried into the next"},
 };
 
 // smooth_gain: 15 terms. The constant is there too: the baseline's gain acts after the
