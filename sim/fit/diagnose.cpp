@@ -382,7 +382,7 @@ void demoteExplained(Work& w, const Current& cur, const std::vector<StructureFit
     // every structure's signal, the ghost's per-frame row offsets too, raised it to z 28.
     std::vector<StructureFit> lightLike;
     for (const StructureFit& s : structures)
-        if (isLight(s)) lightLike.push_back(s);
+        if (isLight(s)) lightLike.push_back(lightPart(s));
     std::vector<Plane> light;
     if (!lightLike.empty()) {
         light = withoutStructure(w, cur, lightLike);

@@ -103,9 +103,15 @@ int basis(Kind k, const Frames& f, std::size_t i, int x, int y, std::size_t p, d
             return n;
         }
         case kPointMirror:
+            // With an offset and a gain of the light beside the copy: the baseline, fitted
+            // without the ghost, took part of its light into its own offset and gain (at
+            // 768 x 494 a 2.2 % ghost raised the offset by 0.4 DC, and a smooth gain, which
+            // can lower the dark regions the copy does not reach, explained it better).
             out[0] = f.mirror[i][p];
             out[1] = f.mirrorBlur[i][p];
-            return 2;
+            out[2] = 1.0;
+            out[3] = f.G[i][p];
+            return 4;
         case kLevel: {
             for (int j = 0; j < kLevelKnots; ++j)
                 out[j] = 0.0;
@@ -129,7 +135,7 @@ int basisSize(Kind k) {
         case kSmoothGain:
             return (kLegendreDegree + 1) * (kLegendreDegree + 2) / 2;
         case kPointMirror:
-            return 2;
+            return 4;
         case kLevel:
             return kLevelKnots;
         case kLag:
@@ -409,6 +415,16 @@ ShapeFit fitShape(const Work& w, Kind k, const Frames& f, std::size_t nFit) {
         ShapeFit within = t;
         withinStimulus(w, within);
         t.within = std::move(within.Q);
+        if (k == kFrameGain) {
+            // Each stimulus's frames less their mean: n − 1 degrees of freedom for n frames.
+            double s2 = 0.0, dof = 0.0;
+            forEachStimulus(w, [&](const std::vector<std::size_t>& g) {
+                for (std::size_t j : g)
+                    s2 += within.perFrame[j][0] * within.perFrame[j][0];
+                dof += static_cast<double>(g.size() - 1);
+            });
+            t.gainWithinRms = dof > 0.0 ? std::sqrt(s2 / dof) : 0.0;
+        }
         t.zFold = foldAgreement(w, t);
         return t;
     }
@@ -422,6 +438,9 @@ struct Scored {
     double zFrames = 0.0;  // the same over the held-out frames
     double zFold = 0.0;    // temporal per-frame shapes: the folds' agreement (foldAgreement)
     double share = 0.0;
+    // How large the shape is against its bars: its share over kMinShare, frame_gain's gain rms
+    // within a stimulus over kMinFrameGainRms, the larger (1 and more counts).
+    double size = 0.0;
 };
 
 // Held-out tiles' squared residual over the model's noise, before and after the shape.
@@ -460,20 +479,26 @@ Scored score(const Work& w, const Frames& f, const std::vector<Plane>& Q) {
 }
 
 // A fitted shape's scores: score() of its prediction, with the folds' agreement it carries.
-Scored scoreFit(const Work& w, const Frames& f, const ShapeFit& t) {
+Scored scoreFit(const Work& w, const Frames& f, Kind k, const ShapeFit& t) {
     Scored s = score(w, f, t.Q);
     s.zFold = t.zFold;
+    s.size = std::max(s.share / kMinShare, t.gainWithinRms / kMinFrameGainRms);
+    // A ghost by the light in its copy alone: its offset and gain would count the baseline's
+    // errors as a ghost's.
+    if (k == kPointMirror) s.size = (t.coef[0] + t.coef[1]) / kMinMirrorFraction;
     return s;
 }
 
 // Whether a shape counts: the paired test over tiles at zMin + 1, or over the held-out frames at
-// zMin + 2 (few frames: a stricter bar), and 0.5 % of the held-out squared error. The tiles'
+// zMin + 2 (few frames: a stricter bar), and 0.5 % of the held-out squared error, or a size of
+// its own (Scored::size): frame_gain's gain changing by 1 % rms between frames of one stimulus,
+// point_mirror's copy holding 1 % of the light. The tiles'
 // test counts an effect's unevenness over the frame against it: a ghost is in a few tiles only
 // (4.3 % of the error at z 3.6 over tiles), but in every frame.
 bool counts(const Work& w, const Scored& s) {
     return (s.s.z >= w.opt.zMin + 1.0 || s.zFrames >= w.opt.zMin + 2.0 ||
             s.zFold >= w.opt.zMin + 1.0) &&
-           s.share >= kMinShare;
+           s.size >= 1.0;
 }
 
 // The z a finding reports: the test that passed (the tiles' when both did).
@@ -490,7 +515,7 @@ Scored conditional(const Work& w, Frames& f, Kind k, const std::vector<Plane>& Q
     };
     shift(1.0f);
     const ShapeFit t = fitShape(w, k, f, w.cal.size());
-    const Scored s = scoreFit(w, f, t);
+    const Scored s = scoreFit(w, f, k, t);
     shift(-1.0f);
     return s;
 }
@@ -570,7 +595,7 @@ std::vector<StructureFit> findStructure(Work& w, const Current& cur, Result& r,
                 w.progress("structure round " + std::to_string(round + 1) + ": " + kShapes[k].name +
                            " (" + std::to_string(++tried) + "/" + std::to_string(toTry) + ")");
             ShapeFit t = fitShape(w, static_cast<Kind>(k), f, w.cal.size());
-            const Scored s = scoreFit(w, f, t);
+            const Scored s = scoreFit(w, f, static_cast<Kind>(k), t);
             nvs::fit::Trial tr;
             tr.effect = std::string("unexplained:") + kShapes[k].name;
             tr.tried = true;
@@ -580,6 +605,12 @@ std::vector<StructureFit> findStructure(Work& w, const Current& cur, Result& r,
             tr.after = s.s.rmsAfter;
             tr.why = kShapes[k].character + std::string(", ") + fmt(2, 100.0 * s.share) +
                      " % of the held-out squared error";
+            if (t.gainWithinRms > 0.0)
+                tr.why += ", the gain " + fmt(2, 100.0 * t.gainWithinRms) +
+                          " % rms between frames of one stimulus";
+            if (k == kPointMirror)
+                tr.why +=
+                    ", a copy of " + fmt(2, 100.0 * (t.coef[0] + t.coef[1])) + " % of the light";
             bool sig = counts(w, s);
             bool eligible = true;  // a temporal shape that changes within a stimulus
             if (!t.within.empty()) {
@@ -598,7 +629,7 @@ std::vector<StructureFit> findStructure(Work& w, const Current& cur, Result& r,
                 best = k;
                 bestT = std::move(t);
                 bestS = s;
-            } else if (eligible && zOf(w, s) >= kRivalZ && s.share >= 0.5 * kMinShare) {
+            } else if (eligible && zOf(w, s) >= kRivalZ && s.size >= 0.5) {
                 rivals.push_back({k, std::move(t), s});
             }
         }
@@ -742,6 +773,13 @@ std::vector<Plane> withoutStructure(const Work& w, const Current& cur,
 
 bool isLight(const StructureFit& s) {
     return s.kind >= 0 && s.kind < kKinds && kShapes[s.kind].light;
+}
+
+StructureFit lightPart(StructureFit s) {
+    if (s.kind == kPointMirror)
+        for (std::size_t j = 2; j < s.coef.size(); ++j)
+            s.coef[j] = 0.0;
+    return s;
 }
 
 }  // namespace nvs::fit

@@ -62,5 +62,8 @@ std::vector<Plane> withoutStructure(const Work& w, const Current& cur,
 // Whether a structure found is light before the photocathode, with its shot noise (the shape
 // table's `light`, structure_shapes.h).
 bool isLight(const StructureFit& s);
+// The part of a light structure that is light: point_mirror's copy without the offset and gain
+// fitted beside it (the baseline's share of the ghost, no light of the scene's).
+StructureFit lightPart(StructureFit s);
 
 }  // namespace nvs::fit

@@ -57,6 +57,15 @@ constexpr int kLegendreDegree = 4;
 constexpr int kLevelKnots = 10;  // level_transfer: hat functions over the predicted range
 constexpr double kMirrorBlur_px = 4.0;
 constexpr double kMinShare = 0.005;  // of the held-out squared error
+// frame_gain's other bar: its gain's rms between frames of one stimulus. Where most pixels are
+// dark the held-out error is the dark noise and a flicker's share of it is small: at 768 x 494
+// a ±6.6 % flicker (4.1 % rms within a stimulus) scored z 7.4 and its folds agreed at z 6.6,
+// but it took 0.42 % of the held-out squared error. A gain that changes by a percent from frame
+// to frame is what a tracker sees, whatever the dark pixels' noise.
+constexpr double kMinFrameGainRms = 0.01;
+// point_mirror's only bar: the light in the copy, 1 % of the image's (its share of the error
+// also holds the offset and gain fitted beside it, structure.cpp basis).
+constexpr double kMinMirrorFraction = 0.01;
 constexpr int kMaxStructures = 3;
 constexpr double kRivalZ = 3.0;  // a shape this close is checked against the one taken
 
@@ -83,7 +92,8 @@ struct ShapeFit {
     std::vector<Plane> Q;
     std::vector<double> coef;                   // fixed shapes
     std::vector<std::vector<double>> perFrame;  // per-frame shapes: each frame's parameters
-    std::vector<Plane> within;  // temporal shapes: Q less its mean over frames of one stimulus
+    std::vector<Plane> within;   // temporal shapes: Q less its mean over frames of one stimulus
+    double gainWithinRms = 0.0;  // frame_gain: rms of the gain less its stimulus's mean
     // Per-frame shapes: each frame's parameters fitted on each colour of the tiles' checkerboard
     // alone, and (temporal shapes) the z of their agreement between frames of one stimulus.
     std::vector<std::vector<double>> fold[2];
