@@ -26,7 +26,11 @@ Checked: the null in every seed; each effect in at least 2 of the 3 seeds (the s
                     covariance it lacks was read as a negative EBI, z 28 at 768 x 494);
   flicker           an `unexplained` finding of character temporal, no catalog effect named
                     (found by the agreement of the per-frame gains fitted on the two halves of
-                    the tiles' checkerboard; seeds 1 and 2 of 3 at this size, docs/validation.md).
+                    the tiles' checkerboard; seeds 1 and 2 of 3 at this size, docs/validation.md);
+  lens_ghost        the structure point_mirror, its copy's light (fraction_sharp +
+                    fraction_blurred) within 20 % of the injected fraction (a point-mirrored
+                    copy blurred by a Gaussian of 1.5-3 px, where diagnose's copy is blurred by
+                    1 and 4 px), no catalog effect named.
 "Named" is a finding whose status is "named". The sweep's full table is printed.
 
 Usage: check_open_world.py NVSTIM [WORK_DIR]
@@ -48,7 +52,9 @@ EXPECT = {
     "flicker": ("temporal", True),
     "bright_source_protection": ("member", None),
     "excess_noise": ("white", None),
+    "lens_ghost": ("ghost", True),
 }
+GHOST_TOLERANCE = 0.2
 WHITE_SHARE_TOLERANCE = 0.1
 
 
@@ -100,6 +106,20 @@ def main():
                 misses[d["effect"]].append(tag + ": white share %.3f, truth %.3f"
                                            % (share, (r - 1.0) / r))
             elif len(named) > 1:
+                misses[d["effect"]].append(tag + ": catalog effects named: %s" % named)
+            continue
+        if want == "ghost":
+            q = d["truth_parameters"]["fraction"]
+            gh = [f for f in fs if f.get("structure") == "point_mirror"]
+            if not gh:
+                misses[d["effect"]].append(tag + ": no point_mirror structure (characters seen: "
+                                           "%s)" % chars)
+                continue
+            p = gh[0]["parameters"]
+            got = p["fraction_sharp"] + p["fraction_blurred"]
+            if abs(got / q - 1.0) > GHOST_TOLERANCE:
+                misses[d["effect"]].append(tag + ": copy %.4f of the light, truth %.4f" % (got, q))
+            elif named:
                 misses[d["effect"]].append(tag + ": catalog effects named: %s" % named)
             continue
         if want == "not named":

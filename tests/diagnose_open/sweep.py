@@ -172,8 +172,8 @@ def run_one(job, a, root):
         rec.update({"family": truth["family"], "character": truth["character"],
                     "catalog_name": truth.get("catalog_name"), "truth_parameters": p,
                     "camera_settings": truth.get("settings"),
-                    "findings": [{k: f[k] for k in ("effect", "status", "character", "z",
-                                                     "score", "parameters", "cause") if k in f}
+                    "findings": [{k: f[k] for k in ("effect", "status", "structure", "character",
+                                                     "z", "score", "parameters", "cause") if k in f}
                                  for f in findings],
                     "baseline": diag.get("baseline"), "scores": score(truth, findings)})
     except Exception as e:  # a failed dataset is reported, the sweep goes on
