@@ -438,8 +438,9 @@ struct Scored {
     double zFrames = 0.0;  // the same over the held-out frames
     double zFold = 0.0;    // temporal per-frame shapes: the folds' agreement (foldAgreement)
     double share = 0.0;
-    // How large the shape is against its bars: its share over kMinShare, frame_gain's gain rms
-    // within a stimulus over kMinFrameGainRms, the larger (1 and more counts).
+    // How large the shape is against its bars (1 and more counts): its share over kMinShare or
+    // frame_gain's gain rms within a stimulus over kMinFrameGainRms, the larger; point_mirror's
+    // copy's light over kMinMirrorFraction alone.
     double size = 0.0;
 };
 
@@ -492,9 +493,9 @@ Scored scoreFit(const Work& w, const Frames& f, Kind k, const ShapeFit& t) {
 // Whether a shape counts: the paired test over tiles at zMin + 1, or over the held-out frames at
 // zMin + 2 (few frames: a stricter bar), and 0.5 % of the held-out squared error, or a size of
 // its own (Scored::size): frame_gain's gain changing by 1 % rms between frames of one stimulus,
-// point_mirror's copy holding 1 % of the light. The tiles'
-// test counts an effect's unevenness over the frame against it: a ghost is in a few tiles only
-// (4.3 % of the error at z 3.6 over tiles), but in every frame.
+// point_mirror's copy holding 1 % of the light. The tiles' test counts an effect's unevenness
+// over the frame against it: a ghost is in a few tiles only (4.3 % of the error at z 3.6 over
+// tiles), but in every frame.
 bool counts(const Work& w, const Scored& s) {
     return (s.s.z >= w.opt.zMin + 1.0 || s.zFrames >= w.opt.zMin + 2.0 ||
             s.zFold >= w.opt.zMin + 1.0) &&
