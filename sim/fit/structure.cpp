@@ -486,7 +486,7 @@ Scored scoreFit(const Work& w, const Frames& f, Kind k, const ShapeFit& t) {
     s.size = std::max(s.share / kMinShare, t.gainWithinRms / kMinFrameGainRms);
     // A ghost by the light in its copy alone: its offset and gain would count the baseline's
     // errors as a ghost's.
-    if (k == kPointMirror) s.size = (t.coef[0] + t.coef[1]) / kMinMirrorFraction;
+    if (k == kPointMirror) s.size = mirrorFraction(t.coef) / kMinMirrorFraction;
     return s;
 }
 
@@ -611,7 +611,7 @@ std::vector<StructureFit> findStructure(Work& w, const Current& cur, Result& r,
                           " % rms between frames of one stimulus";
             if (k == kPointMirror)
                 tr.why +=
-                    ", a copy of " + fmt(2, 100.0 * (t.coef[0] + t.coef[1])) + " % of the light";
+                    ", a copy of " + fmt(2, 100.0 * mirrorFraction(t.coef)) + " % of the light";
             bool sig = counts(w, s);
             bool eligible = true;  // a temporal shape that changes within a stimulus
             if (!t.within.empty()) {
@@ -778,7 +778,7 @@ bool isLight(const StructureFit& s) {
 
 StructureFit lightPart(StructureFit s) {
     if (s.kind == kPointMirror)
-        for (std::size_t j = 2; j < s.coef.size(); ++j)
+        for (std::size_t j = kMirrorCopyTerms; j < s.coef.size(); ++j)
             s.coef[j] = 0.0;
     return s;
 }

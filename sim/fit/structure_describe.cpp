@@ -52,7 +52,7 @@ void describe(const Work& w, Kind k, const Frames& f, const ShapeFit& t, Finding
         }
         case kPointMirror:
             fd.parameters = {{"fraction_sharp", t.coef[0]}, {"fraction_blurred", t.coef[1]}};
-            shape = fmt(3, t.coef[0] + t.coef[1]) + " of the light as a point-mirrored copy";
+            shape = fmt(3, mirrorFraction(t.coef)) + " of the light as a point-mirrored copy";
             break;
         case kLevel: {
             Curve c{tag, "predicted level [DC]", "measured - predicted [DC]", {"fitted"}, {{}},

@@ -66,6 +66,13 @@ constexpr double kMinFrameGainRms = 0.01;
 // point_mirror's only bar: the light in the copy, 1 % of the image's (its share of the error
 // also holds the offset and gain fitted beside it, structure.cpp basis).
 constexpr double kMinMirrorFraction = 0.01;
+// point_mirror's coefficients: the copy's (sharp, blurred) first, then the offset and gain fitted
+// beside it (structure.cpp, basis).
+constexpr std::size_t kMirrorCopyTerms = 2;
+// The light in point_mirror's copy, a fraction of the image's: its copy's coefficients summed.
+inline double mirrorFraction(const std::vector<double>& coef) {
+    return coef[0] + coef[1];
+}
 constexpr int kMaxStructures = 3;
 constexpr double kRivalZ = 3.0;  // a shape this close is checked against the one taken
 
