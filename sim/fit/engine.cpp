@@ -1,5 +1,7 @@
 #include "sim/fit/engine.h"
 
+#include <malloc.h>
+
 #include <algorithm>
 #include <cmath>
 #include <utility>
@@ -18,6 +20,22 @@ std::vector<int> spread(const std::vector<int>& v, int n) {
     for (int i = 0; i < n; ++i)
         out.push_back(v[static_cast<std::size_t>(i * static_cast<int>(v.size()) / n)]);
     return out;
+}
+
+// Each trial makes and drops whole sets of frame-sized planes (1.5 MB each at 768 x 494, 40 to
+// a set). With glibc's defaults a freed set at the heap's top goes back to the kernel (the trim
+// threshold follows the largest block freed, a few MB) and the next set's pages fault in again:
+// on a 768 x 494 dataset a third of the time went to page faults and the copies through them
+// (sys 29 s of 190 s). The heap keeps what it has instead: blocks under 32 MiB come from it,
+// and only more than 1 GiB free at its top is returned. Once per process; a diagnosis runs to
+// its end and exits, so the memory held is its own peak.
+void keepFreedPlanes() {
+    static const bool once = [] {
+        mallopt(M_MMAP_THRESHOLD, 32 << 20);
+        mallopt(M_TRIM_THRESHOLD, 1 << 30);
+        return true;
+    }();
+    (void)once;
 }
 
 }  // namespace
@@ -230,6 +248,7 @@ void spatialEffects(Work& w, const MeanModel& mm, std::vector<Plane>& S,
 Work::Work(const Dataset& ds, const ModelRun& mr, const sensor::CameraParams& c, Options o,
            Progress p, std::filesystem::path config)
     : d(ds), m(mr), cam(c), opt(o), progress(std::move(p)), configDir(std::move(config)) {
+    keepFreedPlanes();
     w = d.width;
     h = d.height;
     const int n = static_cast<int>(d.frameCount());
@@ -526,25 +545,56 @@ bool solve(int n, double A[3][3], double r[3], double x[3]) {
 }
 }  // namespace
 
-LinFit fitLinear(const Work& w, const std::vector<Plane>& Y, const std::vector<Plane>* B) {
-    const int n = B ? 3 : 2;
-    double A[3][3] = {}, r[3] = {}, x[3] = {};
-    double sy = 0.0, syy = 0.0, cnt = 0.0;
+namespace {
+// The normal equations of M ≈ b + a·Y (+ c·B) over the fit frames' valid pixels, with the sums
+// of Y and Y² and the count. One sum per distinct entry, kept in registers: this ran in a loop
+// over a 3 × 3 array per pixel and took a quarter of a diagnosis.
+template <bool kWithB>
+void normalSums(const Work& w, const std::vector<Plane>& Y, const std::vector<Plane>* B,
+                double A[3][3], double r[3]) {
+    double n = 0.0, sy = 0.0, syy = 0.0, sb = 0.0, syb = 0.0, sbb = 0.0;
+    double sm = 0.0, sym = 0.0, sbm = 0.0;
     for (std::size_t i = 0; i < w.fitFrames(); ++i) {
         const Plane& M = w.measured(w.sub[i]);
+        const float* y = Y[i].data();
+        const float* b = kWithB ? (*B)[i].data() : nullptr;
         for (std::size_t p = 0; p < M.size(); ++p) {
-            if (!w.valid(M[p], Y[i][p]) || w.inClipBand(i, p)) continue;
-            const double v[3] = {1.0, Y[i][p], B ? (*B)[i][p] : 0.0};
-            sy += v[1];
-            syy += v[1] * v[1];
-            cnt += 1.0;
-            for (int a = 0; a < n; ++a) {
-                r[a] += v[a] * M[p];
-                for (int b = 0; b < n; ++b)
-                    A[a][b] += v[a] * v[b];
+            if (!w.valid(M[p], y[p]) || w.inClipBand(i, p)) continue;
+            const double yv = y[p], m = M[p];
+            n += 1.0;
+            sy += yv;
+            syy += yv * yv;
+            sm += m;
+            sym += yv * m;
+            if constexpr (kWithB) {
+                const double bv = b[p];
+                sb += bv;
+                syb += yv * bv;
+                sbb += bv * bv;
+                sbm += bv * m;
             }
         }
     }
+    A[0][0] = n;
+    A[0][1] = A[1][0] = sy;
+    A[1][1] = syy;
+    A[0][2] = A[2][0] = sb;
+    A[1][2] = A[2][1] = syb;
+    A[2][2] = sbb;
+    r[0] = sm;
+    r[1] = sym;
+    r[2] = sbm;
+}
+}  // namespace
+
+LinFit fitLinear(const Work& w, const std::vector<Plane>& Y, const std::vector<Plane>* B) {
+    const int n = B ? 3 : 2;
+    double A[3][3] = {}, r[3] = {}, x[3] = {};
+    if (B)
+        normalSums<true>(w, Y, B, A, r);
+    else
+        normalSums<false>(w, Y, B, A, r);
+    const double cnt = A[0][0], sy = A[0][1], syy = A[1][1];
     // A stimulus with one level cannot tell gain from offset: the offset is then the model's
     // (row 0 becomes b = offset).
     if (cnt > 0 && syy / cnt - (sy / cnt) * (sy / cnt) < 1e-6 * (syy / cnt) + 1e-12) {
@@ -560,15 +610,19 @@ LinFit fitLinear(const Work& w, const std::vector<Plane>& Y, const std::vector<P
     f.c = B ? x[2] : 0.0;
     f.ok = true;
     const float maxDc = static_cast<float>(w.m.maxDc);
+    // A local sum: f is written through a pointer that the clip band's bytes may alias, so a
+    // sum in f itself went to memory on every pixel (a third of this function's time).
+    double sse = 0.0;
     for (std::size_t i = 0; i < w.fitFrames(); ++i) {
         const Plane& M = w.measured(w.sub[i]);
         for (std::size_t p = 0; p < M.size(); ++p) {
             if (!w.valid(M[p], Y[i][p]) || w.inClipBand(i, p)) continue;
             double pr = f.b + f.a * Y[i][p] + (B ? f.c * (*B)[i][p] : 0.0);
             pr = std::clamp(pr, 0.0, static_cast<double>(maxDc));
-            f.sseCal += (M[p] - pr) * (M[p] - pr);
+            sse += (M[p] - pr) * (M[p] - pr);
         }
     }
+    f.sseCal = sse;
     return f;
 }
 

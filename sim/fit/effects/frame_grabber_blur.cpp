@@ -14,6 +14,7 @@
 #include <cmath>
 #include <vector>
 
+#include "sim/core/simd.h"
 #include "sim/fit/effect_registry.h"
 #include "sim/fit/text.h"
 
@@ -54,12 +55,33 @@ std::vector<double> kernel(double fc_cyc_mm, double index, double pitch_mm, int 
     return h;
 }
 
+// One row: out[x] = Σ_d h[|d|]·c[x + d], d from −half to half, c padded by half on each side.
+// The sum runs tap by tap over the whole row, so that the loop over x has no carried dependency
+// and vectorises (in each CPU's widest version, sim/core/simd.h); each pixel's terms are added
+// in the same order as a per-pixel sum would add them, so every version gives the same bits.
+NVS_SIMD_CLONES void rowKernel(const float* __restrict c, const double* __restrict h, int half,
+                               double* __restrict acc, float* __restrict out, int n) {
+    for (int x = 0; x < n; ++x)
+        acc[x] = h[0] * c[x];
+    for (int d = 1; d <= half; ++d) {
+        const double hd = h[d];
+        const float* up = c + d;
+        const float* down = c - d;
+        for (int x = 0; x < n; ++x)
+            acc[x] += hd * (up[x] + down[x]);
+    }
+    for (int x = 0; x < n; ++x)
+        out[x] = static_cast<float>(acc[x]);
+}
+
 // Each row of each frame convolved with the kernel, the row mirrored at its ends (as the
-// spatial effects pad, docs/diagnose.md §4).
+// spatial effects pad, docs/diagnose.md §4). Summed per pixel in scalar code, this effect's
+// trial took 18 s of a 112 s diagnosis at 768 x 494 (up to 129 taps).
 void apply(const Work& w, const std::vector<double>& p, std::vector<Plane>& S) {
     const std::vector<double> h = kernel(p[0], p[1], w.pitchX_um * 1e-3, w.w);
     const int half = static_cast<int>(h.size()) - 1;
     std::vector<float> row(static_cast<std::size_t>(w.w) + 2 * half);
+    std::vector<double> acc(static_cast<std::size_t>(w.w));
     for (Plane& P : S)
         for (int y = 0; y < w.h; ++y) {
             float* r = P.data() + static_cast<std::size_t>(y) * w.w;
@@ -68,13 +90,7 @@ void apply(const Work& w, const std::vector<double>& p, std::vector<Plane>& S) {
                 xs = std::clamp(xs, 0, w.w - 1);
                 row[static_cast<std::size_t>(x + half)] = r[xs];
             }
-            for (int x = 0; x < w.w; ++x) {
-                const float* c = row.data() + x + half;
-                double s = h[0] * c[0];
-                for (int d = 1; d <= half; ++d)
-                    s += h[static_cast<std::size_t>(d)] * (c[d] + c[-d]);
-                r[x] = static_cast<float>(s);
-            }
+            rowKernel(row.data() + half, h.data(), half, acc.data(), r, w.w);
         }
 }
 
