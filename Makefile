@@ -21,21 +21,24 @@ PACKAGES := build-essential cmake ninja-build pkg-config \
             libegl-dev libgl-dev libegl-mesa0 libgl1-mesa-dri libosmesa6-dev \
             qemu-system-x86 busybox-static can-utils v4l-utils kmod cpio gpiod \
             qemu-user valgrind \
-            libgstreamer1.0-dev gstreamer1.0-tools pybind11-dev python3-dev python3-pytest \
+            libgstreamer1.0-dev libgstreamer-plugins-base1.0-dev gstreamer1.0-tools \
+            pybind11-dev python3-dev python3-pytest \
             slurm-wlm munge dpkg-dev file
 # libegl-dev, libgl-dev: headers of the OpenGL primary-visibility pass (sim/render/gl_*); Mesa's
 # EGL (libegl-mesa0), its llvmpipe driver (libgl1-mesa-dri) and OSMesa (libosmesa6-dev) run it
 # without a GPU. They are loaded at run time, so nvstim builds and runs without them.
 # python3-numpy and python3-opencv: the reference fusion consumer (examples/fusion, docs/fusion.md)
 # and its tests (tests/fusion, tests/hil's fusion case).
-# The line before last is the HIL test's (tests/hil): a QEMU virtual machine with Debian's
-# kernel, busybox, can-utils, v4l2-ctl and libgpiod's tools (gpiod: gpiodetect, gpioinfo,
-# gpiomon); the kernel packages themselves (and linux-source-6.1 for gpio-sim) are fetched by
-# the test.
+# The line from qemu-system-x86 to gpiod is the HIL test's (tests/hil): a QEMU virtual machine
+# with Debian's kernel, busybox, can-utils, v4l2-ctl and libgpiod's tools (gpiod: gpiodetect,
+# gpioinfo, gpiomon); the kernel packages themselves (and linux-source-6.1 for gpio-sim) are
+# fetched by the test.
 # qemu-user runs the isa.* tests as CPUs without AVX-512 (tests/isa), valgrind the memcheck.*
 # tests (tests/memcheck).
-# The last line: the GStreamer source element (rt/gst; gst-launch-1.0 and gst-inspect-1.0 from
-# gstreamer1.0-tools test it), the Python module (python/; pybind11, tested with pytest), the
+# The last three lines: the GStreamer source element (rt/gst; gst-launch-1.0 and gst-inspect-1.0
+# from gstreamer1.0-tools test it; its gstreamer-video-1.0.pc is in
+# libgstreamer-plugins-base1.0-dev: without it the plugin is not built, the gst.* tests skip and
+# deb.install_run_remove fails), the Python module (python/; pybind11, tested with pytest), the
 # Slurm job array of `nvstim sweep` (tests/sweep starts munge, slurmctld and slurmd from
 # slurm-wlm on this machine) and the Debian package (`make deb`: CPack's DEB generator computes
 # its dependencies with dpkg-shlibdeps from dpkg-dev; `file` is what CPack runs on binaries).
